@@ -1,0 +1,1551 @@
+/* kifmm.h - v0.1.0 - kernel-independent fast multipole method in 3-D, header-only C
+ *
+ * CONTENTS
+ *   1. Quick start
+ *   2. Template parameters and compile-time options
+ *   3. Shared part (once per translation unit): results, options, memory,
+ *      Morton keys, the adaptive octree and its lists, operators, level passes
+ *   4. Kernel template (once per include): kernel loops, precomputation,
+ *      the evaluation passes in pipeline order, the public entry points
+ *   5. Epilogue (#undef of the template parameters), license
+ *
+ * 1. QUICK START
+ *
+ *   #include "kifmm.h"                      // Laplace 1/(4 pi r), double
+ *   kifmm_opts opts = {0};                  // zero = default, or pass NULL
+ *   opts.order = 6;
+ *   kifmm_laplace *fmm = NULL;
+ *   int rc = kifmm_laplace_create(&fmm, &opts, ns, src_xyz, nt, trg_xyz);
+ *   if (rc < 0) fprintf(stderr, "kifmm: %s\n", kifmm_strerror(rc));
+ *   rc = kifmm_laplace_evaluate(fmm, charges, pot);   // as often as needed
+ *   kifmm_laplace_destroy(fmm);
+ *
+ *   Link with -llapacke -lopenblas -lm, and -fopenmp for threads.
+ *
+ * 2. TEMPLATE PARAMETERS (set before an include; the header #undefs them)
+ *
+ *   KIFMM_KERNEL  kernel name from kifmm_kernels.h or one of your own
+ *                 (docs/kernels.md); default laplace
+ *   KIFMM_NAME    prefix of the generated type and functions;
+ *                 default kifmm_<KIFMM_KERNEL>
+ *
+ *   COMPILE-TIME OPTIONS (set before the first include in a translation unit)
+ *
+ *   KIFMM_MALLOC(size) / KIFMM_FREE(ptr)   allocator pair; define both or none
+ *   KIFMM_SVD_CUTOFF   relative singular value cutoff of the check-to-equivalent
+ *                      pseudo-inverses (default 1e-14, see docs/algorithm.md)
+ *
+ *   Documentation: docs/api.md (functions, options, errors), docs/algorithm.md
+ *   (how the method maps to this file), docs/kernels.md (writing a kernel).
+ *
+ *   OpenBLAS: BLAS is only called outside OpenMP parallel regions, with large
+ *   matrices; its own threads follow OPENBLAS_NUM_THREADS. On machines where
+ *   OpenBLAS misdetects the CPU, set OPENBLAS_CORETYPE (e.g. SkylakeX, Haswell).
+ */
+
+/* ======================================================================== */
+/* 3. Shared part                                                           */
+/* ======================================================================== */
+#ifndef KIFMM_H_SHARED
+#define KIFMM_H_SHARED
+
+#define KIFMM_VERSION_MAJOR 0
+#define KIFMM_VERSION_MINOR 1
+#define KIFMM_VERSION_PATCH 0
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <math.h>
+#include <cblas.h>
+#include <lapacke.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+#include "kifmm_kernels.h"
+
+#if defined(KIFMM_MALLOC) && !defined(KIFMM_FREE)
+#error "kifmm.h: KIFMM_MALLOC is defined but KIFMM_FREE is not; define both or neither"
+#endif
+#if defined(KIFMM_FREE) && !defined(KIFMM_MALLOC)
+#error "kifmm.h: KIFMM_FREE is defined but KIFMM_MALLOC is not; define both or neither"
+#endif
+#ifndef KIFMM_MALLOC
+#define KIFMM_MALLOC(size) malloc(size)
+#define KIFMM_FREE(ptr) free(ptr)
+#endif
+
+#ifndef KIFMM_SVD_CUTOFF
+#define KIFMM_SVD_CUTOFF 1e-14
+#endif
+
+#ifndef KIFMM_CHECK_ORDER_DIFF
+#define KIFMM_CHECK_ORDER_DIFF 1
+#endif
+
+#define KIFMM_MAX_ORDER 12   /* largest expansion order accepted */
+#define KIFMM_MAX_DEPTH 20   /* deepest tree level (Morton keys hold 3 x 20 bits) */
+#define KIFMM_DEFAULT_ORDER 6
+#define KIFMM_DEFAULT_DEPTH 16
+
+#if defined(__GNUC__) || defined(__clang__)
+#define KIFMM__FN static __attribute__((unused))
+#else
+#define KIFMM__FN static
+#endif
+
+#define KIFMM__PRAGMA(x) _Pragma(#x)
+#ifdef _OPENMP
+#define KIFMM__OMP(x) KIFMM__PRAGMA(omp x)
+#else
+#define KIFMM__OMP(x)
+#endif
+
+#define KIFMM__CAT_(a, b) a##b
+#define KIFMM__CAT(a, b) KIFMM__CAT_(a, b)
+#define KIFMM__CAT3(a, b, c) KIFMM__CAT(KIFMM__CAT(a, b), c)
+
+/* C99 static assert: a typedef'd array whose name is the message. */
+#define KIFMM__STATIC_ASSERT(cond, msg) typedef char KIFMM__CAT(kifmm__assert_, msg)[(cond) ? 1 : -1]
+
+/* ---- results ------------------------------------------------------------ */
+
+enum {
+    KIFMM_SUCCESS = 0,
+    KIFMM_ERR_NULL = -1,      /* a required pointer is NULL */
+    KIFMM_ERR_COUNT = -2,     /* negative point count */
+    KIFMM_ERR_NONFINITE = -3, /* NaN or infinite coordinate */
+    KIFMM_ERR_ORDER = -4,     /* order out of range */
+    KIFMM_ERR_LEAF_SIZE = -5, /* negative leaf size */
+    KIFMM_ERR_DEPTH = -6,     /* max_depth out of range */
+    KIFMM_ERR_NTHREADS = -7,  /* negative nthreads */
+    KIFMM_ERR_PARAM = -8,     /* bad kernel parameter */
+    KIFMM_ERR_NOMEM = -9,     /* allocation failed */
+    KIFMM_ERR_LAPACK = -10,   /* an SVD did not converge */
+    KIFMM_ERR_INTERNAL = -11  /* an internal limit was exceeded */
+};
+
+/* kifmm_strerror: a one-line message for a result code; never NULL. */
+KIFMM__FN const char *kifmm_strerror(int code)
+{
+    switch (code) {
+    case KIFMM_SUCCESS: return "success";
+    case KIFMM_ERR_NULL: return "a required pointer argument is NULL";
+    case KIFMM_ERR_COUNT: return "a point count is negative";
+    case KIFMM_ERR_NONFINITE: return "a coordinate is NaN or infinite";
+    case KIFMM_ERR_ORDER: return "expansion order out of range (2 to KIFMM_MAX_ORDER)";
+    case KIFMM_ERR_LEAF_SIZE: return "leaf size is negative";
+    case KIFMM_ERR_DEPTH: return "maximum depth out of range (0 to KIFMM_MAX_DEPTH)";
+    case KIFMM_ERR_NTHREADS: return "number of threads is negative";
+    case KIFMM_ERR_PARAM: return "a kernel parameter is out of range";
+    case KIFMM_ERR_NOMEM: return "memory allocation failed";
+    case KIFMM_ERR_LAPACK: return "a singular value decomposition did not converge";
+    case KIFMM_ERR_INTERNAL: return "an internal limit was exceeded (please report)";
+    default: return "unknown kifmm result code";
+    }
+}
+
+/* ---- options ------------------------------------------------------------ */
+
+/* Every field zero means its default, so {0} (or a NULL pointer) is valid. */
+typedef struct kifmm_opts {
+    int order;              /* expansion order p, 2..KIFMM_MAX_ORDER; 0 = 6 */
+    int leaf_size;          /* max points per leaf; 0 = chosen per order */
+    int max_depth;          /* deepest level, 1..KIFMM_MAX_DEPTH; 0 = 16 */
+    int nthreads;           /* OpenMP threads; 0 = omp_get_max_threads() */
+    double kernel_param[4]; /* kernel parameters; 0 = the kernel's default */
+} kifmm_opts;
+
+KIFMM__FN int kifmm__default_leaf(int order)
+{
+    /* Larger expansions make the far field dearer per box, so leaves grow
+     * with the number of surface points; see docs/algorithm.md. */
+    static const int leaf[KIFMM_MAX_ORDER + 1] = {0, 0, 32, 48, 64, 96, 128, 160, 192,
+                                                  256, 320, 384, 448};
+    return leaf[order];
+}
+
+/* Resolve defaults and check ranges; *out gets the values actually used. */
+KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, kifmm_opts *out)
+{
+    kifmm_opts o;
+    if (in) o = *in;
+    else memset(&o, 0, sizeof o);
+    if (o.order == 0) o.order = KIFMM_DEFAULT_ORDER;
+    if (o.order < 2 || o.order > KIFMM_MAX_ORDER) return KIFMM_ERR_ORDER;
+    if (o.leaf_size < 0) return KIFMM_ERR_LEAF_SIZE;
+    if (o.leaf_size == 0) o.leaf_size = kifmm__default_leaf(o.order);
+    if (o.max_depth < 0 || o.max_depth > KIFMM_MAX_DEPTH) return KIFMM_ERR_DEPTH;
+    if (o.max_depth == 0) o.max_depth = KIFMM_DEFAULT_DEPTH;
+    if (o.nthreads < 0) return KIFMM_ERR_NTHREADS;
+    if (o.nthreads == 0) {
+#ifdef _OPENMP
+        o.nthreads = omp_get_max_threads();
+#else
+        o.nthreads = 1;
+#endif
+    }
+    *out = o;
+    return KIFMM_SUCCESS;
+}
+
+/* ---- memory ------------------------------------------------------------- */
+
+/* 64-byte aligned blocks through the user's allocator; the raw pointer sits
+ * just below the aligned one. Returns NULL on overflow or failure. */
+KIFMM__FN void *kifmm__alloc(size_t count, size_t size)
+{
+    size_t n;
+    unsigned char *raw, *p;
+    if (size && count > (SIZE_MAX - 128) / size) return NULL;
+    n = count * size + 64 + sizeof(void *);
+    raw = (unsigned char *)KIFMM_MALLOC(n);
+    if (!raw) return NULL;
+    p = raw + sizeof(void *);
+    p += (64 - ((uintptr_t)p & 63)) & 63;
+    memcpy(p - sizeof(void *), &raw, sizeof(void *));
+    return p;
+}
+
+KIFMM__FN void *kifmm__calloc(size_t count, size_t size)
+{
+    void *p = kifmm__alloc(count, size);
+    if (p) memset(p, 0, count * size);
+    return p;
+}
+
+KIFMM__FN void kifmm__free(void *p)
+{
+    void *raw;
+    if (!p) return;
+    memcpy(&raw, (unsigned char *)p - sizeof(void *), sizeof(void *));
+    KIFMM_FREE(raw);
+}
+
+/* ---- dense linear algebra ---------------------------------------------- */
+
+/* C = alpha op(A) op(B) + beta C, column major. Called outside parallel
+ * regions only, so a threaded BLAS uses its own threads on a large call. */
+KIFMM__FN void kifmm__gemm(int ta, int tb, int m, int n, int k, double alpha,
+                           const double *a, int lda, const double *b, int ldb,
+                           double beta, double *c, int ldc)
+{
+    if (m <= 0 || n <= 0) return;
+    if (k <= 0) {
+        int i, j;
+        for (j = 0; j < n; j++)
+            for (i = 0; i < m; i++) c[i + (size_t)j * ldc] *= beta;
+        return;
+    }
+    cblas_dgemm(CblasColMajor, ta ? CblasTrans : CblasNoTrans, tb ? CblasTrans : CblasNoTrans,
+                m, n, k, alpha, a, lda, b, ldb, beta, c, ldc);
+}
+
+/* Pseudo-inverse of the m x n matrix A (destroyed) from its SVD, truncated at
+ * s_i > cutoff * s_0, kept as two factors: pinv(A) = vs * ut with
+ * ut = U_k^T (k x m) and vs = V_k S_k^-1 (n x k). Applying them one after the
+ * other keeps the digits that forming the product would lose. */
+KIFMM__FN int kifmm__pinv(double *a, int m, int n, double cutoff, double **ut_out,
+                          double **vs_out, int *rank)
+{
+    int mn = m < n ? m : n, i, j, k, rc = KIFMM_SUCCESS;
+    lapack_int info;
+    double query, *s, *u, *vt, *work = NULL, *ut = NULL, *vs = NULL;
+    size_t lwork;
+    s = (double *)kifmm__alloc((size_t)mn, sizeof(double));
+    u = (double *)kifmm__alloc((size_t)m * mn, sizeof(double));
+    vt = (double *)kifmm__alloc((size_t)mn * n, sizeof(double));
+    if (!s || !u || !vt) { rc = KIFMM_ERR_NOMEM; goto done; }
+    info = LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'S', 'S', m, n, a, m, s, u, m, vt, mn,
+                               &query, -1);
+    if (info != 0) { rc = KIFMM_ERR_LAPACK; goto done; }
+    lwork = (size_t)query + 1;
+    work = (double *)kifmm__alloc(lwork, sizeof(double));
+    if (!work) { rc = KIFMM_ERR_NOMEM; goto done; }
+    info = LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'S', 'S', m, n, a, m, s, u, m, vt, mn, work,
+                               (lapack_int)lwork);
+    if (info != 0) { rc = KIFMM_ERR_LAPACK; goto done; }
+    for (k = 0; k < mn && s[k] > cutoff * s[0]; k++) {}
+    if (k == 0) k = 1;
+    ut = (double *)kifmm__alloc((size_t)k * m, sizeof(double));
+    vs = (double *)kifmm__alloc((size_t)n * k, sizeof(double));
+    if (!ut || !vs) { rc = KIFMM_ERR_NOMEM; goto done; }
+    for (i = 0; i < m; i++)
+        for (j = 0; j < k; j++) ut[j + (size_t)i * k] = u[i + (size_t)j * m];
+    for (j = 0; j < k; j++)
+        for (i = 0; i < n; i++) vs[i + (size_t)j * n] = vt[j + (size_t)i * mn] / s[j];
+    *ut_out = ut;
+    *vs_out = vs;
+    *rank = k;
+    ut = vs = NULL;
+done:
+    kifmm__free(s);
+    kifmm__free(u);
+    kifmm__free(vt);
+    kifmm__free(work);
+    kifmm__free(ut);
+    kifmm__free(vs);
+    return rc;
+}
+
+/* ---- surfaces ----------------------------------------------------------- */
+
+/* Number of points on the surface of a p x p x p grid: 6 (p-1)^2 + 2. */
+KIFMM__FN int kifmm__surf_count(int p) { return 6 * (p - 1) * (p - 1) + 2; }
+
+/* The surface grid points on [-1, 1]^3, structure of arrays (x[n], y[n], z[n]). */
+KIFMM__FN void kifmm__surf_unit(int p, double *s)
+{
+    int n = kifmm__surf_count(p), c = 0, i, j, k;
+    for (i = 0; i < p; i++)
+        for (j = 0; j < p; j++)
+            for (k = 0; k < p; k++) {
+                if (i != 0 && i != p - 1 && j != 0 && j != p - 1 && k != 0 && k != p - 1)
+                    continue;
+                s[c] = -1.0 + 2.0 * i / (p - 1);
+                s[n + c] = -1.0 + 2.0 * j / (p - 1);
+                s[2 * n + c] = -1.0 + 2.0 * k / (p - 1);
+                c++;
+            }
+}
+
+/* Unit surface scaled by `radius` and moved to `c`, into out (SoA, n points). */
+KIFMM__FN void kifmm__surf_place(const double *unit, int n, const double *c, double radius,
+                                 double *out)
+{
+    int i, d;
+    for (d = 0; d < 3; d++)
+        for (i = 0; i < n; i++) out[d * n + i] = c[d] + radius * unit[d * n + i];
+}
+
+/* Surface radii in units of the box half-width. */
+#define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
+#define KIFMM__ALPHA_OUTER 2.95 /* upward check, downward equivalent */
+
+/* ---- Morton keys ------------------------------------------------------- */
+
+/* A key at level l holds 3 l bits: bit 3i+2 is bit i of x, 3i+1 of y, 3i of z.
+ * Children append three bits (octant c: x = c>>2 & 1, y = c>>1 & 1, z = c & 1). */
+KIFMM__FN uint64_t kifmm__spread(uint64_t v)
+{
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+}
+
+KIFMM__FN uint64_t kifmm__compact(uint64_t v)
+{
+    v &= 0x1249249249249249ULL;
+    v = (v ^ (v >> 2)) & 0x10c30c30c30c30c3ULL;
+    v = (v ^ (v >> 4)) & 0x100f00f00f00f00fULL;
+    v = (v ^ (v >> 8)) & 0x1f0000ff0000ffULL;
+    v = (v ^ (v >> 16)) & 0x1f00000000ffffULL;
+    v = (v ^ (v >> 32)) & 0x1fffff;
+    return v;
+}
+
+KIFMM__FN uint64_t kifmm__encode(int64_t x, int64_t y, int64_t z)
+{
+    return kifmm__spread((uint64_t)x) << 2 | kifmm__spread((uint64_t)y) << 1 |
+           kifmm__spread((uint64_t)z);
+}
+
+KIFMM__FN void kifmm__decode(uint64_t key, int64_t *a)
+{
+    a[0] = (int64_t)kifmm__compact(key >> 2);
+    a[1] = (int64_t)kifmm__compact(key >> 1);
+    a[2] = (int64_t)kifmm__compact(key);
+}
+
+/* Stable LSD radix sort of (key, idx) pairs by key, 8 bits a pass; passes
+ * in which every key has the same digit are skipped. */
+KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n)
+{
+    uint64_t *k2 = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t));
+    int64_t *i2 = (int64_t *)kifmm__alloc((size_t)n, sizeof(int64_t));
+    int shift, b;
+    int64_t i, cnt[256];
+    if (!k2 || !i2) {
+        kifmm__free(k2);
+        kifmm__free(i2);
+        return KIFMM_ERR_NOMEM;
+    }
+    for (shift = 0; shift < 64; shift += 8) {
+        int64_t sum = 0;
+        memset(cnt, 0, sizeof cnt);
+        for (i = 0; i < n; i++) cnt[(key[i] >> shift) & 255]++;
+        if (n == 0 || cnt[(key[0] >> shift) & 255] == n) continue;
+        for (b = 0; b < 256; b++) {
+            int64_t c = cnt[b];
+            cnt[b] = sum;
+            sum += c;
+        }
+        for (i = 0; i < n; i++) {
+            int64_t d = cnt[(key[i] >> shift) & 255]++;
+            k2[d] = key[i];
+            i2[d] = idx[i];
+        }
+        memcpy(key, k2, (size_t)n * sizeof *key);
+        memcpy(idx, i2, (size_t)n * sizeof *idx);
+    }
+    kifmm__free(k2);
+    kifmm__free(i2);
+    return KIFMM_SUCCESS;
+}
+
+/* First position in the sorted array a[0..n) holding a value >= v. */
+KIFMM__FN int64_t kifmm__lower_bound(const uint64_t *a, int64_t n, uint64_t v)
+{
+    int64_t lo = 0, hi = n;
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (a[mid] < v) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* ---- the adaptive octree ------------------------------------------------ */
+
+#define KIFMM__D KIFMM_MAX_DEPTH /* level of the point keys */
+#define KIFMM__NT 316            /* M2L transfer vectors: 7^3 - 3^3 */
+
+/* Caps on the interaction lists of one box. With 2:1 balance the published
+ * bounds are |U| <= 60, |V| <= 189, |W| <= 148, |X| <= 19. */
+#define KIFMM__MAXU 128
+#define KIFMM__MAXV 189
+#define KIFMM__MAXW 208
+#define KIFMM__MAXX 64
+
+/* Boxes are stored level by level, sorted by key within a level; the eight
+ * children of a box are consecutive, so the boxes of level l + 1 are exactly
+ * the children of the internal boxes of level l, in order. Points are sorted
+ * by key and each box owns a contiguous range of them. */
+typedef struct kifmm__tree {
+    int64_t ns, nt;
+    double *src, *trg;       /* sorted points, structure of arrays (x | y | z) */
+    int64_t *sperm, *tperm;  /* sorted position -> caller's index */
+    double lo[3], width;     /* root cube: lower corner and edge */
+    int nlev;                /* levels 0 .. nlev - 1 */
+    int32_t nbox;
+    int32_t loff[KIFMM__D + 2];   /* boxes of level l: [loff[l], loff[l+1]) */
+    int32_t ioff[KIFMM__D + 2];   /* internal boxes of level l: inner[ioff[l] .. ioff[l+1]) */
+    uint64_t *key;
+    int32_t *child;               /* first of the 8 children, or -1 for a leaf */
+    int32_t *parent;              /* -1 for the root */
+    int32_t *dsrc;                /* box whose local expansion serves this box, or -1 */
+    int32_t *inner;               /* internal boxes, level by level */
+    int64_t *s0, *s1, *t0, *t1;   /* point ranges of each box */
+    int32_t *uo, *u, *vo, *v, *wo, *w, *xo, *x; /* lists, offsets per box */
+    uint16_t *vt;                 /* transfer vector index of each V entry */
+    int32_t *m2lo, *m2l;          /* per level: boxes with targets and a V list */
+    int32_t *leaves;              /* leaves with targets */
+    int32_t nleaves;
+} kifmm__tree;
+
+KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
+{
+    void *p[] = {t->src, t->trg, t->sperm, t->tperm, t->key, t->child, t->parent, t->dsrc, t->inner,
+                 t->s0, t->s1, t->t0, t->t1, t->uo, t->u, t->vo, t->v, t->wo, t->w,
+                 t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves};
+    size_t i;
+    for (i = 0; i < sizeof p / sizeof p[0]; i++) kifmm__free(p[i]);
+    memset(t, 0, sizeof *t);
+}
+
+KIFMM__FN int kifmm__level_of(const kifmm__tree *t, int32_t b)
+{
+    int l = 0;
+    while (b >= t->loff[l + 1]) l++;
+    return l;
+}
+
+/* Box index of (level, key), or -1. */
+KIFMM__FN int32_t kifmm__find(const kifmm__tree *t, int l, uint64_t key)
+{
+    int32_t lo = t->loff[l], n = t->loff[l + 1] - lo;
+    int64_t i;
+    if (l >= t->nlev) return -1;
+    i = kifmm__lower_bound(t->key + lo, n, key);
+    return (i < n && t->key[lo + i] == key) ? lo + (int32_t)i : -1;
+}
+
+/* The box of level <= l that contains the level-l position `key`, or -1. */
+KIFMM__FN int32_t kifmm__find_cover(const kifmm__tree *t, int l, uint64_t key)
+{
+    int m;
+    for (m = l < t->nlev - 1 ? l : t->nlev - 1; m >= 0; m--) {
+        int32_t b = kifmm__find(t, m, key >> (3 * (l - m)));
+        if (b >= 0) return b;
+    }
+    return -1;
+}
+
+/* Do boxes a and b touch or overlap (closed cubes)? */
+KIFMM__FN int kifmm__adjacent(const kifmm__tree *t, int32_t a, int32_t b)
+{
+    int la = kifmm__level_of(t, a), lb = kifmm__level_of(t, b), d;
+    int64_t xa[3], xb[3];
+    kifmm__decode(t->key[a], xa);
+    kifmm__decode(t->key[b], xb);
+    for (d = 0; d < 3; d++) {
+        int64_t a0 = xa[d] << (KIFMM__D - la), a1 = (xa[d] + 1) << (KIFMM__D - la);
+        int64_t b0 = xb[d] << (KIFMM__D - lb), b1 = (xb[d] + 1) << (KIFMM__D - lb);
+        if (a0 > b1 || b0 > a1) return 0;
+    }
+    return 1;
+}
+
+KIFMM__FN void kifmm__box_center(const kifmm__tree *t, int32_t b, double *c, double *half)
+{
+    int l = kifmm__level_of(t, b), d;
+    int64_t a[3];
+    double w = t->width / (double)((int64_t)1 << l);
+    kifmm__decode(t->key[b], a);
+    for (d = 0; d < 3; d++) c[d] = t->lo[d] + ((double)a[d] + 0.5) * w;
+    *half = 0.5 * w;
+}
+
+/* Index of the transfer vector (dx, dy, dz), each in [-3, 3] and not all in
+ * [-1, 1], among the 316 in lexicographic order. */
+KIFMM__FN int kifmm__transfer_index(int dx, int dy, int dz)
+{
+    int i = (dx + 3) * 49 + (dy + 3) * 7 + (dz + 3), near = 0, a, b;
+    /* near offsets (all |d| <= 1) lexicographically before (dx, dy, dz) */
+    for (a = -1; a <= 1; a++)
+        for (b = -1; b <= 1; b++) {
+            int base = (a + 3) * 49 + (b + 3) * 7;
+            if (base + 4 < i) near += 3;
+            else if (base + 2 < i) near += i - (base + 2);
+        }
+    return i - near;
+}
+
+KIFMM__FN void kifmm__transfer_vector(int t, int *d)
+{
+    int c = 0, i, j, k;
+    for (i = -3; i <= 3; i++)
+        for (j = -3; j <= 3; j++)
+            for (k = -3; k <= 3; k++) {
+                if (i >= -1 && i <= 1 && j >= -1 && j <= 1 && k >= -1 && k <= 1) continue;
+                if (c++ == t) { d[0] = i; d[1] = j; d[2] = k; return; }
+            }
+}
+
+/* A growable array of keys. */
+typedef struct { uint64_t *a; int64_t n, cap; } kifmm__keys;
+
+KIFMM__FN int kifmm__keys_push(kifmm__keys *k, uint64_t v)
+{
+    if (k->n == k->cap) {
+        int64_t cap = k->cap ? 2 * k->cap : 64;
+        uint64_t *a = (uint64_t *)kifmm__alloc((size_t)cap, sizeof(uint64_t));
+        if (!a) return KIFMM_ERR_NOMEM;
+        if (k->n) memcpy(a, k->a, (size_t)k->n * sizeof *a);
+        kifmm__free(k->a);
+        k->a = a;
+        k->cap = cap;
+    }
+    k->a[k->n++] = v;
+    return KIFMM_SUCCESS;
+}
+
+KIFMM__FN int kifmm__cmp_u64(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+/* Sort and drop duplicates. */
+KIFMM__FN void kifmm__keys_unique(kifmm__keys *k)
+{
+    int64_t i, m = 0;
+    if (k->n < 2) return;
+    qsort(k->a, (size_t)k->n, sizeof(uint64_t), kifmm__cmp_u64);
+    for (i = 0; i < k->n; i++)
+        if (m == 0 || k->a[i] != k->a[m - 1]) k->a[m++] = k->a[i];
+    k->n = m;
+}
+
+/* Sort one point set by key: sorted SoA coordinates, permutation, keys. */
+KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *xyz,
+                                 double **out, int64_t **perm, uint64_t **keys)
+{
+    double scale = (double)((int64_t)1 << KIFMM__D) / t->width;
+    int64_t i, maxi = ((int64_t)1 << KIFMM__D) - 1;
+    int rc;
+    *out = (double *)kifmm__alloc((size_t)(3 * n), sizeof(double));
+    *perm = (int64_t *)kifmm__alloc((size_t)n, sizeof(int64_t));
+    *keys = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t));
+    if (!*out || !*perm || !*keys) return KIFMM_ERR_NOMEM;
+    for (i = 0; i < n; i++) {
+        int64_t a[3];
+        int d;
+        for (d = 0; d < 3; d++) {
+            double f = (xyz[3 * i + d] - t->lo[d]) * scale;
+            a[d] = f <= 0.0 ? 0 : (f >= (double)maxi ? maxi : (int64_t)f);
+        }
+        (*keys)[i] = kifmm__encode(a[0], a[1], a[2]);
+        (*perm)[i] = i;
+    }
+    rc = kifmm__radix_sort(*keys, *perm, n);
+    if (rc) return rc;
+    for (i = 0; i < n; i++) {
+        int d;
+        for (d = 0; d < 3; d++) (*out)[d * n + i] = xyz[3 * (*perm)[i] + d];
+    }
+    return KIFMM_SUCCESS;
+}
+
+/* ---- interaction lists --------------------------------------------------- */
+
+typedef struct {
+    int32_t u[KIFMM__MAXU], v[KIFMM__MAXV], w[KIFMM__MAXW], x[KIFMM__MAXX];
+    uint16_t vt[KIFMM__MAXV];
+    int nu, nv, nw, nx, overflow;
+} kifmm__lists;
+
+KIFMM__FN void kifmm__add(int32_t *list, int *n, int cap, int32_t b, int *overflow, int dedupe)
+{
+    int i;
+    if (dedupe)
+        for (i = 0; i < *n; i++)
+            if (list[i] == b) return;
+    if (*n >= cap) { *overflow = 1; return; }
+    list[(*n)++] = b;
+}
+
+/* U and W of leaf b from box c, a colleague of b or a descendant of one:
+ * adjacent leaves go to U, adjacent internal boxes are opened, and boxes not
+ * adjacent to b (whose parent is) go to W. */
+KIFMM__FN void kifmm__collect_uw(const kifmm__tree *t, int32_t b, int32_t c, kifmm__lists *L)
+{
+    if (t->s1[c] == t->s0[c]) return;
+    if (kifmm__adjacent(t, b, c)) {
+        int o;
+        if (t->child[c] < 0) {
+            kifmm__add(L->u, &L->nu, KIFMM__MAXU, c, &L->overflow, 0);
+            return;
+        }
+        for (o = 0; o < 8; o++) kifmm__collect_uw(t, b, t->child[c] + o, L);
+    } else {
+        kifmm__add(L->w, &L->nw, KIFMM__MAXW, c, &L->overflow, 0);
+    }
+}
+
+/* All four lists of box b (U and W only when b is a leaf). Only boxes that
+ * hold sources enter a list. */
+KIFMM__FN void kifmm__box_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L)
+{
+    int l = kifmm__level_of(t, b), dx, dy, dz;
+    int64_t a[3], side = (int64_t)1 << l;
+    L->nu = L->nv = L->nw = L->nx = L->overflow = 0;
+    kifmm__decode(t->key[b], a);
+    if (t->child[b] < 0) {
+        for (dx = -1; dx <= 1; dx++)
+            for (dy = -1; dy <= 1; dy++)
+                for (dz = -1; dz <= 1; dz++) {
+                    int64_t n[3] = {a[0] + dx, a[1] + dy, a[2] + dz};
+                    uint64_t k;
+                    int32_t c;
+                    if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= side || n[1] >= side ||
+                        n[2] >= side)
+                        continue;
+                    k = kifmm__encode(n[0], n[1], n[2]);
+                    c = kifmm__find(t, l, k);
+                    if (c >= 0) {
+                        kifmm__collect_uw(t, b, c, L);
+                    } else {
+                        /* inside a coarser leaf, which touches b */
+                        c = kifmm__find_cover(t, l, k);
+                        if (c >= 0 && t->s1[c] > t->s0[c])
+                            kifmm__add(L->u, &L->nu, KIFMM__MAXU, c, &L->overflow, 1);
+                    }
+                }
+    }
+    if (l >= 1) {
+        int64_t p[3] = {a[0] >> 1, a[1] >> 1, a[2] >> 1}, pside = side >> 1;
+        for (dx = -1; dx <= 1; dx++)
+            for (dy = -1; dy <= 1; dy++)
+                for (dz = -1; dz <= 1; dz++) {
+                    int64_t n[3] = {p[0] + dx, p[1] + dy, p[2] + dz};
+                    uint64_t k;
+                    int32_t c;
+                    if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= pside ||
+                        n[1] >= pside || n[2] >= pside)
+                        continue;
+                    k = kifmm__encode(n[0], n[1], n[2]);
+                    c = kifmm__find(t, l - 1, k);
+                    if (c >= 0 && t->child[c] >= 0) {
+                        int o;
+                        for (o = 0; o < 8; o++) {
+                            int32_t s = t->child[c] + o;
+                            int64_t sa[3];
+                            if (t->s1[s] == t->s0[s] || kifmm__adjacent(t, b, s)) continue;
+                            kifmm__decode(t->key[s], sa);
+                            if (L->nv >= KIFMM__MAXV) { L->overflow = 1; continue; }
+                            L->vt[L->nv] = (uint16_t)kifmm__transfer_index(
+                                (int)(sa[0] - a[0]), (int)(sa[1] - a[1]), (int)(sa[2] - a[2]));
+                            L->v[L->nv++] = s;
+                        }
+                    } else {
+                        /* a leaf of the parent's level or coarser: X if apart from b */
+                        if (c < 0) c = kifmm__find_cover(t, l - 1, k);
+                        if (c >= 0 && t->s1[c] > t->s0[c] && !kifmm__adjacent(t, b, c))
+                            kifmm__add(L->x, &L->nx, KIFMM__MAXX, c, &L->overflow, 1);
+                    }
+                }
+    }
+}
+
+/* Two passes over the boxes with targets: count, then fill. */
+KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth)
+{
+    int32_t nb = t->nbox, b;
+    int64_t tot[4] = {0, 0, 0, 0};
+    int overflow = 0, pass, l;
+    int32_t *off[4];
+    t->uo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
+    t->vo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
+    t->wo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
+    t->xo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
+    if (!t->uo || !t->vo || !t->wo || !t->xo) return KIFMM_ERR_NOMEM;
+    off[0] = t->uo; off[1] = t->vo; off[2] = t->wo; off[3] = t->xo;
+    (void)nth;
+    for (pass = 0; pass < 2; pass++) {
+        KIFMM__OMP(parallel for schedule(dynamic, 64) num_threads(nth) reduction(| : overflow))
+        for (b = 0; b < nb; b++) {
+            kifmm__lists L;
+            if (t->t1[b] == t->t0[b]) continue;
+            kifmm__box_lists(t, b, &L);
+            overflow |= L.overflow;
+            if (pass == 0) {
+                t->uo[b + 1] = L.nu; t->vo[b + 1] = L.nv;
+                t->wo[b + 1] = L.nw; t->xo[b + 1] = L.nx;
+            } else {
+                memcpy(t->u + t->uo[b], L.u, (size_t)L.nu * sizeof(int32_t));
+                memcpy(t->v + t->vo[b], L.v, (size_t)L.nv * sizeof(int32_t));
+                memcpy(t->vt + t->vo[b], L.vt, (size_t)L.nv * sizeof(uint16_t));
+                memcpy(t->w + t->wo[b], L.w, (size_t)L.nw * sizeof(int32_t));
+                memcpy(t->x + t->xo[b], L.x, (size_t)L.nx * sizeof(int32_t));
+            }
+        }
+        if (overflow) return KIFMM_ERR_INTERNAL;
+        if (pass == 0) {
+            int j;
+            for (j = 0; j < 4; j++) {
+                for (b = 0; b < nb; b++) off[j][b + 1] += off[j][b];
+                tot[j] = off[j][nb];
+            }
+            t->u = (int32_t *)kifmm__alloc((size_t)tot[0] + 1, sizeof(int32_t));
+            t->v = (int32_t *)kifmm__alloc((size_t)tot[1] + 1, sizeof(int32_t));
+            t->vt = (uint16_t *)kifmm__alloc((size_t)tot[1] + 1, sizeof(uint16_t));
+            t->w = (int32_t *)kifmm__alloc((size_t)tot[2] + 1, sizeof(int32_t));
+            t->x = (int32_t *)kifmm__alloc((size_t)tot[3] + 1, sizeof(int32_t));
+            if (!t->u || !t->v || !t->vt || !t->w || !t->x) return KIFMM_ERR_NOMEM;
+        }
+    }
+    /* per level, the boxes that receive M2L; and the leaves with targets */
+    t->m2lo = (int32_t *)kifmm__calloc((size_t)t->nlev + 1, sizeof(int32_t));
+    t->m2l = (int32_t *)kifmm__alloc((size_t)nb + 1, sizeof(int32_t));
+    t->leaves = (int32_t *)kifmm__alloc((size_t)nb + 1, sizeof(int32_t));
+    if (!t->m2lo || !t->m2l || !t->leaves) return KIFMM_ERR_NOMEM;
+    for (l = 0; l < t->nlev; l++) {
+        t->m2lo[l + 1] = t->m2lo[l];
+        for (b = t->loff[l]; b < t->loff[l + 1]; b++)
+            if (t->vo[b + 1] > t->vo[b]) t->m2l[t->m2lo[l + 1]++] = b;
+    }
+    t->nleaves = 0;
+    for (b = 0; b < nb; b++)
+        if (t->child[b] < 0 && t->t1[b] > t->t0[b]) t->leaves[t->nleaves++] = b;
+    /* A box refits a local expansion only where its own level brings new
+     * far-field content (a V or X list). Elsewhere it keeps its ancestor's,
+     * which is evaluated directly: a refit adds an error of the fit order
+     * relative to the whole local field on the box's own scale, which along
+     * a chain of boxes down to an isolated cluster would swamp its gradient. */
+    t->dsrc = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
+    if (!t->dsrc) return KIFMM_ERR_NOMEM;
+    for (b = 0; b < nb; b++) {
+        int fresh = t->vo[b + 1] > t->vo[b] || t->xo[b + 1] > t->xo[b];
+        if (b < t->loff[2 < t->nlev ? 2 : t->nlev]) t->dsrc[b] = -1;
+        else if (fresh) t->dsrc[b] = b;
+        else t->dsrc[b] = t->dsrc[t->parent[b]];
+    }
+    return KIFMM_SUCCESS;
+}
+
+/* Build the tree: bounding cube, sorted points, top-down refinement while a
+ * box holds more than `leaf` sources or targets, 2:1 balance, lists. */
+KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
+                                const double *trg, int leaf, int maxdepth, int nth)
+{
+    double lo[3], hi[3], half = 0.0;
+    uint64_t *skey = NULL, *tkey = NULL;
+    kifmm__keys in[KIFMM__D + 1];
+    int64_t i;
+    int d, l, rc = KIFMM_SUCCESS, deepest = 0;
+    int32_t nb, b;
+    memset(in, 0, sizeof in);
+    memset(t, 0, sizeof *t);
+    t->ns = ns;
+    t->nt = nt;
+    for (d = 0; d < 3; d++) { lo[d] = HUGE_VAL; hi[d] = -HUGE_VAL; }
+    for (i = 0; i < ns; i++)
+        for (d = 0; d < 3; d++) {
+            if (src[3 * i + d] < lo[d]) lo[d] = src[3 * i + d];
+            if (src[3 * i + d] > hi[d]) hi[d] = src[3 * i + d];
+        }
+    for (i = 0; i < nt; i++)
+        for (d = 0; d < 3; d++) {
+            if (trg[3 * i + d] < lo[d]) lo[d] = trg[3 * i + d];
+            if (trg[3 * i + d] > hi[d]) hi[d] = trg[3 * i + d];
+        }
+    for (d = 0; d < 3; d++)
+        if (0.5 * (hi[d] - lo[d]) > half) half = 0.5 * (hi[d] - lo[d]);
+    if (!(half > 0.0)) half = 0.5;
+    half *= 1.0 + 1e-10;
+    for (d = 0; d < 3; d++) t->lo[d] = 0.5 * (lo[d] + hi[d]) - half;
+    t->width = 2.0 * half;
+
+    rc = kifmm__sort_points(t, ns, src, &t->src, &t->sperm, &skey);
+    if (!rc) rc = kifmm__sort_points(t, nt, trg, &t->trg, &t->tperm, &tkey);
+    if (rc) goto done;
+
+    /* top down: in[l] holds the keys of the boxes of level l that split */
+    {
+        kifmm__keys cur = {0, 0, 0}, next = {0, 0, 0};
+        if ((rc = kifmm__keys_push(&cur, 0))) goto topdone;
+        for (l = 0; l < maxdepth && cur.n > 0; l++) {
+            int sh = 3 * (KIFMM__D - l);
+            next.n = 0;
+            for (i = 0; i < cur.n; i++) {
+                uint64_t k0 = cur.a[i] << sh, k1 = (cur.a[i] + 1) << sh;
+                int64_t cs = kifmm__lower_bound(skey, ns, k1) - kifmm__lower_bound(skey, ns, k0);
+                int64_t ct = kifmm__lower_bound(tkey, nt, k1) - kifmm__lower_bound(tkey, nt, k0);
+                int64_t fs = kifmm__lower_bound(skey, ns, k0), ft = kifmm__lower_bound(tkey, nt, k0);
+                int o;
+                if (cs <= leaf && ct <= leaf) continue;
+                /* points that share one finest key never separate: keep a leaf */
+                if ((cs == 0 || skey[fs] == skey[fs + cs - 1]) &&
+                    (ct == 0 || tkey[ft] == tkey[ft + ct - 1]) &&
+                    (cs == 0 || ct == 0 || skey[fs] == tkey[ft]))
+                    continue;
+                if ((rc = kifmm__keys_push(&in[l], cur.a[i]))) goto topdone;
+                for (o = 0; o < 8; o++)
+                    if ((rc = kifmm__keys_push(&next, cur.a[i] << 3 | (uint64_t)o))) goto topdone;
+            }
+            { kifmm__keys tmp = cur; cur = next; next = tmp; }
+        }
+    topdone:
+        kifmm__free(cur.a);
+        kifmm__free(next.a);
+        if (rc) goto done;
+    }
+    for (l = 0; l <= KIFMM__D; l++)
+        if (in[l].n > 0) deepest = l + 1;
+
+    /* 2:1 balance, finest level first: every neighbour of a box of level l
+     * must lie in a box of level l - 1, i.e. its grandparent must split. */
+    for (l = deepest; l >= 2; l--) {
+        int64_t j, side = (int64_t)1 << l, n0 = in[l - 2].n;
+        for (j = 0; j < in[l - 1].n; j++) {
+            int o;
+            for (o = 0; o < 8; o++) {
+                int64_t a[3];
+                int dx, dy, dz;
+                kifmm__decode(in[l - 1].a[j] << 3 | (uint64_t)o, a);
+                for (dx = -1; dx <= 1; dx++)
+                    for (dy = -1; dy <= 1; dy++)
+                        for (dz = -1; dz <= 1; dz++) {
+                            int64_t x = a[0] + dx, y = a[1] + dy, z = a[2] + dz;
+                            uint64_t g;
+                            if (x < 0 || y < 0 || z < 0 || x >= side || y >= side || z >= side)
+                                continue;
+                            g = kifmm__encode(x, y, z) >> 6;
+                            if (kifmm__lower_bound(in[l - 2].a, n0, g) < n0 &&
+                                in[l - 2].a[kifmm__lower_bound(in[l - 2].a, n0, g)] == g)
+                                continue;
+                            if ((rc = kifmm__keys_push(&in[l - 2], g))) goto done;
+                        }
+            }
+        }
+        if (in[l - 2].n > n0) kifmm__keys_unique(&in[l - 2]);
+    }
+
+    /* lay the boxes out level by level */
+    t->nlev = deepest + 1;
+    nb = 1;
+    for (l = 0; l < deepest; l++) nb += (int32_t)(8 * in[l].n);
+    t->nbox = nb;
+    t->key = (uint64_t *)kifmm__alloc((size_t)nb, sizeof(uint64_t));
+    t->child = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
+    t->inner = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
+    t->parent = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
+    t->s0 = (int64_t *)kifmm__alloc((size_t)nb, sizeof(int64_t));
+    t->s1 = (int64_t *)kifmm__alloc((size_t)nb, sizeof(int64_t));
+    t->t0 = (int64_t *)kifmm__alloc((size_t)nb, sizeof(int64_t));
+    t->t1 = (int64_t *)kifmm__alloc((size_t)nb, sizeof(int64_t));
+    if (!t->key || !t->child || !t->inner || !t->parent || !t->s0 || !t->s1 || !t->t0 || !t->t1) {
+        rc = KIFMM_ERR_NOMEM;
+        goto done;
+    }
+    t->loff[0] = 0;
+    t->loff[1] = 1;
+    t->key[0] = 0;
+    t->parent[0] = -1;
+    for (l = 1; l < t->nlev; l++) {
+        int32_t c = t->loff[l];
+        int64_t j;
+        for (j = 0; j < in[l - 1].n; j++) {
+            int o;
+            for (o = 0; o < 8; o++) t->key[c++] = in[l - 1].a[j] << 3 | (uint64_t)o;
+        }
+        t->loff[l + 1] = c;
+    }
+    for (l = t->nlev + 1; l <= KIFMM__D + 1; l++) t->loff[l] = t->loff[t->nlev];
+    t->ioff[0] = 0;
+    for (l = 0; l < t->nlev; l++) {
+        int64_t j = 0;
+        t->ioff[l + 1] = t->ioff[l];
+        for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+            while (j < in[l].n && in[l].a[j] < t->key[b]) j++;
+            if (j < in[l].n && in[l].a[j] == t->key[b]) {
+                int o;
+                t->child[b] = t->loff[l + 1] + (int32_t)(8 * j);
+                for (o = 0; o < 8; o++) t->parent[t->child[b] + o] = b;
+                t->inner[t->ioff[l + 1]++] = b;
+            } else {
+                t->child[b] = -1;
+            }
+        }
+    }
+    for (l = t->nlev + 1; l <= KIFMM__D + 1; l++) t->ioff[l] = t->ioff[t->nlev];
+    for (l = 0; l < t->nlev; l++) {
+        int sh = 3 * (KIFMM__D - l);
+        for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+            uint64_t k0 = t->key[b] << sh, k1 = (t->key[b] + 1) << sh;
+            t->s0[b] = kifmm__lower_bound(skey, ns, k0);
+            t->s1[b] = kifmm__lower_bound(skey, ns, k1);
+            t->t0[b] = kifmm__lower_bound(tkey, nt, k0);
+            t->t1[b] = kifmm__lower_bound(tkey, nt, k1);
+        }
+    }
+    rc = kifmm__tree_lists(t, nth);
+done:
+    for (l = 0; l <= KIFMM__D; l++) kifmm__free(in[l].a);
+    kifmm__free(skey);
+    kifmm__free(tkey);
+    return rc;
+}
+
+/* ---- operators and the level passes (kernel independent) ---------------- */
+
+/* Operators of one level, built with the target box's half-width. Check
+ * vectors have nc entries, equivalent densities ne (points x components). */
+typedef struct kifmm__ops {
+    int ku, kd;             /* ranks kept by the two pseudo-inverses */
+    double *ut_up, *vs_up;  /* pinv K(up check <- up equiv) = vs_up ut_up */
+    double *ut_dn, *vs_dn;  /* pinv K(down check <- down equiv) */
+    double *m2m;            /* nc x 8 ne: children's equiv -> parent's check */
+    double *l2l;            /* 8 nc x ne: parent's equiv -> children's check */
+    double *m2l;            /* nc x 316 ne: source equiv -> target check */
+} kifmm__ops;
+
+KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
+{
+    kifmm__free(o->ut_up); kifmm__free(o->vs_up);
+    kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
+    kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
+    memset(o, 0, sizeof *o);
+}
+
+/* Everything of a handle but the kernel: the tree, the operators, the
+ * expansions and the workspace, all allocated by create. */
+typedef struct kifmm__core {
+    kifmm_opts opts;
+    kifmm__tree tree;
+    int sd, td;           /* density and output components */
+    int nse, nsc;         /* equivalent and check surface points */
+    int ne, nc;           /* vector lengths: points x sd */
+    double *surf_e, *surf_c; /* unit surfaces (SoA) */
+    int scale_invariant;
+    double degree;
+    kifmm__ops *ops;      /* ops[l] for the levels that use them */
+    int nops;
+    double param[4];
+    int m2l_block;        /* target boxes per M2L GEMM */
+    double *ue, *de;      /* ne per box */
+    double *chk;          /* nc x (boxes of a level) */
+    double *tmp;          /* max(nc, ne) x (boxes of a level) */
+    double *stack;        /* 316 ne x m2l_block */
+    double *m2l_out;      /* nc x m2l_block */
+    double *qs, *outs;    /* densities and outputs in sorted order */
+    double *scratch;      /* per thread: 3 surfaces of max(nsc, nse) points */
+    int nthreads;
+} kifmm__core;
+
+KIFMM__FN void kifmm__core_free(kifmm__core *c)
+{
+    int i;
+    kifmm__tree_free(&c->tree);
+    if (c->ops) {
+        for (i = 0; i < c->nops; i++) kifmm__ops_free(&c->ops[i]);
+        kifmm__free(c->ops);
+    }
+    kifmm__free(c->surf_e); kifmm__free(c->surf_c);
+    kifmm__free(c->ue); kifmm__free(c->de); kifmm__free(c->chk); kifmm__free(c->tmp);
+    kifmm__free(c->stack); kifmm__free(c->m2l_out);
+    kifmm__free(c->qs); kifmm__free(c->outs); kifmm__free(c->scratch);
+}
+
+KIFMM__FN const kifmm__ops *kifmm__ops_at(const kifmm__core *c, int l)
+{
+    return c->scale_invariant ? &c->ops[0] : &c->ops[l];
+}
+
+/* Factor multiplying check potentials computed directly from points at
+ * level l, so that the level-0 operators of a scale-invariant kernel apply:
+ * (half-width)^(-degree); 1 for other kernels. */
+KIFMM__FN double kifmm__level_scale(const kifmm__core *c, int l)
+{
+    double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
+    return c->scale_invariant ? pow(half, -c->degree) : 1.0;
+}
+
+KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
+{
+    int l, m = 1;
+    for (l = 0; l < t->nlev; l++)
+        if (t->loff[l + 1] - t->loff[l] > m) m = t->loff[l + 1] - t->loff[l];
+    return m;
+}
+
+/* Allocate the expansions and the workspace of the passes. */
+KIFMM__FN int kifmm__core_alloc_work(kifmm__core *c)
+{
+    const kifmm__tree *t = &c->tree;
+    size_t mb = (size_t)kifmm__max_level_boxes(t), big = (size_t)(c->nc > c->ne ? c->nc : c->ne);
+    size_t blk, ns = (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
+    /* about 64 MB of stacked multipoles per M2L GEMM */
+    blk = (size_t)(8u << 20) / ((size_t)KIFMM__NT * (size_t)c->ne);
+    if (blk < 8) blk = 8;
+    if (blk > mb) blk = mb;
+    c->m2l_block = (int)blk;
+    c->ue = (double *)kifmm__alloc((size_t)t->nbox * (size_t)c->ne, sizeof(double));
+    c->de = (double *)kifmm__alloc((size_t)t->nbox * (size_t)c->ne, sizeof(double));
+    c->chk = (double *)kifmm__alloc(mb * (size_t)c->nc, sizeof(double));
+    c->tmp = (double *)kifmm__alloc(mb * big, sizeof(double));
+    c->stack = (double *)kifmm__alloc(blk * KIFMM__NT * (size_t)c->ne, sizeof(double));
+    c->m2l_out = (double *)kifmm__alloc(blk * (size_t)c->nc, sizeof(double));
+    c->qs = (double *)kifmm__alloc((size_t)t->ns * (size_t)c->sd, sizeof(double));
+    c->outs = (double *)kifmm__alloc((size_t)t->nt * (size_t)c->td, sizeof(double));
+    c->scratch = (double *)kifmm__alloc((size_t)c->nthreads * 3 * 3 * ns, sizeof(double));
+    if (!c->ue || !c->de || !c->chk || !c->tmp || !c->stack || !c->m2l_out || !c->qs ||
+        !c->outs || !c->scratch)
+        return KIFMM_ERR_NOMEM;
+    return KIFMM_SUCCESS;
+}
+
+KIFMM__FN double *kifmm__thread_scratch(const kifmm__core *c)
+{
+    size_t ns = (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
+#ifdef _OPENMP
+    return c->scratch + (size_t)omp_get_thread_num() * 9 * ns;
+#else
+    return c->scratch;
+#endif
+}
+
+/* Check vectors -> equivalent densities for every box of level l:
+ * equiv = vs (ut chk), two GEMMs over the level. */
+KIFMM__FN void kifmm__solve_level(const kifmm__core *c, int l, int up)
+{
+    const kifmm__tree *t = &c->tree;
+    const kifmm__ops *o = kifmm__ops_at(c, l);
+    int n = t->loff[l + 1] - t->loff[l], k = up ? o->ku : o->kd;
+    double *equiv = (up ? c->ue : c->de) + (size_t)t->loff[l] * c->ne;
+    kifmm__gemm(0, 0, k, n, c->nc, 1.0, up ? o->ut_up : o->ut_dn, k, c->chk, c->nc, 0.0,
+                c->tmp, k);
+    kifmm__gemm(0, 0, c->ne, n, k, 1.0, up ? o->vs_up : o->vs_dn, c->ne, c->tmp, k, 0.0,
+                equiv, c->ne);
+}
+
+/* M2M into the internal boxes of level l: the children of the j-th internal
+ * box are columns 8j..8j+7 of level l+1, so one GEMM does the level. */
+KIFMM__FN void kifmm__m2m_level(const kifmm__core *c, int l)
+{
+    const kifmm__tree *t = &c->tree;
+    int ni = t->ioff[l + 1] - t->ioff[l], j;
+    if (ni == 0 || l + 1 >= t->nlev) return;
+    kifmm__gemm(0, 0, c->nc, ni, 8 * c->ne, 1.0, kifmm__ops_at(c, l)->m2m, c->nc,
+                c->ue + (size_t)t->loff[l + 1] * c->ne, 8 * c->ne, 0.0, c->tmp, c->nc);
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+    for (j = 0; j < ni; j++) {
+        int32_t b = t->inner[t->ioff[l] + j];
+        double *dst = c->chk + (size_t)(b - t->loff[l]) * c->nc;
+        const double *srcv = c->tmp + (size_t)j * c->nc;
+        int i;
+        for (i = 0; i < c->nc; i++) dst[i] += srcv[i];
+    }
+}
+
+/* L2L from level l-1 sets the check vectors of all boxes of level l (they
+ * are the children of the internal boxes of l-1, in order). */
+KIFMM__FN void kifmm__l2l_level(const kifmm__core *c, int l)
+{
+    const kifmm__tree *t = &c->tree;
+    int ni = t->ioff[l] - t->ioff[l - 1], j;
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+    for (j = 0; j < ni; j++)
+        memcpy(c->tmp + (size_t)j * c->ne, c->de + (size_t)t->inner[t->ioff[l - 1] + j] * c->ne,
+               (size_t)c->ne * sizeof(double));
+    kifmm__gemm(0, 0, 8 * c->nc, ni, c->ne, 1.0, kifmm__ops_at(c, l)->l2l, 8 * c->nc, c->tmp,
+                c->ne, 0.0, c->chk, 8 * c->nc);
+}
+
+/* M2L into level l: per block of target boxes, stack the multipoles of each
+ * target's V list by transfer vector (zeros elsewhere) and multiply by the
+ * 316 matrices side by side in one GEMM. No target is written by two threads. */
+KIFMM__FN void kifmm__m2l_level(const kifmm__core *c, int l)
+{
+    const kifmm__tree *t = &c->tree;
+    const kifmm__ops *o = kifmm__ops_at(c, l);
+    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, j;
+    size_t col = (size_t)KIFMM__NT * c->ne;
+    for (b0 = 0; b0 < n; b0 += c->m2l_block) {
+        int32_t nb = n - b0 < c->m2l_block ? n - b0 : c->m2l_block;
+        KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
+        for (j = 0; j < nb; j++) {
+            int32_t b = t->m2l[t->m2lo[l] + b0 + j], e;
+            double *st = c->stack + (size_t)j * col;
+            memset(st, 0, col * sizeof(double));
+            for (e = t->vo[b]; e < t->vo[b + 1]; e++)
+                memcpy(st + (size_t)t->vt[e] * c->ne, c->ue + (size_t)t->v[e] * c->ne,
+                       (size_t)c->ne * sizeof(double));
+        }
+        kifmm__gemm(0, 0, c->nc, nb, (int)col, 1.0, o->m2l, c->nc, c->stack, (int)col, 0.0,
+                    c->m2l_out, c->nc);
+        KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+        for (j = 0; j < nb; j++) {
+            int32_t b = t->m2l[t->m2lo[l] + b0 + j];
+            double *dst = c->chk + (size_t)(b - t->loff[l]) * c->nc;
+            const double *s = c->m2l_out + (size_t)j * c->nc;
+            int i;
+            for (i = 0; i < c->nc; i++) dst[i] += s[i];
+        }
+    }
+}
+
+#endif /* KIFMM_H_SHARED */
+
+/* ======================================================================== */
+/* 4. Kernel template                                                       */
+/* ======================================================================== */
+
+#ifndef KIFMM_KERNEL
+#define KIFMM_KERNEL laplace
+#endif
+#ifndef KIFMM_NAME
+#define KIFMM_NAME KIFMM__CAT(kifmm_, KIFMM_KERNEL)
+#endif
+
+#define KIFMM__K(suffix) KIFMM__CAT3(kifmm_kernel_, KIFMM_KERNEL, suffix)
+#define KIFMM__F(suffix) KIFMM__CAT(KIFMM_NAME, suffix)
+
+#if !KIFMM__K(_SRC_DIM) || !KIFMM__K(_TRG_DIM)
+#error "kifmm.h: the kernel named by KIFMM_KERNEL must define kifmm_kernel_<name>_SRC_DIM and _TRG_DIM (see docs/kernels.md)"
+#endif
+
+#define KIFMM__SD KIFMM__K(_SRC_DIM)
+#define KIFMM__TD KIFMM__K(_TRG_DIM)
+#define KIFMM__EVAL KIFMM__K(_eval)
+#if KIFMM__K(_TRG_DIM) == KIFMM__K(_SRC_DIM)
+#define KIFMM__EVALE KIFMM__K(_eval)
+#else
+#define KIFMM__EVALE KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _eval)
+KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == KIFMM__SD &&
+                         KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _TRG_DIM) == KIFMM__SD,
+                     KIFMM__CAT(KIFMM_NAME, _equivalent_kernel_must_map_SRC_DIM_to_SRC_DIM));
+#endif
+
+typedef struct KIFMM_NAME KIFMM_NAME;
+struct KIFMM_NAME {
+    kifmm__core c;
+};
+
+/* out[i] += scale * sum_j K(t_i - s_j) q_j for targets and sources given as
+ * structure-of-arrays coordinates; `kfun` has `dim` output components. */
+#define KIFMM__DEFINE_P2P(fname, kfun, dim)                                                  \
+    KIFMM__FN void fname(const double *prm, const double *tx, const double *ty,              \
+                         const double *tz, int64_t nt, const double *sx, const double *sy,   \
+                         const double *sz, const double *q, int64_t ns, double scale,        \
+                         double *out)                                                        \
+    {                                                                                        \
+        int64_t i, j;                                                                        \
+        int a, s;                                                                            \
+        for (i = 0; i < nt; i++) {                                                           \
+            double acc[dim], k[(dim) * KIFMM__SD];                                           \
+            for (a = 0; a < (dim); a++) acc[a] = 0.0;                                        \
+            for (j = 0; j < ns; j++) {                                                       \
+                kfun(prm, tx[i] - sx[j], ty[i] - sy[j], tz[i] - sz[j], k);                   \
+                for (a = 0; a < (dim); a++)                                                  \
+                    for (s = 0; s < KIFMM__SD; s++) acc[a] += k[a * KIFMM__SD + s] * q[j * KIFMM__SD + s]; \
+            }                                                                                \
+            for (a = 0; a < (dim); a++) out[i * (dim) + a] += scale * acc[a];                \
+        }                                                                                    \
+    }
+
+KIFMM__DEFINE_P2P(KIFMM__F(__p2p), KIFMM__EVAL, KIFMM__TD)
+KIFMM__DEFINE_P2P(KIFMM__F(__p2p_equiv), KIFMM__EVALE, KIFMM__SD)
+
+/* Matrix of the surface kernel from sources s (SoA, nsp points) to targets tp
+ * (SoA, ntp points): row i*SD + a, column j*SD + b, leading dimension ld. */
+KIFMM__FN void KIFMM__F(__kmat)(const double *prm, const double *tp, int ntp, const double *sp,
+                                int nsp, double *m, size_t ld)
+{
+    int i, j, a, b;
+    double k[KIFMM__SD * KIFMM__SD];
+    for (j = 0; j < nsp; j++)
+        for (i = 0; i < ntp; i++) {
+            KIFMM__EVALE(prm, tp[i] - sp[j], tp[ntp + i] - sp[nsp + j],
+                         tp[2 * ntp + i] - sp[2 * nsp + j], k);
+            for (b = 0; b < KIFMM__SD; b++)
+                for (a = 0; a < KIFMM__SD; a++)
+                    m[(size_t)(i * KIFMM__SD + a) + (size_t)(j * KIFMM__SD + b) * ld] =
+                        k[a * KIFMM__SD + b];
+        }
+}
+
+/* The operators for target boxes of half-width r (see kifmm__ops). */
+KIFMM__FN int KIFMM__F(__ops_build)(const kifmm__core *c, double r, kifmm__ops *o)
+{
+    int nse = c->nse, nsc = c->nsc, ne = c->ne, nc = c->nc, oct, tv, rc = KIFMM_SUCCESS;
+    double *a = NULL, *pe = NULL, *pc = NULL, zero[3] = {0.0, 0.0, 0.0};
+    const double *prm = c->param;
+    a = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    pe = (double *)kifmm__alloc((size_t)3 * nse, sizeof(double));
+    pc = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
+    o->m2m = (double *)kifmm__alloc((size_t)nc * 8 * ne, sizeof(double));
+    o->l2l = (double *)kifmm__alloc((size_t)8 * nc * ne, sizeof(double));
+    o->m2l = (double *)kifmm__alloc((size_t)nc * KIFMM__NT * ne, sizeof(double));
+    if (!a || !pe || !pc || !o->m2m || !o->l2l || !o->m2l) { rc = KIFMM_ERR_NOMEM; goto done; }
+
+    /* upward: check at 2.95 r, equivalent at 1.05 r; downward the reverse */
+    kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_OUTER * r, pc);
+    kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_INNER * r, pe);
+    KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, a, (size_t)nc);
+    if ((rc = kifmm__pinv(a, nc, ne, KIFMM_SVD_CUTOFF, &o->ut_up, &o->vs_up, &o->ku))) goto done;
+    kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
+    kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_OUTER * r, pe);
+    KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, a, (size_t)nc);
+    if ((rc = kifmm__pinv(a, nc, ne, KIFMM_SVD_CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd))) goto done;
+
+    for (oct = 0; oct < 8; oct++) {
+        double sgn[3] = {(oct >> 2 & 1) ? 1.0 : -1.0, (oct >> 1 & 1) ? 1.0 : -1.0,
+                         (oct & 1) ? 1.0 : -1.0}, cc[3];
+        int d;
+        /* M2M: child (half r/2, centre +r/2 sgn) equiv -> parent (half r) check */
+        for (d = 0; d < 3; d++) cc[d] = 0.5 * r * sgn[d];
+        kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_OUTER * r, pc);
+        kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_INNER * 0.5 * r, pe);
+        KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->m2m + (size_t)oct * ne * nc, (size_t)nc);
+        /* L2L: parent (half 2r, centre -r sgn) equiv -> child (half r) check */
+        for (d = 0; d < 3; d++) cc[d] = -r * sgn[d];
+        kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
+        kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_OUTER * 2.0 * r, pe);
+        KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->l2l + (size_t)oct * nc, (size_t)8 * nc);
+    }
+    kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
+    for (tv = 0; tv < KIFMM__NT; tv++) {
+        int d[3] = {0, 0, 0};
+        double cc[3];
+        kifmm__transfer_vector(tv, d);
+        cc[0] = 2.0 * r * d[0]; cc[1] = 2.0 * r * d[1]; cc[2] = 2.0 * r * d[2];
+        kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_INNER * r, pe);
+        KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->m2l + (size_t)tv * ne * nc, (size_t)nc);
+    }
+done:
+    kifmm__free(a);
+    kifmm__free(pe);
+    kifmm__free(pc);
+    return rc;
+}
+
+/* Scale-invariant kernels: one set at half-width 1, rescaled per level.
+ * Others: one set per level that uses operators (levels 2 and deeper). */
+KIFMM__FN int KIFMM__F(__precompute)(kifmm__core *c)
+{
+    int l, rc;
+    c->nops = c->scale_invariant ? 1 : c->tree.nlev;
+    c->ops = (kifmm__ops *)kifmm__calloc((size_t)c->nops, sizeof(kifmm__ops));
+    if (!c->ops) return KIFMM_ERR_NOMEM;
+    if (c->scale_invariant) return KIFMM__F(__ops_build)(c, 1.0, &c->ops[0]);
+    for (l = 2; l < c->tree.nlev; l++) {
+        double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
+        if ((rc = KIFMM__F(__ops_build)(c, half, &c->ops[l]))) return rc;
+    }
+    return KIFMM_SUCCESS;
+}
+
+/* ---- the evaluation passes, in pipeline order -------------------------- */
+
+/* Upward pass at level l: P2M into the leaves' check vectors, M2M into the
+ * internal boxes', then the solve for the equivalent densities. */
+KIFMM__FN void KIFMM__F(__upward)(const kifmm__core *c, int l)
+{
+    const kifmm__tree *t = &c->tree;
+    int32_t b;
+    double scale = kifmm__level_scale(c, l);
+    memset(c->chk, 0, (size_t)(t->loff[l + 1] - t->loff[l]) * c->nc * sizeof(double));
+    KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
+    for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+        double *pc, ctr[3], half;
+        int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
+        if (t->child[b] >= 0 || ns == 0) continue;
+        pc = kifmm__thread_scratch(c);
+        kifmm__box_center(t, b, ctr, &half);
+        kifmm__surf_place(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_OUTER * half, pc);
+        KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc,
+                              t->src + s0, t->src + t->ns + s0, t->src + 2 * t->ns + s0,
+                              c->qs + s0 * KIFMM__SD, ns, scale,
+                              c->chk + (size_t)(b - t->loff[l]) * c->nc);
+    }
+    kifmm__m2m_level(c, l);
+    kifmm__solve_level(c, l, 1);
+}
+
+/* Downward pass at level l: L2L from the parents, M2L over V lists, P2L over
+ * X lists, then the solve for the local equivalent densities. */
+KIFMM__FN void KIFMM__F(__downward)(const kifmm__core *c, int l)
+{
+    const kifmm__tree *t = &c->tree;
+    int32_t b;
+    double scale = kifmm__level_scale(c, l);
+    if (l >= 3) kifmm__l2l_level(c, l);
+    else memset(c->chk, 0, (size_t)(t->loff[l + 1] - t->loff[l]) * c->nc * sizeof(double));
+    kifmm__m2l_level(c, l);
+    KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
+    for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+        double *pc, *pe, ctr[3], half;
+        double *chk = c->chk + (size_t)(b - t->loff[l]) * c->nc;
+        int32_t e, a = l >= 3 ? t->dsrc[t->parent[b]] : -1;
+        if (t->dsrc[b] != b) {
+            /* no refit here: the box is served by an ancestor's expansion */
+            memset(chk, 0, (size_t)c->nc * sizeof(double));
+            continue;
+        }
+        pc = kifmm__thread_scratch(c);
+        pe = pc + 3 * (c->nsc > c->nse ? c->nsc : c->nse);
+        kifmm__box_center(t, b, ctr, &half);
+        kifmm__surf_place(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_INNER * half, pc);
+        if (a >= 0 && a != t->parent[b]) {
+            /* L2L from an ancestor above the parent, by direct evaluation */
+            double ac[3], ah;
+            kifmm__box_center(t, a, ac, &ah);
+            kifmm__surf_place(c->surf_e, c->nse, ac, KIFMM__ALPHA_OUTER * ah, pe);
+            KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, pe,
+                                  pe + c->nse, pe + 2 * c->nse, c->de + (size_t)a * c->ne,
+                                  c->nse, scale, chk);
+        }
+        for (e = t->xo[b]; e < t->xo[b + 1]; e++) {
+            int32_t xb = t->x[e];
+            int64_t s0 = t->s0[xb];
+            KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc,
+                                  t->src + s0, t->src + t->ns + s0, t->src + 2 * t->ns + s0,
+                                  c->qs + s0 * KIFMM__SD, t->s1[xb] - s0, scale, chk);
+        }
+    }
+    kifmm__solve_level(c, l, 0);
+}
+
+/* Leaves with targets: L2P, M2P over W (direct when the box holds fewer
+ * sources than its surface has points), P2P over U. */
+KIFMM__FN void KIFMM__F(__leaves)(const kifmm__core *c)
+{
+    const kifmm__tree *t = &c->tree;
+    int32_t i;
+    const int64_t ns = t->ns, nt = t->nt;
+    KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
+    for (i = 0; i < t->nleaves; i++) {
+        int32_t b = t->leaves[i], e;
+        int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
+        const double *tx = t->trg + t0, *ty = t->trg + nt + t0, *tz = t->trg + 2 * nt + t0;
+        double *out = c->outs + t0 * KIFMM__TD, *pe = kifmm__thread_scratch(c), ctr[3], half;
+        int32_t a = t->dsrc[b];
+        if (a >= 0) {
+            kifmm__box_center(t, a, ctr, &half);
+            kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_OUTER * half, pe);
+            KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, pe, pe + c->nse, pe + 2 * c->nse,
+                            c->de + (size_t)a * c->ne, c->nse, 1.0, out);
+        }
+        for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
+            int32_t a = t->w[e];
+            int64_t s0 = t->s0[a], nsa = t->s1[a] - s0;
+            if (nsa <= c->nse) {
+                KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, t->src + s0, t->src + ns + s0,
+                                t->src + 2 * ns + s0, c->qs + s0 * KIFMM__SD, nsa, 1.0, out);
+            } else {
+                kifmm__box_center(t, a, ctr, &half);
+                kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_INNER * half, pe);
+                KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, pe, pe + c->nse, pe + 2 * c->nse,
+                                c->ue + (size_t)a * c->ne, c->nse, 1.0, out);
+            }
+        }
+        for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
+            int32_t a = t->u[e];
+            int64_t s0 = t->s0[a];
+            KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, t->src + s0, t->src + ns + s0,
+                            t->src + 2 * ns + s0, c->qs + s0 * KIFMM__SD, t->s1[a] - s0, 1.0,
+                            out);
+        }
+    }
+}
+
+/* ---- public entry points ------------------------------------------------ */
+
+/* <prefix>_destroy: free a handle and everything it owns. NULL is a no-op. */
+KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
+{
+    if (!h) return;
+    kifmm__core_free(&h->c);
+    kifmm__free(h);
+}
+
+KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const double *xyz)
+{
+    int64_t i;
+    if (n < 0) return KIFMM_ERR_COUNT;
+    if (n > 0 && !xyz) return KIFMM_ERR_NULL;
+    for (i = 0; i < 3 * n; i++)
+        if (!isfinite(xyz[i])) return KIFMM_ERR_NONFINITE;
+    return KIFMM_SUCCESS;
+}
+
+/* <prefix>_create: build the tree and the operators for these points.
+ *   out      (out) the new handle; NULL on failure
+ *   opts     (in)  options, NULL for all defaults (see kifmm_opts)
+ *   nsources, src_xyz  (in) source points, x[3*i+k]
+ *   ntargets, trg_xyz  (in) target points, x[3*j+k]
+ * The handle keeps no pointer to the caller's arrays. Returns KIFMM_SUCCESS or
+ * a negative kifmm result; on failure nothing is leaked. Thread safe: distinct
+ * handles may be created concurrently. */
+KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
+                                const double *src_xyz, int64_t ntargets, const double *trg_xyz)
+{
+    KIFMM_NAME *h;
+    kifmm__core *c;
+    kifmm_opts o;
+    int rc, d;
+    if (!out) return KIFMM_ERR_NULL;
+    *out = NULL;
+    if ((rc = kifmm__resolve_opts(opts, &o))) return rc;
+    if ((rc = KIFMM__F(__check_points)(nsources, src_xyz))) return rc;
+    if ((rc = KIFMM__F(__check_points)(ntargets, trg_xyz))) return rc;
+    for (d = 0; d < 4; d++)
+        if (!isfinite(o.kernel_param[d])) return KIFMM_ERR_PARAM;
+    h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h);
+    if (!h) return KIFMM_ERR_NOMEM;
+    c = &h->c;
+    c->opts = o;
+    c->nthreads = o.nthreads;
+    c->sd = KIFMM__SD;
+    c->td = KIFMM__TD;
+    c->scale_invariant = KIFMM__K(_SCALE_INVARIANT) ? 1 : 0;
+    c->degree = (double)(KIFMM__K(_DEGREE));
+    for (d = 0; d < 4; d++) c->param[d] = o.kernel_param[d];
+    c->tree.ns = nsources;
+    c->tree.nt = ntargets;
+    if (nsources == 0 || ntargets == 0) {
+        *out = h;
+        return KIFMM_SUCCESS;
+    }
+    c->nse = kifmm__surf_count(o.order);
+    c->nsc = kifmm__surf_count(o.order + KIFMM_CHECK_ORDER_DIFF);
+    c->ne = c->nse * KIFMM__SD;
+    c->nc = c->nsc * KIFMM__SD;
+    c->surf_e = (double *)kifmm__alloc((size_t)3 * c->nse, sizeof(double));
+    c->surf_c = (double *)kifmm__alloc((size_t)3 * c->nsc, sizeof(double));
+    if (!c->surf_e || !c->surf_c) { rc = KIFMM_ERR_NOMEM; goto fail; }
+    kifmm__surf_unit(o.order, c->surf_e);
+    kifmm__surf_unit(o.order + KIFMM_CHECK_ORDER_DIFF, c->surf_c);
+    rc = kifmm__tree_build(&c->tree, nsources, src_xyz, ntargets, trg_xyz, o.leaf_size,
+                           o.max_depth, o.nthreads);
+    if (rc) goto fail;
+    if ((rc = KIFMM__F(__precompute)(c))) goto fail;
+    if ((rc = kifmm__core_alloc_work(c))) goto fail;
+    *out = h;
+    return KIFMM_SUCCESS;
+fail:
+    KIFMM__F(_destroy)(h);
+    return rc;
+}
+
+/* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
+ * order, from densities[i*SRC_DIM + d]. Outputs are overwritten. Returns
+ * KIFMM_SUCCESS or KIFMM_ERR_NULL (then out is untouched). Not thread safe
+ * on one handle (the handle holds the workspace); use one handle per thread. */
+KIFMM__FN int KIFMM__F(_evaluate)(const KIFMM_NAME *h, const double *densities, double *out)
+{
+    const kifmm__core *c;
+    const kifmm__tree *t;
+    int64_t i;
+    int l;
+    if (!h) return KIFMM_ERR_NULL;
+    c = &h->c;
+    t = &c->tree;
+    if ((t->ns > 0 && !densities) || (t->nt > 0 && !out)) return KIFMM_ERR_NULL;
+    if (t->nt == 0) return KIFMM_SUCCESS;
+    if (t->ns == 0) {
+        memset(out, 0, (size_t)t->nt * KIFMM__TD * sizeof(double));
+        return KIFMM_SUCCESS;
+    }
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+    for (i = 0; i < t->ns; i++) {
+        int k;
+        for (k = 0; k < KIFMM__SD; k++)
+            c->qs[i * KIFMM__SD + k] = densities[t->sperm[i] * KIFMM__SD + k];
+    }
+    memset(c->outs, 0, (size_t)t->nt * KIFMM__TD * sizeof(double));
+    for (l = t->nlev - 1; l >= 2; l--) KIFMM__F(__upward)(c, l);
+    for (l = 2; l < t->nlev; l++) KIFMM__F(__downward)(c, l);
+    KIFMM__F(__leaves)(c);
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+    for (i = 0; i < t->nt; i++) {
+        int k;
+        for (k = 0; k < KIFMM__TD; k++)
+            out[t->tperm[i] * KIFMM__TD + k] = c->outs[i * KIFMM__TD + k];
+    }
+    return KIFMM_SUCCESS;
+}
+
+/* <prefix>_options: the options the handle uses, defaults resolved. */
+KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
+{
+    if (!h || !used) return KIFMM_ERR_NULL;
+    *used = h->c.opts;
+    return KIFMM_SUCCESS;
+}
+
+/* ======================================================================== */
+/* 5. Epilogue: the next include starts clean                              */
+/* ======================================================================== */
+#undef KIFMM__DEFINE_P2P
+#undef KIFMM__EVALE
+#undef KIFMM__EVAL
+#undef KIFMM__TD
+#undef KIFMM__SD
+#undef KIFMM__F
+#undef KIFMM__K
+#undef KIFMM_NAME
+#undef KIFMM_KERNEL
+
+/* License: MIT. Copyright (c) 2026 the kifmm.h authors. Permission is hereby
+ * granted, free of charge, to any person obtaining a copy of this software, to
+ * deal in it without restriction, provided this notice is kept. THE SOFTWARE
+ * IS PROVIDED "AS IS", WITHOUT WARRANTY OF ANY KIND. */

@@ -1,0 +1,311 @@
+/* White-box tests of the pieces: each translation operator on its own against
+ * direct summation, the transfer-vector numbering, and the tree (2:1 balance,
+ * list bounds, and that the lists of a leaf and its ancestors account for
+ * every source exactly once). */
+#include "kifmm.h"
+#include "test.h"
+
+/* Equivalent density -> potential at points y (interleaved), with the test's
+ * own direct sum from the surface points. */
+static void eval_equiv(const kifmm__core *c, int n, const double *surf_soa, const double *dens,
+                       int ny, const double *y, double *pot)
+{
+    double *pts = t_doubles(3 * n);
+    int i, d;
+    for (i = 0; i < n; i++)
+        for (d = 0; d < 3; d++) pts[3 * i + d] = surf_soa[d * n + i];
+    for (i = 0; i < ny; i++) {
+        double r[4];
+        t_direct_laplace(n, pts, dens, y + 3 * i, r);
+        pot[i] = r[0];
+    }
+    (void)c;
+    free(pts);
+}
+
+static double rel_err_at(int ny, const double *y, const double *pot, int ns, const double *x,
+                         const double *q)
+{
+    double num = 0, den = 0;
+    int i;
+    for (i = 0; i < ny; i++) {
+        double r[4];
+        t_direct_laplace(ns, x, q, y + 3 * i, r);
+        num += (pot[i] - r[0]) * (pot[i] - r[0]);
+        den += r[0] * r[0];
+    }
+    return sqrt(num / den);
+}
+
+static void soa(int n, const double *xyz, double *s)
+{
+    int i, d;
+    for (i = 0; i < n; i++)
+        for (d = 0; d < 3; d++) s[d * n + i] = xyz[3 * i + d];
+}
+
+/* Check vector -> equivalent density with the handle's two factors. */
+static void solve(const kifmm__core *c, int up, const double *chk, double *eq)
+{
+    const kifmm__ops *o = &c->ops[0];
+    int k = up ? o->ku : o->kd;
+    double *tmp = t_doubles(k);
+    kifmm__gemm(0, 0, k, 1, c->nc, 1.0, up ? o->ut_up : o->ut_dn, k, chk, c->nc, 0.0, tmp, k);
+    kifmm__gemm(0, 0, c->ne, 1, k, 1.0, up ? o->vs_up : o->vs_dn, c->ne, tmp, k, 0.0, eq, c->ne);
+    free(tmp);
+}
+
+/* P2M: sources -> check potentials (scaled by the half-width, Laplace being
+ * homogeneous of degree -1) -> upward equivalent density. */
+static void p2m(const kifmm__core *c, const double *ctr, double r, int ns, const double *x,
+                const double *q, double *ue)
+{
+    double *pc = t_doubles(3 * c->nsc), *chk = t_doubles(c->nc), *xs = t_doubles(3 * ns);
+    kifmm__surf_place(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_OUTER * r, pc);
+    soa(ns, x, xs);
+    t_fill(c->nc, chk, 0.0);
+    kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
+                             xs + 2 * ns, q, ns, r, chk);
+    solve(c, 1, chk, ue);
+    free(pc);
+    free(chk);
+    free(xs);
+}
+
+static void points_in_box(t_rng *g, int n, const double *ctr, double r, double *x)
+{
+    int i, d;
+    for (i = 0; i < n; i++)
+        for (d = 0; d < 3; d++) x[3 * i + d] = ctr[d] + t_uniform(g, -r, r);
+}
+
+/* Targets in a shell around ctr: cube distance between a and b half-widths. */
+static void points_far(t_rng *g, int n, const double *ctr, double r, double a, double b,
+                       double *y)
+{
+    int i, d;
+    for (i = 0; i < n; i++) {
+        double v[3], m = 0, s = t_uniform(g, a, b);
+        for (d = 0; d < 3; d++) {
+            v[d] = t_uniform(g, -1, 1);
+            if (fabs(v[d]) > m) m = fabs(v[d]);
+        }
+        for (d = 0; d < 3; d++) y[3 * i + d] = ctr[d] + r * s * v[d] / m;
+    }
+}
+
+static kifmm_laplace *handle(int order)
+{
+    kifmm_laplace *h = NULL;
+    double two[6] = {0, 0, 0, 1, 1, 1};
+    kifmm_opts o = t_opts(order, 0, 0);
+    CHECK(kifmm_laplace_create(&h, &o, 2, two, 2, two) == 0, "create order %d", order);
+    return h;
+}
+
+/* Bounds for one operator alone, per order 4, 6, 8, 10: a few times the
+ * worst case measured, which is the nearest transfer vector (2,0,0) with
+ * sources filling the whole box (1.3e-3, 3.0e-5, 8.4e-8, 1.4e-8 for L2L). */
+static double bound_for(int p)
+{
+    return p <= 4 ? 5e-3 : p <= 6 ? 1.5e-4 : p <= 8 ? 4e-7 : 6e-8;
+}
+
+static void test_upward(int p)
+{
+    kifmm_laplace *h = handle(p);
+    const kifmm__core *c = &h->c;
+    t_rng g = t_rng_seed(11 + p);
+    double ctr[3] = {0.3, -0.2, 0.1}, r = 0.25, *x, *q, *y, *pot, *ue, *uec, *chk, *pe;
+    int ns = 400, ny = 300, o;
+    x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
+    ue = t_doubles(c->ne); uec = t_doubles(8 * c->ne); chk = t_doubles(c->nc);
+    pe = t_doubles(3 * c->nse);
+
+    /* P2M alone, evaluated where M2L would use it (beyond the check surface) */
+    points_in_box(&g, ns, ctr, r, x);
+    t_gen_charges(&g, ns, q, -1, 1);
+    points_far(&g, ny, ctr, r, 3.0, 7.0, y);
+    p2m(c, ctr, r, ns, x, q, ue);
+    kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_INNER * r, pe);
+    eval_equiv(c, c->nse, pe, ue, ny, y, pot);
+    CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2M p=%d, far field", p);
+
+    /* M2M: eight children, each P2M'd alone, shifted to the parent */
+    for (o = 0; o < 8; o++) {
+        double cc[3] = {ctr[0] + (o >> 2 & 1 ? 0.5 : -0.5) * r, ctr[1] + (o >> 1 & 1 ? 0.5 : -0.5) * r,
+                        ctr[2] + (o & 1 ? 0.5 : -0.5) * r};
+        points_in_box(&g, ns / 8, cc, 0.5 * r, x + 3 * (ns / 8) * o);
+        p2m(c, cc, 0.5 * r, ns / 8, x + 3 * (ns / 8) * o, q + (ns / 8) * o, uec + o * c->ne);
+    }
+    kifmm__gemm(0, 0, c->nc, 1, 8 * c->ne, 1.0, c->ops[0].m2m, c->nc, uec, 8 * c->ne, 0.0, chk,
+                c->nc);
+    solve(c, 1, chk, ue);
+    eval_equiv(c, c->nse, pe, ue, ny, y, pot);
+    CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "M2M p=%d, far field", p);
+    free(x); free(q); free(y); free(pot); free(ue); free(uec); free(chk); free(pe);
+    kifmm_laplace_destroy(h);
+}
+
+static void test_downward(int p)
+{
+    kifmm_laplace *h = handle(p);
+    const kifmm__core *c = &h->c;
+    t_rng g = t_rng_seed(23 + p);
+    double ctr[3] = {-0.1, 0.2, 0.05}, r = 0.125, *x, *q, *y, *pot, *ue, *de, *dec, *chk, *pe,
+           *pc, *xs;
+    int ns = 300, ny = 300, tv, o, k;
+    static const int vecs[4][3] = {{2, 0, 0}, {3, -2, 1}, {-3, -3, -3}, {0, 2, -2}};
+    x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
+    ue = t_doubles(c->ne); de = t_doubles(c->ne); dec = t_doubles(c->ne);
+    chk = t_doubles(8 * c->nc); pe = t_doubles(3 * c->nse); pc = t_doubles(3 * c->nsc);
+    xs = t_doubles(3 * ns);
+
+    /* M2L: source box at transfer vector d (in box widths), P2M there, M2L,
+     * solve, evaluate at targets inside the target box */
+    for (k = 0; k < 4; k++) {
+        const int *d = vecs[k];
+        double cs[3] = {ctr[0] + 2 * r * d[0], ctr[1] + 2 * r * d[1], ctr[2] + 2 * r * d[2]};
+        tv = kifmm__transfer_index(d[0], d[1], d[2]);
+        points_in_box(&g, ns, cs, r, x);
+        t_gen_charges(&g, ns, q, -1, 1);
+        points_in_box(&g, ny, ctr, r, y);
+        p2m(c, cs, r, ns, x, q, ue);
+        kifmm__gemm(0, 0, c->nc, 1, c->ne, 1.0, c->ops[0].m2l + (size_t)tv * c->ne * c->nc,
+                    c->nc, ue, c->ne, 0.0, chk, c->nc);
+        solve(c, 0, chk, de);
+        kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_OUTER * r, pe);
+        eval_equiv(c, c->nse, pe, de, ny, y, pot);
+        CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
+                  "M2L p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
+    }
+
+    /* P2L then L2L: sources well apart from a parent of half-width 2r; the
+     * parent's local expansion moved to each child, evaluated inside it */
+    {
+        double cp[3] = {ctr[0], ctr[1], ctr[2]}, cs[3] = {ctr[0] + 8 * r, ctr[1] - 4 * r, ctr[2]};
+        points_in_box(&g, ns, cs, 2 * r, x);
+        t_gen_charges(&g, ns, q, -1, 1);
+        soa(ns, x, xs);
+        kifmm__surf_place(c->surf_c, c->nsc, cp, KIFMM__ALPHA_INNER * 2 * r, pc);
+        t_fill(c->nc, chk, 0.0);
+        kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
+                                 xs + 2 * ns, q, ns, 2 * r, chk);
+        solve(c, 0, chk, de);
+        kifmm__surf_place(c->surf_e, c->nse, cp, KIFMM__ALPHA_OUTER * 2 * r, pe);
+        points_in_box(&g, ny, cp, 2 * r, y);
+        eval_equiv(c, c->nse, pe, de, ny, y, pot);
+        CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2L p=%d, inside the box", p);
+        kifmm__gemm(0, 0, 8 * c->nc, 1, c->ne, 1.0, c->ops[0].l2l, 8 * c->nc, de, c->ne, 0.0, chk,
+                    8 * c->nc);
+        for (o = 0; o < 8; o++) {
+            double cc[3] = {cp[0] + (o >> 2 & 1 ? r : -r), cp[1] + (o >> 1 & 1 ? r : -r),
+                            cp[2] + (o & 1 ? r : -r)};
+            solve(c, 0, chk + (size_t)o * c->nc, dec);
+            kifmm__surf_place(c->surf_e, c->nse, cc, KIFMM__ALPHA_OUTER * r, pe);
+            points_in_box(&g, ny, cc, r, y);
+            eval_equiv(c, c->nse, pe, dec, ny, y, pot);
+            CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "L2L p=%d, child %d", p, o);
+        }
+    }
+    free(x); free(q); free(y); free(pot); free(ue); free(de); free(dec); free(chk);
+    free(pe); free(pc); free(xs);
+    kifmm_laplace_destroy(h);
+}
+
+static void test_transfer_vectors(void)
+{
+    int t, bad = 0, d[3];
+    for (t = 0; t < KIFMM__NT; t++) {
+        kifmm__transfer_vector(t, d);
+        if (kifmm__transfer_index(d[0], d[1], d[2]) != t) bad++;
+        if (abs(d[0]) <= 1 && abs(d[1]) <= 1 && abs(d[2]) <= 1) bad++;
+    }
+    CHECK(bad == 0, "%d transfer vectors misnumbered", bad);
+}
+
+/* Tree invariants on an adaptive tree. */
+static void test_tree(const char *name, int64_t n, const double *xyz, int leaf)
+{
+    kifmm_laplace *h = NULL;
+    kifmm_opts o = t_opts(4, leaf, 0);
+    const kifmm__tree *t;
+    int32_t b, a, i;
+    int unbalanced = 0, badcover = 0, over = 0, maxu = 0, maxv = 0, maxw = 0, maxx = 0;
+    int64_t *cover;
+    CHECK(kifmm_laplace_create(&h, &o, n, xyz, n, xyz) == 0, "create %s", name);
+    if (!h) return;
+    t = &h->c.tree;
+    cover = (int64_t *)t_malloc_or_die((size_t)(t->ns + 1) * sizeof(int64_t));
+    /* 2:1 balance: adjacent leaves differ by at most one level */
+    for (b = 0; b < t->nbox; b++) {
+        if (t->child[b] >= 0) continue;
+        for (a = b + 1; a < t->nbox; a++)
+            if (t->child[a] < 0 && abs(kifmm__level_of(t, a) - kifmm__level_of(t, b)) > 1 &&
+                kifmm__adjacent(t, a, b))
+                unbalanced++;
+    }
+    CHECK(unbalanced == 0, "%s: %d adjacent leaf pairs more than one level apart", name,
+          unbalanced);
+    /* every source once: U and W of the leaf, V and X of it and its ancestors */
+    for (i = 0; i < t->nleaves; i++) {
+        int32_t leafb = t->leaves[i], anc = leafb, e;
+        int64_t s, run = 0;
+        memset(cover, 0, (size_t)(t->ns + 1) * sizeof(int64_t));
+#define COVER(box) (cover[t->s0[box]]++, cover[t->s1[box]]--)
+        for (e = t->uo[leafb]; e < t->uo[leafb + 1]; e++) COVER(t->u[e]);
+        for (e = t->wo[leafb]; e < t->wo[leafb + 1]; e++) COVER(t->w[e]);
+        if (t->uo[leafb + 1] - t->uo[leafb] > maxu) maxu = t->uo[leafb + 1] - t->uo[leafb];
+        if (t->wo[leafb + 1] - t->wo[leafb] > maxw) maxw = t->wo[leafb + 1] - t->wo[leafb];
+        while (anc >= 0) {
+            int l = kifmm__level_of(t, anc);
+            for (e = t->vo[anc]; e < t->vo[anc + 1]; e++) COVER(t->v[e]);
+            for (e = t->xo[anc]; e < t->xo[anc + 1]; e++) COVER(t->x[e]);
+            if (t->vo[anc + 1] - t->vo[anc] > maxv) maxv = t->vo[anc + 1] - t->vo[anc];
+            if (t->xo[anc + 1] - t->xo[anc] > maxx) maxx = t->xo[anc + 1] - t->xo[anc];
+            if (l == 0) break;
+            anc = kifmm__find(t, l - 1, t->key[anc] >> 3);
+        }
+#undef COVER
+        for (s = 0; s < t->ns; s++) {
+            run += cover[s];
+            if (run != 1) { badcover++; break; }
+        }
+    }
+    CHECK(badcover == 0, "%s: %d leaves whose lists miss or repeat a source", name, badcover);
+    over = maxu > 60 || maxv > 189 || maxw > 148 || maxx > 19;
+    CHECK(!over, "%s: list sizes U %d V %d W %d X %d above 60/189/148/19", name, maxu, maxv,
+          maxw, maxx);
+    printf("  ok   %-62s levels %d, boxes %d, max |U| %d |V| %d |W| %d |X| %d\n", name, t->nlev,
+           (int)t->nbox, maxu, maxv, maxw, maxx);
+    free(cover);
+    kifmm_laplace_destroy(h);
+}
+
+int main(void)
+{
+    static const int orders[] = {4, 6, 8, 10};
+    t_rng g = t_rng_seed(5);
+    int i, n = 6000;
+    double *x = t_doubles(3 * n);
+    t_group("transfer vectors");
+    test_transfer_vectors();
+    t_group("operators alone against direct sums");
+    for (i = 0; i < 4; i++) {
+        test_upward(orders[i]);
+        test_downward(orders[i]);
+    }
+    t_group("tree: balance and lists");
+    t_gen_cube(&g, n, x, 0, 1);
+    test_tree("uniform cube", n, x, 16);
+    t_gen_corner(&g, n, x);
+    test_tree("clustered toward a corner", n, x, 8);
+    t_gen_blobs(&g, n, x);
+    test_tree("gaussian blobs", n, x, 8);
+    t_gen_sphere(&g, n, x);
+    test_tree("sphere surface", n, x, 8);
+    t_gen_two_clusters(&g, n, x, 1e-3, 1e3);
+    test_tree("two far clusters", n, x, 8);
+    free(x);
+    return t_finish();
+}
