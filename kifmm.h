@@ -58,6 +58,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <math.h>
+#include <time.h>
 #include <cblas.h>
 #include <lapacke.h>
 #ifdef _OPENMP
@@ -189,6 +190,29 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, kifmm_opts *out)
     }
     *out = o;
     return KIFMM_SUCCESS;
+}
+
+/* ---- statistics --------------------------------------------------------- */
+
+/* What a handle is made of and where the last evaluation spent its time. */
+typedef struct kifmm_stats {
+    int levels;                 /* tree levels */
+    int64_t boxes, leaves;      /* boxes in the tree, leaves holding targets */
+    double t_tree, t_operators; /* create: tree and lists, operators (seconds) */
+    double t_p2m, t_m2m, t_m2l, t_l2l, t_p2l, t_l2p, t_m2p, t_p2p; /* last evaluate */
+    double t_evaluate;          /* last evaluate, total */
+    double bytes;               /* memory held by the handle */
+} kifmm_stats;
+
+/* Wall-clock seconds (CPU seconds in builds without OpenMP, which run on one
+ * thread; C99 has no portable wall clock). */
+KIFMM__FN double kifmm__now(void)
+{
+#ifdef _OPENMP
+    return omp_get_wtime();
+#else
+    return (double)clock() / (double)CLOCKS_PER_SEC;
+#endif
 }
 
 /* ---- memory ------------------------------------------------------------- */
@@ -954,7 +978,7 @@ typedef struct kifmm__ops {
     double *ut_dn, *vs_dn;  /* pinv K(down check <- down equiv) */
     double *m2m;            /* nc x 8 ne: children's equiv -> parent's check */
     double *l2l;            /* 8 nc x ne: parent's equiv -> children's check */
-    double *m2l;            /* nc x 316 ne: source equiv -> target check */
+    double *m2l;            /* kd x 316 ne: source equiv -> ut_dn (target check) */
 } kifmm__ops;
 
 KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
@@ -988,6 +1012,7 @@ typedef struct kifmm__core {
     double *qs, *outs;    /* densities and outputs in sorted order */
     double *scratch;      /* per thread: 3 surfaces of max(nsc, nse) points */
     int nthreads;
+    kifmm_stats *stats;   /* written by create and evaluate */
 } kifmm__core;
 
 KIFMM__FN void kifmm__core_free(kifmm__core *c)
@@ -1002,6 +1027,7 @@ KIFMM__FN void kifmm__core_free(kifmm__core *c)
     kifmm__free(c->ue); kifmm__free(c->de); kifmm__free(c->chk); kifmm__free(c->tmp);
     kifmm__free(c->stack); kifmm__free(c->m2l_out);
     kifmm__free(c->qs); kifmm__free(c->outs); kifmm__free(c->scratch);
+    kifmm__free(c->stats);
 }
 
 KIFMM__FN const kifmm__ops *kifmm__ops_at(const kifmm__core *c, int l)
@@ -1042,7 +1068,7 @@ KIFMM__FN int kifmm__core_alloc_work(kifmm__core *c)
     c->chk = (double *)kifmm__alloc(mb * (size_t)c->nc, sizeof(double));
     c->tmp = (double *)kifmm__alloc(mb * big, sizeof(double));
     c->stack = (double *)kifmm__alloc(blk * KIFMM__NT * (size_t)c->ne, sizeof(double));
-    c->m2l_out = (double *)kifmm__alloc(blk * (size_t)c->nc, sizeof(double));
+    c->m2l_out = (double *)kifmm__alloc(blk * big, sizeof(double));
     c->qs = (double *)kifmm__alloc((size_t)t->ns * (size_t)c->sd, sizeof(double));
     c->outs = (double *)kifmm__alloc((size_t)t->nt * (size_t)c->td, sizeof(double));
     c->scratch = (double *)kifmm__alloc((size_t)c->nthreads * 3 * 3 * ns, sizeof(double));
@@ -1052,28 +1078,53 @@ KIFMM__FN int kifmm__core_alloc_work(kifmm__core *c)
     return KIFMM_SUCCESS;
 }
 
+/* Bytes held by a handle, counted from the sizes it allocated. */
+KIFMM__FN double kifmm__core_bytes(const kifmm__core *c)
+{
+    const kifmm__tree *t = &c->tree;
+    double b = 0.0, ne = c->ne, nc = c->nc, mb = kifmm__max_level_boxes(t);
+    double big = nc > ne ? nc : ne, ns = c->nsc > c->nse ? c->nsc : c->nse;
+    int i;
+    b += (double)t->ns * (3 * 8 + 8 + 8 * c->sd) + (double)t->nt * (3 * 8 + 8 + 8 * c->td);
+    b += (double)t->nbox * (8 + 4 * 4 + 4 * 8 + 5 * 4 + 2 * 8 * ne);
+    b += 4.0 * (t->uo[t->nbox] + t->wo[t->nbox] + t->xo[t->nbox]) + 6.0 * t->vo[t->nbox];
+    for (i = 0; i < c->nops; i++) {
+        const kifmm__ops *o = &c->ops[i];
+        if (!o->m2l) continue;
+        b += 8.0 * ((o->ku + o->kd) * (nc + ne) + 16 * nc * ne + (double)o->kd * KIFMM__NT * ne);
+    }
+    b += 8.0 * (mb * nc + mb * big + (double)c->m2l_block * (KIFMM__NT * ne + big));
+    b += 8.0 * c->nthreads * 9 * ns;
+    return b;
+}
+
 KIFMM__FN double *kifmm__thread_scratch(const kifmm__core *c)
 {
     size_t ns = (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
 #ifdef _OPENMP
     return c->scratch + (size_t)omp_get_thread_num() * 9 * ns;
 #else
+    (void)ns;
     return c->scratch;
 #endif
 }
 
-/* Check vectors -> equivalent densities for every box of level l:
- * equiv = vs (ut chk), two GEMMs over the level. */
-KIFMM__FN void kifmm__solve_level(const kifmm__core *c, int l, int up)
+/* Check vectors -> equivalent densities for every box of level l, in two
+ * GEMMs over the level: step 0, tmp = ut chk; step 1, equiv = vs tmp. The
+ * downward pass adds the M2L results between the two (they are kept in the
+ * ut space already). */
+KIFMM__FN void kifmm__solve_step(const kifmm__core *c, int l, int up, int step)
 {
     const kifmm__tree *t = &c->tree;
     const kifmm__ops *o = kifmm__ops_at(c, l);
     int n = t->loff[l + 1] - t->loff[l], k = up ? o->ku : o->kd;
     double *equiv = (up ? c->ue : c->de) + (size_t)t->loff[l] * c->ne;
-    kifmm__gemm(0, 0, k, n, c->nc, 1.0, up ? o->ut_up : o->ut_dn, k, c->chk, c->nc, 0.0,
-                c->tmp, k);
-    kifmm__gemm(0, 0, c->ne, n, k, 1.0, up ? o->vs_up : o->vs_dn, c->ne, c->tmp, k, 0.0,
-                equiv, c->ne);
+    if (step == 0)
+        kifmm__gemm(0, 0, k, n, c->nc, 1.0, up ? o->ut_up : o->ut_dn, k, c->chk, c->nc, 0.0,
+                    c->tmp, k);
+    else
+        kifmm__gemm(0, 0, c->ne, n, k, 1.0, up ? o->vs_up : o->vs_dn, c->ne, c->tmp, k, 0.0,
+                    equiv, c->ne);
 }
 
 /* M2M into the internal boxes of level l: the children of the j-th internal
@@ -1111,7 +1162,10 @@ KIFMM__FN void kifmm__l2l_level(const kifmm__core *c, int l)
 
 /* M2L into level l: per block of target boxes, stack the multipoles of each
  * target's V list by transfer vector (zeros elsewhere) and multiply by the
- * 316 matrices side by side in one GEMM. No target is written by two threads. */
+ * 316 matrices side by side in one GEMM. The matrices include the first
+ * factor of the downward solve (ut_dn K_t), so the results are added to the
+ * level's tmp (kd rows) between the two solve steps. No target is written by
+ * two threads. */
 KIFMM__FN void kifmm__m2l_level(const kifmm__core *c, int l)
 {
     const kifmm__tree *t = &c->tree;
@@ -1129,15 +1183,15 @@ KIFMM__FN void kifmm__m2l_level(const kifmm__core *c, int l)
                 memcpy(st + (size_t)t->vt[e] * c->ne, c->ue + (size_t)t->v[e] * c->ne,
                        (size_t)c->ne * sizeof(double));
         }
-        kifmm__gemm(0, 0, c->nc, nb, (int)col, 1.0, o->m2l, c->nc, c->stack, (int)col, 0.0,
-                    c->m2l_out, c->nc);
+        kifmm__gemm(0, 0, o->kd, nb, (int)col, 1.0, o->m2l, o->kd, c->stack, (int)col, 0.0,
+                    c->m2l_out, o->kd);
         KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
         for (j = 0; j < nb; j++) {
             int32_t b = t->m2l[t->m2lo[l] + b0 + j];
-            double *dst = c->chk + (size_t)(b - t->loff[l]) * c->nc;
-            const double *s = c->m2l_out + (size_t)j * c->nc;
+            double *dst = c->tmp + (size_t)(b - t->loff[l]) * o->kd;
+            const double *s = c->m2l_out + (size_t)j * o->kd;
             int i;
-            for (i = 0; i < c->nc; i++) dst[i] += s[i];
+            for (i = 0; i < o->kd; i++) dst[i] += s[i];
         }
     }
 }
@@ -1166,8 +1220,10 @@ KIFMM__FN void kifmm__m2l_level(const kifmm__core *c, int l)
 #define KIFMM__TD KIFMM__K(_TRG_DIM)
 #define KIFMM__EVAL KIFMM__K(_eval)
 #if KIFMM__K(_TRG_DIM) == KIFMM__K(_SRC_DIM)
+#define KIFMM__KE(suffix) KIFMM__K(suffix)
 #define KIFMM__EVALE KIFMM__K(_eval)
 #else
+#define KIFMM__KE(suffix) KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), suffix)
 #define KIFMM__EVALE KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _eval)
 KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == KIFMM__SD &&
                          KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _TRG_DIM) == KIFMM__SD,
@@ -1201,8 +1257,30 @@ struct KIFMM_NAME {
         }                                                                                    \
     }
 
+/* A kernel may bring its own near-field loop (kifmm_kernel_<name>_P2P, e.g.
+ * vectorised by hand); otherwise the generic loop above is instantiated. */
+#if KIFMM__K(_P2P)
+KIFMM__FN void KIFMM__F(__p2p)(const double *prm, const double *tx, const double *ty,
+                               const double *tz, int64_t nt, const double *sx, const double *sy,
+                               const double *sz, const double *q, int64_t ns, double scale,
+                               double *out)
+{
+    KIFMM__K(_p2p)(prm, tx, ty, tz, nt, sx, sy, sz, q, ns, scale, out);
+}
+#else
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p), KIFMM__EVAL, KIFMM__TD)
+#endif
+#if KIFMM__KE(_P2P)
+KIFMM__FN void KIFMM__F(__p2p_equiv)(const double *prm, const double *tx, const double *ty,
+                                     const double *tz, int64_t nt, const double *sx,
+                                     const double *sy, const double *sz, const double *q,
+                                     int64_t ns, double scale, double *out)
+{
+    KIFMM__KE(_p2p)(prm, tx, ty, tz, nt, sx, sy, sz, q, ns, scale, out);
+}
+#else
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p_equiv), KIFMM__EVALE, KIFMM__SD)
+#endif
 
 /* Matrix of the surface kernel from sources s (SoA, nsp points) to targets tp
  * (SoA, ntp points): row i*SD + a, column j*SD + b, leading dimension ld. */
@@ -1225,16 +1303,17 @@ KIFMM__FN void KIFMM__F(__kmat)(const double *prm, const double *tp, int ntp, co
 /* The operators for target boxes of half-width r (see kifmm__ops). */
 KIFMM__FN int KIFMM__F(__ops_build)(const kifmm__core *c, double r, kifmm__ops *o)
 {
+    enum { CH = 16 };
     int nse = c->nse, nsc = c->nsc, ne = c->ne, nc = c->nc, oct, tv, rc = KIFMM_SUCCESS;
-    double *a = NULL, *pe = NULL, *pc = NULL, zero[3] = {0.0, 0.0, 0.0};
+    double *a = NULL, *pe = NULL, *pc = NULL, *kall = NULL, *pall = NULL;
+    double zero[3] = {0.0, 0.0, 0.0};
     const double *prm = c->param;
     a = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
     pe = (double *)kifmm__alloc((size_t)3 * nse, sizeof(double));
     pc = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
     o->m2m = (double *)kifmm__alloc((size_t)nc * 8 * ne, sizeof(double));
     o->l2l = (double *)kifmm__alloc((size_t)8 * nc * ne, sizeof(double));
-    o->m2l = (double *)kifmm__alloc((size_t)nc * KIFMM__NT * ne, sizeof(double));
-    if (!a || !pe || !pc || !o->m2m || !o->l2l || !o->m2l) { rc = KIFMM_ERR_NOMEM; goto done; }
+    if (!a || !pe || !pc || !o->m2m || !o->l2l) { rc = KIFMM_ERR_NOMEM; goto done; }
 
     /* upward: check at 2.95 r, equivalent at 1.05 r; downward the reverse */
     kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_OUTER * r, pc);
@@ -1261,19 +1340,33 @@ KIFMM__FN int KIFMM__F(__ops_build)(const kifmm__core *c, double r, kifmm__ops *
         kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_OUTER * 2.0 * r, pe);
         KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->l2l + (size_t)oct * nc, (size_t)8 * nc);
     }
-    kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
-    for (tv = 0; tv < KIFMM__NT; tv++) {
-        int d[3] = {0, 0, 0};
-        double cc[3];
-        kifmm__transfer_vector(tv, d);
-        cc[0] = 2.0 * r * d[0]; cc[1] = 2.0 * r * d[1]; cc[2] = 2.0 * r * d[2];
-        kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_INNER * r, pe);
-        KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->m2l + (size_t)tv * ne * nc, (size_t)nc);
+    /* M2L: source equivalent (centre 2 r t) -> target check, times ut_dn;
+     * assembled CH transfer vectors at a time (in parallel), then one GEMM */
+    o->m2l = (double *)kifmm__alloc((size_t)o->kd * KIFMM__NT * ne, sizeof(double));
+    kall = (double *)kifmm__alloc((size_t)nc * CH * ne, sizeof(double));
+    pall = (double *)kifmm__alloc((size_t)CH * 3 * (nse + nsc), sizeof(double));
+    if (!o->m2l || !kall || !pall) { rc = KIFMM_ERR_NOMEM; goto done; }
+    for (tv = 0; tv < KIFMM__NT; tv += CH) {
+        int nch = KIFMM__NT - tv < CH ? KIFMM__NT - tv : CH, k;
+        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
+        for (k = 0; k < nch; k++) {
+            int d[3] = {0, 0, 0};
+            double cc[3], *tc = pall + (size_t)k * 3 * (nse + nsc), *te = tc + 3 * nsc;
+            kifmm__transfer_vector(tv + k, d);
+            cc[0] = 2.0 * r * d[0]; cc[1] = 2.0 * r * d[1]; cc[2] = 2.0 * r * d[2];
+            kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, tc);
+            kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_INNER * r, te);
+            KIFMM__F(__kmat)(prm, tc, nsc, te, nse, kall + (size_t)k * nc * ne, (size_t)nc);
+        }
+        kifmm__gemm(0, 0, o->kd, nch * ne, nc, 1.0, o->ut_dn, o->kd, kall, nc, 0.0,
+                    o->m2l + (size_t)tv * ne * o->kd, o->kd);
     }
 done:
     kifmm__free(a);
     kifmm__free(pe);
     kifmm__free(pc);
+    kifmm__free(kall);
+    kifmm__free(pall);
     return rc;
 }
 
@@ -1301,7 +1394,7 @@ KIFMM__FN void KIFMM__F(__upward)(const kifmm__core *c, int l)
 {
     const kifmm__tree *t = &c->tree;
     int32_t b;
-    double scale = kifmm__level_scale(c, l);
+    double scale = kifmm__level_scale(c, l), t0 = kifmm__now(), t1;
     memset(c->chk, 0, (size_t)(t->loff[l + 1] - t->loff[l]) * c->nc * sizeof(double));
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
     for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
@@ -1316,20 +1409,25 @@ KIFMM__FN void KIFMM__F(__upward)(const kifmm__core *c, int l)
                               c->qs + s0 * KIFMM__SD, ns, scale,
                               c->chk + (size_t)(b - t->loff[l]) * c->nc);
     }
+    t1 = kifmm__now();
+    c->stats->t_p2m += t1 - t0;
     kifmm__m2m_level(c, l);
-    kifmm__solve_level(c, l, 1);
+    kifmm__solve_step(c, l, 1, 0);
+    kifmm__solve_step(c, l, 1, 1);
+    c->stats->t_m2m += kifmm__now() - t1;
 }
 
-/* Downward pass at level l: L2L from the parents, M2L over V lists, P2L over
- * X lists, then the solve for the local equivalent densities. */
+/* Downward pass at level l: L2L from the parents, P2L over X lists, the first
+ * solve step, M2L over V lists (already in the solve's space), the second
+ * solve step. Timed as L2L (with the solve), P2L and M2L. */
 KIFMM__FN void KIFMM__F(__downward)(const kifmm__core *c, int l)
 {
     const kifmm__tree *t = &c->tree;
     int32_t b;
-    double scale = kifmm__level_scale(c, l);
+    double scale = kifmm__level_scale(c, l), t0 = kifmm__now(), t1, t2, t3, t4;
     if (l >= 3) kifmm__l2l_level(c, l);
     else memset(c->chk, 0, (size_t)(t->loff[l + 1] - t->loff[l]) * c->nc * sizeof(double));
-    kifmm__m2l_level(c, l);
+    t1 = kifmm__now();
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
     for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
         double *pc, *pe, ctr[3], half;
@@ -1361,7 +1459,15 @@ KIFMM__FN void KIFMM__F(__downward)(const kifmm__core *c, int l)
                                   c->qs + s0 * KIFMM__SD, t->s1[xb] - s0, scale, chk);
         }
     }
-    kifmm__solve_level(c, l, 0);
+    t2 = kifmm__now();
+    kifmm__solve_step(c, l, 0, 0);
+    t3 = kifmm__now();
+    kifmm__m2l_level(c, l);
+    t4 = kifmm__now();
+    kifmm__solve_step(c, l, 0, 1);
+    c->stats->t_p2l += t2 - t1;
+    c->stats->t_m2l += t4 - t3;
+    c->stats->t_l2l += (t1 - t0) + (t3 - t2) + (kifmm__now() - t4);
 }
 
 /* Leaves with targets: L2P, M2P over W (direct when the box holds fewer
@@ -1371,19 +1477,23 @@ KIFMM__FN void KIFMM__F(__leaves)(const kifmm__core *c)
     const kifmm__tree *t = &c->tree;
     int32_t i;
     const int64_t ns = t->ns, nt = t->nt;
-    KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
+    double tl = 0.0, tw = 0.0, tu = 0.0;
+    KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
     for (i = 0; i < t->nleaves; i++) {
         int32_t b = t->leaves[i], e;
         int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
         const double *tx = t->trg + t0, *ty = t->trg + nt + t0, *tz = t->trg + 2 * nt + t0;
         double *out = c->outs + t0 * KIFMM__TD, *pe = kifmm__thread_scratch(c), ctr[3], half;
         int32_t a = t->dsrc[b];
+        double c0 = kifmm__now(), c1, c2;
         if (a >= 0) {
             kifmm__box_center(t, a, ctr, &half);
             kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_OUTER * half, pe);
             KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, pe, pe + c->nse, pe + 2 * c->nse,
                             c->de + (size_t)a * c->ne, c->nse, 1.0, out);
         }
+        c1 = kifmm__now();
+        tl += c1 - c0;
         for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
             int32_t a = t->w[e];
             int64_t s0 = t->s0[a], nsa = t->s1[a] - s0;
@@ -1397,6 +1507,8 @@ KIFMM__FN void KIFMM__F(__leaves)(const kifmm__core *c)
                                 c->ue + (size_t)a * c->ne, c->nse, 1.0, out);
             }
         }
+        c2 = kifmm__now();
+        tw += c2 - c1;
         for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
             int32_t a = t->u[e];
             int64_t s0 = t->s0[a];
@@ -1404,7 +1516,11 @@ KIFMM__FN void KIFMM__F(__leaves)(const kifmm__core *c)
                             t->src + 2 * ns + s0, c->qs + s0 * KIFMM__SD, t->s1[a] - s0, 1.0,
                             out);
         }
+        tu += kifmm__now() - c2;
     }
+    c->stats->t_l2p = tl / c->nthreads;
+    c->stats->t_m2p = tw / c->nthreads;
+    c->stats->t_p2p = tu / c->nthreads;
 }
 
 /* ---- public entry points ------------------------------------------------ */
@@ -1442,6 +1558,7 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     kifmm__core *c;
     kifmm_opts o;
     int rc, d;
+    double t0, t1;
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if ((rc = kifmm__resolve_opts(opts, &o))) return rc;
@@ -1452,6 +1569,11 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h);
     if (!h) return KIFMM_ERR_NOMEM;
     c = &h->c;
+    c->stats = (kifmm_stats *)kifmm__calloc(1, sizeof(kifmm_stats));
+    if (!c->stats) {
+        kifmm__free(h);
+        return KIFMM_ERR_NOMEM;
+    }
     c->opts = o;
     c->nthreads = o.nthreads;
     c->sd = KIFMM__SD;
@@ -1474,11 +1596,19 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     if (!c->surf_e || !c->surf_c) { rc = KIFMM_ERR_NOMEM; goto fail; }
     kifmm__surf_unit(o.order, c->surf_e);
     kifmm__surf_unit(o.order + KIFMM_CHECK_ORDER_DIFF, c->surf_c);
+    t0 = kifmm__now();
     rc = kifmm__tree_build(&c->tree, nsources, src_xyz, ntargets, trg_xyz, o.leaf_size,
                            o.max_depth, o.nthreads);
     if (rc) goto fail;
+    t1 = kifmm__now();
     if ((rc = KIFMM__F(__precompute)(c))) goto fail;
     if ((rc = kifmm__core_alloc_work(c))) goto fail;
+    c->stats->t_tree = t1 - t0;
+    c->stats->t_operators = kifmm__now() - t1;
+    c->stats->levels = c->tree.nlev;
+    c->stats->boxes = c->tree.nbox;
+    c->stats->leaves = c->tree.nleaves;
+    c->stats->bytes = kifmm__core_bytes(c);
     *out = h;
     return KIFMM_SUCCESS;
 fail:
@@ -1496,6 +1626,7 @@ KIFMM__FN int KIFMM__F(_evaluate)(const KIFMM_NAME *h, const double *densities, 
     const kifmm__tree *t;
     int64_t i;
     int l;
+    double t0;
     if (!h) return KIFMM_ERR_NULL;
     c = &h->c;
     t = &c->tree;
@@ -1504,6 +1635,12 @@ KIFMM__FN int KIFMM__F(_evaluate)(const KIFMM_NAME *h, const double *densities, 
     if (t->ns == 0) {
         memset(out, 0, (size_t)t->nt * KIFMM__TD * sizeof(double));
         return KIFMM_SUCCESS;
+    }
+    t0 = kifmm__now();
+    {
+        kifmm_stats *st = c->stats;
+        st->t_p2m = st->t_m2m = st->t_m2l = st->t_l2l = st->t_p2l = 0.0;
+        st->t_l2p = st->t_m2p = st->t_p2p = 0.0;
     }
     KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
     for (i = 0; i < t->ns; i++) {
@@ -1521,6 +1658,16 @@ KIFMM__FN int KIFMM__F(_evaluate)(const KIFMM_NAME *h, const double *densities, 
         for (k = 0; k < KIFMM__TD; k++)
             out[t->tperm[i] * KIFMM__TD + k] = c->outs[i * KIFMM__TD + k];
     }
+    c->stats->t_evaluate = kifmm__now() - t0;
+    return KIFMM_SUCCESS;
+}
+
+/* <prefix>_stats: tree size, memory held, and the time of create's stages
+ * and of the last evaluate's passes (see kifmm_stats). */
+KIFMM__FN int KIFMM__F(_stats)(const KIFMM_NAME *h, kifmm_stats *out)
+{
+    if (!h || !out) return KIFMM_ERR_NULL;
+    *out = *h->c.stats;
     return KIFMM_SUCCESS;
 }
 
@@ -1537,6 +1684,7 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 /* ======================================================================== */
 #undef KIFMM__DEFINE_P2P
 #undef KIFMM__EVALE
+#undef KIFMM__KE
 #undef KIFMM__EVAL
 #undef KIFMM__TD
 #undef KIFMM__SD
