@@ -1,0 +1,183 @@
+#!/usr/bin/env bash
+# tests/run.sh - build the kifmm.h test suite in every configuration and run it.
+#
+#   bash tests/run.sh                 all configurations
+#   CONFIGS="gcc-c11-omp asan" bash tests/run.sh   a subset, by name
+#
+# Configurations: {gcc, clang} x {-std=c99, -std=c11} x {with, without -fopenmp},
+# all with -Wall -Wextra -Werror -pedantic -O2 -march=native, plus one
+# AddressSanitizer + UndefinedBehaviorSanitizer build (gcc, OpenMP, -O1 -g).
+# test_accuracy and test_kernels run their full tables in gcc-c11-omp only;
+# elsewhere they are built with -DKIFMM_TEST_QUICK (orders 4 and 6, fewer
+# points) to keep the whole run short.
+#
+# Each test program ends with "RESULT <passed> <failed>".  This script sums
+# them over all programs and configurations; a build failure, a crash, a
+# timeout or a nonzero exit without a reported failure counts as one failed
+# check.  The last line of output is "N passed, N failed"; the exit status is
+# nonzero if anything failed.
+#
+# Environment: JOBS (parallel compiles, default 2), TEST_TIMEOUT (seconds per
+# test program, default 900), CONFIGS (see above), EXTRA_CFLAGS (added to
+# every compile, e.g. an -I for cblas.h; the Makefile sets it when needed).  OPENBLAS_CORETYPE is left
+# alone if set; otherwise it is set to SkylakeX on CPUs with AVX-512 (where
+# OpenBLAS may misdetect the CPU), and OpenBLAS's own detection is used
+# elsewhere (SkylakeX kernels would die with SIGILL there).
+
+set -u
+cd "$(dirname "$0")/.." || exit 1
+ROOT=$(pwd)
+BUILD="$ROOT/build/tests"
+JOBS=${JOBS:-2}
+TEST_TIMEOUT=${TEST_TIMEOUT:-900}
+LIBS="-llapacke -lopenblas -lm"
+WARN="-Wall -Wextra -Werror -pedantic"
+# every tests/test_*.c with a main is a program; test_multi_tu_a.c and
+# test_multi_tu_b.c link together into test_multi_tu
+TESTS=$(for f in tests/test_*.c; do
+    n=$(basename "$f" .c)
+    case "$n" in test_multi_tu_a) echo test_multi_tu ;; test_multi_tu_b) ;; *) echo "$n" ;; esac
+done | tr '\n' ' ')
+
+if [ -z "${OPENBLAS_CORETYPE+x}" ]; then
+    if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then
+        export OPENBLAS_CORETYPE=SkylakeX
+    fi
+fi
+
+# name | compiler | flags
+ALL_CONFIGS="
+gcc-c99|gcc|-std=c99 -O2 -march=native -DKIFMM_TEST_QUICK
+gcc-c99-omp|gcc|-std=c99 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
+gcc-c11|gcc|-std=c11 -O2 -march=native -DKIFMM_TEST_QUICK
+gcc-c11-omp|gcc|-std=c11 -O2 -march=native -fopenmp
+clang-c99|clang|-std=c99 -O2 -march=native -DKIFMM_TEST_QUICK
+clang-c99-omp|clang|-std=c99 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
+clang-c11|clang|-std=c11 -O2 -march=native -DKIFMM_TEST_QUICK
+clang-c11-omp|clang|-std=c11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
+asan|gcc|-std=c11 -O1 -g -march=native -fopenmp -fsanitize=address,undefined -fno-sanitize-recover=all -DKIFMM_TEST_QUICK
+"
+
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
+
+total_pass=0
+total_fail=0
+start_all=$SECONDS
+
+echo "kifmm.h test suite: $(gcc --version 2>/dev/null | head -n1); $(clang --version 2>/dev/null | head -n1)"
+echo "OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-<unset: OpenBLAS detects the CPU>}, OMP_NUM_THREADS=${OMP_NUM_THREADS:-<unset>}"
+echo "test_accuracy/test_kernels: full tables in gcc-c11-omp; reduced (KIFMM_TEST_QUICK: orders 4 and 6, fewer points) in the other configurations"
+
+# sources of one program
+sources_of() {
+    case "$1" in
+        test_multi_tu) echo "tests/test_multi_tu_a.c tests/test_multi_tu_b.c" ;;
+        laplace) echo "examples/laplace.c" ;;
+        *) echo "tests/$1.c" ;;
+    esac
+}
+
+# compile one program in the background; status in $dir/$name.status
+compile() {
+    local cc=$1 flags=$2 dir=$3 name=$4
+    (
+        # shellcheck disable=SC2046,SC2086
+        if $cc $WARN $flags ${EXTRA_CFLAGS:-} -I. $(sources_of "$name") -o "$dir/$name" $LIBS \
+            </dev/null >"$dir/$name.build.log" 2>&1; then
+            echo 0 >"$dir/$name.status"
+        else
+            echo 1 >"$dir/$name.status"
+        fi
+    ) &
+}
+
+run_config() {
+    local name=$1 cc=$2 flags=$3
+    local dir="$BUILD/$name" pass=0 fail=0 t0=$SECONDS tb notes="" prog
+    rm -rf "$dir"
+    mkdir -p "$dir"
+
+    # build, at most $JOBS compiles at once
+    local running=0
+    for prog in $TESTS laplace; do
+        if [ "$running" -ge "$JOBS" ]; then
+            wait -n 2>/dev/null || true
+            running=$((running - 1))
+        fi
+        compile "$cc" "$flags" "$dir" "$prog"
+        running=$((running + 1))
+    done
+    wait
+    tb=$((SECONDS - t0))
+
+    for prog in $TESTS laplace; do
+        if [ "$(cat "$dir/$prog.status" 2>/dev/null)" != 0 ]; then
+            fail=$((fail + 1))
+            notes="$notes
+    build of $prog failed ($dir/$prog.build.log):
+$(grep -m 3 -E "error|undefined" "$dir/$prog.build.log" | sed 's/^/      /')"
+        fi
+    done
+
+    # run, one program at a time
+    for prog in $TESTS; do
+        [ -x "$dir/$prog" ] || continue
+        local log="$dir/$prog.log" rc res p f
+        timeout "$TEST_TIMEOUT" "$dir/$prog" </dev/null >"$log" 2>&1
+        rc=$?
+        res=$(grep -E '^RESULT [0-9]+ [0-9]+$' "$log" | tail -n 1)
+        if [ -z "$res" ]; then
+            fail=$((fail + 1))
+            if [ "$rc" = 124 ]; then
+                notes="$notes
+    $prog: timed out after ${TEST_TIMEOUT}s ($log)"
+            else
+                notes="$notes
+    $prog: no RESULT line, exit status $rc ($log):
+$(tail -n 15 "$log" | sed 's/^/      /')"
+            fi
+            continue
+        fi
+        p=$(echo "$res" | cut -d' ' -f2)
+        f=$(echo "$res" | cut -d' ' -f3)
+        pass=$((pass + p))
+        fail=$((fail + f))
+        if [ "$f" != 0 ]; then
+            notes="$notes
+    $prog: $f failed ($log):
+$(grep -E 'FAIL' "$log" | head -n 20 | sed 's/^/      /')"
+        elif [ "$rc" != 0 ]; then
+            fail=$((fail + 1))
+            notes="$notes
+    $prog: RESULT reports no failure but the exit status is $rc ($log):
+$(tail -n 15 "$log" | sed 's/^/      /')"
+        fi
+    done
+
+    printf '%-14s %6d passed, %3d failed   (build %3ds, run %3ds)\n' "$name" "$pass" "$fail" \
+        "$tb" $((SECONDS - t0 - tb))
+    if [ -n "$notes" ]; then echo "$notes" | sed '1{/^$/d}'; fi
+    total_pass=$((total_pass + pass))
+    total_fail=$((total_fail + fail))
+}
+
+selected=0
+while IFS='|' read -r name cc flags; do
+    [ -n "$name" ] || continue
+    if [ -n "${CONFIGS:-}" ]; then
+        case " $CONFIGS " in *" $name "*) ;; *) continue ;; esac
+    fi
+    selected=$((selected + 1))
+    run_config "$name" "$cc" "$flags"
+done <<EOF
+$ALL_CONFIGS
+EOF
+
+if [ "$selected" = 0 ]; then
+    echo "no configuration matches CONFIGS='${CONFIGS:-}'"
+    total_fail=$((total_fail + 1))
+fi
+echo "total time $((SECONDS - start_all))s"
+echo "$total_pass passed, $total_fail failed"
+[ "$total_fail" = 0 ]

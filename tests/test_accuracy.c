@@ -1,0 +1,188 @@
+/* test_accuracy.c - end-to-end accuracy of kifmm_laplace and kifmm_laplace_grad
+ * against an independent direct sum, over expansion orders and point
+ * distributions.
+ *
+ * Built with -DKIFMM_TEST_QUICK it runs a reduced table (orders 4 and 6,
+ * fewer points) so that slow configurations (sanitizers, no OpenMP) stay short.
+ */
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_grad
+#include "kifmm.h"
+
+#include "test.h"
+
+T_DEFINE_API(kifmm_laplace, 1)
+T_DEFINE_API(kifmm_laplace_grad, 4)
+
+#ifdef KIFMM_TEST_QUICK
+#define N_UNIFORM 8000
+#define N_OTHER 8000
+static const int orders[] = {4, 6};
+static const double bounds[] = {4e-4, 4e-6};
+#else
+#define N_UNIFORM 20000
+#define N_OTHER 20000
+static const int orders[] = {4, 6, 8, 10};
+static const double bounds[] = {4e-4, 4e-6, 1e-7, 5e-9};
+#endif
+#define NSAMPLE 600
+#define BOUND_P6 4e-6
+
+/* Uniform cube, sources = targets: potential (laplace) and potential +
+ * gradient (laplace_grad) at each order; the laplace_grad potential column
+ * must equal the laplace output. */
+static void test_orders(void)
+{
+    t_api lap = kifmm_laplace_t_api(), grd = kifmm_laplace_grad_t_api();
+    int64_t n = N_UNIFORM;
+    double *x = t_doubles(3 * n), *q = t_doubles(n);
+    double *pot = t_doubles(n), *pg = t_doubles(4 * n);
+    t_rng r = t_rng_seed(1001);
+    size_t io;
+
+    t_group("uniform cube, sources = targets, by order");
+    t_gen_cube(&r, n, x, 0.0, 1.0);
+    t_gen_charges(&r, n, q, -1.0, 1.0);
+
+    for (io = 0; io < sizeof orders / sizeof orders[0]; io++) {
+        int p = orders[io];
+        double bound = bounds[io], tc = 0, te = 0;
+        kifmm_opts o = t_opts(p, 0, 0), used;
+        void *h = NULL;
+        int rc;
+        t_err e;
+
+        /* laplace; keep the handle to read the resolved options */
+        rc = lap.create(&h, &o, n, x, n, x);
+        CHECK(rc == KIFMM_SUCCESS && h != NULL, "laplace create p=%d rc=%d", p, rc);
+        if (rc != KIFMM_SUCCESS) continue;
+        rc = lap.options(h, &used);
+        CHECK(rc == KIFMM_SUCCESS && used.order == p, "options rc=%d order=%d", rc, used.order);
+        t_fill(n, pot, NAN);
+        te = t_wall();
+        rc = lap.evaluate(h, q, pot);
+        te = t_wall() - te;
+        lap.destroy(h);
+        CHECK(rc == KIFMM_SUCCESS, "laplace evaluate p=%d rc=%d", p, rc);
+        e = t_error_laplace(n, x, q, n, x, pot, 1, NSAMPLE);
+        CHECK_ERR(e.pot, bound, "laplace      p=%-2d N=%ld potential (eval %.2fs)", p, (long)n,
+                  te);
+
+        /* laplace_grad on the same tree parameters */
+        o.leaf_size = used.leaf_size;
+        o.max_depth = used.max_depth;
+        t_fill(4 * n, pg, NAN);
+        rc = t_run(&grd, &o, n, x, n, x, q, pg, &tc, &te);
+        CHECK(rc == KIFMM_SUCCESS, "laplace_grad p=%d rc=%d", p, rc);
+        e = t_error_laplace(n, x, q, n, x, pg, 4, NSAMPLE);
+        CHECK_ERR(e.pot, bound, "laplace_grad p=%-2d N=%ld potential (create %.2fs eval %.2fs)",
+                  p, (long)n, tc, te);
+        CHECK_ERR(e.grad, 10 * bound, "laplace_grad p=%-2d N=%ld gradient", p, (long)n);
+        /* and within 10 x the potential's own measured error */
+        CHECK_ERR(e.grad, 10 * e.pot, "laplace_grad p=%-2d gradient vs 10 x potential error", p);
+        CHECK_ERR(t_rel_diff(n, pg, 4, pot, 1), 1e-12,
+                  "laplace_grad potential column vs laplace, p=%d", p);
+    }
+    free(x);
+    free(q);
+    free(pot);
+    free(pg);
+}
+
+/* p = 6 on one distribution, sources = targets, both kernels. */
+static void test_distribution(const char *name, void (*gen)(t_rng *, int64_t, double *))
+{
+    t_api lap = kifmm_laplace_t_api(), grd = kifmm_laplace_grad_t_api();
+    int64_t n = N_OTHER;
+    double *x = t_doubles(3 * n), *q = t_doubles(n), *out = t_doubles(4 * n);
+    t_rng r = t_rng_seed(2002);
+    kifmm_opts o = t_opts(6, 0, 0);
+    double tc = 0, te = 0;
+    t_err e;
+    int rc;
+
+    gen(&r, n, x);
+    t_gen_charges(&r, n, q, -1.0, 1.0);
+
+    t_fill(n, out, NAN);
+    rc = t_run(&lap, &o, n, x, n, x, q, out, &tc, &te);
+    CHECK(rc == KIFMM_SUCCESS, "%s laplace rc=%d", name, rc);
+    e = t_error_laplace(n, x, q, n, x, out, 1, NSAMPLE);
+    CHECK_ERR(e.pot, BOUND_P6, "%-8s laplace      p=6 N=%ld potential (eval %.2fs)", name,
+              (long)n, te);
+
+    t_fill(4 * n, out, NAN);
+    rc = t_run(&grd, &o, n, x, n, x, q, out, &tc, &te);
+    CHECK(rc == KIFMM_SUCCESS, "%s laplace_grad rc=%d", name, rc);
+    e = t_error_laplace(n, x, q, n, x, out, 4, NSAMPLE);
+    CHECK_ERR(e.pot, BOUND_P6, "%-8s laplace_grad p=6 N=%ld potential", name, (long)n);
+    CHECK_ERR(e.grad, 10 * BOUND_P6, "%-8s laplace_grad p=6 N=%ld gradient", name, (long)n);
+
+    free(x);
+    free(q);
+    free(out);
+}
+
+static void gen_sphere(t_rng *r, int64_t n, double *x) { t_gen_sphere(r, n, x); }
+static void gen_blobs(t_rng *r, int64_t n, double *x) { t_gen_blobs(r, n, x); }
+static void gen_corner(t_rng *r, int64_t n, double *x) { t_gen_corner(r, n, x); }
+
+/* Separate source and target sets of different sizes: targets in the same
+ * cube as the sources, then in a shifted cube partly outside the sources'. */
+static void test_separate(double shift, double bound)
+{
+    t_api lap = kifmm_laplace_t_api(), grd = kifmm_laplace_grad_t_api();
+    int64_t ns = N_OTHER * 3 / 4, nt = N_OTHER / 2;
+    double *s = t_doubles(3 * ns), *t = t_doubles(3 * nt), *q = t_doubles(ns);
+    double *out = t_doubles(4 * nt);
+    t_rng r = t_rng_seed(3003);
+    kifmm_opts o = t_opts(6, 0, 0);
+    t_err e;
+    int rc;
+
+    t_gen_cube(&r, ns, s, 0.0, 1.0);
+    t_gen_cube(&r, nt, t, shift, 1.0 + shift);
+    t_gen_charges(&r, ns, q, -1.0, 1.0);
+
+    t_fill(nt, out, NAN);
+    rc = t_run(&lap, &o, ns, s, nt, t, q, out, NULL, NULL);
+    CHECK(rc == KIFMM_SUCCESS, "separate laplace rc=%d", rc);
+    e = t_error_laplace(ns, s, q, nt, t, out, 1, NSAMPLE);
+    CHECK_ERR(e.pot, bound, "separate ns=%ld nt=%ld shift %.1f laplace potential", (long)ns,
+              (long)nt, shift);
+
+    t_fill(4 * nt, out, NAN);
+    rc = t_run(&grd, &o, ns, s, nt, t, q, out, NULL, NULL);
+    CHECK(rc == KIFMM_SUCCESS, "separate laplace_grad rc=%d", rc);
+    e = t_error_laplace(ns, s, q, nt, t, out, 4, NSAMPLE);
+    CHECK_ERR(e.pot, bound, "separate ns=%ld nt=%ld shift %.1f grad: potential", (long)ns,
+              (long)nt, shift);
+    CHECK_ERR(e.grad, 10 * bound, "separate ns=%ld nt=%ld shift %.1f grad: gradient",
+              (long)ns, (long)nt, shift);
+
+    free(s);
+    free(t);
+    free(q);
+    free(out);
+}
+
+int main(void)
+{
+    double t0 = t_wall();
+#ifdef KIFMM_TEST_QUICK
+    printf("test_accuracy: reduced table (KIFMM_TEST_QUICK): orders 4 and 6, N = %d\n",
+           N_UNIFORM);
+#else
+    printf("test_accuracy: full table: orders 4, 6, 8, 10, N = %d\n", N_UNIFORM);
+#endif
+    test_orders();
+    t_group("p = 6 on other distributions");
+    test_distribution("sphere", gen_sphere);
+    test_distribution("blobs", gen_blobs);
+    test_distribution("corner", gen_corner);
+    t_group("p = 6, separate source and target sets");
+    test_separate(0.0, BOUND_P6);
+    test_separate(0.5, BOUND_P6);
+    printf("test_accuracy: %.1fs\n", t_wall() - t0);
+    return t_finish();
+}

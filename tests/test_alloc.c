@@ -1,0 +1,226 @@
+/* test_alloc.c - allocation failure handling through the KIFMM_MALLOC /
+ * KIFMM_FREE hooks: an allocator that fails on its k-th call, for k = 0, 1,
+ * 2, ... until create succeeds.  Every failing create must return
+ * KIFMM_ERR_NOMEM, set the handle to NULL and leave no live allocation. */
+#include <stddef.h>
+#include <stdlib.h>
+
+static void *counting_malloc(size_t size);
+static void counting_free(void *ptr);
+#define KIFMM_MALLOC(size) counting_malloc(size)
+#define KIFMM_FREE(ptr) counting_free(ptr)
+
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_grad
+#include "kifmm.h"
+
+#include "test.h"
+
+T_DEFINE_API(kifmm_laplace, 1)
+T_DEFINE_API(kifmm_laplace_grad, 4)
+
+/* ---- the counting allocator --------------------------------------------- */
+
+static long alloc_calls;      /* KIFMM_MALLOC calls since the last reset */
+static long alloc_live;       /* blocks allocated and not yet freed */
+static long alloc_fail_at = -1; /* fail the call with this index (-1: never) */
+static long alloc_failed;     /* failures injected since the last reset */
+static long alloc_bad_free;   /* frees of pointers not from counting_malloc */
+
+#define ALLOC_MAGIC UINT64_C(0x6b69666d6d414c43)
+#define ALLOC_FREED UINT64_C(0x46524545444b4946)
+#define ALLOC_HEADER 16 /* keeps malloc's 16-byte alignment */
+
+static void *counting_malloc(size_t size)
+{
+    unsigned char *p = NULL;
+    int fail;
+#ifdef _OPENMP
+#pragma omp critical(kifmm_test_alloc)
+#endif
+    {
+        fail = alloc_fail_at >= 0 && alloc_calls == alloc_fail_at;
+        alloc_calls++;
+        if (fail) {
+            alloc_failed++;
+        } else {
+            p = (unsigned char *)malloc(size + ALLOC_HEADER);
+            if (p) {
+                uint64_t magic = ALLOC_MAGIC;
+                memcpy(p, &magic, sizeof magic);
+                alloc_live++;
+            }
+        }
+    }
+    return p ? p + ALLOC_HEADER : NULL;
+}
+
+static void counting_free(void *ptr)
+{
+    unsigned char *p;
+    uint64_t magic;
+    int ok;
+    if (!ptr) return;
+    p = (unsigned char *)ptr - ALLOC_HEADER;
+    memcpy(&magic, p, sizeof magic);
+#ifdef _OPENMP
+#pragma omp critical(kifmm_test_alloc)
+#endif
+    {
+        ok = magic == ALLOC_MAGIC;
+        if (!ok) {
+            alloc_bad_free++; /* double free or a foreign pointer: leak it */
+        } else {
+            magic = ALLOC_FREED;
+            memcpy(p, &magic, sizeof magic);
+            alloc_live--;
+        }
+    }
+    if (ok) free(p);
+}
+
+static void alloc_reset(long fail_at)
+{
+    alloc_calls = 0;
+    alloc_failed = 0;
+    alloc_fail_at = fail_at;
+}
+
+/* ---- the test ------------------------------------------------------------ */
+
+#define N 3000
+#define MAX_K 100000
+
+static void test_kernel(const t_api *api, const kifmm_opts *o, const double *x, const double *q)
+{
+    int d = api->trg_dim;
+    double *out = t_doubles(N * d);
+    void *h = NULL;
+    long k, nomem_ok = 0, nomem_bad = 0, handle_bad = 0, leak_bad = 0, spurious = 0;
+    long live_before = alloc_live;
+    int rc = KIFMM_ERR_NOMEM;
+
+    printf("  %s: N=%d order %d leaf_size %d\n", api->name, N, o->order, o->leaf_size);
+    for (k = 0; k < MAX_K; k++) {
+        h = (void *)&alloc_calls; /* non-NULL: create must overwrite it */
+        alloc_reset(k);
+        rc = api->create(&h, o, N, x, N, x);
+        if (rc == KIFMM_SUCCESS) break;
+        if (rc == KIFMM_ERR_NOMEM) nomem_ok++;
+        else {
+            if (nomem_bad++ < 5)
+                printf("  FAIL detail: fail at call %ld: rc=%d (%s)\n", k, rc, kifmm_strerror(rc));
+        }
+        if (h != NULL) handle_bad++;
+        if (alloc_live != live_before) {
+            if (leak_bad++ < 5)
+                printf("  FAIL detail: fail at call %ld: %ld blocks leaked\n", k,
+                       alloc_live - live_before);
+            live_before = alloc_live; /* report each leak once */
+        }
+        if (alloc_failed != 1) spurious++; /* failed without the injected failure */
+    }
+    printf("  %s: create succeeded after %ld injected failures (%ld allocations)\n", api->name,
+           k, alloc_calls);
+    CHECK(rc == KIFMM_SUCCESS, "%s: create never succeeded (k up to %ld)", api->name, k);
+    CHECK(k > 0, "%s: create made no allocation through KIFMM_MALLOC", api->name);
+    CHECK(nomem_bad == 0, "%s: %ld failing creates returned a code other than NOMEM", api->name,
+          nomem_bad);
+    CHECK(handle_bad == 0, "%s: %ld failing creates did not set the handle to NULL", api->name,
+          handle_bad);
+    CHECK(leak_bad == 0, "%s: %ld failing creates leaked", api->name, leak_bad);
+    CHECK(spurious == 0, "%s: %ld creates failed without reaching the injected failure",
+          api->name, spurious);
+    CHECK(nomem_ok == k, "%s: %ld NOMEM of %ld failing creates", api->name, nomem_ok, k);
+
+    if (rc == KIFMM_SUCCESS) {
+        long live_handle = alloc_live;
+        long j;
+        t_err e;
+        /* evaluate under allocation failure too: either it needs no
+         * allocation or it fails cleanly with NOMEM */
+        for (j = 0; j < MAX_K; j++) {
+            alloc_reset(j);
+            t_fill(N * d, out, NAN);
+            rc = api->evaluate(h, q, out);
+            if (rc == KIFMM_SUCCESS) break;
+            if (rc != KIFMM_ERR_NOMEM) break;
+            if (alloc_live != live_handle) break;
+        }
+        CHECK(rc == KIFMM_SUCCESS, "%s: evaluate under failing allocator: rc=%d at k=%ld",
+              api->name, rc, j);
+        CHECK(alloc_live == live_handle, "%s: evaluate leaked %ld blocks", api->name,
+              alloc_live - live_handle);
+        printf("  %s: evaluate succeeded after %ld injected failures\n", api->name, j);
+        alloc_reset(-1);
+        if (rc == KIFMM_SUCCESS) {
+            e = t_error_laplace(N, x, q, N, x, out, d, 600);
+            CHECK_ERR(e.pot, 4e-4, "%s order 4 potential after the failure loop", api->name);
+            if (d == 4) CHECK_ERR(e.grad, 4e-3, "%s order 4 gradient", api->name);
+        }
+        api->destroy(h);
+    }
+    CHECK(alloc_live == 0, "%s: %ld blocks live after destroy", api->name, alloc_live);
+    CHECK(alloc_bad_free == 0, "%s: %ld bad frees", api->name, alloc_bad_free);
+    alloc_live = 0;
+    alloc_bad_free = 0;
+    free(out);
+}
+
+/* Invalid inputs found at any stage of create leave nothing allocated. */
+static void test_invalid_inputs(const t_api *api, const double *x)
+{
+    double *y = t_dup(3 * N, x);
+    kifmm_opts o;
+    void *h;
+    int rc, v;
+    for (v = 0; v < 4; v++) {
+        const char *what = "";
+        o = t_opts(4, 32, 0);
+        memcpy(y, x, 3 * N * sizeof(double));
+        switch (v) {
+        case 0: y[3 * N - 1] = NAN; what = "NaN in the last target coordinate"; break;
+        case 1: o.order = 1; what = "order 1"; break;
+        case 2: o.max_depth = KIFMM_MAX_DEPTH + 1; what = "max_depth too large"; break;
+        default: y[3 * (N / 2)] = -HUGE_VAL; what = "-inf in a middle coordinate"; break;
+        }
+        alloc_reset(-1);
+        h = (void *)&alloc_calls;
+        rc = api->create(&h, &o, N, x, N, y);
+        CHECK(rc < 0 && h == NULL && alloc_live == 0,
+              "%s %s: rc=%d, handle %s, %ld blocks live", api->name, what, rc,
+              h ? "not NULL" : "NULL", alloc_live);
+        if (rc == KIFMM_SUCCESS && h != NULL) api->destroy(h);
+        alloc_live = 0;
+    }
+    free(y);
+}
+
+int main(void)
+{
+    t_api apis[2];
+    double *x = t_doubles(3 * N), *q = t_doubles(N);
+    t_rng r = t_rng_seed(31);
+    kifmm_opts o = t_opts(4, 32, 0);
+    int a;
+    double t0 = t_wall();
+
+    apis[0] = kifmm_laplace_t_api();
+    apis[1] = kifmm_laplace_grad_t_api();
+    t_gen_cube(&r, N, x, 0.0, 1.0);
+    t_gen_charges(&r, N, q, -1.0, 1.0);
+
+    t_group("allocation failures in create and evaluate");
+    for (a = 0; a < 2; a++) test_kernel(&apis[a], &o, x, q);
+    t_group("invalid inputs leave no allocation");
+    for (a = 0; a < 2; a++) test_invalid_inputs(&apis[a], x);
+    /* a clustered problem gives an adaptive tree (W and X lists) */
+    t_gen_blobs(&r, N, x);
+    t_group("allocation failures, clustered points");
+    for (a = 0; a < 2; a++) test_kernel(&apis[a], &o, x, q);
+
+    free(x);
+    free(q);
+    printf("test_alloc: %.1fs\n", t_wall() - t0);
+    return t_finish();
+}
