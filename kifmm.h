@@ -387,39 +387,72 @@ KIFMM__FN void kifmm__decode(uint64_t key, int64_t *a)
     a[2] = (int64_t)kifmm__compact(key);
 }
 
-/* Stable LSD radix sort of (key, idx) pairs by key, 8 bits a pass; passes
+/* Stable LSD radix sort of (key, idx) pairs by key, 8 bits a pass, in
+ * parallel: each thread counts its own contiguous chunk, the counts are
+ * summed digit by digit and thread by thread, and each thread scatters its
+ * chunk in order, so the result does not depend on the thread count. Passes
  * in which every key has the same digit are skipped. */
-KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n)
+KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
 {
     uint64_t *k2 = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t));
     int64_t *i2 = (int64_t *)kifmm__alloc((size_t)n, sizeof(int64_t));
-    int shift, b;
-    int64_t i, cnt[256];
-    if (!k2 || !i2) {
+    int64_t *cnt = (int64_t *)kifmm__alloc((size_t)nth * 256, sizeof(int64_t));
+    int shift;
+    if (!k2 || !i2 || !cnt) {
         kifmm__free(k2);
         kifmm__free(i2);
+        kifmm__free(cnt);
         return KIFMM_ERR_NOMEM;
     }
-    for (shift = 0; shift < 64; shift += 8) {
-        int64_t sum = 0;
-        memset(cnt, 0, sizeof cnt);
-        for (i = 0; i < n; i++) cnt[(key[i] >> shift) & 255]++;
-        if (n == 0 || cnt[(key[0] >> shift) & 255] == n) continue;
-        for (b = 0; b < 256; b++) {
-            int64_t c = cnt[b];
-            cnt[b] = sum;
-            sum += c;
+    for (shift = 0; shift < 64 && n > 0; shift += 8) {
+        int64_t sum = 0, total0 = 0;
+        int th, b, same;
+        memset(cnt, 0, (size_t)nth * 256 * sizeof(int64_t));
+        KIFMM__OMP(parallel num_threads(nth))
+        {
+            int me = 0, np = 1;
+            int64_t i, lo, hi, *c;
+#ifdef _OPENMP
+            me = omp_get_thread_num();
+            np = omp_get_num_threads();
+#endif
+            lo = n * me / np;
+            hi = n * (me + 1) / np;
+            c = cnt + (size_t)me * 256;
+            for (i = lo; i < hi; i++) c[(key[i] >> shift) & 255]++;
         }
-        for (i = 0; i < n; i++) {
-            int64_t d = cnt[(key[i] >> shift) & 255]++;
-            k2[d] = key[i];
-            i2[d] = idx[i];
+        for (th = 0; th < nth; th++) total0 += cnt[(size_t)th * 256 + ((key[0] >> shift) & 255)];
+        same = total0 == n;
+        if (same) continue;
+        for (b = 0; b < 256; b++)
+            for (th = 0; th < nth; th++) {
+                int64_t c = cnt[(size_t)th * 256 + b];
+                cnt[(size_t)th * 256 + b] = sum;
+                sum += c;
+            }
+        KIFMM__OMP(parallel num_threads(nth))
+        {
+            int me = 0, np = 1;
+            int64_t i, lo, hi, *c;
+#ifdef _OPENMP
+            me = omp_get_thread_num();
+            np = omp_get_num_threads();
+#endif
+            lo = n * me / np;
+            hi = n * (me + 1) / np;
+            c = cnt + (size_t)me * 256;
+            for (i = lo; i < hi; i++) {
+                int64_t d = c[(key[i] >> shift) & 255]++;
+                k2[d] = key[i];
+                i2[d] = idx[i];
+            }
         }
         memcpy(key, k2, (size_t)n * sizeof *key);
         memcpy(idx, i2, (size_t)n * sizeof *idx);
     }
     kifmm__free(k2);
     kifmm__free(i2);
+    kifmm__free(cnt);
     return KIFMM_SUCCESS;
 }
 
@@ -463,6 +496,8 @@ typedef struct kifmm__tree {
     uint64_t *key;
     int32_t *child;               /* first of the 8 children, or -1 for a leaf */
     int32_t *parent;              /* -1 for the root */
+    int32_t *anchor;              /* integer coordinates of each box at its level (3 per box) */
+    unsigned char *lev;           /* level of each box */
     int32_t *dsrc;                /* box whose local expansion serves this box, or -1 */
     int32_t *inner;               /* internal boxes, level by level */
     int64_t *s0, *s1, *t0, *t1;   /* point ranges of each box */
@@ -475,7 +510,7 @@ typedef struct kifmm__tree {
 
 KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
 {
-    void *p[] = {t->src, t->trg, t->sperm, t->tperm, t->key, t->child, t->parent, t->dsrc, t->inner,
+    void *p[] = {t->src, t->trg, t->sperm, t->tperm, t->key, t->child, t->parent, t->anchor, t->lev, t->dsrc, t->inner,
                  t->s0, t->s1, t->t0, t->t1, t->uo, t->u, t->vo, t->v, t->wo, t->w,
                  t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves};
     size_t i;
@@ -485,9 +520,7 @@ KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
 
 KIFMM__FN int kifmm__level_of(const kifmm__tree *t, int32_t b)
 {
-    int l = 0;
-    while (b >= t->loff[l + 1]) l++;
-    return l;
+    return t->lev[b];
 }
 
 /* Box index of (level, key), or -1. */
@@ -514,13 +547,11 @@ KIFMM__FN int32_t kifmm__find_cover(const kifmm__tree *t, int l, uint64_t key)
 /* Do boxes a and b touch or overlap (closed cubes)? */
 KIFMM__FN int kifmm__adjacent(const kifmm__tree *t, int32_t a, int32_t b)
 {
-    int la = kifmm__level_of(t, a), lb = kifmm__level_of(t, b), d;
-    int64_t xa[3], xb[3];
-    kifmm__decode(t->key[a], xa);
-    kifmm__decode(t->key[b], xb);
+    int sa = KIFMM__D - t->lev[a], sb = KIFMM__D - t->lev[b], d;
+    const int32_t *xa = t->anchor + 3 * (size_t)a, *xb = t->anchor + 3 * (size_t)b;
     for (d = 0; d < 3; d++) {
-        int64_t a0 = xa[d] << (KIFMM__D - la), a1 = (xa[d] + 1) << (KIFMM__D - la);
-        int64_t b0 = xb[d] << (KIFMM__D - lb), b1 = (xb[d] + 1) << (KIFMM__D - lb);
+        int32_t a0 = xa[d] << sa, a1 = (xa[d] + 1) << sa;
+        int32_t b0 = xb[d] << sb, b1 = (xb[d] + 1) << sb;
         if (a0 > b1 || b0 > a1) return 0;
     }
     return 1;
@@ -529,9 +560,8 @@ KIFMM__FN int kifmm__adjacent(const kifmm__tree *t, int32_t a, int32_t b)
 KIFMM__FN void kifmm__box_center(const kifmm__tree *t, int32_t b, double *c, double *half)
 {
     int l = kifmm__level_of(t, b), d;
-    int64_t a[3];
+    const int32_t *a = t->anchor + 3 * (size_t)b;
     double w = t->width / (double)((int64_t)1 << l);
-    kifmm__decode(t->key[b], a);
     for (d = 0; d < 3; d++) c[d] = t->lo[d] + ((double)a[d] + 0.5) * w;
     *half = 0.5 * w;
 }
@@ -599,7 +629,7 @@ KIFMM__FN void kifmm__keys_unique(kifmm__keys *k)
 
 /* Sort one point set by key: sorted SoA coordinates, permutation, keys. */
 KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *xyz,
-                                 double **out, int64_t **perm, uint64_t **keys)
+                                 double **out, int64_t **perm, uint64_t **keys, int nth)
 {
     double scale = (double)((int64_t)1 << KIFMM__D) / t->width;
     int64_t i, maxi = ((int64_t)1 << KIFMM__D) - 1;
@@ -608,6 +638,7 @@ KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *
     *perm = (int64_t *)kifmm__alloc((size_t)n, sizeof(int64_t));
     *keys = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t));
     if (!*out || !*perm || !*keys) return KIFMM_ERR_NOMEM;
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth))
     for (i = 0; i < n; i++) {
         int64_t a[3];
         int d;
@@ -618,8 +649,9 @@ KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *
         (*keys)[i] = kifmm__encode(a[0], a[1], a[2]);
         (*perm)[i] = i;
     }
-    rc = kifmm__radix_sort(*keys, *perm, n);
+    rc = kifmm__radix_sort(*keys, *perm, n, nth);
     if (rc) return rc;
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth))
     for (i = 0; i < n; i++) {
         int d;
         for (d = 0; d < 3; d++) (*out)[d * n + i] = xyz[3 * (*perm)[i] + d];
@@ -668,9 +700,10 @@ KIFMM__FN void kifmm__collect_uw(const kifmm__tree *t, int32_t b, int32_t c, kif
 KIFMM__FN void kifmm__box_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L)
 {
     int l = kifmm__level_of(t, b), dx, dy, dz;
-    int64_t a[3], side = (int64_t)1 << l;
+    int64_t a[3] = {t->anchor[3 * (size_t)b], t->anchor[3 * (size_t)b + 1],
+                    t->anchor[3 * (size_t)b + 2]};
+    int64_t side = (int64_t)1 << l;
     L->nu = L->nv = L->nw = L->nx = L->overflow = 0;
-    kifmm__decode(t->key[b], a);
     if (t->child[b] < 0) {
         for (dx = -1; dx <= 1; dx++)
             for (dy = -1; dy <= 1; dy++)
@@ -710,9 +743,8 @@ KIFMM__FN void kifmm__box_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L
                         int o;
                         for (o = 0; o < 8; o++) {
                             int32_t s = t->child[c] + o;
-                            int64_t sa[3];
+                            const int32_t *sa = t->anchor + 3 * (size_t)s;
                             if (t->s1[s] == t->s0[s] || kifmm__adjacent(t, b, s)) continue;
-                            kifmm__decode(t->key[s], sa);
                             if (L->nv >= KIFMM__MAXV) { L->overflow = 1; continue; }
                             L->vt[L->nv] = (uint16_t)kifmm__transfer_index(
                                 (int)(sa[0] - a[0]), (int)(sa[1] - a[1]), (int)(sa[2] - a[2]));
@@ -815,21 +847,22 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     int64_t i;
     int d, l, rc = KIFMM_SUCCESS, deepest = 0;
     int32_t nb, b;
+    size_t nbz;
     memset(in, 0, sizeof in);
     memset(t, 0, sizeof *t);
     t->ns = ns;
     t->nt = nt;
-    for (d = 0; d < 3; d++) { lo[d] = HUGE_VAL; hi[d] = -HUGE_VAL; }
-    for (i = 0; i < ns; i++)
-        for (d = 0; d < 3; d++) {
-            if (src[3 * i + d] < lo[d]) lo[d] = src[3 * i + d];
-            if (src[3 * i + d] > hi[d]) hi[d] = src[3 * i + d];
+    for (d = 0; d < 3; d++) {
+        double mn = HUGE_VAL, mx = -HUGE_VAL;
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
+        for (i = 0; i < ns + nt; i++) {
+            double v = i < ns ? src[3 * i + d] : trg[3 * (i - ns) + d];
+            mn = v < mn ? v : mn;
+            mx = v > mx ? v : mx;
         }
-    for (i = 0; i < nt; i++)
-        for (d = 0; d < 3; d++) {
-            if (trg[3 * i + d] < lo[d]) lo[d] = trg[3 * i + d];
-            if (trg[3 * i + d] > hi[d]) hi[d] = trg[3 * i + d];
-        }
+        lo[d] = mn;
+        hi[d] = mx;
+    }
     for (d = 0; d < 3; d++)
         if (0.5 * (hi[d] - lo[d]) > half) half = 0.5 * (hi[d] - lo[d]);
     if (!(half > 0.0)) half = 0.5;
@@ -837,36 +870,47 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     for (d = 0; d < 3; d++) t->lo[d] = 0.5 * (lo[d] + hi[d]) - half;
     t->width = 2.0 * half;
 
-    rc = kifmm__sort_points(t, ns, src, &t->src, &t->sperm, &skey);
-    if (!rc) rc = kifmm__sort_points(t, nt, trg, &t->trg, &t->tperm, &tkey);
+    rc = kifmm__sort_points(t, ns, src, &t->src, &t->sperm, &skey, nth);
+    if (!rc) rc = kifmm__sort_points(t, nt, trg, &t->trg, &t->tperm, &tkey, nth);
     if (rc) goto done;
 
     /* top down: in[l] holds the keys of the boxes of level l that split */
     {
         kifmm__keys cur = {0, 0, 0}, next = {0, 0, 0};
+        unsigned char *split = NULL;
         if ((rc = kifmm__keys_push(&cur, 0))) goto topdone;
         for (l = 0; l < maxdepth && cur.n > 0; l++) {
             int sh = 3 * (KIFMM__D - l);
-            next.n = 0;
-            for (i = 0; i < cur.n; i++) {
-                uint64_t k0 = cur.a[i] << sh, k1 = (cur.a[i] + 1) << sh;
-                int64_t cs = kifmm__lower_bound(skey, ns, k1) - kifmm__lower_bound(skey, ns, k0);
-                int64_t ct = kifmm__lower_bound(tkey, nt, k1) - kifmm__lower_bound(tkey, nt, k0);
+            int64_t j;
+            kifmm__free(split);
+            split = (unsigned char *)kifmm__alloc((size_t)cur.n, 1);
+            if (!split) { rc = KIFMM_ERR_NOMEM; goto topdone; }
+            KIFMM__OMP(parallel for schedule(dynamic, 256) num_threads(nth))
+            for (j = 0; j < cur.n; j++) {
+                uint64_t k0 = cur.a[j] << sh, k1 = (cur.a[j] + 1) << sh;
                 int64_t fs = kifmm__lower_bound(skey, ns, k0), ft = kifmm__lower_bound(tkey, nt, k0);
-                int o;
-                if (cs <= leaf && ct <= leaf) continue;
+                int64_t cs = kifmm__lower_bound(skey, ns, k1) - fs;
+                int64_t ct = kifmm__lower_bound(tkey, nt, k1) - ft;
+                split[j] = 1;
+                if (cs <= leaf && ct <= leaf) split[j] = 0;
                 /* points that share one finest key never separate: keep a leaf */
-                if ((cs == 0 || skey[fs] == skey[fs + cs - 1]) &&
-                    (ct == 0 || tkey[ft] == tkey[ft + ct - 1]) &&
-                    (cs == 0 || ct == 0 || skey[fs] == tkey[ft]))
-                    continue;
-                if ((rc = kifmm__keys_push(&in[l], cur.a[i]))) goto topdone;
+                else if ((cs == 0 || skey[fs] == skey[fs + cs - 1]) &&
+                         (ct == 0 || tkey[ft] == tkey[ft + ct - 1]) &&
+                         (cs == 0 || ct == 0 || skey[fs] == tkey[ft]))
+                    split[j] = 0;
+            }
+            next.n = 0;
+            for (j = 0; j < cur.n; j++) {
+                int o;
+                if (!split[j]) continue;
+                if ((rc = kifmm__keys_push(&in[l], cur.a[j]))) goto topdone;
                 for (o = 0; o < 8; o++)
-                    if ((rc = kifmm__keys_push(&next, cur.a[i] << 3 | (uint64_t)o))) goto topdone;
+                    if ((rc = kifmm__keys_push(&next, cur.a[j] << 3 | (uint64_t)o))) goto topdone;
             }
             { kifmm__keys tmp = cur; cur = next; next = tmp; }
         }
     topdone:
+        kifmm__free(split);
         kifmm__free(cur.a);
         kifmm__free(next.a);
         if (rc) goto done;
@@ -875,47 +919,59 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
         if (in[l].n > 0) deepest = l + 1;
 
     /* 2:1 balance, finest level first: every neighbour of a box of level l
-     * must lie in a box of level l - 1, i.e. its grandparent must split. */
+     * must lie in a box of level l - 1, i.e. its grandparent must split.
+     * Missing grandparents are marked in parallel (one flag per box of level
+     * l and neighbour), then appended in order. */
     for (l = deepest; l >= 2; l--) {
-        int64_t j, side = (int64_t)1 << l, n0 = in[l - 2].n;
-        for (j = 0; j < in[l - 1].n; j++) {
-            int o;
-            for (o = 0; o < 8; o++) {
-                int64_t a[3];
-                int dx, dy, dz;
-                kifmm__decode(in[l - 1].a[j] << 3 | (uint64_t)o, a);
-                for (dx = -1; dx <= 1; dx++)
-                    for (dy = -1; dy <= 1; dy++)
-                        for (dz = -1; dz <= 1; dz++) {
-                            int64_t x = a[0] + dx, y = a[1] + dy, z = a[2] + dz;
-                            uint64_t g;
-                            if (x < 0 || y < 0 || z < 0 || x >= side || y >= side || z >= side)
-                                continue;
+        int64_t j, side = (int64_t)1 << l, n0 = in[l - 2].n, nb8 = 8 * in[l - 1].n;
+        uint64_t *need = (uint64_t *)kifmm__alloc((size_t)nb8 * 27 + 1, sizeof(uint64_t));
+        if (!need) { rc = KIFMM_ERR_NOMEM; goto done; }
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+        for (j = 0; j < nb8; j++) {
+            int64_t a[3];
+            int dx, dy, dz, m = 0;
+            kifmm__decode(in[l - 1].a[j >> 3] << 3 | (uint64_t)(j & 7), a);
+            for (dx = -1; dx <= 1; dx++)
+                for (dy = -1; dy <= 1; dy++)
+                    for (dz = -1; dz <= 1; dz++) {
+                        int64_t x = a[0] + dx, y = a[1] + dy, z = a[2] + dz, pos;
+                        uint64_t g = UINT64_MAX;
+                        if (x >= 0 && y >= 0 && z >= 0 && x < side && y < side && z < side) {
                             g = kifmm__encode(x, y, z) >> 6;
-                            if (kifmm__lower_bound(in[l - 2].a, n0, g) < n0 &&
-                                in[l - 2].a[kifmm__lower_bound(in[l - 2].a, n0, g)] == g)
-                                continue;
-                            if ((rc = kifmm__keys_push(&in[l - 2], g))) goto done;
+                            pos = kifmm__lower_bound(in[l - 2].a, n0, g);
+                            if (pos < n0 && in[l - 2].a[pos] == g) g = UINT64_MAX;
                         }
-            }
+                        need[27 * j + m++] = g;
+                    }
         }
+        for (j = 0; j < 27 * nb8; j++)
+            if (need[j] != UINT64_MAX && (rc = kifmm__keys_push(&in[l - 2], need[j]))) break;
+        kifmm__free(need);
+        if (rc) goto done;
         if (in[l - 2].n > n0) kifmm__keys_unique(&in[l - 2]);
     }
 
     /* lay the boxes out level by level */
     t->nlev = deepest + 1;
-    nb = 1;
-    for (l = 0; l < deepest; l++) nb += (int32_t)(8 * in[l].n);
+    {
+        int64_t total = 1;
+        for (l = 0; l < deepest; l++) total += 8 * in[l].n;
+        if (total > INT32_MAX / 8) { rc = KIFMM_ERR_NOMEM; goto done; }
+        nb = (int32_t)total;
+        nbz = (size_t)total;
+    }
     t->nbox = nb;
-    t->key = (uint64_t *)kifmm__alloc((size_t)nb, sizeof(uint64_t));
-    t->child = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
-    t->inner = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
-    t->parent = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
-    t->s0 = (int64_t *)kifmm__alloc((size_t)nb, sizeof(int64_t));
-    t->s1 = (int64_t *)kifmm__alloc((size_t)nb, sizeof(int64_t));
-    t->t0 = (int64_t *)kifmm__alloc((size_t)nb, sizeof(int64_t));
-    t->t1 = (int64_t *)kifmm__alloc((size_t)nb, sizeof(int64_t));
-    if (!t->key || !t->child || !t->inner || !t->parent || !t->s0 || !t->s1 || !t->t0 || !t->t1) {
+    t->key = (uint64_t *)kifmm__alloc(nbz, sizeof(uint64_t));
+    t->child = (int32_t *)kifmm__alloc(nbz, sizeof(int32_t));
+    t->inner = (int32_t *)kifmm__alloc(nbz, sizeof(int32_t));
+    t->parent = (int32_t *)kifmm__alloc(nbz, sizeof(int32_t));
+    t->anchor = (int32_t *)kifmm__alloc(3 * nbz, sizeof(int32_t));
+    t->lev = (unsigned char *)kifmm__alloc(nbz, 1);
+    t->s0 = (int64_t *)kifmm__alloc(nbz, sizeof(int64_t));
+    t->s1 = (int64_t *)kifmm__alloc(nbz, sizeof(int64_t));
+    t->t0 = (int64_t *)kifmm__alloc(nbz, sizeof(int64_t));
+    t->t1 = (int64_t *)kifmm__alloc(nbz, sizeof(int64_t));
+    if (!t->key || !t->child || !t->inner || !t->parent || !t->anchor || !t->lev || !t->s0 || !t->s1 || !t->t0 || !t->t1) {
         rc = KIFMM_ERR_NOMEM;
         goto done;
     }
@@ -952,7 +1008,14 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     for (l = t->nlev + 1; l <= KIFMM__D + 1; l++) t->ioff[l] = t->ioff[t->nlev];
     for (l = 0; l < t->nlev; l++) {
         int sh = 3 * (KIFMM__D - l);
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
         for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+            int64_t a[3];
+            kifmm__decode(t->key[b], a);
+            t->anchor[3 * (size_t)b] = (int32_t)a[0];
+            t->anchor[3 * (size_t)b + 1] = (int32_t)a[1];
+            t->anchor[3 * (size_t)b + 2] = (int32_t)a[2];
+            t->lev[b] = (unsigned char)l;
             uint64_t k0 = t->key[b] << sh, k1 = (t->key[b] + 1) << sh;
             t->s0[b] = kifmm__lower_bound(skey, ns, k0);
             t->s1[b] = kifmm__lower_bound(skey, ns, k1);
@@ -1470,52 +1533,61 @@ KIFMM__FN void KIFMM__F(__downward)(const kifmm__core *c, int l)
     c->stats->t_l2l += (t1 - t0) + (t3 - t2) + (kifmm__now() - t4);
 }
 
+/* out += the field, at nt targets, of a density on the surface of box a
+ * (radius alpha half-widths); pe holds the placed surface. */
+KIFMM__FN void KIFMM__F(__from_surface)(const kifmm__core *c, int32_t a, double alpha,
+                                        const double *dens, const double *tx, const double *ty,
+                                        const double *tz, int64_t nt, double *pe, double *out)
+{
+    double ctr[3], half;
+    kifmm__box_center(&c->tree, a, ctr, &half);
+    kifmm__surf_place(c->surf_e, c->nse, ctr, alpha * half, pe);
+    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, pe, pe + c->nse, pe + 2 * c->nse, dens, c->nse, 1.0,
+                    out);
+}
+
+/* out += the field, at nt targets, of the sources of box a. */
+KIFMM__FN void KIFMM__F(__from_sources)(const kifmm__core *c, int32_t a, const double *tx,
+                                        const double *ty, const double *tz, int64_t nt,
+                                        double *out)
+{
+    const kifmm__tree *t = &c->tree;
+    int64_t s0 = t->s0[a];
+    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, t->src + s0, t->src + t->ns + s0,
+                    t->src + 2 * t->ns + s0, c->qs + s0 * KIFMM__SD, t->s1[a] - s0, 1.0, out);
+}
+
 /* Leaves with targets: L2P, M2P over W (direct when the box holds fewer
  * sources than its surface has points), P2P over U. */
 KIFMM__FN void KIFMM__F(__leaves)(const kifmm__core *c)
 {
     const kifmm__tree *t = &c->tree;
     int32_t i;
-    const int64_t ns = t->ns, nt = t->nt;
     double tl = 0.0, tw = 0.0, tu = 0.0;
     KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
     for (i = 0; i < t->nleaves; i++) {
         int32_t b = t->leaves[i], e;
         int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
-        const double *tx = t->trg + t0, *ty = t->trg + nt + t0, *tz = t->trg + 2 * nt + t0;
-        double *out = c->outs + t0 * KIFMM__TD, *pe = kifmm__thread_scratch(c), ctr[3], half;
-        int32_t a = t->dsrc[b];
+        const double *tx = t->trg + t0, *ty = t->trg + t->nt + t0, *tz = t->trg + 2 * t->nt + t0;
+        double *out = c->outs + t0 * KIFMM__TD, *pe = kifmm__thread_scratch(c);
         double c0 = kifmm__now(), c1, c2;
-        if (a >= 0) {
-            kifmm__box_center(t, a, ctr, &half);
-            kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_OUTER * half, pe);
-            KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, pe, pe + c->nse, pe + 2 * c->nse,
-                            c->de + (size_t)a * c->ne, c->nse, 1.0, out);
-        }
+        if (t->dsrc[b] >= 0)
+            KIFMM__F(__from_surface)(c, t->dsrc[b], KIFMM__ALPHA_OUTER,
+                                     c->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe, out);
         c1 = kifmm__now();
-        tl += c1 - c0;
         for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
             int32_t a = t->w[e];
-            int64_t s0 = t->s0[a], nsa = t->s1[a] - s0;
-            if (nsa <= c->nse) {
-                KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, t->src + s0, t->src + ns + s0,
-                                t->src + 2 * ns + s0, c->qs + s0 * KIFMM__SD, nsa, 1.0, out);
-            } else {
-                kifmm__box_center(t, a, ctr, &half);
-                kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_INNER * half, pe);
-                KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, pe, pe + c->nse, pe + 2 * c->nse,
-                                c->ue + (size_t)a * c->ne, c->nse, 1.0, out);
-            }
+            if (t->s1[a] - t->s0[a] <= c->nse)
+                KIFMM__F(__from_sources)(c, a, tx, ty, tz, ntb, out);
+            else
+                KIFMM__F(__from_surface)(c, a, KIFMM__ALPHA_INNER, c->ue + (size_t)a * c->ne, tx,
+                                         ty, tz, ntb, pe, out);
         }
         c2 = kifmm__now();
+        for (e = t->uo[b]; e < t->uo[b + 1]; e++)
+            KIFMM__F(__from_sources)(c, t->u[e], tx, ty, tz, ntb, out);
+        tl += c1 - c0;
         tw += c2 - c1;
-        for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
-            int32_t a = t->u[e];
-            int64_t s0 = t->s0[a];
-            KIFMM__F(__p2p)(c->param, tx, ty, tz, ntb, t->src + s0, t->src + ns + s0,
-                            t->src + 2 * ns + s0, c->qs + s0 * KIFMM__SD, t->s1[a] - s0, 1.0,
-                            out);
-        }
         tu += kifmm__now() - c2;
     }
     c->stats->t_l2p = tl / c->nthreads;
