@@ -1,0 +1,136 @@
+/* bench_p2p.c - pairs per second of the near-field loop, single thread: the
+ * generic loop kifmm.h compiles for a kernel without a hook (a copy of
+ * KIFMM__DEFINE_P2P below) against the kernels' hooks kifmm_kernel_*_p2p, for
+ * laplace and laplace_grad, on square blocks of nt = ns targets and sources.
+ *
+ *   gcc -std=c99 -O2 -march=native -Wall -Wextra -Werror -pedantic -I. bench_p2p.c -o bench_p2p -lm
+ *   ./bench_p2p [seconds per measurement, default 0.2]
+ *
+ * Each figure is the best of 5 measurements.  Run it on a quiet machine.
+ */
+#define _POSIX_C_SOURCE 199309L
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+
+#include "kifmm_kernels.h"
+
+#if defined(__AVX512F__)
+#define BODY "AVX-512F"
+#elif defined(__AVX2__) && defined(__FMA__)
+#define BODY "AVX2 + FMA"
+#else
+#define BODY "portable C"
+#endif
+
+/* The generic loop of kifmm.h (KIFMM__DEFINE_P2P), SRC_DIM = 1. */
+#define GENERIC_P2P(fname, kfun, dim)                                                        \
+    static void fname(const double *prm, const double *tx, const double *ty,                 \
+                      const double *tz, int64_t nt, const double *sx, const double *sy,      \
+                      const double *sz, const double *q, int64_t ns, double scale,           \
+                      double *out)                                                           \
+    {                                                                                        \
+        int64_t i, j;                                                                        \
+        int a;                                                                               \
+        for (i = 0; i < nt; i++) {                                                           \
+            double acc[dim], k[dim];                                                         \
+            for (a = 0; a < (dim); a++) acc[a] = 0.0;                                        \
+            for (j = 0; j < ns; j++) {                                                       \
+                kfun(prm, tx[i] - sx[j], ty[i] - sy[j], tz[i] - sz[j], k);                   \
+                for (a = 0; a < (dim); a++) acc[a] += k[a] * q[j];                           \
+            }                                                                                \
+            for (a = 0; a < (dim); a++) out[i * (dim) + a] += scale * acc[a];                \
+        }                                                                                    \
+    }
+
+GENERIC_P2P(generic_laplace, kifmm_kernel_laplace_eval, 1)
+GENERIC_P2P(generic_laplace_grad, kifmm_kernel_laplace_grad_eval, 4)
+
+typedef void (*p2p_fn)(const double *, const double *, const double *, const double *, int64_t,
+                       const double *, const double *, const double *, const double *, int64_t,
+                       double, double *);
+
+static double now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* splitmix64, uniform in [0, 1) */
+static double rand01(uint64_t *s)
+{
+    uint64_t z = (*s += UINT64_C(0x9E3779B97F4A7C15));
+    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
+    return (double)((z ^ (z >> 31)) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+#define NMAX 512
+static double tx[NMAX], ty[NMAX], tz[NMAX], sx[NMAX], sy[NMAX], sz[NMAX], q[NMAX];
+static double out[4 * NMAX];
+static double checksum;
+
+/* Best pairs per second of `f` on an n x n block over 5 measurements. */
+static double rate(p2p_fn f, int td, int64_t n, double seconds)
+{
+    double best = 0.0;
+    int64_t reps = 1, r;
+    int m, i;
+    /* calibrate: enough repetitions for about `seconds` */
+    for (;;) {
+        double t = now();
+        for (r = 0; r < reps; r++) f(NULL, tx, ty, tz, n, sx, sy, sz, q, n, 1e-3, out);
+        t = now() - t;
+        if (t > 0.2 * seconds) {
+            reps = (int64_t)((double)reps * seconds / t) + 1;
+            break;
+        }
+        reps *= 2;
+    }
+    for (m = 0; m < 5; m++) {
+        double t = now(), v;
+        for (r = 0; r < reps; r++) f(NULL, tx, ty, tz, n, sx, sy, sz, q, n, 1e-3, out);
+        t = now() - t;
+        v = (double)reps * (double)n * (double)n / t;
+        if (v > best) best = v;
+    }
+    for (i = 0; i < td * n; i++) checksum += out[i];
+    return best;
+}
+
+int main(int argc, char **argv)
+{
+    static const int64_t sizes[] = {32, 64, 128, 512};
+    const double seconds = argc > 1 ? atof(argv[1]) : 0.2;
+    uint64_t s = 42;
+    int i, k;
+
+    /* targets and sources: two independent uniform sets in the unit cube */
+    for (i = 0; i < NMAX; i++) {
+        tx[i] = rand01(&s);
+        ty[i] = rand01(&s);
+        tz[i] = rand01(&s);
+        sx[i] = rand01(&s);
+        sy[i] = rand01(&s);
+        sz[i] = rand01(&s);
+        q[i] = 2.0 * rand01(&s) - 1.0;
+    }
+    printf("bench_p2p: near-field pairs per second, single thread, hook body: %s\n", BODY);
+    printf("%-13s %6s %14s %14s %8s\n", "kernel", "nt=ns", "generic (1/s)", "hook (1/s)",
+           "speedup");
+    for (k = 0; k < 2; k++) {
+        const char *name = k == 0 ? "laplace" : "laplace_grad";
+        p2p_fn g = k == 0 ? generic_laplace : generic_laplace_grad;
+        p2p_fn h = k == 0 ? kifmm_kernel_laplace_p2p : kifmm_kernel_laplace_grad_p2p;
+        int td = k == 0 ? 1 : 4;
+        for (i = 0; i < (int)(sizeof sizes / sizeof sizes[0]); i++) {
+            double rg = rate(g, td, sizes[i], seconds), rh = rate(h, td, sizes[i], seconds);
+            printf("%-13s %6ld %14.3e %14.3e %7.2fx\n", name, (long)sizes[i], rg, rh, rh / rg);
+            fflush(stdout);
+        }
+    }
+    printf("(checksum %.6e)\n", checksum);
+    return 0;
+}

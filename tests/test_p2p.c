@@ -1,0 +1,492 @@
+/* test_p2p.c - the near-field hooks kifmm_kernel_laplace_p2p and
+ * kifmm_kernel_laplace_grad_p2p against independent scalar sums (long double),
+ * and whole FMM runs that go through them.
+ *
+ * The hooks are compiled for the ISA the compiler targets (AVX-512F, AVX2 +
+ * FMA, or portable C); the first line of output names the body under test.
+ */
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_grad
+#include "kifmm.h"
+
+#include "test.h"
+
+#if !kifmm_kernel_laplace_P2P || !kifmm_kernel_laplace_grad_P2P
+#error "test_p2p.c: kifmm_kernels.h defines no near-field hook"
+#endif
+
+#if defined(__AVX512F__)
+#define BODY "AVX-512F"
+#elif defined(__AVX2__) && defined(__FMA__)
+#define BODY "AVX2 + FMA"
+#else
+#define BODY "portable C"
+#endif
+
+typedef void (*hook_fn)(const double *, const double *, const double *, const double *, int64_t,
+                        const double *, const double *, const double *, const double *, int64_t,
+                        double, double *);
+
+#define PI_L 3.141592653589793238462643383279502884L
+
+/* inc[i * td + k] = scale * sum_j K_k(t_i - s_j) q_j in long double, from the
+ * double differences t - s (as any implementation forms them); td = 1: the
+ * potential, td = 4: potential and gradient.  Pairs with r == 0 skipped.
+ * mag[i * td + k]: the same sums of |terms|, the scale of rounding errors. */
+static void ref_sum(int td, int64_t nt, const double *tx, const double *ty, const double *tz,
+                    int64_t ns, const double *sx, const double *sy, const double *sz,
+                    const double *q, double scale, long double *inc, long double *mag)
+{
+    int64_t i, j;
+    int k;
+    for (i = 0; i < nt; i++) {
+        long double v[4] = {0, 0, 0, 0}, a[4] = {0, 0, 0, 0};
+        for (j = 0; j < ns; j++) {
+            double dx = tx[i] - sx[j], dy = ty[i] - sy[j], dz = tz[i] - sz[j];
+            long double lx = dx, ly = dy, lz = dz, r2 = lx * lx + ly * ly + lz * lz, inv, qi3;
+            long double term[4];
+            if (r2 == 0) continue;
+            inv = 1.0L / sqrtl(r2);
+            qi3 = q[j] * inv * inv * inv;
+            term[0] = q[j] * inv;
+            term[1] = -qi3 * lx;
+            term[2] = -qi3 * ly;
+            term[3] = -qi3 * lz;
+            for (k = 0; k < 4; k++) {
+                v[k] += term[k];
+                a[k] += fabsl(term[k]);
+            }
+        }
+        for (k = 0; k < td; k++) {
+            inc[i * td + k] = scale * v[k] / (4 * PI_L);
+            mag[i * td + k] = fabsl(scale) * a[k] / (4 * PI_L);
+        }
+    }
+}
+
+/* A point set with structure-of-arrays coordinates, each array shifted by one
+ * double from the malloc'ed block so that no pointer is 32-byte aligned. */
+typedef struct pts {
+    double *mem, *x, *y, *z;
+} pts;
+
+static pts pts_new(int64_t n)
+{
+    pts p;
+    p.mem = t_doubles(3 * (n + 1));
+    p.x = p.mem + 1;
+    p.y = p.x + n + 1;
+    p.z = p.y + n + 1;
+    return p;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Sums over all block shapes                                               */
+/* ------------------------------------------------------------------------ */
+
+#define GUARD 8
+#define SENTINEL 12345.678
+
+static const int64_t sizes[] = {0, 1, 3, 7, 8, 9, 15, 16, 17, 63, 64, 65, 200};
+#define NSIZES ((int)(sizeof sizes / sizeof sizes[0]))
+
+/* One (nt, ns) block: targets and sources in the unit cube, every third
+ * target placed on a source (coincident pairs), out prefilled with values in
+ * [-0.01, 0.01] (about the size of one term) and guarded on both sides; ref =
+ * prefill + the long double sum.  Two errors:
+ *   err[0]: charges in (0, 1], max_i |out_i - ref_i| / max_i |ref_i|, the
+ *           potential and the gradient (Euclidean norm over its 3 components)
+ *           separately, the larger of the two;
+ *   err[1]: charges in [-1, 1], each component's error relative to the max
+ *           over targets of |prefill| + sum of |terms| (with mixed signs one
+ *           target's sum may cancel to anything, whatever the summation order).
+ * Both are 1 if nothing is to be added (every pair coincident, or nt or ns 0)
+ * and out differs from the prefill in any bit.  *guards_ok is cleared when a
+ * value around out[0 .. nt*td-1] changed. */
+static void one_block(hook_fn hook, int td, int64_t nt, int64_t ns, double scale, t_rng *r,
+                      double err[2], int *guards_ok)
+{
+    pts t = pts_new(nt), s = pts_new(ns);
+    double *qm = t_doubles(ns + 1), *q = qm + 1;
+    double *om = t_doubles(nt * td + 2 * GUARD), *out = om + GUARD, *pre = t_doubles(nt * td);
+    size_t lbytes = (size_t)(nt * td + 1) * sizeof(long double);
+    long double *inc = (long double *)t_malloc_or_die(lbytes);
+    long double *mag = (long double *)t_malloc_or_die(lbytes);
+    int64_t i, j;
+    int k, pass;
+
+    for (j = 0; j < ns; j++) {
+        s.x[j] = t_rand01(r);
+        s.y[j] = t_rand01(r);
+        s.z[j] = t_rand01(r);
+    }
+    for (i = 0; i < nt; i++) {
+        if (ns > 0 && i % 3 == 0) {
+            j = (i * 7) % ns;
+            t.x[i] = s.x[j];
+            t.y[i] = s.y[j];
+            t.z[i] = s.z[j];
+        } else {
+            t.x[i] = t_rand01(r);
+            t.y[i] = t_rand01(r);
+            t.z[i] = t_rand01(r);
+        }
+    }
+    for (pass = 0; pass < 2; pass++) {
+        long double num[2] = {0, 0}, den[2] = {0, 0};
+        int bad = 0, zero = 1, same = 1;
+        for (j = 0; j < ns; j++) q[j] = pass == 0 ? 1.0 - t_rand01(r) : t_uniform(r, -1.0, 1.0);
+        for (i = 0; i < nt * td + 2 * GUARD; i++) om[i] = SENTINEL;
+        for (i = 0; i < nt * td; i++) out[i] = pre[i] = t_uniform(r, -0.01, 0.01);
+
+        hook(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, scale, out);
+        ref_sum(td, nt, t.x, t.y, t.z, ns, s.x, s.y, s.z, q, scale, inc, mag);
+
+        for (i = 0; i < GUARD; i++)
+            if (om[i] != SENTINEL || out[nt * td + i] != SENTINEL) *guards_ok = 0;
+        for (i = 0; i < nt; i++) {
+            long double dd[2] = {0, 0}, rr[2] = {0, 0};
+            for (k = 0; k < td; k++) {
+                const int c = k > 0; /* 0: potential, 1: gradient */
+                long double d = (long double)out[i * td + k] - (pre[i * td + k] + inc[i * td + k]);
+                if (d != d) bad = 1;
+                if (mag[i * td + k] != 0) zero = 0;
+                if (out[i * td + k] != pre[i * td + k]) same = 0;
+                if (pass == 0) {
+                    long double ref = pre[i * td + k] + inc[i * td + k];
+                    dd[c] += d * d;
+                    rr[c] += ref * ref;
+                } else {
+                    long double m = fabsl((long double)pre[i * td + k]) + mag[i * td + k];
+                    if (fabsl(d) > num[c]) num[c] = fabsl(d);
+                    if (m > den[c]) den[c] = m;
+                }
+            }
+            if (pass == 0)
+                for (k = 0; k < 2; k++) {
+                    if (sqrtl(dd[k]) > num[k]) num[k] = sqrtl(dd[k]);
+                    if (sqrtl(rr[k]) > den[k]) den[k] = sqrtl(rr[k]);
+                }
+        }
+        err[pass] = bad ? NAN : 0.0;
+        for (k = 0; k < (td > 1 ? 2 : 1) && !bad; k++)
+            if (den[k] > 0 && (double)(num[k] / den[k]) > err[pass])
+                err[pass] = (double)(num[k] / den[k]);
+        if (zero && !same) err[pass] = 1.0; /* nothing to add, yet out changed */
+    }
+    free(t.mem);
+    free(s.mem);
+    free(qm);
+    free(om);
+    free(pre);
+    free(inc);
+    free(mag);
+}
+
+static void test_blocks(const char *name, hook_fn hook, int td, uint64_t seed)
+{
+    t_rng r = t_rng_seed(seed);
+    int a, b, p, guards_ok = 1;
+    t_group(name);
+    for (a = 0; a < NSIZES; a++) {
+        double worst[2] = {0, 0};
+        int64_t worst_ns[2] = {-1, -1};
+        for (b = 0; b < NSIZES; b++) {
+            double scale = 0.5 + 0.25 * (double)(b % 5); /* 0.5 .. 1.5 */
+            double e[2];
+            one_block(hook, td, sizes[a], sizes[b], scale, &r, e, &guards_ok);
+            for (p = 0; p < 2; p++)
+                if (!(e[p] <= worst[p])) {
+                    worst[p] = e[p];
+                    worst_ns[p] = sizes[b];
+                }
+        }
+        CHECK_ERR(worst[0], 1e-14, "%s nt=%3ld, all ns: vs max|ref| (worst ns=%ld)", name,
+                  (long)sizes[a], (long)worst_ns[0]);
+        CHECK_ERR(worst[1], 1e-14, "%s nt=%3ld, all ns, q of both signs: vs sum|terms|", name,
+                  (long)sizes[a]);
+    }
+    CHECK(guards_ok, "%s wrote outside out[0 .. nt*%d-1]", name, td);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Single pairs over the whole exponent range                               */
+/* ------------------------------------------------------------------------ */
+
+/* Pairs at distances ~10^e: 3 targets, 9 sources (vector lanes and tails of
+ * every body, two-target and one-target passes), one charge 1 and the others
+ * 0, so each output is one pair's value.  Relative error of the potential and
+ * of the gradient vector per pair, against long double (*e_ld) and against
+ * 1 / sqrt() in double (*e_d).  With e_lo > e_hi, the distances are instead
+ * integer vectors (a, b, c) times 2^-537 with a, b, c < 2^20: r^2 is then
+ * subnormal and exact in double, with or without FMA. */
+static void pair_errors(hook_fn hook, int td, int e_lo, int e_hi, t_rng *r, double *e_ld,
+                        double *e_d)
+{
+    const int subnormal = e_lo > e_hi;
+    pts t = pts_new(3), s = pts_new(9);
+    double q[9], out[12];
+    int e, i, j, l, k, rep;
+    *e_ld = *e_d = 0.0;
+    if (subnormal) {
+        int tmp = e_lo;
+        e_lo = e_hi;
+        e_hi = tmp;
+    }
+    for (e = e_lo; e <= e_hi; e++)
+        for (rep = 0; rep < 4; rep++) {
+            double S = pow(10.0, (double)e) * (1.0 + t_rand01(r));
+            for (i = 0; i < 3; i++) {
+                t.x[i] = subnormal ? 0.0 : t_uniform(r, -S, S);
+                t.y[i] = subnormal ? 0.0 : t_uniform(r, -S, S);
+                t.z[i] = subnormal ? 0.0 : t_uniform(r, -S, S);
+            }
+            for (j = 0; j < 9; j++) {
+                if (subnormal) {
+                    const double u = 0x1p-537;
+                    s.x[j] = u * (double)(1 + (t_rng_next(r) >> 44));
+                    s.y[j] = u * (double)(t_rng_next(r) >> 44);
+                    s.z[j] = u * (double)(t_rng_next(r) >> 44);
+                    continue;
+                }
+                s.x[j] = t_uniform(r, -S, S);
+                s.y[j] = t_uniform(r, -S, S);
+                s.z[j] = t_uniform(r, -S, S);
+            }
+            for (l = 0; l < 9; l++) {
+                for (j = 0; j < 9; j++) q[j] = j == l ? 1.0 : 0.0;
+                for (k = 0; k < 12; k++) out[k] = 0.0;
+                hook(NULL, t.x, t.y, t.z, 3, s.x, s.y, s.z, q, 9, 1.0, out);
+                for (i = 0; i < 3; i++) {
+                    double dx = t.x[i] - s.x[l], dy = t.y[i] - s.y[l], dz = t.z[i] - s.z[l];
+                    long double lx = dx, ly = dy, lz = dz, r2 = lx * lx + ly * ly + lz * lz;
+                    long double inv = 1.0L / sqrtl(r2), ref[4], gn = 0, dn = 0;
+                    double invd = 1.0 / sqrt(dx * dx + dy * dy + dz * dz), refd[4];
+                    long double gd = 0;
+                    double ep, epd;
+                    ref[0] = inv / (4 * PI_L);
+                    ref[1] = -lx * inv * inv * inv / (4 * PI_L);
+                    ref[2] = -ly * inv * inv * inv / (4 * PI_L);
+                    ref[3] = -lz * inv * inv * inv / (4 * PI_L);
+                    refd[0] = KIFMM_INV_4PI * invd;
+                    refd[1] = -dx * invd * invd * invd * KIFMM_INV_4PI;
+                    refd[2] = -dy * invd * invd * invd * KIFMM_INV_4PI;
+                    refd[3] = -dz * invd * invd * invd * KIFMM_INV_4PI;
+                    ep = (double)(fabsl(out[i * td] - ref[0]) / ref[0]);
+                    epd = fabs(out[i * td] - refd[0]) / refd[0];
+                    if (!(ep <= *e_ld)) *e_ld = ep;
+                    if (!(epd <= *e_d)) *e_d = epd;
+                    if (td == 4) {
+                        for (k = 1; k < 4; k++) {
+                            long double d = out[i * td + k] - ref[k];
+                            long double dd = (long double)out[i * td + k] - refd[k];
+                            dn += d * d;
+                            gn += ref[k] * ref[k];
+                            gd += dd * dd;
+                        }
+                        ep = (double)sqrtl(dn / gn);
+                        epd = (double)sqrtl(gd / gn);
+                        if (!(ep <= *e_ld)) *e_ld = ep;
+                        if (!(epd <= *e_d)) *e_d = epd;
+                    }
+                }
+            }
+        }
+    free(t.mem);
+    free(s.mem);
+}
+
+static void test_pairs(void)
+{
+    t_rng r = t_rng_seed(77);
+    double e_ld, e_d;
+    t_group("single pairs, distances 10^e (relative error per pair)");
+    /* laplace: r^2 from 1e-300 to 5e307 (squares of the coordinate
+     * differences stay normal, so r^2 is accurate in double) */
+    pair_errors(kifmm_kernel_laplace_p2p, 1, -150, 153, &r, &e_ld, &e_d);
+    CHECK_ERR(e_ld, 2e-15, "laplace      e in [-150, 153], vs long double");
+    CHECK_ERR(e_d, 2e-15, "laplace      e in [-150, 153], vs 1/sqrt in double");
+    /* laplace: subnormal r^2, exact in double (4 x 20 draws of 27 pairs) */
+    pair_errors(kifmm_kernel_laplace_p2p, 1, 20, 1, &r, &e_ld, &e_d);
+    CHECK_ERR(e_ld, 2e-15, "laplace      subnormal r^2, vs long double");
+    CHECK_ERR(e_d, 2e-15, "laplace      subnormal r^2, vs 1/sqrt in double");
+    /* laplace_grad: where 1/r^3 neither overflows nor underflows in double */
+    pair_errors(kifmm_kernel_laplace_grad_p2p, 4, -90, 90, &r, &e_ld, &e_d);
+    CHECK_ERR(e_ld, 2e-15, "laplace_grad e in [-90, 90], vs long double (pot, |grad|)");
+    CHECK_ERR(e_d, 2e-15, "laplace_grad e in [-90, 90], vs 1/sqrt in double");
+}
+
+/* Pairs the scalar kernels send to exactly 0: r == 0, and r^2 overflowing to
+ * inf (the scalar kernel's 1/sqrt(inf) = 0).  out must not change at all. */
+static void test_special(void)
+{
+    pts t = pts_new(5), s = pts_new(9);
+    double q[9], out[20], pre[20];
+    int i, j, k, same;
+    t_group("special pairs");
+    for (j = 0; j < 9; j++) {
+        s.x[j] = 0.25;
+        s.y[j] = -0.5;
+        s.z[j] = 1e-300;
+        q[j] = 1.0 + j;
+    }
+    for (i = 0; i < 5; i++) {
+        t.x[i] = 0.25;
+        t.y[i] = -0.5;
+        t.z[i] = 1e-300;
+    }
+    for (k = 0; k < 20; k++) out[k] = pre[k] = 0.1 * k - 1.0;
+    kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, 5, s.x, s.y, s.z, q, 9, 2.0, out);
+    kifmm_kernel_laplace_grad_p2p(NULL, t.x, t.y, t.z, 5, s.x, s.y, s.z, q, 9, 2.0, out);
+    same = memcmp(out, pre, sizeof out) == 0;
+    CHECK(same, "all pairs coincident: out changed");
+    for (j = 0; j < 9; j++) {
+        s.x[j] = 1e155 * (j + 1);
+        s.y[j] = -1e155;
+        s.z[j] = 0.0;
+    }
+    for (i = 0; i < 5; i++) t.x[i] = t.y[i] = t.z[i] = -1e154 * i;
+    kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, 5, s.x, s.y, s.z, q, 9, 2.0, out);
+    kifmm_kernel_laplace_grad_p2p(NULL, t.x, t.y, t.z, 5, s.x, s.y, s.z, q, 9, 2.0, out);
+    same = memcmp(out, pre, sizeof out) == 0;
+    CHECK(same, "r^2 = inf for all pairs: out changed");
+    free(t.mem);
+    free(s.mem);
+}
+
+/* The library's own near-field routines must be the hooks (bit for bit). */
+static void test_wiring(void)
+{
+    t_rng r = t_rng_seed(5);
+    const int64_t nt = 37, ns = 29;
+    pts t = pts_new(nt), s = pts_new(ns);
+    double q[29], a[4 * 37], b[4 * 37];
+    int64_t i;
+    t_group("kifmm.h calls the hooks");
+    for (i = 0; i < nt; i++) {
+        t.x[i] = t_rand01(&r);
+        t.y[i] = t_rand01(&r);
+        t.z[i] = t_rand01(&r);
+    }
+    for (i = 0; i < ns; i++) {
+        s.x[i] = t_rand01(&r);
+        s.y[i] = t_rand01(&r);
+        s.z[i] = t_rand01(&r);
+        q[i] = t_uniform(&r, -1, 1);
+    }
+    memset(a, 0, sizeof a);
+    memset(b, 0, sizeof b);
+    kifmm_laplace__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, a);
+    kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
+    CHECK(memcmp(a, b, (size_t)nt * sizeof(double)) == 0, "kifmm_laplace__p2p");
+    memset(a, 0, sizeof a);
+    memset(b, 0, sizeof b);
+    kifmm_laplace_grad__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, a);
+    kifmm_kernel_laplace_grad_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
+    CHECK(memcmp(a, b, sizeof a) == 0, "kifmm_laplace_grad__p2p");
+    memset(a, 0, sizeof a);
+    memset(b, 0, sizeof b);
+    kifmm_laplace_grad__p2p_equiv(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, a);
+    kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
+    CHECK(memcmp(a, b, (size_t)nt * sizeof(double)) == 0,
+          "kifmm_laplace_grad__p2p_equiv (surface kernel laplace)");
+    free(t.mem);
+    free(s.mem);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Whole FMM                                                                */
+/* ------------------------------------------------------------------------ */
+
+#define N_FMM 20000
+#define N_SAMPLE 500
+
+/* Potential and gradient at x[3*i] from all points, double, r == 0 skipped. */
+static void direct(int64_t n, const double *x, const double *q, int64_t i, double *res)
+{
+    double p = 0, gx = 0, gy = 0, gz = 0;
+    int64_t j;
+    for (j = 0; j < n; j++) {
+        double dx = x[3 * i] - x[3 * j], dy = x[3 * i + 1] - x[3 * j + 1];
+        double dz = x[3 * i + 2] - x[3 * j + 2], r2 = dx * dx + dy * dy + dz * dz, inv;
+        if (r2 == 0.0) continue;
+        inv = 1.0 / sqrt(r2);
+        p += q[j] * inv;
+        gx -= q[j] * inv * inv * inv * dx;
+        gy -= q[j] * inv * inv * inv * dy;
+        gz -= q[j] * inv * inv * inv * dz;
+    }
+    res[0] = p / (4.0 * T_PI);
+    res[1] = gx / (4.0 * T_PI);
+    res[2] = gy / (4.0 * T_PI);
+    res[3] = gz / (4.0 * T_PI);
+}
+
+static void test_fmm(void)
+{
+    const int64_t n = N_FMM;
+    double *x = t_doubles(3 * n), *q = t_doubles(n), *out = t_doubles(4 * n);
+    double *pot = t_doubles(n);
+    double num[2] = {0, 0}, den[2] = {0, 0}, num1 = 0, te = 0;
+    kifmm_opts o = t_opts(6, 0, 0);
+    kifmm_laplace_grad *hg = NULL;
+    kifmm_laplace *hl = NULL;
+    t_rng r = t_rng_seed(2024);
+    int64_t m;
+    int rc, k;
+
+    t_group("whole FMM, 20000 uniform points, order 6");
+    t_gen_cube(&r, n, x, 0.0, 1.0);
+    t_gen_charges(&r, n, q, -1.0, 1.0);
+
+    rc = kifmm_laplace_grad_create(&hg, &o, n, x, n, x);
+    CHECK(rc == KIFMM_SUCCESS, "kifmm_laplace_grad_create rc=%d", rc);
+    if (rc == KIFMM_SUCCESS) {
+        t_fill(4 * n, out, NAN);
+        te = t_wall();
+        rc = kifmm_laplace_grad_evaluate(hg, q, out);
+        te = t_wall() - te;
+        CHECK(rc == KIFMM_SUCCESS, "kifmm_laplace_grad_evaluate rc=%d", rc);
+        kifmm_laplace_grad_destroy(hg);
+    }
+    rc = kifmm_laplace_create(&hl, &o, n, x, n, x);
+    CHECK(rc == KIFMM_SUCCESS, "kifmm_laplace_create rc=%d", rc);
+    if (rc == KIFMM_SUCCESS) {
+        t_fill(n, pot, NAN);
+        rc = kifmm_laplace_evaluate(hl, q, pot);
+        CHECK(rc == KIFMM_SUCCESS, "kifmm_laplace_evaluate rc=%d", rc);
+        kifmm_laplace_destroy(hl);
+    }
+    for (m = 0; m < N_SAMPLE; m++) {
+        int64_t i = t_sample_index(m, N_SAMPLE, n);
+        double ref[4];
+        direct(n, x, q, i, ref);
+        for (k = 0; k < 4; k++) {
+            double d = out[4 * i + k] - ref[k];
+            num[k > 0] += d * d;
+            den[k > 0] += ref[k] * ref[k];
+            if (d != d) num[k > 0] = NAN;
+        }
+        num1 += (pot[i] - ref[0]) * (pot[i] - ref[0]);
+        if (pot[i] != pot[i]) num1 = NAN;
+    }
+    CHECK_ERR(sqrt(num[0] / den[0]), 4e-6, "laplace_grad potential, 500 targets (eval %.2fs)", te);
+    CHECK_ERR(sqrt(num[1] / den[1]), 4e-5, "laplace_grad gradient, 500 targets");
+    CHECK_ERR(sqrt(num1 / den[0]), 4e-6, "laplace potential, 500 targets");
+    free(x);
+    free(q);
+    free(out);
+    free(pot);
+}
+
+int main(void)
+{
+    printf("test_p2p: near-field hooks, body: %s\n", BODY);
+    test_wiring();
+    test_special();
+    test_pairs();
+    test_blocks("laplace", kifmm_kernel_laplace_p2p, 1, 11);
+    test_blocks("laplace_grad", kifmm_kernel_laplace_grad_p2p, 4, 12);
+    test_fmm();
+    return t_finish();
+}
