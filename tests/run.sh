@@ -7,9 +7,10 @@
 # Configurations: {gcc, clang} x {-std=c99, -std=c11} x {with, without -fopenmp},
 # all with -Wall -Wextra -Werror -pedantic -O2 -march=native, plus one
 # AddressSanitizer + UndefinedBehaviorSanitizer build (gcc, OpenMP, -O1 -g).
-# test_accuracy and test_kernels run their full tables in gcc-c11-omp only;
-# elsewhere they are built with -DKIFMM_TEST_QUICK (orders 4 and 6, fewer
-# points) to keep the whole run short.
+# The full tables run in gcc-c11-omp only; elsewhere the tests are built
+# with -DKIFMM_TEST_QUICK (test_accuracy at orders 4 and 6 only, fewer points
+# in test_accuracy, test_kernels and test_small, order 12 left out except in
+# the sanitizer build) to keep the whole run short.
 #
 # Each test program ends with "RESULT <passed> <failed>".  This script sums
 # them over all programs and configurations; a build failure, a crash, a
@@ -24,6 +25,9 @@
 # OpenBLAS may misdetect the CPU), and OpenBLAS's own detection is used
 # elsewhere (SkylakeX kernels would die with SIGILL there).
 
+# The body is one brace group: bash reads all of it before running any of
+# it, so editing this file during a run does not disturb the run.
+{
 set -u
 cd "$(dirname "$0")/.." || exit 1
 ROOT=$(pwd)
@@ -38,6 +42,17 @@ TESTS=$(for f in tests/test_*.c; do
     n=$(basename "$f" .c)
     case "$n" in test_multi_tu_a) echo test_multi_tu ;; test_multi_tu_b) ;; *) echo "$n" ;; esac
 done | tr '\n' ' ')
+
+# One run at a time: a second run.sh waits for the first instead of
+# rebuilding the same directories under it.
+mkdir -p "$BUILD"
+if command -v flock >/dev/null 2>&1; then
+    exec 9>"$BUILD/.lock"
+    if ! flock -n 9; then
+        echo "another tests/run.sh is running; waiting for it to finish"
+        flock 9
+    fi
+fi
 
 if [ -z "${OPENBLAS_CORETYPE+x}" ]; then
     if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then
@@ -67,7 +82,8 @@ start_all=$SECONDS
 
 echo "kifmm.h test suite: $(gcc --version 2>/dev/null | head -n1); $(clang --version 2>/dev/null | head -n1)"
 echo "OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-<unset: OpenBLAS detects the CPU>}, OMP_NUM_THREADS=${OMP_NUM_THREADS:-<unset>}"
-echo "test_accuracy/test_kernels: full tables in gcc-c11-omp; reduced (KIFMM_TEST_QUICK: orders 4 and 6, fewer points) in the other configurations"
+echo "full tables in gcc-c11-omp only; the other configurations build with -DKIFMM_TEST_QUICK:"
+echo "  test_accuracy orders 4 and 6 only, fewer points in test_accuracy/test_kernels/test_small, order 12 only in gcc-c11-omp and asan"
 
 # sources of one program
 sources_of() {
@@ -181,3 +197,5 @@ fi
 echo "total time $((SECONDS - start_all))s"
 echo "$total_pass passed, $total_fail failed"
 [ "$total_fail" = 0 ]
+exit
+}
