@@ -1,0 +1,440 @@
+/* bench/bench.c - one benchmark case of kifmm.h (kernel laplace_grad)
+ *
+ *   bench --info                 BLAS library, OpenBLAS core and threads, OpenMP settings
+ *   bench --header               the column header of the table (and its legend with -v)
+ *   bench DIST N P [options]     run one case, print one table row on stdout
+ *
+ * DIST is cube (uniform in the unit cube), sphere (uniform on the unit sphere
+ * surface) or clustered (Gaussian blobs, see make_points).  Sources = targets,
+ * charges uniform in [-1, 1], potential and gradient (laplace_grad).
+ *
+ * Options:
+ *   --sample S     targets checked against direct summation (default 1000)
+ *   --leaf L       leaf size (default 0: the library's default for the order)
+ *   --repeat R     evaluate R times, report the last (default 1)
+ *   --dump FILE    write points, charges, sample indices and the direct sums
+ *                  there (input of bench/fmm3d_run.py; format in write_dump)
+ *   --result FILE  write the row's numbers as key=value text there
+ *
+ * Each case should run in its own process: the peak memory reported is the
+ * process's high-water mark (getrusage ru_maxrss), read right after evaluate.
+ * The direct sums run afterwards over the sample targets, in parallel with
+ * OpenMP; "direct s" is their time scaled by N / sample, an estimate of a
+ * full direct summation with the same threads.
+ */
+#define _GNU_SOURCE /* dladdr */
+
+#include <dlfcn.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+
+#define KIFMM_KERNEL laplace_grad
+#include "kifmm.h"
+
+#include <omp.h>
+
+/* OpenBLAS extensions (declared in OpenBLAS's cblas.h).  Weak, so that the
+ * program also links against another BLAS: they are then NULL. */
+#pragma weak openblas_get_config
+#pragma weak openblas_get_corename
+#pragma weak openblas_get_num_threads
+#pragma weak openblas_get_parallel
+extern char *openblas_get_config(void);
+extern char *openblas_get_corename(void);
+extern int openblas_get_num_threads(void);
+extern int openblas_get_parallel(void);
+/* The Fortran LAPACK routine behind LAPACKE (declared by lapack.h), to report
+ * which library serves it. */
+#pragma weak dgesvd_
+
+#define PI 3.14159265358979323846
+
+/* ------------------------------------------------------------------------ */
+/* Random numbers: splitmix64                                               */
+/* ------------------------------------------------------------------------ */
+static double random01(uint64_t *state)
+{
+    uint64_t z = (*state += UINT64_C(0x9E3779B97F4A7C15));
+    z = (z ^ (z >> 30)) * UINT64_C(0xBF58476D1CE4E5B9);
+    z = (z ^ (z >> 27)) * UINT64_C(0x94D049BB133111EB);
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static double random_normal(uint64_t *state)
+{
+    double u = 1.0 - random01(state); /* (0, 1] */
+    double v = random01(state);
+    return sqrt(-2.0 * log(u)) * cos(2.0 * PI * v);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Point sets                                                               */
+/* ------------------------------------------------------------------------ */
+enum { DIST_CUBE, DIST_SPHERE, DIST_CLUSTERED, NDIST };
+static const char *dist_names[NDIST] = {"cube", "sphere", "clustered"};
+
+/* clustered: 10% of the points uniform in the unit cube, 90% split evenly
+ * between four Gaussian blobs of widths 0.1, 0.03, 0.01 and 0.003 (the
+ * densest is about 10^5 times denser than the background). */
+static const double blob_center[4][3] = {
+    {0.30, 0.30, 0.30}, {0.70, 0.30, 0.60}, {0.40, 0.75, 0.50}, {0.75, 0.70, 0.25}};
+static const double blob_sigma[4] = {0.1, 0.03, 0.01, 0.003};
+
+static void make_points(int dist, int64_t n, uint64_t seed, double *xyz, double *q)
+{
+    uint64_t st = seed;
+    int64_t i;
+    int k;
+    for (i = 0; i < n; i++) {
+        double *x = xyz + 3 * i;
+        if (dist == DIST_CUBE) {
+            for (k = 0; k < 3; k++) x[k] = random01(&st);
+        } else if (dist == DIST_SPHERE) {
+            double r2;
+            do {
+                r2 = 0;
+                for (k = 0; k < 3; k++) {
+                    x[k] = random_normal(&st);
+                    r2 += x[k] * x[k];
+                }
+            } while (r2 < 1e-20);
+            for (k = 0; k < 3; k++) x[k] /= sqrt(r2);
+        } else {
+            double u = random01(&st);
+            if (u < 0.1) {
+                for (k = 0; k < 3; k++) x[k] = random01(&st);
+            } else {
+                int b = (int)((u - 0.1) / 0.9 * 4.0);
+                if (b > 3) b = 3;
+                for (k = 0; k < 3; k++)
+                    x[k] = blob_center[b][k] + blob_sigma[b] * random_normal(&st);
+            }
+        }
+    }
+    for (i = 0; i < n; i++) q[i] = 2.0 * random01(&st) - 1.0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* Direct summation at sample targets                                       */
+/* ------------------------------------------------------------------------ */
+/* ref[4s..4s+3] = potential and gradient at target idx[s], kifmm's convention
+ * (1/(4 pi r), gradient with respect to the target, self pair skipped). */
+static void direct_sums(int64_t n, const double *xyz, const double *q, int64_t ns,
+                        const int64_t *idx, double *ref)
+{
+    double *x = malloc((size_t)n * sizeof(double));
+    double *y = malloc((size_t)n * sizeof(double));
+    double *z = malloc((size_t)n * sizeof(double));
+    int64_t i, s;
+    if (!x || !y || !z) {
+        fprintf(stderr, "bench: out of memory (direct sums)\n");
+        exit(1);
+    }
+#pragma omp parallel for schedule(static)
+    for (i = 0; i < n; i++) {
+        x[i] = xyz[3 * i];
+        y[i] = xyz[3 * i + 1];
+        z[i] = xyz[3 * i + 2];
+    }
+#pragma omp parallel for schedule(dynamic, 1)
+    for (s = 0; s < ns; s++) {
+        const double tx = xyz[3 * idx[s]], ty = xyz[3 * idx[s] + 1], tz = xyz[3 * idx[s] + 2];
+        double p = 0, gx = 0, gy = 0, gz = 0;
+        int64_t j;
+#pragma omp simd reduction(+ : p, gx, gy, gz)
+        for (j = 0; j < n; j++) {
+            double dx = tx - x[j], dy = ty - y[j], dz = tz - z[j];
+            double r2 = dx * dx + dy * dy + dz * dz;
+            double rinv = r2 > 0.0 ? 1.0 / sqrt(r2) : 0.0;
+            double qr = q[j] * rinv;
+            double qr3 = qr * rinv * rinv;
+            p += qr;
+            gx -= qr3 * dx;
+            gy -= qr3 * dy;
+            gz -= qr3 * dz;
+        }
+        ref[4 * s] = p / (4 * PI);
+        ref[4 * s + 1] = gx / (4 * PI);
+        ref[4 * s + 2] = gy / (4 * PI);
+        ref[4 * s + 3] = gz / (4 * PI);
+    }
+    free(x);
+    free(y);
+    free(z);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Settings report                                                          */
+/* ------------------------------------------------------------------------ */
+static const char *lib_of(void *sym)
+{
+    static char buf[4][1024];
+    static int k = 0;
+    Dl_info info;
+    char *r;
+    if (!sym || !dladdr(sym, &info) || !info.dli_fname) return "(not found)";
+    k = (k + 1) % 4;
+    r = realpath(info.dli_fname, buf[k]);
+    return r ? r : info.dli_fname;
+}
+
+static const char *env_or(const char *name, const char *dflt)
+{
+    const char *v = getenv(name);
+    return v ? v : dflt;
+}
+
+static void print_info(void)
+{
+    char line[512], model[256] = "?";
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    if (f) {
+        while (fgets(line, sizeof line, f)) {
+            if (!strncmp(line, "model name", 10)) {
+                char *c = strchr(line, ':');
+                if (c) {
+                    snprintf(model, sizeof model, "%s", c + 2);
+                    model[strcspn(model, "\n")] = 0;
+                }
+                break;
+            }
+        }
+        fclose(f);
+    }
+    printf("cpu:         %s, %d processors online\n", model, omp_get_num_procs());
+    printf("compiler:    %s\n", __VERSION__);
+    printf("kifmm.h:     %d.%d.%d, kernel laplace_grad\n", KIFMM_VERSION_MAJOR,
+           KIFMM_VERSION_MINOR, KIFMM_VERSION_PATCH);
+    printf("BLAS:        cblas_dgemm from %s\n", lib_of((void *)&cblas_dgemm));
+    printf("LAPACK:      LAPACKE_dgesvd_work from %s\n", lib_of((void *)&LAPACKE_dgesvd_work));
+    printf("             dgesvd_ from %s\n", lib_of((void *)&dgesvd_));
+    if (openblas_get_config) {
+        int par = openblas_get_parallel ? openblas_get_parallel() : -1;
+        printf("OpenBLAS:    %s\n", openblas_get_config());
+        printf("             core %s, %d threads, threading %s\n",
+               openblas_get_corename ? openblas_get_corename() : "?",
+               openblas_get_num_threads ? openblas_get_num_threads() : -1,
+               par == 0 ? "sequential" : par == 1 ? "pthreads" : par == 2 ? "OpenMP" : "?");
+    } else {
+        printf("OpenBLAS:    not in use (no openblas_get_config)\n");
+    }
+    printf("environment: OMP_NUM_THREADS=%s OPENBLAS_NUM_THREADS=%s OPENBLAS_CORETYPE=%s\n",
+           env_or("OMP_NUM_THREADS", "<unset>"), env_or("OPENBLAS_NUM_THREADS", "<unset>"),
+           env_or("OPENBLAS_CORETYPE", "<unset>"));
+    printf("OpenMP:      omp_get_max_threads() = %d, OMP_PROC_BIND=%s, OMP_DYNAMIC=%s\n",
+           omp_get_max_threads(), env_or("OMP_PROC_BIND", "<unset>"),
+           env_or("OMP_DYNAMIC", "<unset>"));
+}
+
+/* ------------------------------------------------------------------------ */
+/* Table                                                                    */
+/* ------------------------------------------------------------------------ */
+#define ROW_FMT                                                                              \
+    "%-9s %8s %2s %4s %3s %8s %8s %8s | %7s %7s %7s %7s %7s %7s %7s %7s %7s %7s | %7s %7s | " \
+    "%8s %8s %9s\n"
+
+static void print_header(int legend)
+{
+    printf(ROW_FMT, "dist", "N", "p", "leaf", "lev", "create", "evaluate", "total", "tree",
+           "ops", "P2M", "M2M", "M2L", "L2L", "P2L", "L2P", "M2P", "P2P", "peakMiB",
+           "fmmMiB", "err_pot", "err_grad", "direct");
+    if (legend) {
+        printf("# times in seconds (wall); create = tree + ops (+ setup), evaluate = P2M..P2P "
+               "(+ copies)\n");
+        printf("# peakMiB = process high-water mark after evaluate (points, charges, outputs "
+               "included); fmmMiB = memory the handle holds\n");
+        printf("# err = relative L2 error vs direct summation on the sample targets; direct = "
+               "direct summation time for all N targets, estimated from the sample\n");
+    }
+}
+
+static void fmt_n(char *buf, size_t len, int64_t n)
+{
+    snprintf(buf, len, "%lld", (long long)n);
+}
+
+static void write_dump(const char *path, int64_t n, const double *xyz, const double *q,
+                       int64_t ns, const int64_t *idx, const double *ref)
+{
+    /* Little-endian binary: int64 n, int64 ns, double xyz[3n], double q[n],
+     * int64 idx[ns], double ref[4ns] (potential, gradient; 1/(4 pi r) kernel). */
+    FILE *f = fopen(path, "wb");
+    int ok;
+    if (!f) {
+        perror(path);
+        exit(1);
+    }
+    ok = fwrite(&n, sizeof n, 1, f) == 1 && fwrite(&ns, sizeof ns, 1, f) == 1 &&
+         fwrite(xyz, sizeof(double), (size_t)(3 * n), f) == (size_t)(3 * n) &&
+         fwrite(q, sizeof(double), (size_t)n, f) == (size_t)n &&
+         fwrite(idx, sizeof(int64_t), (size_t)ns, f) == (size_t)ns &&
+         fwrite(ref, sizeof(double), (size_t)(4 * ns), f) == (size_t)(4 * ns);
+    if (fclose(f) != 0 || !ok) {
+        fprintf(stderr, "bench: cannot write %s\n", path);
+        exit(1);
+    }
+}
+
+static void usage(const char *argv0)
+{
+    fprintf(stderr,
+            "usage: %s --info | --header [-v] | DIST N P [--sample S] [--leaf L] [--repeat R]\n"
+            "       [--dump FILE] [--result FILE]      DIST: cube, sphere or clustered\n",
+            argv0);
+    exit(2);
+}
+
+int main(int argc, char **argv)
+{
+    int dist = -1, order, leaf = 0, repeat = 1, r, rc, a;
+    int64_t n, ns = 1000, i, s;
+    const char *dump = NULL, *result = NULL;
+    double *xyz, *q, *out, *ref;
+    int64_t *idx;
+    double t0, t_create, t_eval, t_direct, peak_mib;
+    double num_p = 0, den_p = 0, num_g = 0, den_g = 0, err_p, err_g;
+    kifmm_opts opts = {0}, used;
+    kifmm_stats st;
+    kifmm_laplace_grad *fmm = NULL;
+    struct rusage ru;
+    char nbuf[32], pbuf[8], lbuf[16], vbuf[8], c[13][16];
+
+    if (argc >= 2 && !strcmp(argv[1], "--info")) {
+        print_info();
+        return 0;
+    }
+    if (argc >= 2 && !strcmp(argv[1], "--header")) {
+        print_header(argc >= 3 && !strcmp(argv[2], "-v"));
+        return 0;
+    }
+    if (argc < 4) usage(argv[0]);
+    for (a = 0; a < NDIST; a++)
+        if (!strcmp(argv[1], dist_names[a])) dist = a;
+    n = (int64_t)atof(argv[2]); /* accepts 1e6 */
+    order = atoi(argv[3]);
+    if (dist < 0 || n < 1) usage(argv[0]);
+    for (a = 4; a < argc; a++) {
+        if (a + 1 >= argc) usage(argv[0]);
+        if (!strcmp(argv[a], "--sample")) ns = (int64_t)atof(argv[++a]);
+        else if (!strcmp(argv[a], "--leaf")) leaf = atoi(argv[++a]);
+        else if (!strcmp(argv[a], "--repeat")) repeat = atoi(argv[++a]);
+        else if (!strcmp(argv[a], "--dump")) dump = argv[++a];
+        else if (!strcmp(argv[a], "--result")) result = argv[++a];
+        else usage(argv[0]);
+    }
+    if (ns > n) ns = n;
+    if (ns < 1 || repeat < 1) usage(argv[0]);
+
+    xyz = malloc((size_t)n * 3 * sizeof(double));
+    q = malloc((size_t)n * sizeof(double));
+    out = malloc((size_t)n * 4 * sizeof(double));
+    idx = malloc((size_t)ns * sizeof(int64_t));
+    ref = malloc((size_t)ns * 4 * sizeof(double));
+    if (!xyz || !q || !out || !idx || !ref) {
+        fprintf(stderr, "bench: out of memory\n");
+        return 1;
+    }
+    /* The points and charges depend on (DIST, N) only, not on the order. */
+    make_points(dist, n, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, xyz, q);
+    /* touch the output array so its first-touch cost is not timed */
+    memset(out, 0, (size_t)n * 4 * sizeof(double));
+
+    opts.order = order;
+    opts.leaf_size = leaf;
+    opts.nthreads = omp_get_max_threads();
+    t0 = omp_get_wtime();
+    rc = kifmm_laplace_grad_create(&fmm, &opts, n, xyz, n, xyz);
+    t_create = omp_get_wtime() - t0;
+    if (rc != KIFMM_SUCCESS) {
+        fprintf(stderr, "bench: create(%s, N=%lld, p=%d): %s\n", dist_names[dist], (long long)n,
+                order, kifmm_strerror(rc));
+        return 1;
+    }
+    t_eval = 0;
+    for (r = 0; r < repeat; r++) {
+        t0 = omp_get_wtime();
+        rc = kifmm_laplace_grad_evaluate(fmm, q, out);
+        t_eval = omp_get_wtime() - t0;
+        if (rc != KIFMM_SUCCESS) {
+            fprintf(stderr, "bench: evaluate: %s\n", kifmm_strerror(rc));
+            return 1;
+        }
+    }
+    getrusage(RUSAGE_SELF, &ru);
+    peak_mib = (double)ru.ru_maxrss / 1024.0; /* Linux: kilobytes */
+    memset(&st, 0, sizeof st);
+    kifmm_laplace_grad_options(fmm, &used);
+    rc = kifmm_laplace_grad_stats(fmm, &st);
+    if (rc != KIFMM_SUCCESS) fprintf(stderr, "bench: stats: %s\n", kifmm_strerror(rc));
+    kifmm_laplace_grad_destroy(fmm);
+
+    /* Sample targets: evenly strided through the (randomly generated) set. */
+    for (s = 0; s < ns; s++) idx[s] = (s * n) / ns + (n / ns) / 2;
+    t0 = omp_get_wtime();
+    direct_sums(n, xyz, q, ns, idx, ref);
+    t_direct = (omp_get_wtime() - t0) * (double)n / (double)ns;
+    for (s = 0; s < ns; s++) {
+        const double *o = out + 4 * idx[s], *e = ref + 4 * s;
+        num_p += (o[0] - e[0]) * (o[0] - e[0]);
+        den_p += e[0] * e[0];
+        for (i = 1; i < 4; i++) {
+            num_g += (o[i] - e[i]) * (o[i] - e[i]);
+            den_g += e[i] * e[i];
+        }
+    }
+    err_p = sqrt(num_p / den_p);
+    err_g = sqrt(num_g / den_g);
+    if (dump) write_dump(dump, n, xyz, q, ns, idx, ref);
+
+    fmt_n(nbuf, sizeof nbuf, n);
+    snprintf(pbuf, sizeof pbuf, "%d", used.order);
+    snprintf(lbuf, sizeof lbuf, "%d", used.leaf_size);
+    snprintf(vbuf, sizeof vbuf, "%d", st.levels);
+    {
+        const double v[13] = {t_create, t_eval, t_create + t_eval, st.t_tree, st.t_operators,
+                              st.t_p2m, st.t_m2m, st.t_m2l, st.t_l2l, st.t_p2l, st.t_l2p,
+                              st.t_m2p, st.t_p2p};
+        for (a = 0; a < 13; a++) snprintf(c[a], sizeof c[a], "%.3f", v[a]);
+    }
+    {
+        char pk[16], hb[16], ep[16], eg[16], dt[16];
+        snprintf(pk, sizeof pk, "%.0f", peak_mib);
+        snprintf(hb, sizeof hb, "%.0f", st.bytes / 1048576.0);
+        snprintf(ep, sizeof ep, "%.2e", err_p);
+        snprintf(eg, sizeof eg, "%.2e", err_g);
+        snprintf(dt, sizeof dt, t_direct < 1000 ? "%.2f" : "%.3g", t_direct);
+        printf(ROW_FMT, dist_names[dist], nbuf, pbuf, lbuf, vbuf, c[0], c[1], c[2], c[3], c[4],
+               c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], pk, hb, ep, eg, dt);
+    }
+    fflush(stdout);
+
+    if (result) {
+        FILE *f = fopen(result, "w");
+        if (!f) {
+            perror(result);
+            return 1;
+        }
+        fprintf(f,
+                "dist=%s n=%lld p=%d leaf=%d levels=%d boxes=%lld leaves=%lld create=%.6f "
+                "evaluate=%.6f total=%.6f tree=%.6f operators=%.6f p2m=%.6f m2m=%.6f m2l=%.6f "
+                "l2l=%.6f p2l=%.6f l2p=%.6f m2p=%.6f p2p=%.6f peak_mib=%.1f handle_mib=%.1f "
+                "err_pot=%.6e err_grad=%.6e direct_est=%.6f sample=%lld threads=%d\n",
+                dist_names[dist], (long long)n, used.order, used.leaf_size, st.levels,
+                (long long)st.boxes, (long long)st.leaves, t_create, t_eval, t_create + t_eval,
+                st.t_tree, st.t_operators, st.t_p2m, st.t_m2m, st.t_m2l, st.t_l2l, st.t_p2l,
+                st.t_l2p, st.t_m2p, st.t_p2p, peak_mib, st.bytes / 1048576.0, err_p, err_g,
+                t_direct, (long long)ns, omp_get_max_threads());
+        fclose(f);
+    }
+    free(xyz);
+    free(q);
+    free(out);
+    free(idx);
+    free(ref);
+    return 0;
+}

@@ -1,0 +1,209 @@
+#!/usr/bin/env bash
+# bench/run.sh - build bench/bench.c and run the benchmark table of kifmm.h,
+# with a comparison against FMM3D (fmm3dpy) when it can be imported or installed.
+#
+#   bash bench/run.sh            cube, sphere, clustered x N = 1e4, 1e5, 1e6 x p = 4, 6, 8
+#   bash bench/run.sh --quick    cube x N = 1e4, 1e5 x p = 6
+#
+# Environment (all optional; `make bench BIG=1 P=10` passes them through):
+#   BIG=1          add N = 1e7
+#   P="10 12"      add these expansion orders
+#   THREADS=2      threads for kifmm, the direct sums and FMM3D (OMP_NUM_THREADS and
+#                  OPENBLAS_NUM_THREADS are set to it unless already set)
+#   FMM3D=0        skip the FMM3D comparison
+#   QUIET_WAIT=300 seconds to wait for the machine to be quiet before the run
+#                  (1-minute load average < 0.7) and up to a tenth of that before
+#                  each case (other processes using < 20% of the CPUs); a case run
+#                  anyway is marked in the bg% column (CPU used by other processes
+#                  during the case, in % of all CPUs)
+#   CC, EXTRA_CFLAGS  compiler and extra flags (an -I for cblas.h, say)
+#   BENCH_DISTS, BENCH_NS, BENCH_ORDERS   replace the lists above (e.g. BENCH_NS="2e5")
+#
+# Outputs in build/bench/: bench (the program), results.txt (this output),
+# case_*.txt (one key=value line per case), data_*.bin (points, charges and
+# direct sums for FMM3D), venv/ (fmm3dpy if it had to be installed).
+set -u
+cd "$(dirname "$0")/.." || exit 1
+
+OUT=build/bench
+mkdir -p "$OUT"
+QUICK=0
+[ "${1:-}" = "--quick" ] && QUICK=1
+THREADS=${THREADS:-2}
+QUIET_WAIT=${QUIET_WAIT:-300}
+CC=${CC:-cc}
+NCPU=$(getconf _NPROCESSORS_ONLN)
+
+if [ "$QUICK" = 1 ]; then
+    DISTS="cube"; NS="1e4 1e5"; ORDERS="6"
+else
+    DISTS="cube sphere clustered"; NS="1e4 1e5 1e6"; ORDERS="4 6 8"
+    [ "${BIG:-0}" = 1 ] && NS="$NS 1e7"
+fi
+DISTS=${BENCH_DISTS:-$DISTS}; NS=${BENCH_NS:-$NS}; ORDERS=${BENCH_ORDERS:-$ORDERS}
+for p in ${P:-}; do
+    case " $ORDERS " in *" $p "*) ;; *) ORDERS="$ORDERS $p" ;; esac
+done
+
+exec > >(tee "$OUT/results.txt") 2>&1
+
+# ---------------------------------------------------------------- settings
+export OMP_NUM_THREADS=${OMP_NUM_THREADS:-$THREADS}
+export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-$THREADS}
+CORENOTE="OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-} was set by the caller"
+if [ -z "${OPENBLAS_CORETYPE:-}" ]; then
+    if grep -qw avx2 /proc/cpuinfo 2>/dev/null; then
+        export OPENBLAS_CORETYPE=Haswell
+        CORENOTE="OPENBLAS_CORETYPE was unset: this benchmark set OPENBLAS_CORETYPE=Haswell (the CPU has AVX2)"
+    else
+        CORENOTE="OPENBLAS_CORETYPE unset and no AVX2: OpenBLAS picks the core itself"
+    fi
+fi
+
+echo "== kifmm.h benchmark ($(date -u '+%Y-%m-%d %H:%M UTC'), $(uname -n))"
+echo "cases:       dist {$DISTS} x N {$NS} x p {$ORDERS}, kernel laplace_grad, sources = targets,"
+echo "             charges uniform in [-1, 1], each case in its own process"
+echo "build:       $CC -std=c99 -O3 -march=native -fopenmp ${EXTRA_CFLAGS:-} bench/bench.c -llapacke -lopenblas -lm"
+# shellcheck disable=SC2086
+if ! $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. bench/bench.c \
+        -o "$OUT/bench" -llapacke -lopenblas -lm; then
+    echo "bench: build failed"
+    exit 1
+fi
+echo "note:        $CORENOTE"
+OPENBLAS_VERBOSE=2 "$OUT/bench" --info 2>&1 | sed 's/^Core: /OpenBLAS verbose: Core: /'
+
+# ---------------------------------------------------------------- FMM3D
+PY=""
+if [ "${FMM3D:-1}" = 0 ]; then
+    FMM3D_NOTE="FMM3D comparison skipped (FMM3D=0)"
+elif python3 -c "import fmm3dpy, numpy" >/dev/null 2>&1; then
+    PY=python3
+elif [ -x "$OUT/venv/bin/python" ] && "$OUT/venv/bin/python" -c "import fmm3dpy, numpy" >/dev/null 2>&1; then
+    PY="$OUT/venv/bin/python"
+else
+    echo "fmm3d:       python3 cannot import fmm3dpy: pip install fmm3dpy numpy into $OUT/venv"
+    if { [ -x "$OUT/venv/bin/python" ] || python3 -m venv "$OUT/venv"; } &&
+       "$OUT/venv/bin/python" -m pip install -q fmm3dpy numpy &&
+       "$OUT/venv/bin/python" -c "import fmm3dpy, numpy" >/dev/null 2>&1; then
+        PY="$OUT/venv/bin/python"
+    else
+        FMM3D_NOTE="FMM3D comparison skipped: fmm3dpy could not be installed (pip install fmm3dpy failed)"
+        echo "fmm3d:       $FMM3D_NOTE"
+    fi
+fi
+if [ -n "$PY" ]; then
+    FMM3D_NOTE=""
+    echo "fmm3d:       $("$PY" bench/fmm3d_run.py --version)"
+fi
+
+# ---------------------------------------------------------------- quiet machine
+# CPU time (jiffies) used by everything since boot: busy, total
+cpu_jiffies() { awk '/^cpu /{print $2+$3+$4+$7+$8+$9, $2+$3+$4+$5+$6+$7+$8+$9; exit}' /proc/stat; }
+# % of all CPUs busy during one second
+busy_pct() {
+    local b0 t0 b1 t1
+    read -r b0 t0 < <(cpu_jiffies); sleep 1; read -r b1 t1 < <(cpu_jiffies)
+    echo $(( (b1 - b0) * 100 / (t1 - t0 > 0 ? t1 - t0 : 1) ))
+}
+load1() { cut -d' ' -f1 /proc/loadavg; }
+
+waited=0
+while awk -v l="$(load1)" 'BEGIN{exit !(l >= 0.7)}'; do
+    if [ "$waited" -ge "$QUIET_WAIT" ]; then
+        echo "WARNING:     load average $(load1) >= 0.7 after waiting ${QUIET_WAIT} s: timings may be disturbed (see bg%)"
+        break
+    fi
+    [ "$waited" = 0 ] && echo "waiting:     load average $(load1) >= 0.7, waiting up to ${QUIET_WAIT} s for a quiet machine"
+    sleep 10; waited=$((waited + 10))
+done
+echo "load:        $(cut -d' ' -f1-3 /proc/loadavg) (1, 5, 15 min) at start"
+
+wait_quiet() {
+    local w=0 b
+    while :; do
+        b=$(busy_pct)
+        [ "$b" -lt 20 ] && return 0
+        [ "$w" -ge $((QUIET_WAIT / 10)) ] && return 0
+        sleep 4; w=$((w + 5))
+    done
+}
+
+# run CMD...; sets BG to the CPU used by other processes meanwhile (% of all CPUs)
+# (children's CPU time from the shell's `times`, second line: "0m1.20s 0m0.30s")
+children_cs() { times > "$OUT/.times"; awk 'NR == 2 {
+    n = split($1 " " $2, a, " "); s = 0
+    for (i = 1; i <= n; i++) { split(a[i], b, "m"); s += b[1] * 60 + b[2] }
+    printf "%d", s * 100 }' "$OUT/.times"; }
+run_measured() {
+    local b0 t0 b1 t1 rc us c0
+    children_cs > "$OUT/.c0"
+    read -r b0 t0 < <(cpu_jiffies)
+    "$@"
+    rc=$?
+    read -r b1 t1 < <(cpu_jiffies)
+    children_cs > "$OUT/.c1"
+    us=$(( $(cat "$OUT/.c1") - $(cat "$OUT/.c0") ))
+    BG=$(awk -v b=$((b1 - b0)) -v t=$((t1 - t0)) -v u="$us" \
+        'BEGIN{x = t > 0 ? (b - u) * 100 / t : 0; if (x < 0) x = 0; printf "%d", x}')
+    return $rc
+}
+
+# ---------------------------------------------------------------- kifmm table
+echo
+echo "== kifmm laplace_grad: potential and gradient, ${OMP_NUM_THREADS} threads"
+"$OUT/bench" --header -v | sed '1s/$/    bg%/' | { read -r h; cat; echo "$h"; }
+rm -f "$OUT/fmm3d_rows.txt"
+FAILED=""
+for dist in $DISTS; do
+    for n in $NS; do
+        # FMM3D: cube and sphere up to N = 1e6, on the data the first order dumps
+        want_fmm3d=0
+        if [ -n "$PY" ] && [ "$dist" != clustered ] && awk -v n="$n" 'BEGIN{exit !(n <= 1e6)}'; then
+            want_fmm3d=1
+        fi
+        results=""
+        data="$OUT/data_${dist}_${n}.bin"
+        for p in $ORDERS; do
+            res="$OUT/case_${dist}_${n}_p${p}.txt"
+            args=("$dist" "$n" "$p" --result "$res")
+            [ "$want_fmm3d" = 1 ] && [ -z "$results" ] && args+=(--dump "$data")
+            wait_quiet
+            rm -f "$res"
+            if run_measured "$OUT/bench" "${args[@]}" > "$OUT/.row"; then
+                echo "$(cat "$OUT/.row")    $BG"
+                results="$results $res"
+            else
+                echo "$dist $n $p: FAILED (exit status $?)"
+                FAILED="$FAILED $dist/$n/p$p"
+            fi
+        done
+        if [ "$want_fmm3d" = 1 ] && [ -n "$results" ]; then
+            wait_quiet
+            # shellcheck disable=SC2086
+            if run_measured "$PY" bench/fmm3d_run.py "$data" $results > "$OUT/.fmm3d"; then
+                sed "/^#/!s/\$/    $BG/" "$OUT/.fmm3d" >> "$OUT/fmm3d_rows.txt"
+            else
+                echo "fmm3d: $dist $n: FAILED"
+            fi
+        fi
+    done
+done
+
+# ---------------------------------------------------------------- FMM3D table
+if [ -n "$PY" ]; then
+    echo
+    echo "== FMM3D (fmm3dpy.lfmm3d, pg=2, sources = targets, OMP_NUM_THREADS=${OMP_NUM_THREADS}) on the same points and charges"
+    "$PY" bench/fmm3d_run.py --header | sed '1s/$/    bg%/' | { read -r h; cat; echo "$h"; }
+    [ -f "$OUT/fmm3d_rows.txt" ] && grep -v '^#' "$OUT/fmm3d_rows.txt"
+    grep '^#' "$OUT/fmm3d_rows.txt" 2>/dev/null | sort -u
+else
+    echo
+    echo "== FMM3D: ${FMM3D_NOTE}"
+fi
+echo
+echo "load:        $(cut -d' ' -f1-3 /proc/loadavg) (1, 5, 15 min) at the end"
+if [ -n "$FAILED" ]; then
+    echo "failed cases:$FAILED"
+    exit 1
+fi
