@@ -387,6 +387,20 @@ KIFMM__FN void kifmm__decode(uint64_t key, int64_t *a)
     a[2] = (int64_t)kifmm__compact(key);
 }
 
+/* The calling thread's contiguous share [lo, hi) of n items; returns its
+ * thread number (0 outside a parallel region or without OpenMP). */
+KIFMM__FN int kifmm__thread_chunk(int64_t n, int64_t *lo, int64_t *hi)
+{
+    int me = 0, np = 1;
+#ifdef _OPENMP
+    me = omp_get_thread_num();
+    np = omp_get_num_threads();
+#endif
+    *lo = n * me / np;
+    *hi = n * (me + 1) / np;
+    return me;
+}
+
 /* Stable LSD radix sort of (key, idx) pairs by key, 8 bits a pass, in
  * parallel: each thread counts its own contiguous chunk, the counts are
  * summed digit by digit and thread by thread, and each thread scatters its
@@ -410,15 +424,7 @@ KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
         memset(cnt, 0, (size_t)nth * 256 * sizeof(int64_t));
         KIFMM__OMP(parallel num_threads(nth))
         {
-            int me = 0, np = 1;
-            int64_t i, lo, hi, *c;
-#ifdef _OPENMP
-            me = omp_get_thread_num();
-            np = omp_get_num_threads();
-#endif
-            lo = n * me / np;
-            hi = n * (me + 1) / np;
-            c = cnt + (size_t)me * 256;
+            int64_t i, lo, hi, *c = cnt + (size_t)kifmm__thread_chunk(n, &lo, &hi) * 256;
             for (i = lo; i < hi; i++) c[(key[i] >> shift) & 255]++;
         }
         for (th = 0; th < nth; th++) total0 += cnt[(size_t)th * 256 + ((key[0] >> shift) & 255)];
@@ -432,15 +438,7 @@ KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
             }
         KIFMM__OMP(parallel num_threads(nth))
         {
-            int me = 0, np = 1;
-            int64_t i, lo, hi, *c;
-#ifdef _OPENMP
-            me = omp_get_thread_num();
-            np = omp_get_num_threads();
-#endif
-            lo = n * me / np;
-            hi = n * (me + 1) / np;
-            c = cnt + (size_t)me * 256;
+            int64_t i, lo, hi, *c = cnt + (size_t)kifmm__thread_chunk(n, &lo, &hi) * 256;
             for (i = lo; i < hi; i++) {
                 int64_t d = c[(key[i] >> shift) & 255]++;
                 k2[d] = key[i];
