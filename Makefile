@@ -5,6 +5,8 @@
 #   make test       build and run the test suite in every configuration
 #                   (tests/run.sh: gcc and clang, C99 and C11, with and
 #                   without OpenMP, and a sanitizer build)
+#   make custom     build and run examples/custom_kernel.c (a kernel written in
+#                   the example file, checked against direct summation)
 #   make examples   build the examples into build/
 #   make deps       check the compilers, OpenMP and BLAS/LAPACKE headers;
 #                   installs the Debian packages when run as root
@@ -32,7 +34,7 @@ CBLAS_CFLAGS := $(shell \
     [ -n "$$d" ] && echo "-I$$(dirname $$d)"; \
   fi)
 
-.PHONY: all run test examples deps clean
+.PHONY: all run custom test examples deps clean
 
 all: examples
 
@@ -81,7 +83,15 @@ $(BUILD)/laplace: examples/laplace.c kifmm.h kifmm_kernels.h | $(BUILD)
 $(BUILD):
 	mkdir -p $@
 
-examples: $(BUILD)/laplace
+$(BUILD)/custom_kernel: examples/custom_kernel.c kifmm.h kifmm_kernels.h | $(BUILD)
+	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. $< -o $@ $(LDLIBS)
+
+examples: $(BUILD)/laplace $(BUILD)/custom_kernel
+
+# a user-defined kernel (examples/custom_kernel.c), checked against direct sums
+custom: deps
+	@$(MAKE) --no-print-directory examples
+	./$(BUILD)/custom_kernel $(ARGS)
 
 run: deps
 	@$(MAKE) --no-print-directory examples
@@ -89,6 +99,8 @@ run: deps
 
 test: deps
 	EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/run.sh
+	@$(MAKE) --no-print-directory examples
+	./$(BUILD)/custom_kernel 20000 6
 
 clean:
 	rm -rf $(BUILD)

@@ -4,9 +4,10 @@
  *   1. Quick start
  *   2. Template parameters and compile-time options
  *   3. Shared part (once per translation unit): results, options, memory,
- *      Morton keys, the adaptive octree and its lists, operators, level passes
- *   4. Kernel template (once per include): kernel loops, precomputation,
- *      the evaluation passes in pipeline order, the public entry points
+ *      Morton keys, the adaptive octree and its lists
+ *   4. Kernel template (once per include, in the instance's precision):
+ *      kernel loops, operators, the level passes, the evaluation passes in
+ *      pipeline order, the public entry points
  *   5. Epilogue (#undef of the template parameters), license
  *
  * 1. QUICK START
@@ -18,6 +19,7 @@
  *   int rc = kifmm_laplace_create(&fmm, &opts, ns, src_xyz, nt, trg_xyz);
  *   if (rc < 0) fprintf(stderr, "kifmm: %s\n", kifmm_strerror(rc));
  *   rc = kifmm_laplace_evaluate(fmm, charges, pot);   // as often as needed
+ *   rc = kifmm_laplace_evaluate_many(fmm, 4, q4, pot4); // 4 density vectors at once
  *   kifmm_laplace_destroy(fmm);
  *
  *   Link with -llapacke -lopenblas -lm, and -fopenmp for threads.
@@ -26,8 +28,16 @@
  *
  *   KIFMM_KERNEL  kernel name from kifmm_kernels.h or one of your own
  *                 (docs/kernels.md); default laplace
+ *   KIFMM_REAL    double (default) or float: coordinates, densities, outputs
+ *                 and the arithmetic of the passes (operators are built in
+ *                 double and rounded)
  *   KIFMM_NAME    prefix of the generated type and functions;
  *                 default kifmm_<KIFMM_KERNEL>
+ *
+ *   e.g.  #define KIFMM_KERNEL stokes
+ *         #define KIFMM_REAL float
+ *         #define KIFMM_NAME kifmm_stokesf
+ *         #include "kifmm.h"                 // kifmm_stokesf_create(..., const float *, ...)
  *
  *   COMPILE-TIME OPTIONS (set before the first include in a translation unit)
  *
@@ -1029,7 +1039,7 @@ done:
     return rc;
 }
 
-/* ---- operators and the level passes (kernel independent) ---------------- */
+/* ---- operators (built in double for every instance) --------------------- */
 
 /* Operators of one level, built with the target box's half-width. Check
  * vectors have nc entries, equivalent densities ne (points x components). */
@@ -1050,61 +1060,6 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
     memset(o, 0, sizeof *o);
 }
 
-/* Everything of a handle but the kernel: the tree, the operators, the
- * expansions and the workspace, all allocated by create. */
-typedef struct kifmm__core {
-    kifmm_opts opts;
-    kifmm__tree tree;
-    int sd, td;           /* density and output components */
-    int nse, nsc;         /* equivalent and check surface points */
-    int ne, nc;           /* vector lengths: points x sd */
-    double *surf_e, *surf_c; /* unit surfaces (SoA) */
-    int scale_invariant;
-    double degree;
-    kifmm__ops *ops;      /* ops[l] for the levels that use them */
-    int nops;
-    double param[4];
-    int m2l_block;        /* target boxes per M2L GEMM */
-    double *ue, *de;      /* ne per box */
-    double *chk;          /* nc x (boxes of a level) */
-    double *tmp;          /* max(nc, ne) x (boxes of a level) */
-    double *stack;        /* 316 ne x m2l_block */
-    double *m2l_out;      /* nc x m2l_block */
-    double *qs, *outs;    /* densities and outputs in sorted order */
-    double *scratch;      /* per thread: 3 surfaces of max(nsc, nse) points */
-    int nthreads;
-    kifmm_stats *stats;   /* written by create and evaluate */
-} kifmm__core;
-
-KIFMM__FN void kifmm__core_free(kifmm__core *c)
-{
-    int i;
-    kifmm__tree_free(&c->tree);
-    if (c->ops) {
-        for (i = 0; i < c->nops; i++) kifmm__ops_free(&c->ops[i]);
-        kifmm__free(c->ops);
-    }
-    kifmm__free(c->surf_e); kifmm__free(c->surf_c);
-    kifmm__free(c->ue); kifmm__free(c->de); kifmm__free(c->chk); kifmm__free(c->tmp);
-    kifmm__free(c->stack); kifmm__free(c->m2l_out);
-    kifmm__free(c->qs); kifmm__free(c->outs); kifmm__free(c->scratch);
-    kifmm__free(c->stats);
-}
-
-KIFMM__FN const kifmm__ops *kifmm__ops_at(const kifmm__core *c, int l)
-{
-    return c->scale_invariant ? &c->ops[0] : &c->ops[l];
-}
-
-/* Factor multiplying check potentials computed directly from points at
- * level l, so that the level-0 operators of a scale-invariant kernel apply:
- * (half-width)^(-degree); 1 for other kernels. */
-KIFMM__FN double kifmm__level_scale(const kifmm__core *c, int l)
-{
-    double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-    return c->scale_invariant ? pow(half, -c->degree) : 1.0;
-}
-
 KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
 {
     int l, m = 1;
@@ -1113,149 +1068,13 @@ KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
     return m;
 }
 
-/* Allocate the expansions and the workspace of the passes. */
-KIFMM__FN int kifmm__core_alloc_work(kifmm__core *c)
-{
-    const kifmm__tree *t = &c->tree;
-    size_t mb = (size_t)kifmm__max_level_boxes(t), big = (size_t)(c->nc > c->ne ? c->nc : c->ne);
-    size_t blk, ns = (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
-    /* about 64 MB of stacked multipoles per M2L GEMM */
-    blk = (size_t)(8u << 20) / ((size_t)KIFMM__NT * (size_t)c->ne);
-    if (blk < 8) blk = 8;
-    if (blk > mb) blk = mb;
-    c->m2l_block = (int)blk;
-    c->ue = (double *)kifmm__alloc((size_t)t->nbox * (size_t)c->ne, sizeof(double));
-    c->de = (double *)kifmm__alloc((size_t)t->nbox * (size_t)c->ne, sizeof(double));
-    c->chk = (double *)kifmm__alloc(mb * (size_t)c->nc, sizeof(double));
-    c->tmp = (double *)kifmm__alloc(mb * big, sizeof(double));
-    c->stack = (double *)kifmm__alloc(blk * KIFMM__NT * (size_t)c->ne, sizeof(double));
-    c->m2l_out = (double *)kifmm__alloc(blk * big, sizeof(double));
-    c->qs = (double *)kifmm__alloc((size_t)t->ns * (size_t)c->sd, sizeof(double));
-    c->outs = (double *)kifmm__alloc((size_t)t->nt * (size_t)c->td, sizeof(double));
-    c->scratch = (double *)kifmm__alloc((size_t)c->nthreads * 3 * 3 * ns, sizeof(double));
-    if (!c->ue || !c->de || !c->chk || !c->tmp || !c->stack || !c->m2l_out || !c->qs ||
-        !c->outs || !c->scratch)
-        return KIFMM_ERR_NOMEM;
-    return KIFMM_SUCCESS;
-}
+/* KIFMM_REAL must name one of these two types. */
+#define KIFMM__REAL_IS_double 1
+#define KIFMM__REAL_IS_float 2
 
-/* Bytes held by a handle, counted from the sizes it allocated. */
-KIFMM__FN double kifmm__core_bytes(const kifmm__core *c)
-{
-    const kifmm__tree *t = &c->tree;
-    double b = 0.0, ne = c->ne, nc = c->nc, mb = kifmm__max_level_boxes(t);
-    double big = nc > ne ? nc : ne, ns = c->nsc > c->nse ? c->nsc : c->nse;
-    int i;
-    b += (double)t->ns * (3 * 8 + 8 + 8 * c->sd) + (double)t->nt * (3 * 8 + 8 + 8 * c->td);
-    b += (double)t->nbox * (8 + 4 * 4 + 4 * 8 + 5 * 4 + 2 * 8 * ne);
-    b += 4.0 * (t->uo[t->nbox] + t->wo[t->nbox] + t->xo[t->nbox]) + 6.0 * t->vo[t->nbox];
-    for (i = 0; i < c->nops; i++) {
-        const kifmm__ops *o = &c->ops[i];
-        if (!o->m2l) continue;
-        b += 8.0 * ((o->ku + o->kd) * (nc + ne) + 16 * nc * ne + (double)o->kd * KIFMM__NT * ne);
-    }
-    b += 8.0 * (mb * nc + mb * big + (double)c->m2l_block * (KIFMM__NT * ne + big));
-    b += 8.0 * c->nthreads * 9 * ns;
-    return b;
-}
-
-KIFMM__FN double *kifmm__thread_scratch(const kifmm__core *c)
-{
-    size_t ns = (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
-#ifdef _OPENMP
-    return c->scratch + (size_t)omp_get_thread_num() * 9 * ns;
-#else
-    (void)ns;
-    return c->scratch;
-#endif
-}
-
-/* Check vectors -> equivalent densities for every box of level l, in two
- * GEMMs over the level: step 0, tmp = ut chk; step 1, equiv = vs tmp. The
- * downward pass adds the M2L results between the two (they are kept in the
- * ut space already). */
-KIFMM__FN void kifmm__solve_step(const kifmm__core *c, int l, int up, int step)
-{
-    const kifmm__tree *t = &c->tree;
-    const kifmm__ops *o = kifmm__ops_at(c, l);
-    int n = t->loff[l + 1] - t->loff[l], k = up ? o->ku : o->kd;
-    double *equiv = (up ? c->ue : c->de) + (size_t)t->loff[l] * c->ne;
-    if (step == 0)
-        kifmm__gemm(0, 0, k, n, c->nc, 1.0, up ? o->ut_up : o->ut_dn, k, c->chk, c->nc, 0.0,
-                    c->tmp, k);
-    else
-        kifmm__gemm(0, 0, c->ne, n, k, 1.0, up ? o->vs_up : o->vs_dn, c->ne, c->tmp, k, 0.0,
-                    equiv, c->ne);
-}
-
-/* M2M into the internal boxes of level l: the children of the j-th internal
- * box are columns 8j..8j+7 of level l+1, so one GEMM does the level. */
-KIFMM__FN void kifmm__m2m_level(const kifmm__core *c, int l)
-{
-    const kifmm__tree *t = &c->tree;
-    int ni = t->ioff[l + 1] - t->ioff[l], j;
-    if (ni == 0 || l + 1 >= t->nlev) return;
-    kifmm__gemm(0, 0, c->nc, ni, 8 * c->ne, 1.0, kifmm__ops_at(c, l)->m2m, c->nc,
-                c->ue + (size_t)t->loff[l + 1] * c->ne, 8 * c->ne, 0.0, c->tmp, c->nc);
-    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-    for (j = 0; j < ni; j++) {
-        int32_t b = t->inner[t->ioff[l] + j];
-        double *dst = c->chk + (size_t)(b - t->loff[l]) * c->nc;
-        const double *srcv = c->tmp + (size_t)j * c->nc;
-        int i;
-        for (i = 0; i < c->nc; i++) dst[i] += srcv[i];
-    }
-}
-
-/* L2L from level l-1 sets the check vectors of all boxes of level l (they
- * are the children of the internal boxes of l-1, in order). */
-KIFMM__FN void kifmm__l2l_level(const kifmm__core *c, int l)
-{
-    const kifmm__tree *t = &c->tree;
-    int ni = t->ioff[l] - t->ioff[l - 1], j;
-    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-    for (j = 0; j < ni; j++)
-        memcpy(c->tmp + (size_t)j * c->ne, c->de + (size_t)t->inner[t->ioff[l - 1] + j] * c->ne,
-               (size_t)c->ne * sizeof(double));
-    kifmm__gemm(0, 0, 8 * c->nc, ni, c->ne, 1.0, kifmm__ops_at(c, l)->l2l, 8 * c->nc, c->tmp,
-                c->ne, 0.0, c->chk, 8 * c->nc);
-}
-
-/* M2L into level l: per block of target boxes, stack the multipoles of each
- * target's V list by transfer vector (zeros elsewhere) and multiply by the
- * 316 matrices side by side in one GEMM. The matrices include the first
- * factor of the downward solve (ut_dn K_t), so the results are added to the
- * level's tmp (kd rows) between the two solve steps. No target is written by
- * two threads. */
-KIFMM__FN void kifmm__m2l_level(const kifmm__core *c, int l)
-{
-    const kifmm__tree *t = &c->tree;
-    const kifmm__ops *o = kifmm__ops_at(c, l);
-    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, j;
-    size_t col = (size_t)KIFMM__NT * c->ne;
-    for (b0 = 0; b0 < n; b0 += c->m2l_block) {
-        int32_t nb = n - b0 < c->m2l_block ? n - b0 : c->m2l_block;
-        KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
-        for (j = 0; j < nb; j++) {
-            int32_t b = t->m2l[t->m2lo[l] + b0 + j], e;
-            double *st = c->stack + (size_t)j * col;
-            memset(st, 0, col * sizeof(double));
-            for (e = t->vo[b]; e < t->vo[b + 1]; e++)
-                memcpy(st + (size_t)t->vt[e] * c->ne, c->ue + (size_t)t->v[e] * c->ne,
-                       (size_t)c->ne * sizeof(double));
-        }
-        kifmm__gemm(0, 0, o->kd, nb, (int)col, 1.0, o->m2l, o->kd, c->stack, (int)col, 0.0,
-                    c->m2l_out, o->kd);
-        KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-        for (j = 0; j < nb; j++) {
-            int32_t b = t->m2l[t->m2lo[l] + b0 + j];
-            double *dst = c->tmp + (size_t)(b - t->loff[l]) * o->kd;
-            const double *s = c->m2l_out + (size_t)j * o->kd;
-            int i;
-            for (i = 0; i < o->kd; i++) dst[i] += s[i];
-        }
-    }
-}
+/* Density vectors processed together by evaluate_many; more are done in
+ * groups of this many, so the workspace stays bounded. */
+#define KIFMM__RHS_MAX 8
 
 #endif /* KIFMM_H_SHARED */
 
@@ -1266,12 +1085,24 @@ KIFMM__FN void kifmm__m2l_level(const kifmm__core *c, int l)
 #ifndef KIFMM_KERNEL
 #define KIFMM_KERNEL laplace
 #endif
+#ifndef KIFMM_REAL
+#define KIFMM_REAL double
+#endif
 #ifndef KIFMM_NAME
 #define KIFMM_NAME KIFMM__CAT(kifmm_, KIFMM_KERNEL)
 #endif
 
 #define KIFMM__K(suffix) KIFMM__CAT3(kifmm_kernel_, KIFMM_KERNEL, suffix)
 #define KIFMM__F(suffix) KIFMM__CAT(KIFMM_NAME, suffix)
+#define KIFMM__R KIFMM_REAL
+
+#if KIFMM__CAT(KIFMM__REAL_IS_, KIFMM_REAL) == 1
+#define KIFMM__FLOAT 0
+#elif KIFMM__CAT(KIFMM__REAL_IS_, KIFMM_REAL) == 2
+#define KIFMM__FLOAT 1
+#else
+#error "kifmm.h: KIFMM_REAL must be double or float"
+#endif
 
 #if !KIFMM__K(_SRC_DIM) || !KIFMM__K(_TRG_DIM)
 #error "kifmm.h: the kernel named by KIFMM_KERNEL must define kifmm_kernel_<name>_SRC_DIM and _TRG_DIM (see docs/kernels.md)"
@@ -1291,57 +1122,175 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
                      KIFMM__CAT(KIFMM_NAME, _equivalent_kernel_must_map_SRC_DIM_to_SRC_DIM));
 #endif
 
+/* The near-field hook of this precision, if the kernel has one. */
+#if KIFMM__FLOAT
+#define KIFMM__HAS_HOOK KIFMM__K(_P2PF)
+#define KIFMM__HOOK KIFMM__K(_p2pf)
+#define KIFMM__HAS_HOOKE KIFMM__KE(_P2PF)
+#define KIFMM__HOOKE KIFMM__KE(_p2pf)
+#else
+#define KIFMM__HAS_HOOK KIFMM__K(_P2P)
+#define KIFMM__HOOK KIFMM__K(_p2p)
+#define KIFMM__HAS_HOOKE KIFMM__KE(_P2P)
+#define KIFMM__HOOKE KIFMM__KE(_p2p)
+#endif
+
+/* ---- the handle ---------------------------------------------------------- */
+
+/* Operators of one level in the instance's precision (see kifmm__ops). */
+typedef struct {
+    int ku, kd;
+    KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l;
+} KIFMM__F(__ops);
+
+/* Expansions and workspace for up to `nrhs` density vectors, rhs-major:
+ * vector r of an array starts at r times the array's per-vector size. */
+typedef struct {
+    int nrhs;
+    KIFMM__R *ue, *de;       /* nbox x ne per vector */
+    KIFMM__R *chk;           /* check vectors of one level: nc x (boxes of the level) */
+    KIFMM__R *tmp;           /* max(nc, ne) x (boxes of a level) */
+    KIFMM__R *stack;         /* 316 ne x (M2L block columns) */
+    KIFMM__R *m2l_out;       /* kd x (M2L block columns) */
+    KIFMM__R *qs, *outs;     /* densities and outputs in sorted order */
+} KIFMM__F(__work);
+
 typedef struct KIFMM_NAME KIFMM_NAME;
 struct KIFMM_NAME {
-    kifmm__core c;
+    kifmm_opts opts;
+    kifmm__tree tree;
+    KIFMM__R *src, *trg;     /* sorted points (SoA); the tree's own in double */
+    int nse, nsc;            /* equivalent and check surface points */
+    int ne, nc;              /* vector lengths: points x SRC_DIM */
+    double *surf_e, *surf_c; /* unit surfaces (SoA) */
+    double degree;
+    KIFMM__F(__ops) *ops;    /* ops[l] for the levels that use them */
+    int nops;
+    double param[4];         /* kernel parameters, defaults resolved */
+    int m2l_cols;            /* columns (box x vector) per M2L GEMM */
+    int mb;                  /* most boxes on one level */
+    KIFMM__R *scratch;       /* per thread: 3 surfaces of max(nsc, nse) points */
+    int nthreads;
+    KIFMM__F(__work) *w;     /* grows to the largest nrhs evaluated (<= RHS_MAX) */
+    kifmm_stats *stats;      /* written by create and evaluate */
 };
 
-/* out[i] += scale * sum_j K(t_i - s_j) q_j for targets and sources given as
- * structure-of-arrays coordinates; `kfun` has `dim` output components. */
+/* ---- dense linear algebra in the instance's precision ------------------ */
+
+/* C = A B (+ C if beta), column major, no transposes. Outside parallel
+ * regions only. */
+KIFMM__FN void KIFMM__F(__gemm)(int m, int n, int k, const KIFMM__R *a, int lda,
+                                const KIFMM__R *b, int ldb, int beta, KIFMM__R *c, int ldc)
+{
+    if (m <= 0 || n <= 0) return;
+    if (k <= 0) {
+        int i, j;
+        if (!beta)
+            for (j = 0; j < n; j++)
+                for (i = 0; i < m; i++) c[i + (size_t)j * ldc] = 0;
+        return;
+    }
+#if KIFMM__FLOAT
+    cblas_sgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0f, a, lda, b, ldb,
+                beta ? 1.0f : 0.0f, c, ldc);
+#else
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, n, k, 1.0, a, lda, b, ldb,
+                beta ? 1.0 : 0.0, c, ldc);
+#endif
+}
+
+/* A copy of n doubles in the instance's precision (the array itself for
+ * double, which then changes owner). NULL on allocation failure. */
+KIFMM__FN KIFMM__R *KIFMM__F(__own)(double **d, size_t n)
+{
+#if KIFMM__FLOAT
+    KIFMM__R *f = (KIFMM__R *)kifmm__alloc(n, sizeof(KIFMM__R));
+    size_t i;
+    if (f)
+        for (i = 0; i < n; i++) f[i] = (KIFMM__R)(*d)[i];
+    kifmm__free(*d);
+    *d = NULL;
+    return f;
+#else
+    KIFMM__R *f = *d;
+    (void)n;
+    *d = NULL;
+    return f;
+#endif
+}
+
+/* Unit surface scaled by `radius` and moved to `c`, into out (SoA, n points). */
+KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, double radius,
+                                 KIFMM__R *out)
+{
+    int i, d;
+    for (d = 0; d < 3; d++)
+        for (i = 0; i < n; i++) out[d * n + i] = (KIFMM__R)(c[d] + radius * unit[d * n + i]);
+}
+
+/* ---- direct interactions ------------------------------------------------ */
+
+/* out[r*old + i*dim + a] += scale * sum_j K(t_i - s_j) q[r*qld + j*SD + s] for
+ * nrhs density vectors; targets and sources as structure-of-arrays
+ * coordinates; `kfun` has `dim` output components. The kernel is evaluated
+ * once per pair for all vectors. */
 #define KIFMM__DEFINE_P2P(fname, kfun, dim)                                                  \
-    KIFMM__FN void fname(const double *prm, const double *tx, const double *ty,              \
-                         const double *tz, int64_t nt, const double *sx, const double *sy,   \
-                         const double *sz, const double *q, int64_t ns, double scale,        \
-                         double *out)                                                        \
+    KIFMM__FN void fname(const double *prm, const KIFMM__R *tx, const KIFMM__R *ty,          \
+                         const KIFMM__R *tz, int64_t nt, const KIFMM__R *sx,                 \
+                         const KIFMM__R *sy, const KIFMM__R *sz, const KIFMM__R *q,          \
+                         int64_t ns, int nrhs, size_t qld, double scale, KIFMM__R *out,      \
+                         size_t old)                                                         \
     {                                                                                        \
         int64_t i, j;                                                                        \
-        int a, s;                                                                            \
+        int a, s, r;                                                                         \
         for (i = 0; i < nt; i++) {                                                           \
-            double acc[dim], k[(dim) * KIFMM__SD];                                           \
-            for (a = 0; a < (dim); a++) acc[a] = 0.0;                                        \
+            double acc[KIFMM__RHS_MAX * (dim)], k[(dim) * KIFMM__SD];                        \
+            for (a = 0; a < nrhs * (dim); a++) acc[a] = 0.0;                                 \
             for (j = 0; j < ns; j++) {                                                       \
-                kfun(prm, tx[i] - sx[j], ty[i] - sy[j], tz[i] - sz[j], k);                   \
-                for (a = 0; a < (dim); a++)                                                  \
-                    for (s = 0; s < KIFMM__SD; s++) acc[a] += k[a * KIFMM__SD + s] * q[j * KIFMM__SD + s]; \
+                kfun(prm, (double)tx[i] - (double)sx[j], (double)ty[i] - (double)sy[j],      \
+                     (double)tz[i] - (double)sz[j], k);                                      \
+                for (r = 0; r < nrhs; r++) {                                                 \
+                    const KIFMM__R *qj = q + r * qld + j * KIFMM__SD;                        \
+                    for (a = 0; a < (dim); a++)                                              \
+                        for (s = 0; s < KIFMM__SD; s++)                                      \
+                            acc[r * (dim) + a] += k[a * KIFMM__SD + s] * (double)qj[s];      \
+                }                                                                            \
             }                                                                                \
-            for (a = 0; a < (dim); a++) out[i * (dim) + a] += scale * acc[a];                \
+            for (r = 0; r < nrhs; r++)                                                       \
+                for (a = 0; a < (dim); a++)                                                  \
+                    out[r * old + i * (dim) + a] += (KIFMM__R)(scale * acc[r * (dim) + a]);  \
         }                                                                                    \
     }
 
-/* A kernel may bring its own near-field loop (kifmm_kernel_<name>_P2P, e.g.
- * vectorised by hand); otherwise the generic loop above is instantiated. */
-#if KIFMM__K(_P2P)
-KIFMM__FN void KIFMM__F(__p2p)(const double *prm, const double *tx, const double *ty,
-                               const double *tz, int64_t nt, const double *sx, const double *sy,
-                               const double *sz, const double *q, int64_t ns, double scale,
-                               double *out)
-{
-    KIFMM__K(_p2p)(prm, tx, ty, tz, nt, sx, sy, sz, q, ns, scale, out);
-}
+/* The same through a kernel's hand-written hook, one vector at a time. */
+#define KIFMM__DEFINE_P2P_HOOK(fname, hook)                                                  \
+    KIFMM__FN void fname(const double *prm, const KIFMM__R *tx, const KIFMM__R *ty,          \
+                         const KIFMM__R *tz, int64_t nt, const KIFMM__R *sx,                 \
+                         const KIFMM__R *sy, const KIFMM__R *sz, const KIFMM__R *q,          \
+                         int64_t ns, int nrhs, size_t qld, double scale, KIFMM__R *out,      \
+                         size_t old)                                                         \
+    {                                                                                        \
+        int r;                                                                               \
+        for (r = 0; r < nrhs; r++)                                                           \
+            hook(prm, tx, ty, tz, nt, sx, sy, sz, q + r * qld, ns, (KIFMM__R)scale,          \
+                 out + r * old);                                                             \
+    }
+
+/* A kernel may bring its own near-field loop (kifmm_kernel_<name>_P2P, or
+ * _P2PF for float instances, e.g. vectorised by hand); otherwise the generic
+ * loop above is instantiated. */
+#if KIFMM__HAS_HOOK
+KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p), KIFMM__HOOK)
 #else
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p), KIFMM__EVAL, KIFMM__TD)
 #endif
-#if KIFMM__KE(_P2P)
-KIFMM__FN void KIFMM__F(__p2p_equiv)(const double *prm, const double *tx, const double *ty,
-                                     const double *tz, int64_t nt, const double *sx,
-                                     const double *sy, const double *sz, const double *q,
-                                     int64_t ns, double scale, double *out)
-{
-    KIFMM__KE(_p2p)(prm, tx, ty, tz, nt, sx, sy, sz, q, ns, scale, out);
-}
+#if KIFMM__HAS_HOOKE
+KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_equiv), KIFMM__HOOKE)
 #else
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p_equiv), KIFMM__EVALE, KIFMM__SD)
 #endif
+
+/* ---- operators ------------------------------------------------------------ */
 
 /* Matrix of the surface kernel from sources s (SoA, nsp points) to targets tp
  * (SoA, ntp points): row i*SD + a, column j*SD + b, leading dimension ld. */
@@ -1361,8 +1310,8 @@ KIFMM__FN void KIFMM__F(__kmat)(const double *prm, const double *tp, int ntp, co
         }
 }
 
-/* The operators for target boxes of half-width r (see kifmm__ops). */
-KIFMM__FN int KIFMM__F(__ops_build)(const kifmm__core *c, double r, kifmm__ops *o)
+/* The operators for target boxes of half-width r (see kifmm__ops), in double. */
+KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     enum { CH = 16 };
     int nse = c->nse, nsc = c->nsc, ne = c->ne, nc = c->nc, oct, tv, rc = KIFMM_SUCCESS;
@@ -1431,133 +1380,386 @@ done:
     return rc;
 }
 
+/* Build one level's operators in double and keep them in the instance's
+ * precision. */
+KIFMM__FN int KIFMM__F(__ops_make)(const KIFMM_NAME *c, double r, KIFMM__F(__ops) *out)
+{
+    kifmm__ops o;
+    size_t ne = (size_t)c->ne, nc = (size_t)c->nc;
+    int rc;
+    memset(&o, 0, sizeof o);
+    rc = KIFMM__F(__ops_build)(c, r, &o);
+    if (!rc) {
+        out->ku = o.ku;
+        out->kd = o.kd;
+        out->ut_up = KIFMM__F(__own)(&o.ut_up, (size_t)o.ku * nc);
+        out->vs_up = KIFMM__F(__own)(&o.vs_up, ne * (size_t)o.ku);
+        out->ut_dn = KIFMM__F(__own)(&o.ut_dn, (size_t)o.kd * nc);
+        out->vs_dn = KIFMM__F(__own)(&o.vs_dn, ne * (size_t)o.kd);
+        out->m2m = KIFMM__F(__own)(&o.m2m, nc * 8 * ne);
+        out->l2l = KIFMM__F(__own)(&o.l2l, 8 * nc * ne);
+        out->m2l = KIFMM__F(__own)(&o.m2l, (size_t)o.kd * KIFMM__NT * ne);
+        if (!out->ut_up || !out->vs_up || !out->ut_dn || !out->vs_dn || !out->m2m ||
+            !out->l2l || !out->m2l)
+            rc = KIFMM_ERR_NOMEM;
+    }
+    kifmm__ops_free(&o);
+    return rc;
+}
+
+KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
+{
+    kifmm__free(o->ut_up); kifmm__free(o->vs_up);
+    kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
+    kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
+    memset(o, 0, sizeof *o);
+}
+
 /* Scale-invariant kernels: one set at half-width 1, rescaled per level.
  * Others: one set per level that uses operators (levels 2 and deeper). */
-KIFMM__FN int KIFMM__F(__precompute)(kifmm__core *c)
+KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 {
     int l, rc;
-    c->nops = c->scale_invariant ? 1 : c->tree.nlev;
-    c->ops = (kifmm__ops *)kifmm__calloc((size_t)c->nops, sizeof(kifmm__ops));
+    c->nops = KIFMM__K(_SCALE_INVARIANT) ? 1 : c->tree.nlev;
+    c->ops = (KIFMM__F(__ops) *)kifmm__calloc((size_t)c->nops, sizeof(KIFMM__F(__ops)));
     if (!c->ops) return KIFMM_ERR_NOMEM;
-    if (c->scale_invariant) return KIFMM__F(__ops_build)(c, 1.0, &c->ops[0]);
+    if (KIFMM__K(_SCALE_INVARIANT)) return KIFMM__F(__ops_make)(c, 1.0, &c->ops[0]);
     for (l = 2; l < c->tree.nlev; l++) {
         double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-        if ((rc = KIFMM__F(__ops_build)(c, half, &c->ops[l]))) return rc;
+        if ((rc = KIFMM__F(__ops_make)(c, half, &c->ops[l]))) return rc;
     }
     return KIFMM_SUCCESS;
+}
+
+KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
+{
+    return KIFMM__K(_SCALE_INVARIANT) ? &c->ops[0] : &c->ops[l];
+}
+
+/* Factor multiplying check potentials computed directly from points at
+ * level l, so that the level-0 operators of a scale-invariant kernel apply:
+ * (half-width)^(-degree); 1 for other kernels. */
+KIFMM__FN double KIFMM__F(__level_scale)(const KIFMM_NAME *c, int l)
+{
+    double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
+    return KIFMM__K(_SCALE_INVARIANT) ? pow(half, -c->degree) : 1.0;
+}
+
+/* ---- workspace -------------------------------------------------------------- */
+
+KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
+{
+    if (!w) return;
+    kifmm__free(w->ue); kifmm__free(w->de); kifmm__free(w->chk); kifmm__free(w->tmp);
+    kifmm__free(w->stack); kifmm__free(w->m2l_out); kifmm__free(w->qs); kifmm__free(w->outs);
+    kifmm__free(w);
+}
+
+/* Per-vector sizes of the workspace arrays, in elements. */
+KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
+{
+    size_t big = (size_t)(c->nc > c->ne ? c->nc : c->ne);
+    sz[0] = (size_t)c->tree.nbox * (size_t)c->ne;                  /* ue, de */
+    sz[1] = (size_t)c->mb * (size_t)c->nc;                         /* chk */
+    sz[2] = (size_t)c->mb * big;                                   /* tmp */
+    sz[3] = (size_t)c->tree.ns * KIFMM__SD;                        /* qs */
+    sz[4] = (size_t)c->tree.nt * KIFMM__TD;                        /* outs */
+}
+
+KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
+{
+    KIFMM__F(__work) *w = (KIFMM__F(__work) *)kifmm__calloc(1, sizeof *w);
+    size_t sz[5], n = (size_t)nrhs, big = (size_t)(c->nc > c->ne ? c->nc : c->ne);
+    if (!w) return NULL;
+    KIFMM__F(__work_sizes)(c, sz);
+    w->nrhs = nrhs;
+    w->ue = (KIFMM__R *)kifmm__alloc(n * sz[0], sizeof(KIFMM__R));
+    w->de = (KIFMM__R *)kifmm__alloc(n * sz[0], sizeof(KIFMM__R));
+    w->chk = (KIFMM__R *)kifmm__alloc(n * sz[1], sizeof(KIFMM__R));
+    w->tmp = (KIFMM__R *)kifmm__alloc(n * sz[2], sizeof(KIFMM__R));
+    w->stack = (KIFMM__R *)kifmm__alloc((size_t)c->m2l_cols * KIFMM__NT * (size_t)c->ne,
+                                        sizeof(KIFMM__R));
+    w->m2l_out = (KIFMM__R *)kifmm__alloc((size_t)c->m2l_cols * big, sizeof(KIFMM__R));
+    w->qs = (KIFMM__R *)kifmm__alloc(n * sz[3], sizeof(KIFMM__R));
+    w->outs = (KIFMM__R *)kifmm__alloc(n * sz[4], sizeof(KIFMM__R));
+    if (!w->ue || !w->de || !w->chk || !w->tmp || !w->stack || !w->m2l_out || !w->qs ||
+        !w->outs) {
+        KIFMM__F(__work_free)(w);
+        return NULL;
+    }
+    return w;
+}
+
+/* Bytes held by a handle, counted from the sizes it allocated. */
+KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
+{
+    const kifmm__tree *t = &c->tree;
+    const double R = (double)sizeof(KIFMM__R), ne = c->ne, nc = c->nc;
+    double b = 0.0, big = nc > ne ? nc : ne, ns = c->nsc > c->nse ? c->nsc : c->nse;
+    size_t sz[5];
+    int i;
+    b += (double)t->ns * (3 * R + 8) + (double)t->nt * (3 * R + 8);
+    b += (double)t->nbox * (8 + 4 * 4 + 4 * 8 + 5 * 4 + 1);
+    b += 4.0 * (t->uo[t->nbox] + t->wo[t->nbox] + t->xo[t->nbox]) + 6.0 * t->vo[t->nbox];
+    for (i = 0; i < c->nops; i++) {
+        const KIFMM__F(__ops) *o = &c->ops[i];
+        if (!o->m2l) continue;
+        b += R * ((o->ku + o->kd) * (nc + ne) + 16 * nc * ne + (double)o->kd * KIFMM__NT * ne);
+    }
+    if (c->w) {
+        KIFMM__F(__work_sizes)(c, sz);
+        b += R * c->w->nrhs * (2.0 * sz[0] + sz[1] + sz[2] + sz[3] + sz[4]);
+        b += R * (double)c->m2l_cols * (KIFMM__NT * ne + big);
+    }
+    b += R * c->nthreads * 9 * ns;
+    return b;
+}
+
+KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
+{
+    size_t ns = (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
+#ifdef _OPENMP
+    return c->scratch + (size_t)omp_get_thread_num() * 9 * ns;
+#else
+    (void)ns;
+    return c->scratch;
+#endif
+}
+
+/* ---- the level passes ------------------------------------------------------- */
+
+/* Layout of the per-level arrays chk and tmp: vector r, box b of level l, with
+ * `rows` entries per box: [(r * n_l + (b - loff[l])) * rows]. */
+#define KIFMM__LVL(c, l) ((c)->tree.loff[(l) + 1] - (c)->tree.loff[(l)])
+
+/* Check vectors -> equivalent densities for every box of level l: step 0,
+ * tmp = ut chk (one GEMM over boxes and vectors); step 1, equiv = vs tmp. The
+ * downward pass adds the M2L results between the two (they are kept in the
+ * ut space already). */
+KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                      int l, int up, int step)
+{
+    const kifmm__tree *t = &c->tree;
+    const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
+    int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd, r;
+    size_t per = (size_t)t->nbox * (size_t)c->ne;
+    if (step == 0) {
+        KIFMM__F(__gemm)(k, n * nrhs, c->nc, up ? o->ut_up : o->ut_dn, k, w->chk, c->nc, 0, w->tmp,
+                         k);
+        return;
+    }
+    for (r = 0; r < nrhs; r++)
+        KIFMM__F(__gemm)(c->ne, n, k, up ? o->vs_up : o->vs_dn, c->ne,
+                         w->tmp + (size_t)r * n * k, k, 0,
+                         (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * c->ne, c->ne);
+}
+
+/* M2M into the internal boxes of level l: the children of the j-th internal
+ * box are columns 8j..8j+7 of level l+1, so one GEMM per vector does the
+ * level. */
+KIFMM__FN void KIFMM__F(__m2m_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                     int l)
+{
+    const kifmm__tree *t = &c->tree;
+    int ni = t->ioff[l + 1] - t->ioff[l], n = KIFMM__LVL(c, l), j, r;
+    size_t per = (size_t)t->nbox * (size_t)c->ne;
+    if (ni == 0 || l + 1 >= t->nlev) return;
+    for (r = 0; r < nrhs; r++)
+        KIFMM__F(__gemm)(c->nc, ni, 8 * c->ne, KIFMM__F(__ops_at)(c, l)->m2m, c->nc,
+                         w->ue + r * per + (size_t)t->loff[l + 1] * c->ne, 8 * c->ne, 0,
+                         w->tmp + (size_t)r * ni * c->nc, c->nc);
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+    for (j = 0; j < ni * nrhs; j++) {
+        int jb = j % ni, jr = j / ni, i;
+        int32_t b = t->inner[t->ioff[l] + jb];
+        KIFMM__R *dst = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[l])) * c->nc;
+        const KIFMM__R *srcv = w->tmp + (size_t)j * c->nc;
+        for (i = 0; i < c->nc; i++) dst[i] += srcv[i];
+    }
+}
+
+/* L2L from level l-1 sets the check vectors of all boxes of level l (they
+ * are the children of the internal boxes of l-1, in order): one GEMM. */
+KIFMM__FN void KIFMM__F(__l2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                     int l)
+{
+    const kifmm__tree *t = &c->tree;
+    int ni = t->ioff[l] - t->ioff[l - 1], j;
+    size_t per = (size_t)t->nbox * (size_t)c->ne;
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+    for (j = 0; j < ni * nrhs; j++)
+        memcpy(w->tmp + (size_t)j * c->ne,
+               w->de + (size_t)(j / ni) * per +
+                   (size_t)t->inner[t->ioff[l - 1] + j % ni] * c->ne,
+               (size_t)c->ne * sizeof(KIFMM__R));
+    KIFMM__F(__gemm)(8 * c->nc, ni * nrhs, c->ne, KIFMM__F(__ops_at)(c, l)->l2l, 8 * c->nc,
+                     w->tmp, c->ne, 0, w->chk, 8 * c->nc);
+}
+
+/* M2L into level l: per block of (target box, vector) columns, stack the
+ * multipoles of the target's V list by transfer vector (zeros elsewhere) and
+ * multiply by the 316 matrices side by side in one GEMM. The matrices include
+ * the first factor of the downward solve (ut_dn K_t), so the results are added
+ * to the level's tmp (kd rows) between the two solve steps. No target is
+ * written by two threads. */
+KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                     int l)
+{
+    const kifmm__tree *t = &c->tree;
+    const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
+    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, j, blk = c->m2l_cols / nrhs;
+    int nl = KIFMM__LVL(c, l);
+    size_t col = (size_t)KIFMM__NT * c->ne, per = (size_t)t->nbox * (size_t)c->ne;
+    if (blk < 1) blk = 1;
+    for (b0 = 0; b0 < n; b0 += blk) {
+        int32_t nb = n - b0 < blk ? n - b0 : blk;
+        KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
+        for (j = 0; j < nb * nrhs; j++) {
+            int32_t b = t->m2l[t->m2lo[l] + b0 + j / nrhs], e;
+            const KIFMM__R *ue = w->ue + (size_t)(j % nrhs) * per;
+            KIFMM__R *st = w->stack + (size_t)j * col;
+            memset(st, 0, col * sizeof(KIFMM__R));
+            for (e = t->vo[b]; e < t->vo[b + 1]; e++)
+                memcpy(st + (size_t)t->vt[e] * c->ne, ue + (size_t)t->v[e] * c->ne,
+                       (size_t)c->ne * sizeof(KIFMM__R));
+        }
+        KIFMM__F(__gemm)(o->kd, nb * nrhs, (int)col, o->m2l, o->kd, w->stack, (int)col, 0,
+                         w->m2l_out, o->kd);
+        KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+        for (j = 0; j < nb * nrhs; j++) {
+            int32_t b = t->m2l[t->m2lo[l] + b0 + j / nrhs];
+            KIFMM__R *dst = w->tmp + ((size_t)(j % nrhs) * nl + (size_t)(b - t->loff[l])) * o->kd;
+            const KIFMM__R *s = w->m2l_out + (size_t)j * o->kd;
+            int i;
+            for (i = 0; i < o->kd; i++) dst[i] += s[i];
+        }
+    }
 }
 
 /* ---- the evaluation passes, in pipeline order -------------------------- */
 
 /* Upward pass at level l: P2M into the leaves' check vectors, M2M into the
  * internal boxes', then the solve for the equivalent densities. */
-KIFMM__FN void KIFMM__F(__upward)(const kifmm__core *c, int l)
+KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
     const kifmm__tree *t = &c->tree;
     int32_t b;
-    double scale = kifmm__level_scale(c, l), t0 = kifmm__now(), t1;
-    memset(c->chk, 0, (size_t)(t->loff[l + 1] - t->loff[l]) * c->nc * sizeof(double));
+    int nl = KIFMM__LVL(c, l);
+    double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1;
+    memset(w->chk, 0, (size_t)nl * nrhs * c->nc * sizeof(KIFMM__R));
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
     for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
-        double *pc, ctr[3], half;
+        KIFMM__R *pc;
+        double ctr[3], half;
         int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
         if (t->child[b] >= 0 || ns == 0) continue;
-        pc = kifmm__thread_scratch(c);
+        pc = KIFMM__F(__scratch)(c);
         kifmm__box_center(t, b, ctr, &half);
-        kifmm__surf_place(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_OUTER * half, pc);
+        KIFMM__F(__place)(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_OUTER * half, pc);
         KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc,
-                              t->src + s0, t->src + t->ns + s0, t->src + 2 * t->ns + s0,
-                              c->qs + s0 * KIFMM__SD, ns, scale,
-                              c->chk + (size_t)(b - t->loff[l]) * c->nc);
+                              c->src + s0, c->src + t->ns + s0, c->src + 2 * t->ns + s0,
+                              w->qs + s0 * KIFMM__SD, ns, nrhs, (size_t)t->ns * KIFMM__SD, scale,
+                              w->chk + (size_t)(b - t->loff[l]) * c->nc, (size_t)nl * c->nc);
     }
     t1 = kifmm__now();
     c->stats->t_p2m += t1 - t0;
-    kifmm__m2m_level(c, l);
-    kifmm__solve_step(c, l, 1, 0);
-    kifmm__solve_step(c, l, 1, 1);
+    KIFMM__F(__m2m_level)(c, w, nrhs, l);
+    KIFMM__F(__solve_step)(c, w, nrhs, l, 1, 0);
+    KIFMM__F(__solve_step)(c, w, nrhs, l, 1, 1);
     c->stats->t_m2m += kifmm__now() - t1;
 }
 
 /* Downward pass at level l: L2L from the parents, P2L over X lists, the first
  * solve step, M2L over V lists (already in the solve's space), the second
  * solve step. Timed as L2L (with the solve), P2L and M2L. */
-KIFMM__FN void KIFMM__F(__downward)(const kifmm__core *c, int l)
+KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                    int l)
 {
     const kifmm__tree *t = &c->tree;
     int32_t b;
-    double scale = kifmm__level_scale(c, l), t0 = kifmm__now(), t1, t2, t3, t4;
-    if (l >= 3) kifmm__l2l_level(c, l);
-    else memset(c->chk, 0, (size_t)(t->loff[l + 1] - t->loff[l]) * c->nc * sizeof(double));
+    int nl = KIFMM__LVL(c, l);
+    size_t cst = (size_t)nl * c->nc, per = (size_t)t->nbox * (size_t)c->ne;
+    double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1, t2, t3, t4;
+    if (l >= 3) KIFMM__F(__l2l_level)(c, w, nrhs, l);
+    else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
     t1 = kifmm__now();
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
     for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
-        double *pc, *pe, ctr[3], half;
-        double *chk = c->chk + (size_t)(b - t->loff[l]) * c->nc;
+        KIFMM__R *pc, *pe;
+        double ctr[3], half;
+        KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * c->nc;
         int32_t e, a = l >= 3 ? t->dsrc[t->parent[b]] : -1;
+        int r;
         if (t->dsrc[b] != b) {
             /* no refit here: the box is served by an ancestor's expansion */
-            memset(chk, 0, (size_t)c->nc * sizeof(double));
+            for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)c->nc * sizeof(KIFMM__R));
             continue;
         }
-        pc = kifmm__thread_scratch(c);
+        pc = KIFMM__F(__scratch)(c);
         pe = pc + 3 * (c->nsc > c->nse ? c->nsc : c->nse);
         kifmm__box_center(t, b, ctr, &half);
-        kifmm__surf_place(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_INNER * half, pc);
+        KIFMM__F(__place)(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_INNER * half, pc);
         if (a >= 0 && a != t->parent[b]) {
             /* L2L from an ancestor above the parent, by direct evaluation */
             double ac[3], ah;
             kifmm__box_center(t, a, ac, &ah);
-            kifmm__surf_place(c->surf_e, c->nse, ac, KIFMM__ALPHA_OUTER * ah, pe);
+            KIFMM__F(__place)(c->surf_e, c->nse, ac, KIFMM__ALPHA_OUTER * ah, pe);
             KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, pe,
-                                  pe + c->nse, pe + 2 * c->nse, c->de + (size_t)a * c->ne,
-                                  c->nse, scale, chk);
+                                  pe + c->nse, pe + 2 * c->nse, w->de + (size_t)a * c->ne,
+                                  c->nse, nrhs, per, scale, chk, cst);
         }
         for (e = t->xo[b]; e < t->xo[b + 1]; e++) {
             int32_t xb = t->x[e];
             int64_t s0 = t->s0[xb];
             KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc,
-                                  t->src + s0, t->src + t->ns + s0, t->src + 2 * t->ns + s0,
-                                  c->qs + s0 * KIFMM__SD, t->s1[xb] - s0, scale, chk);
+                                  c->src + s0, c->src + t->ns + s0, c->src + 2 * t->ns + s0,
+                                  w->qs + s0 * KIFMM__SD, t->s1[xb] - s0, nrhs,
+                                  (size_t)t->ns * KIFMM__SD, scale, chk, cst);
         }
     }
     t2 = kifmm__now();
-    kifmm__solve_step(c, l, 0, 0);
+    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 0);
     t3 = kifmm__now();
-    kifmm__m2l_level(c, l);
+    KIFMM__F(__m2l_level)(c, w, nrhs, l);
     t4 = kifmm__now();
-    kifmm__solve_step(c, l, 0, 1);
+    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 1);
     c->stats->t_p2l += t2 - t1;
     c->stats->t_m2l += t4 - t3;
     c->stats->t_l2l += (t1 - t0) + (t3 - t2) + (kifmm__now() - t4);
 }
 
-/* out += the field, at nt targets, of a density on the surface of box a
- * (radius alpha half-widths); pe holds the placed surface. */
-KIFMM__FN void KIFMM__F(__from_surface)(const kifmm__core *c, int32_t a, double alpha,
-                                        const double *dens, const double *tx, const double *ty,
-                                        const double *tz, int64_t nt, double *pe, double *out)
+/* out += the field, at nt targets, of densities (vector stride `per`) on the
+ * surface of box a (radius alpha half-widths); pe holds the placed surface. */
+KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                        int32_t a, double alpha, const KIFMM__R *dens,
+                                        const KIFMM__R *tx, const KIFMM__R *ty,
+                                        const KIFMM__R *tz, int64_t nt, KIFMM__R *pe,
+                                        KIFMM__R *out)
 {
     double ctr[3], half;
     kifmm__box_center(&c->tree, a, ctr, &half);
-    kifmm__surf_place(c->surf_e, c->nse, ctr, alpha * half, pe);
-    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, pe, pe + c->nse, pe + 2 * c->nse, dens, c->nse, 1.0,
-                    out);
+    KIFMM__F(__place)(c->surf_e, c->nse, ctr, alpha * half, pe);
+    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, pe, pe + c->nse, pe + 2 * c->nse, dens, c->nse,
+                    nrhs, (size_t)c->tree.nbox * c->ne, 1.0, out,
+                    (size_t)c->tree.nt * KIFMM__TD);
+    (void)w;
 }
 
 /* out += the field, at nt targets, of the sources of box a. */
-KIFMM__FN void KIFMM__F(__from_sources)(const kifmm__core *c, int32_t a, const double *tx,
-                                        const double *ty, const double *tz, int64_t nt,
-                                        double *out)
+KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                        int32_t a, const KIFMM__R *tx, const KIFMM__R *ty,
+                                        const KIFMM__R *tz, int64_t nt, KIFMM__R *out)
 {
     const kifmm__tree *t = &c->tree;
     int64_t s0 = t->s0[a];
-    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, t->src + s0, t->src + t->ns + s0,
-                    t->src + 2 * t->ns + s0, c->qs + s0 * KIFMM__SD, t->s1[a] - s0, 1.0, out);
+    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, c->src + s0, c->src + t->ns + s0,
+                    c->src + 2 * t->ns + s0, w->qs + s0 * KIFMM__SD, t->s1[a] - s0, nrhs,
+                    (size_t)t->ns * KIFMM__SD, 1.0, out, (size_t)t->nt * KIFMM__TD);
 }
 
 /* Leaves with targets: L2P, M2P over W (direct when the box holds fewer
  * sources than its surface has points), P2P over U. */
-KIFMM__FN void KIFMM__F(__leaves)(const kifmm__core *c)
+KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
 {
     const kifmm__tree *t = &c->tree;
     int32_t i;
@@ -1566,31 +1768,32 @@ KIFMM__FN void KIFMM__F(__leaves)(const kifmm__core *c)
     for (i = 0; i < t->nleaves; i++) {
         int32_t b = t->leaves[i], e;
         int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
-        const double *tx = t->trg + t0, *ty = t->trg + t->nt + t0, *tz = t->trg + 2 * t->nt + t0;
-        double *out = c->outs + t0 * KIFMM__TD, *pe = kifmm__thread_scratch(c);
+        const KIFMM__R *tx = c->trg + t0, *ty = c->trg + t->nt + t0, *tz = c->trg + 2 * t->nt + t0;
+        KIFMM__R *out = w->outs + t0 * KIFMM__TD, *pe = KIFMM__F(__scratch)(c);
         double c0 = kifmm__now(), c1, c2;
         if (t->dsrc[b] >= 0)
-            KIFMM__F(__from_surface)(c, t->dsrc[b], KIFMM__ALPHA_OUTER,
-                                     c->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe, out);
+            KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__ALPHA_OUTER,
+                                     w->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe,
+                                     out);
         c1 = kifmm__now();
         for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
             int32_t a = t->w[e];
             if (t->s1[a] - t->s0[a] <= c->nse)
-                KIFMM__F(__from_sources)(c, a, tx, ty, tz, ntb, out);
+                KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out);
             else
-                KIFMM__F(__from_surface)(c, a, KIFMM__ALPHA_INNER, c->ue + (size_t)a * c->ne, tx,
-                                         ty, tz, ntb, pe, out);
+                KIFMM__F(__from_surface)(c, w, nrhs, a, KIFMM__ALPHA_INNER,
+                                         w->ue + (size_t)a * c->ne, tx, ty, tz, ntb, pe, out);
         }
         c2 = kifmm__now();
         for (e = t->uo[b]; e < t->uo[b + 1]; e++)
-            KIFMM__F(__from_sources)(c, t->u[e], tx, ty, tz, ntb, out);
+            KIFMM__F(__from_sources)(c, w, nrhs, t->u[e], tx, ty, tz, ntb, out);
         tl += c1 - c0;
         tw += c2 - c1;
         tu += kifmm__now() - c2;
     }
-    c->stats->t_l2p = tl / c->nthreads;
-    c->stats->t_m2p = tw / c->nthreads;
-    c->stats->t_p2p = tu / c->nthreads;
+    c->stats->t_l2p += tl / c->nthreads;
+    c->stats->t_m2p += tw / c->nthreads;
+    c->stats->t_p2p += tu / c->nthreads;
 }
 
 /* ---- public entry points ------------------------------------------------ */
@@ -1598,12 +1801,26 @@ KIFMM__FN void KIFMM__F(__leaves)(const kifmm__core *c)
 /* <prefix>_destroy: free a handle and everything it owns. NULL is a no-op. */
 KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
 {
+    int i;
     if (!h) return;
-    kifmm__core_free(&h->c);
+#if KIFMM__FLOAT
+    kifmm__free(h->src);
+    kifmm__free(h->trg);
+#endif
+    kifmm__tree_free(&h->tree);
+    if (h->ops) {
+        for (i = 0; i < h->nops; i++) KIFMM__F(__ops_free)(&h->ops[i]);
+        kifmm__free(h->ops);
+    }
+    kifmm__free(h->surf_e);
+    kifmm__free(h->surf_c);
+    kifmm__free(h->scratch);
+    KIFMM__F(__work_free)(h->w);
+    kifmm__free(h->stats);
     kifmm__free(h);
 }
 
-KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const double *xyz)
+KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const KIFMM__R *xyz)
 {
     int64_t i;
     if (n < 0) return KIFMM_ERR_COUNT;
@@ -1613,72 +1830,127 @@ KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const double *xyz)
     return KIFMM_SUCCESS;
 }
 
+/* The kernel's parameters with defaults resolved, or KIFMM_ERR_PARAM. */
+KIFMM__FN int KIFMM__F(__params)(const double *in, double *out)
+{
+    int d;
+    for (d = 0; d < 4; d++) {
+        if (!isfinite(in[d])) return KIFMM_ERR_PARAM;
+        out[d] = in[d];
+    }
+#if KIFMM__K(_SETUP)
+    if (KIFMM__K(_setup)(in, out) != 0) return KIFMM_ERR_PARAM;
+#endif
+    return KIFMM_SUCCESS;
+}
+
+/* Tree over the points given in the instance's precision: double goes
+ * straight in, float through a double copy. Sets c->src and c->trg. */
+KIFMM__FN int KIFMM__F(__tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, int64_t nt,
+                               const KIFMM__R *trg)
+{
+    const kifmm_opts *o = &c->opts;
+    int rc;
+#if KIFMM__FLOAT
+    double *s = (double *)kifmm__alloc((size_t)(3 * ns), sizeof(double));
+    double *g = (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
+    int64_t i;
+    if (!s || !g) {
+        kifmm__free(s);
+        kifmm__free(g);
+        return KIFMM_ERR_NOMEM;
+    }
+    for (i = 0; i < 3 * ns; i++) s[i] = src[i];
+    for (i = 0; i < 3 * nt; i++) g[i] = trg[i];
+    rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads);
+    kifmm__free(s);
+    kifmm__free(g);
+    if (rc) return rc;
+    c->src = KIFMM__F(__own)(&c->tree.src, (size_t)(3 * ns));
+    c->trg = KIFMM__F(__own)(&c->tree.trg, (size_t)(3 * nt));
+    if (!c->src || !c->trg) return KIFMM_ERR_NOMEM;
+#else
+    rc = kifmm__tree_build(&c->tree, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads);
+    if (rc) return rc;
+    c->src = c->tree.src;
+    c->trg = c->tree.trg;
+#endif
+    return KIFMM_SUCCESS;
+}
+
 /* <prefix>_create: build the tree and the operators for these points.
  *   out      (out) the new handle; NULL on failure
  *   opts     (in)  options, NULL for all defaults (see kifmm_opts)
  *   nsources, src_xyz  (in) source points, x[3*i+k]
  *   ntargets, trg_xyz  (in) target points, x[3*j+k]
- * The handle keeps no pointer to the caller's arrays. Returns KIFMM_SUCCESS or
- * a negative kifmm result; on failure nothing is leaked. Thread safe: distinct
- * handles may be created concurrently. */
+ * Coordinates, densities and outputs are KIFMM_REAL (double unless the
+ * instance was made with KIFMM_REAL float). The handle keeps no pointer to the
+ * caller's arrays. Returns KIFMM_SUCCESS or a negative kifmm result; on
+ * failure nothing is leaked. Thread safe: distinct handles may be created
+ * concurrently. */
 KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
-                                const double *src_xyz, int64_t ntargets, const double *trg_xyz)
+                                const KIFMM__R *src_xyz, int64_t ntargets,
+                                const KIFMM__R *trg_xyz)
 {
     KIFMM_NAME *h;
-    kifmm__core *c;
     kifmm_opts o;
-    int rc, d;
+    double param[4];
+    int rc;
     double t0, t1;
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if ((rc = kifmm__resolve_opts(opts, &o))) return rc;
     if ((rc = KIFMM__F(__check_points)(nsources, src_xyz))) return rc;
     if ((rc = KIFMM__F(__check_points)(ntargets, trg_xyz))) return rc;
-    for (d = 0; d < 4; d++)
-        if (!isfinite(o.kernel_param[d])) return KIFMM_ERR_PARAM;
+    if ((rc = KIFMM__F(__params)(o.kernel_param, param))) return rc;
+    memcpy(o.kernel_param, param, sizeof param);
     h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h);
     if (!h) return KIFMM_ERR_NOMEM;
-    c = &h->c;
-    c->stats = (kifmm_stats *)kifmm__calloc(1, sizeof(kifmm_stats));
-    if (!c->stats) {
+    h->stats = (kifmm_stats *)kifmm__calloc(1, sizeof(kifmm_stats));
+    if (!h->stats) {
         kifmm__free(h);
         return KIFMM_ERR_NOMEM;
     }
-    c->opts = o;
-    c->nthreads = o.nthreads;
-    c->sd = KIFMM__SD;
-    c->td = KIFMM__TD;
-    c->scale_invariant = KIFMM__K(_SCALE_INVARIANT) ? 1 : 0;
-    c->degree = (double)(KIFMM__K(_DEGREE));
-    for (d = 0; d < 4; d++) c->param[d] = o.kernel_param[d];
-    c->tree.ns = nsources;
-    c->tree.nt = ntargets;
+    h->opts = o;
+    h->nthreads = o.nthreads;
+    h->degree = (double)(KIFMM__K(_DEGREE));
+    memcpy(h->param, param, sizeof param);
+    h->tree.ns = nsources;
+    h->tree.nt = ntargets;
     if (nsources == 0 || ntargets == 0) {
         *out = h;
         return KIFMM_SUCCESS;
     }
-    c->nse = kifmm__surf_count(o.order);
-    c->nsc = kifmm__surf_count(o.order + KIFMM_CHECK_ORDER_DIFF);
-    c->ne = c->nse * KIFMM__SD;
-    c->nc = c->nsc * KIFMM__SD;
-    c->surf_e = (double *)kifmm__alloc((size_t)3 * c->nse, sizeof(double));
-    c->surf_c = (double *)kifmm__alloc((size_t)3 * c->nsc, sizeof(double));
-    if (!c->surf_e || !c->surf_c) { rc = KIFMM_ERR_NOMEM; goto fail; }
-    kifmm__surf_unit(o.order, c->surf_e);
-    kifmm__surf_unit(o.order + KIFMM_CHECK_ORDER_DIFF, c->surf_c);
+    h->nse = kifmm__surf_count(o.order);
+    h->nsc = kifmm__surf_count(o.order + KIFMM_CHECK_ORDER_DIFF);
+    h->ne = h->nse * KIFMM__SD;
+    h->nc = h->nsc * KIFMM__SD;
+    h->surf_e = (double *)kifmm__alloc((size_t)3 * h->nse, sizeof(double));
+    h->surf_c = (double *)kifmm__alloc((size_t)3 * h->nsc, sizeof(double));
+    h->scratch = (KIFMM__R *)kifmm__alloc(
+        (size_t)h->nthreads * 9 * (size_t)(h->nsc > h->nse ? h->nsc : h->nse), sizeof(KIFMM__R));
+    if (!h->surf_e || !h->surf_c || !h->scratch) { rc = KIFMM_ERR_NOMEM; goto fail; }
+    kifmm__surf_unit(o.order, h->surf_e);
+    kifmm__surf_unit(o.order + KIFMM_CHECK_ORDER_DIFF, h->surf_c);
     t0 = kifmm__now();
-    rc = kifmm__tree_build(&c->tree, nsources, src_xyz, ntargets, trg_xyz, o.leaf_size,
-                           o.max_depth, o.nthreads);
-    if (rc) goto fail;
+    if ((rc = KIFMM__F(__tree)(h, nsources, src_xyz, ntargets, trg_xyz))) goto fail;
     t1 = kifmm__now();
-    if ((rc = KIFMM__F(__precompute)(c))) goto fail;
-    if ((rc = kifmm__core_alloc_work(c))) goto fail;
-    c->stats->t_tree = t1 - t0;
-    c->stats->t_operators = kifmm__now() - t1;
-    c->stats->levels = c->tree.nlev;
-    c->stats->boxes = c->tree.nbox;
-    c->stats->leaves = c->tree.nleaves;
-    c->stats->bytes = kifmm__core_bytes(c);
+    if ((rc = KIFMM__F(__precompute)(h))) goto fail;
+    h->mb = kifmm__max_level_boxes(&h->tree);
+    {
+        /* about 64 MB of stacked multipoles per M2L GEMM */
+        size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->ne);
+        if (cols < KIFMM__RHS_MAX) cols = KIFMM__RHS_MAX;
+        if (cols > (size_t)h->mb * KIFMM__RHS_MAX) cols = (size_t)h->mb * KIFMM__RHS_MAX;
+        h->m2l_cols = (int)cols;
+    }
+    if (!(h->w = KIFMM__F(__work_new)(h, 1))) { rc = KIFMM_ERR_NOMEM; goto fail; }
+    h->stats->t_tree = t1 - t0;
+    h->stats->t_operators = kifmm__now() - t1;
+    h->stats->levels = h->tree.nlev;
+    h->stats->boxes = h->tree.nbox;
+    h->stats->leaves = h->tree.nleaves;
+    h->stats->bytes = KIFMM__F(__bytes)(h);
     *out = h;
     return KIFMM_SUCCESS;
 fail:
@@ -1686,50 +1958,86 @@ fail:
     return rc;
 }
 
+/* <prefix>_evaluate_many: nrhs density vectors at once, densities as nrhs
+ * consecutive blocks of nsources*SRC_DIM, outputs as nrhs consecutive blocks
+ * of ntargets*TRG_DIM (each block laid out as in evaluate). The kernel is
+ * evaluated once per point pair for up to 8 vectors (generic kernel loops)
+ * and the translations run as GEMMs over boxes and vectors together. Outputs
+ * are overwritten. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT
+ * (nrhs < 0) or KIFMM_ERR_NOMEM (workspace for more vectors than before; then
+ * out is untouched). nrhs == 0 does nothing. Not thread safe on one handle. */
+KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
+                                       KIFMM__R *out)
+{
+    const kifmm__tree *t;
+    KIFMM__F(__work) *w;
+    int64_t i;
+    int l, r0, nr, cap;
+    double t0;
+    size_t qper, oper;
+    if (!h) return KIFMM_ERR_NULL;
+    if (nrhs < 0) return KIFMM_ERR_COUNT;
+    t = &h->tree;
+    if ((t->ns > 0 && nrhs > 0 && !densities) || (t->nt > 0 && nrhs > 0 && !out))
+        return KIFMM_ERR_NULL;
+    if (t->nt == 0 || nrhs == 0) return KIFMM_SUCCESS;
+    qper = (size_t)t->ns * KIFMM__SD;
+    oper = (size_t)t->nt * KIFMM__TD;
+    if (t->ns == 0) {
+        memset(out, 0, (size_t)nrhs * oper * sizeof(KIFMM__R));
+        return KIFMM_SUCCESS;
+    }
+    cap = nrhs < KIFMM__RHS_MAX ? nrhs : KIFMM__RHS_MAX;
+    if (h->w->nrhs < cap) {
+        /* more vectors than any call before: a larger workspace (the handle
+         * is the caller's, allocated by create; only its workspace changes) */
+        KIFMM__F(__work) *nw = KIFMM__F(__work_new)(h, cap);
+        if (!nw) return KIFMM_ERR_NOMEM;
+        KIFMM__F(__work_free)(h->w);
+        ((KIFMM_NAME *)h)->w = nw;
+        h->stats->bytes = KIFMM__F(__bytes)(h);
+    }
+    w = h->w;
+    t0 = kifmm__now();
+    {
+        kifmm_stats *st = h->stats;
+        st->t_p2m = st->t_m2m = st->t_m2l = st->t_l2l = st->t_p2l = 0.0;
+        st->t_l2p = st->t_m2p = st->t_p2p = 0.0;
+    }
+    for (r0 = 0; r0 < nrhs; r0 += nr) {
+        nr = nrhs - r0 < cap ? nrhs - r0 : cap;
+        KIFMM__OMP(parallel for schedule(static) num_threads(h->nthreads))
+        for (i = 0; i < t->ns; i++) {
+            int k, r;
+            for (r = 0; r < nr; r++)
+                for (k = 0; k < KIFMM__SD; k++)
+                    w->qs[r * qper + i * KIFMM__SD + k] =
+                        densities[(r0 + r) * qper + t->sperm[i] * KIFMM__SD + k];
+        }
+        memset(w->outs, 0, (size_t)nr * oper * sizeof(KIFMM__R));
+        for (l = t->nlev - 1; l >= 2; l--) KIFMM__F(__upward)(h, w, nr, l);
+        for (l = 2; l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
+        KIFMM__F(__leaves)(h, w, nr);
+        KIFMM__OMP(parallel for schedule(static) num_threads(h->nthreads))
+        for (i = 0; i < t->nt; i++) {
+            int k, r;
+            for (r = 0; r < nr; r++)
+                for (k = 0; k < KIFMM__TD; k++)
+                    out[(r0 + r) * oper + t->tperm[i] * KIFMM__TD + k] =
+                        w->outs[r * oper + i * KIFMM__TD + k];
+        }
+    }
+    h->stats->t_evaluate = kifmm__now() - t0;
+    return KIFMM_SUCCESS;
+}
+
 /* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
  * order, from densities[i*SRC_DIM + d]. Outputs are overwritten. Returns
  * KIFMM_SUCCESS or KIFMM_ERR_NULL (then out is untouched). Not thread safe
  * on one handle (the handle holds the workspace); use one handle per thread. */
-KIFMM__FN int KIFMM__F(_evaluate)(const KIFMM_NAME *h, const double *densities, double *out)
+KIFMM__FN int KIFMM__F(_evaluate)(const KIFMM_NAME *h, const KIFMM__R *densities, KIFMM__R *out)
 {
-    const kifmm__core *c;
-    const kifmm__tree *t;
-    int64_t i;
-    int l;
-    double t0;
-    if (!h) return KIFMM_ERR_NULL;
-    c = &h->c;
-    t = &c->tree;
-    if ((t->ns > 0 && !densities) || (t->nt > 0 && !out)) return KIFMM_ERR_NULL;
-    if (t->nt == 0) return KIFMM_SUCCESS;
-    if (t->ns == 0) {
-        memset(out, 0, (size_t)t->nt * KIFMM__TD * sizeof(double));
-        return KIFMM_SUCCESS;
-    }
-    t0 = kifmm__now();
-    {
-        kifmm_stats *st = c->stats;
-        st->t_p2m = st->t_m2m = st->t_m2l = st->t_l2l = st->t_p2l = 0.0;
-        st->t_l2p = st->t_m2p = st->t_p2p = 0.0;
-    }
-    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-    for (i = 0; i < t->ns; i++) {
-        int k;
-        for (k = 0; k < KIFMM__SD; k++)
-            c->qs[i * KIFMM__SD + k] = densities[t->sperm[i] * KIFMM__SD + k];
-    }
-    memset(c->outs, 0, (size_t)t->nt * KIFMM__TD * sizeof(double));
-    for (l = t->nlev - 1; l >= 2; l--) KIFMM__F(__upward)(c, l);
-    for (l = 2; l < t->nlev; l++) KIFMM__F(__downward)(c, l);
-    KIFMM__F(__leaves)(c);
-    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-    for (i = 0; i < t->nt; i++) {
-        int k;
-        for (k = 0; k < KIFMM__TD; k++)
-            out[t->tperm[i] * KIFMM__TD + k] = c->outs[i * KIFMM__TD + k];
-    }
-    c->stats->t_evaluate = kifmm__now() - t0;
-    return KIFMM_SUCCESS;
+    return KIFMM__F(_evaluate_many)(h, 1, densities, out);
 }
 
 /* <prefix>_stats: tree size, memory held, and the time of create's stages
@@ -1737,22 +2045,31 @@ KIFMM__FN int KIFMM__F(_evaluate)(const KIFMM_NAME *h, const double *densities, 
 KIFMM__FN int KIFMM__F(_stats)(const KIFMM_NAME *h, kifmm_stats *out)
 {
     if (!h || !out) return KIFMM_ERR_NULL;
-    *out = *h->c.stats;
+    *out = *h->stats;
     return KIFMM_SUCCESS;
 }
 
-/* <prefix>_options: the options the handle uses, defaults resolved. */
+/* <prefix>_options: the options the handle uses, defaults resolved (kernel
+ * parameters included). */
 KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 {
     if (!h || !used) return KIFMM_ERR_NULL;
-    *used = h->c.opts;
+    *used = h->opts;
     return KIFMM_SUCCESS;
 }
 
 /* ======================================================================== */
 /* 5. Epilogue: the next include starts clean                              */
 /* ======================================================================== */
+#undef KIFMM__LVL
+#undef KIFMM__DEFINE_P2P_HOOK
 #undef KIFMM__DEFINE_P2P
+#undef KIFMM__HOOKE
+#undef KIFMM__HAS_HOOKE
+#undef KIFMM__HOOK
+#undef KIFMM__HAS_HOOK
+#undef KIFMM__FLOAT
+#undef KIFMM__R
 #undef KIFMM__EVALE
 #undef KIFMM__KE
 #undef KIFMM__EVAL
@@ -1761,6 +2078,7 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__F
 #undef KIFMM__K
 #undef KIFMM_NAME
+#undef KIFMM_REAL
 #undef KIFMM_KERNEL
 
 /* License: MIT. Copyright (c) 2026 the kifmm.h authors. Permission is hereby

@@ -15,6 +15,11 @@
  *   --dump FILE    write points, charges, sample indices and the direct sums
  *                  there (input of bench/fmm3d_run.py; format in write_dump)
  *   --result FILE  write the row's numbers as key=value text there
+ *   --float        use the single-precision instance (KIFMM_REAL float); the
+ *                  points and charges are rounded to float, the error is
+ *                  still against the double direct sums
+ *   --nrhs K       evaluate K density vectors in one evaluate_many call (the
+ *                  first is the one checked); "evaluate" is the whole call
  *
  * Each case should run in its own process: the peak memory reported is the
  * process's high-water mark (getrusage ru_maxrss), read right after evaluate.
@@ -33,6 +38,10 @@
 #include <sys/resource.h>
 
 #define KIFMM_KERNEL laplace_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_grad
+#define KIFMM_REAL float
+#define KIFMM_NAME kifmm_laplace_gradf
 #include "kifmm.h"
 
 #include <omp.h>
@@ -235,7 +244,7 @@ static void print_info(void)
 /* Table                                                                    */
 /* ------------------------------------------------------------------------ */
 #define ROW_FMT                                                                              \
-    "%-9s %8s %2s %4s %3s %8s %8s %8s | %7s %7s %7s %7s %7s %7s %7s %7s %7s %7s | %7s %7s | " \
+    "%-15s %8s %2s %4s %3s %8s %8s %8s | %7s %7s %7s %7s %7s %7s %7s %7s %7s %7s | %7s %7s | " \
     "%8s %8s %9s\n"
 
 static void print_header(int legend)
@@ -250,6 +259,8 @@ static void print_header(int legend)
                "included); fmmMiB = memory the handle holds\n");
         printf("# err = relative L2 error vs direct summation on the sample targets; direct = "
                "direct summation time for all N targets, estimated from the sample\n");
+        printf("# dist/f32 = single-precision instance; dist/xK = K density vectors in one "
+               "evaluate_many call (evaluate and stage times for all K)\n");
     }
 }
 
@@ -280,18 +291,71 @@ static void write_dump(const char *path, int64_t n, const double *xyz, const dou
     }
 }
 
+/* create + evaluate (or evaluate_many) of one instance on double inputs;
+ * float instances get rounded copies, their first output vector is widened
+ * into out. */
+typedef struct {
+    double t_create, t_eval;
+    kifmm_stats st;
+    kifmm_opts used;
+} run_result;
+
+#define DEFINE_RUN(P, R)                                                                     \
+    static int run_##P(int64_t n, const double *xyz, const double *q, int nrhs,              \
+                       const kifmm_opts *opts, int repeat, double *out, run_result *res)     \
+    {                                                                                        \
+        P *fmm = NULL;                                                                       \
+        R *x = (R *)xyz, *qq = (R *)q, *o = (R *)out;                                        \
+        int64_t i, nq = (int64_t)nrhs * n, no = (int64_t)nrhs * n * 4;                       \
+        double t0;                                                                           \
+        int rc, r;                                                                           \
+        if (sizeof(R) != sizeof(double)) {                                                   \
+            x = (R *)malloc((size_t)(3 * n) * sizeof(R));                                    \
+            qq = (R *)malloc((size_t)nq * sizeof(R));                                        \
+            o = (R *)malloc((size_t)no * sizeof(R));                                         \
+            if (!x || !qq || !o) return KIFMM_ERR_NOMEM;                                     \
+            for (i = 0; i < 3 * n; i++) x[i] = (R)xyz[i];                                    \
+            for (i = 0; i < nq; i++) qq[i] = (R)q[i];                                        \
+            memset(o, 0, (size_t)no * sizeof(R));                                            \
+        }                                                                                    \
+        t0 = omp_get_wtime();                                                                \
+        rc = P##_create(&fmm, opts, n, x, n, x);                                             \
+        res->t_create = omp_get_wtime() - t0;                                                \
+        for (r = 0; r < repeat && rc == KIFMM_SUCCESS; r++) {                                \
+            t0 = omp_get_wtime();                                                            \
+            rc = nrhs == 1 ? P##_evaluate(fmm, qq, o) : P##_evaluate_many(fmm, nrhs, qq, o); \
+            res->t_eval = omp_get_wtime() - t0;                                              \
+        }                                                                                    \
+        if (rc == KIFMM_SUCCESS) {                                                           \
+            P##_options(fmm, &res->used);                                                    \
+            P##_stats(fmm, &res->st);                                                        \
+        }                                                                                    \
+        P##_destroy(fmm);                                                                    \
+        if (sizeof(R) != sizeof(double)) {                                                   \
+            for (i = 0; i < 4 * n; i++) out[i] = (double)o[i];                               \
+            free(x);                                                                         \
+            free(qq);                                                                        \
+            free(o);                                                                         \
+        }                                                                                    \
+        return rc;                                                                           \
+    }
+
+DEFINE_RUN(kifmm_laplace_grad, double)
+DEFINE_RUN(kifmm_laplace_gradf, float)
+
 static void usage(const char *argv0)
 {
     fprintf(stderr,
             "usage: %s --info | --header [-v] | DIST N P [--sample S] [--leaf L] [--repeat R]\n"
-            "       [--dump FILE] [--result FILE]      DIST: cube, sphere or clustered\n",
+            "       [--dump FILE] [--result FILE] [--float] [--nrhs K]\n"
+            "       DIST: cube, sphere or clustered\n",
             argv0);
     exit(2);
 }
 
 int main(int argc, char **argv)
 {
-    int dist = -1, order, leaf = 0, repeat = 1, r, rc, a;
+    int dist = -1, order, leaf = 0, repeat = 1, rc, a, single = 0, nrhs = 1;
     int64_t n, ns = 1000, i, s;
     const char *dump = NULL, *result = NULL;
     double *xyz, *q, *out, *ref;
@@ -300,7 +364,7 @@ int main(int argc, char **argv)
     double num_p = 0, den_p = 0, num_g = 0, den_g = 0, err_p, err_g;
     kifmm_opts opts = {0}, used;
     kifmm_stats st;
-    kifmm_laplace_grad *fmm = NULL;
+    run_result res;
     struct rusage ru;
     char nbuf[32], pbuf[8], lbuf[16], vbuf[8], c[13][16];
 
@@ -319,20 +383,26 @@ int main(int argc, char **argv)
     order = atoi(argv[3]);
     if (dist < 0 || n < 1) usage(argv[0]);
     for (a = 4; a < argc; a++) {
+        if (!strcmp(argv[a], "--float")) {
+            single = 1;
+            continue;
+        }
         if (a + 1 >= argc) usage(argv[0]);
         if (!strcmp(argv[a], "--sample")) ns = (int64_t)atof(argv[++a]);
         else if (!strcmp(argv[a], "--leaf")) leaf = atoi(argv[++a]);
         else if (!strcmp(argv[a], "--repeat")) repeat = atoi(argv[++a]);
         else if (!strcmp(argv[a], "--dump")) dump = argv[++a];
         else if (!strcmp(argv[a], "--result")) result = argv[++a];
+        else if (!strcmp(argv[a], "--float")) single = 1;
+        else if (!strcmp(argv[a], "--nrhs")) nrhs = atoi(argv[++a]);
         else usage(argv[0]);
     }
     if (ns > n) ns = n;
-    if (ns < 1 || repeat < 1) usage(argv[0]);
+    if (ns < 1 || repeat < 1 || nrhs < 1) usage(argv[0]);
 
     xyz = malloc((size_t)n * 3 * sizeof(double));
-    q = malloc((size_t)n * sizeof(double));
-    out = malloc((size_t)n * 4 * sizeof(double));
+    q = malloc((size_t)n * nrhs * sizeof(double));
+    out = malloc((size_t)n * 4 * nrhs * sizeof(double));
     idx = malloc((size_t)ns * sizeof(int64_t));
     ref = malloc((size_t)ns * 4 * sizeof(double));
     if (!xyz || !q || !out || !idx || !ref) {
@@ -341,37 +411,31 @@ int main(int argc, char **argv)
     }
     /* The points and charges depend on (DIST, N) only, not on the order. */
     make_points(dist, n, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, xyz, q);
+    /* further density vectors: more charges of the same kind */
+    {
+        uint64_t st2 = UINT64_C(0xC0FFEE);
+        for (i = n; i < n * nrhs; i++) q[i] = 2.0 * random01(&st2) - 1.0;
+    }
     /* touch the output array so its first-touch cost is not timed */
-    memset(out, 0, (size_t)n * 4 * sizeof(double));
+    memset(out, 0, (size_t)n * 4 * nrhs * sizeof(double));
 
     opts.order = order;
     opts.leaf_size = leaf;
     opts.nthreads = omp_get_max_threads();
-    t0 = omp_get_wtime();
-    rc = kifmm_laplace_grad_create(&fmm, &opts, n, xyz, n, xyz);
-    t_create = omp_get_wtime() - t0;
+    memset(&res, 0, sizeof res);
+    rc = single ? run_kifmm_laplace_gradf(n, xyz, q, nrhs, &opts, repeat, out, &res)
+                : run_kifmm_laplace_grad(n, xyz, q, nrhs, &opts, repeat, out, &res);
     if (rc != KIFMM_SUCCESS) {
-        fprintf(stderr, "bench: create(%s, N=%lld, p=%d): %s\n", dist_names[dist], (long long)n,
-                order, kifmm_strerror(rc));
+        fprintf(stderr, "bench: %s, N=%lld, p=%d: %s\n", dist_names[dist], (long long)n, order,
+                kifmm_strerror(rc));
         return 1;
-    }
-    t_eval = 0;
-    for (r = 0; r < repeat; r++) {
-        t0 = omp_get_wtime();
-        rc = kifmm_laplace_grad_evaluate(fmm, q, out);
-        t_eval = omp_get_wtime() - t0;
-        if (rc != KIFMM_SUCCESS) {
-            fprintf(stderr, "bench: evaluate: %s\n", kifmm_strerror(rc));
-            return 1;
-        }
     }
     getrusage(RUSAGE_SELF, &ru);
     peak_mib = (double)ru.ru_maxrss / 1024.0; /* Linux: kilobytes */
-    memset(&st, 0, sizeof st);
-    kifmm_laplace_grad_options(fmm, &used);
-    rc = kifmm_laplace_grad_stats(fmm, &st);
-    if (rc != KIFMM_SUCCESS) fprintf(stderr, "bench: stats: %s\n", kifmm_strerror(rc));
-    kifmm_laplace_grad_destroy(fmm);
+    t_create = res.t_create;
+    t_eval = res.t_eval;
+    st = res.st;
+    used = res.used;
 
     /* Sample targets: evenly strided through the (randomly generated) set. */
     for (s = 0; s < ns; s++) idx[s] = (s * n) / ns + (n / ns) / 2;
@@ -408,7 +472,10 @@ int main(int argc, char **argv)
         snprintf(ep, sizeof ep, "%.2e", err_p);
         snprintf(eg, sizeof eg, "%.2e", err_g);
         snprintf(dt, sizeof dt, t_direct < 1000 ? "%.2f" : "%.3g", t_direct);
-        printf(ROW_FMT, dist_names[dist], nbuf, pbuf, lbuf, vbuf, c[0], c[1], c[2], c[3], c[4],
+        char lab[40];
+        snprintf(lab, sizeof lab, "%s%s", dist_names[dist], single ? "/f32" : "");
+        if (nrhs > 1) snprintf(lab + strlen(lab), sizeof lab - strlen(lab), "/x%d", nrhs);
+        printf(ROW_FMT, lab, nbuf, pbuf, lbuf, vbuf, c[0], c[1], c[2], c[3], c[4],
                c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], pk, hb, ep, eg, dt);
     }
     fflush(stdout);
@@ -423,12 +490,14 @@ int main(int argc, char **argv)
                 "dist=%s n=%lld p=%d leaf=%d levels=%d boxes=%lld leaves=%lld create=%.6f "
                 "evaluate=%.6f total=%.6f tree=%.6f operators=%.6f p2m=%.6f m2m=%.6f m2l=%.6f "
                 "l2l=%.6f p2l=%.6f l2p=%.6f m2p=%.6f p2p=%.6f peak_mib=%.1f handle_mib=%.1f "
-                "err_pot=%.6e err_grad=%.6e direct_est=%.6f sample=%lld threads=%d\n",
+                "err_pot=%.6e err_grad=%.6e direct_est=%.6f sample=%lld threads=%d precision=%s "
+                "nrhs=%d\n",
                 dist_names[dist], (long long)n, used.order, used.leaf_size, st.levels,
                 (long long)st.boxes, (long long)st.leaves, t_create, t_eval, t_create + t_eval,
                 st.t_tree, st.t_operators, st.t_p2m, st.t_m2m, st.t_m2l, st.t_l2l, st.t_p2l,
                 st.t_l2p, st.t_m2p, st.t_p2p, peak_mib, st.bytes / 1048576.0, err_p, err_g,
-                t_direct, (long long)ns, omp_get_max_threads());
+                t_direct, (long long)ns, omp_get_max_threads(), single ? "float" : "double",
+                nrhs);
         fclose(f);
     }
     free(xyz);

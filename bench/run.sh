@@ -190,6 +190,43 @@ for dist in $DISTS; do
     done
 done
 
+# ---------------------------------------------------------------- float, evaluate_many
+# Single precision (KIFMM_REAL float) and 8 density vectors per evaluate_many
+# call, next to the double single-vector case, on the same points.
+if [ "$QUICK" = 1 ]; then VNS="1e5"; VORDERS="4"; else VNS="1e5 1e6"; VORDERS="4 6"; fi
+VNS=${BENCH_VNS:-$VNS}; VORDERS=${BENCH_VORDERS:-$VORDERS}
+echo
+echo "== precision and density vectors: cube, laplace_grad, ${OMP_NUM_THREADS} threads"
+echo "   (/f32: float instance; /x8: evaluate_many with 8 vectors, times for all 8)"
+"$OUT/bench" --header | sed '1s/$/    bg%/'
+RATIOS=""
+for n in $VNS; do
+    for p in $VORDERS; do
+        for v in "d1:" "f1:--float" "d8:--nrhs 8" "f8:--float --nrhs 8"; do
+            tag=${v%%:*}; opt=${v#*:}
+            res="$OUT/var_${n}_p${p}_${tag}.txt"
+            wait_quiet
+            rm -f "$res"
+            # shellcheck disable=SC2086
+            if run_measured "$OUT/bench" cube "$n" "$p" --sample 500 --result "$res" $opt > "$OUT/.row"; then
+                echo "$(cat "$OUT/.row")    $BG"
+            else
+                echo "cube $n $p $opt: FAILED"
+                FAILED="$FAILED cube/$n/p$p/$tag"
+            fi
+        done
+        ev() { sed -n 's/.* evaluate=\([0-9.e+-]*\) .*/\1/p' "$OUT/var_${n}_p${p}_$1.txt" 2>/dev/null; }
+        d1=$(ev d1); f1=$(ev f1); d8=$(ev d8); f8=$(ev f8)
+        if [ -n "$d1" ] && [ -n "$f1" ] && [ -n "$d8" ] && [ -n "$f8" ]; then
+            RATIOS="$RATIOS$(awk -v n="$n" -v p="$p" -v d1="$d1" -v f1="$f1" -v d8="$d8" -v f8="$f8" 'BEGIN{
+                printf "N=%s p=%s: float is %.2fx faster than double (evaluate); 8 vectors cost %.2f single evaluations (double), %.2f (float)\n",
+                       n, p, d1 / f1, d8 / d1, f8 / f1 }')
+"
+        fi
+    done
+done
+[ -n "$RATIOS" ] && printf '%s' "$RATIOS"
+
 # ---------------------------------------------------------------- FMM3D table
 if [ -n "$PY" ]; then
     echo

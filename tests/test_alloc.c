@@ -13,6 +13,12 @@ static void counting_free(void *ptr);
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
+#define KIFMM_KERNEL yukawa
+#include "kifmm.h"
+#define KIFMM_KERNEL stokes
+#define KIFMM_REAL float
+#define KIFMM_NAME kifmm_stokesf
+#include "kifmm.h"
 
 #include "test.h"
 
@@ -196,6 +202,58 @@ static void test_invalid_inputs(const t_api *api, const double *x)
     free(y);
 }
 
+/* Create under failing allocation for an instance P with real type R
+ * (non-scale-invariant operators per level, float arrays), then
+ * evaluate_many: growing the workspace for 3 vectors fails cleanly (NOMEM,
+ * out untouched, nothing leaked) until it succeeds. */
+#define DEFINE_MANY_TEST(P, R, SD, TD)                                                       \
+    static void test_many_##P(const double *x)                                               \
+    {                                                                                        \
+        R *xr = (R *)malloc(sizeof(R) * 3 * N), *q = (R *)malloc(sizeof(R) * 3 * N * (SD)); \
+        R *out = (R *)malloc(sizeof(R) * 3 * N * (TD));                                     \
+        kifmm_opts o = t_opts(3, 100, 0); /* levels 0..2: one level of operators */  \
+        P *h = NULL;                                                                         \
+        long k, bad = 0, untouched_bad = 0, live_before;                                     \
+        int rc = KIFMM_ERR_NOMEM, i;                                                         \
+        for (i = 0; i < 3 * N; i++) xr[i] = (R)x[i];                                         \
+        for (i = 0; i < 3 * N * (SD); i++) q[i] = (R)((i % 7) - 3);                          \
+        for (k = 0; k < MAX_K; k++) {                                                        \
+            alloc_reset(k);                                                                  \
+            rc = P##_create(&h, &o, N, xr, N, xr);                                           \
+            if (rc == KIFMM_SUCCESS) break;                                                  \
+            if (rc != KIFMM_ERR_NOMEM || h != NULL || alloc_live != 0) bad++;                \
+        }                                                                                    \
+        printf("  %s: create succeeded after %ld injected failures\n", #P, k);              \
+        CHECK(rc == KIFMM_SUCCESS && bad == 0, "%s: %ld failing creates misbehaved", #P, bad); \
+        live_before = alloc_live;                                                            \
+        for (k = 0; k < MAX_K && rc == KIFMM_SUCCESS; k++) {                                 \
+            alloc_reset(k);                                                                  \
+            for (i = 0; i < 3 * N * (TD); i++) out[i] = (R)7;                                \
+            rc = P##_evaluate_many(h, 3, q, out);                                            \
+            if (rc == KIFMM_SUCCESS) break;                                                  \
+            if (rc != KIFMM_ERR_NOMEM || alloc_live != live_before) bad++;                   \
+            for (i = 0; i < 3 * N * (TD); i++)                                               \
+                if (out[i] != (R)7) untouched_bad++;                                         \
+            rc = KIFMM_SUCCESS;                                                              \
+        }                                                                                    \
+        alloc_reset(-1);                                                                     \
+        printf("  %s: evaluate_many(3) succeeded after %ld injected failures\n", #P, k);    \
+        CHECK(k > 0 && bad == 0, "%s: %ld failing evaluate_many calls misbehaved", #P, bad);  \
+        CHECK(untouched_bad == 0, "%s: failing evaluate_many wrote %ld outputs", #P,          \
+              untouched_bad);                                                                \
+        P##_destroy(h);                                                                      \
+        CHECK(alloc_live == 0 && alloc_bad_free == 0, "%s: %ld blocks live after destroy", #P, \
+              alloc_live);                                                                   \
+        alloc_live = 0;                                                                      \
+        alloc_bad_free = 0;                                                                  \
+        free(xr);                                                                            \
+        free(q);                                                                             \
+        free(out);                                                                           \
+    }
+
+DEFINE_MANY_TEST(kifmm_yukawa, double, 1, 1)
+DEFINE_MANY_TEST(kifmm_stokesf, float, 3, 3)
+
 int main(void)
 {
     t_api apis[2];
@@ -218,6 +276,9 @@ int main(void)
     t_gen_blobs(&r, N, x);
     t_group("allocation failures, clustered points");
     for (a = 0; a < 2; a++) test_kernel(&apis[a], &o, x, q);
+    t_group("per-level operators, float, and evaluate_many's workspace");
+    test_many_kifmm_yukawa(x);
+    test_many_kifmm_stokesf(x);
 
     free(x);
     free(q);

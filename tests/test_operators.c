@@ -7,7 +7,7 @@
 
 /* Equivalent density -> potential at points y (interleaved), with the test's
  * own direct sum from the surface points. */
-static void eval_equiv(const kifmm__core *c, int n, const double *surf_soa, const double *dens,
+static void eval_equiv(const kifmm_laplace *c, int n, const double *surf_soa, const double *dens,
                        int ny, const double *y, double *pot)
 {
     double *pts = t_doubles(3 * n);
@@ -45,9 +45,9 @@ static void soa(int n, const double *xyz, double *s)
 }
 
 /* Check vector -> equivalent density with the handle's two factors. */
-static void solve(const kifmm__core *c, int up, const double *chk, double *eq)
+static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 {
-    const kifmm__ops *o = &c->ops[0];
+    const kifmm_laplace__ops *o = &c->ops[0];
     int k = up ? o->ku : o->kd;
     double *tmp = t_doubles(k);
     kifmm__gemm(0, 0, k, 1, c->nc, 1.0, up ? o->ut_up : o->ut_dn, k, chk, c->nc, 0.0, tmp, k);
@@ -57,7 +57,7 @@ static void solve(const kifmm__core *c, int up, const double *chk, double *eq)
 
 /* P2M: sources -> check potentials (scaled by the half-width, Laplace being
  * homogeneous of degree -1) -> upward equivalent density. */
-static void p2m(const kifmm__core *c, const double *ctr, double r, int ns, const double *x,
+static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, const double *x,
                 const double *q, double *ue)
 {
     double *pc = t_doubles(3 * c->nsc), *chk = t_doubles(c->nc), *xs = t_doubles(3 * ns);
@@ -65,7 +65,7 @@ static void p2m(const kifmm__core *c, const double *ctr, double r, int ns, const
     soa(ns, x, xs);
     t_fill(c->nc, chk, 0.0);
     kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
-                             xs + 2 * ns, q, ns, r, chk);
+                             xs + 2 * ns, q, ns, 1, 0, r, chk, 0);
     solve(c, 1, chk, ue);
     free(pc);
     free(chk);
@@ -114,7 +114,7 @@ static double bound_for(int p)
 static void test_upward(int p)
 {
     kifmm_laplace *h = handle(p);
-    const kifmm__core *c = &h->c;
+    const kifmm_laplace *c = h;
     t_rng g = t_rng_seed(11 + p);
     double ctr[3] = {0.3, -0.2, 0.1}, r = 0.25, *x, *q, *y, *pot, *ue, *uec, *chk, *pe;
     int ns = 400, ny = 300, o;
@@ -150,7 +150,7 @@ static void test_upward(int p)
 static void test_downward(int p)
 {
     kifmm_laplace *h = handle(p);
-    const kifmm__core *c = &h->c;
+    const kifmm_laplace *c = h;
     t_rng g = t_rng_seed(23 + p);
     double ctr[3] = {-0.1, 0.2, 0.05}, r = 0.125, *x, *q, *y, *pot, *ue, *de, *dec, *chk, *pe,
            *pc, *xs;
@@ -193,7 +193,7 @@ static void test_downward(int p)
         kifmm__surf_place(c->surf_c, c->nsc, cp, KIFMM__ALPHA_INNER * 2 * r, pc);
         t_fill(c->nc, chk, 0.0);
         kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
-                                 xs + 2 * ns, q, ns, 2 * r, chk);
+                                 xs + 2 * ns, q, ns, 1, 0, 2 * r, chk, 0);
         solve(c, 0, chk, de);
         kifmm__surf_place(c->surf_e, c->nse, cp, KIFMM__ALPHA_OUTER * 2 * r, pe);
         points_in_box(&g, ny, cp, 2 * r, y);
@@ -238,7 +238,7 @@ static void test_tree(const char *name, int64_t n, const double *xyz, int leaf)
     int64_t *cover;
     CHECK(kifmm_laplace_create(&h, &o, n, xyz, n, xyz) == 0, "create %s", name);
     if (!h) return;
-    t = &h->c.tree;
+    t = &h->tree;
     cover = (int64_t *)t_malloc_or_die((size_t)(t->ns + 1) * sizeof(int64_t));
     /* 2:1 balance: adjacent leaves differ by at most one level */
     for (b = 0; b < t->nbox; b++) {

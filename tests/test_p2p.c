@@ -376,17 +376,17 @@ static void test_wiring(void)
     }
     memset(a, 0, sizeof a);
     memset(b, 0, sizeof b);
-    kifmm_laplace__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, a);
+    kifmm_laplace__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
     kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
     CHECK(memcmp(a, b, (size_t)nt * sizeof(double)) == 0, "kifmm_laplace__p2p");
     memset(a, 0, sizeof a);
     memset(b, 0, sizeof b);
-    kifmm_laplace_grad__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, a);
+    kifmm_laplace_grad__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
     kifmm_kernel_laplace_grad_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
     CHECK(memcmp(a, b, sizeof a) == 0, "kifmm_laplace_grad__p2p");
     memset(a, 0, sizeof a);
     memset(b, 0, sizeof b);
-    kifmm_laplace_grad__p2p_equiv(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, a);
+    kifmm_laplace_grad__p2p_equiv(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
     kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
     CHECK(memcmp(a, b, (size_t)nt * sizeof(double)) == 0,
           "kifmm_laplace_grad__p2p_equiv (surface kernel laplace)");
