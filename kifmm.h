@@ -76,6 +76,9 @@
 #endif
 
 #include "kifmm_kernels.h"
+#if defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+#endif
 
 #if defined(KIFMM_MALLOC) && !defined(KIFMM_FREE)
 #error "kifmm.h: KIFMM_MALLOC is defined but KIFMM_FREE is not; define both or neither"
@@ -94,6 +97,20 @@
 
 #ifndef KIFMM_CHECK_ORDER_DIFF
 #define KIFMM_CHECK_ORDER_DIFF 1
+#endif
+
+/* Orders up to this one keep the FFT M2L's spectra and products in float
+ * (relative error about 1e-7, far below these orders' truncation error;
+ * half the memory and about twice the speed); float instances always do. */
+#ifndef KIFMM_FFT_SINGLE_MAX_ORDER
+#define KIFMM_FFT_SINGLE_MAX_ORDER 6
+#endif
+
+/* Memory for the spectra of the FFT M2L, in MiB: a level whose source
+ * spectra do not fit is done in slabs of target parents, each with the
+ * spectra of its own neighbours (some computed twice). */
+#ifndef KIFMM_FFT_SPEC_MB
+#define KIFMM_FFT_SPEC_MB 64
 #endif
 
 #define KIFMM_MAX_ORDER 12   /* largest expansion order accepted */
@@ -1050,6 +1067,11 @@ typedef struct kifmm__ops {
     double *m2m;            /* nc x 8 ne: children's equiv -> parent's check */
     double *l2l;            /* 8 nc x ne: parent's equiv -> children's check */
     double *m2l;            /* kd x 316 ne: source equiv -> ut_dn (target check) */
+    double *conv;           /* FFT M2L, nc x ne: upward equivalent density -> a density
+                               on the check surface's lattice (1.05 r) with the same
+                               field outside the upward check surface */
+    double *khat;           /* FFT M2L: 316 kernel spectra on that lattice, 2 nfp
+                               doubles each */
 } kifmm__ops;
 
 KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
@@ -1057,6 +1079,7 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
     kifmm__free(o->ut_up); kifmm__free(o->vs_up);
     kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
     kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
+    kifmm__free(o->conv); kifmm__free(o->khat);
     memset(o, 0, sizeof *o);
 }
 
@@ -1066,6 +1089,428 @@ KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
     for (l = 0; l < t->nlev; l++)
         if (t->loff[l + 1] - t->loff[l] > m) m = t->loff[l + 1] - t->loff[l];
     return m;
+}
+
+/* ---- FFT M2L (kernels with one density component) ----------------------- */
+
+/* The downward check surface (order q = p + KIFMM_CHECK_ORDER_DIFF, radius
+ * 1.05 r) is the boundary of a q^3 lattice of spacing h = 2.1 r / (q - 1).
+ * Each source multipole is first moved to a density on the same lattice
+ * around its own box (conv, fitted on the upward check surface, so its field
+ * outside is the multipole's); then K_t(i, j) = G(h (i - j) - 2 r t) depends
+ * only on the lattice offset i - j, and the M2L of one box pair is a
+ * circular convolution on an n^3 grid, n = 2q - 1: a pointwise product of
+ * spectra, whose inverse gives the potentials on the check surface itself,
+ * exactly the values the dense M2L computes. Spectra are real-to-complex (kz
+ * in 0 .. n/2); the transforms are separable small DFTs pruned to the lattice
+ * (n <= 25 here, where a radix FFT would gain little). Frequencies are
+ * grouped in chunks of F; the products run per target parent over its
+ * neighbouring source parents, one 8 x 8 complex block (child of source
+ * parent -> child of target parent) per frequency, zero for adjacent child
+ * pairs (those are not in the V list). Below, p is the lattice order q. */
+#define KIFMM__FFT_F 4 /* frequencies per chunk */
+
+typedef struct kifmm__fft {
+    int p, n, nh, nf, nchunk, nfp, ne; /* nfp = nchunk * F */
+    int single;                        /* spectra and products in float */
+    int *ijk;                          /* lattice indices of the surface points */
+    double *wr, *wi;                   /* exp(-2 pi i a b / n), [a * n + b] */
+    double *wz;                        /* weights of the inverse real transform, / n^3 */
+} kifmm__fft;
+
+KIFMM__FN void kifmm__fft_free(kifmm__fft *pl)
+{
+    kifmm__free(pl->ijk); kifmm__free(pl->wr); kifmm__free(pl->wi); kifmm__free(pl->wz);
+    memset(pl, 0, sizeof *pl);
+}
+
+KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p)
+{
+    int n = 2 * p - 1, nh = n / 2 + 1, a, b, c = 0, i, j, k;
+    memset(pl, 0, sizeof *pl);
+    pl->p = p; pl->n = n; pl->nh = nh; pl->nf = n * n * nh;
+    pl->nchunk = (pl->nf + KIFMM__FFT_F - 1) / KIFMM__FFT_F;
+    pl->nfp = pl->nchunk * KIFMM__FFT_F;
+    pl->ne = kifmm__surf_count(p);
+    pl->ijk = (int *)kifmm__alloc((size_t)3 * pl->ne, sizeof(int));
+    pl->wr = (double *)kifmm__alloc((size_t)n * n, sizeof(double));
+    pl->wi = (double *)kifmm__alloc((size_t)n * n, sizeof(double));
+    pl->wz = (double *)kifmm__alloc((size_t)nh, sizeof(double));
+    if (!pl->ijk || !pl->wr || !pl->wi || !pl->wz) return KIFMM_ERR_NOMEM;
+    /* the order of kifmm__surf_unit */
+    for (i = 0; i < p; i++)
+        for (j = 0; j < p; j++)
+            for (k = 0; k < p; k++) {
+                if (i != 0 && i != p - 1 && j != 0 && j != p - 1 && k != 0 && k != p - 1)
+                    continue;
+                pl->ijk[3 * c] = i; pl->ijk[3 * c + 1] = j; pl->ijk[3 * c + 2] = k;
+                c++;
+            }
+    for (a = 0; a < n; a++)
+        for (b = 0; b < n; b++) {
+            double ang = -6.283185307179586476925286766559 * (double)((a * b) % n) / n;
+            pl->wr[a * n + b] = cos(ang);
+            pl->wi[a * n + b] = sin(ang);
+        }
+    for (a = 0; a < nh; a++) pl->wz[a] = (a == 0 ? 1.0 : 2.0) / ((double)n * n * n);
+    return KIFMM_SUCCESS;
+}
+
+/* Doubles of work space for one transform. */
+KIFMM__FN size_t kifmm__fft_work(const kifmm__fft *pl)
+{
+    return (size_t)4 * pl->n * pl->n * pl->nh + (size_t)pl->n * pl->n * pl->n;
+}
+
+/* Spectrum of a real n^3 grid g ([(i n + j) n + k]) into khat (frequency f
+ * at 2 f, re and im), full transform. */
+KIFMM__FN void kifmm__fft_grid(const kifmm__fft *pl, const double *g, double *khat, double *work)
+{
+    int n = pl->n, nh = pl->nh, i, j, k, kx, ky, kz;
+    double *s1r = work, *s1i = s1r + n * n * nh, *s2r = s1i + n * n * nh, *s2i = s2r + n * n * nh;
+    for (i = 0; i < n * n; i++)
+        for (kz = 0; kz < nh; kz++) {
+            double sr = 0, si = 0;
+            for (k = 0; k < n; k++) {
+                sr += g[i * n + k] * pl->wr[kz * n + k];
+                si += g[i * n + k] * pl->wi[kz * n + k];
+            }
+            s1r[i * nh + kz] = sr; s1i[i * nh + kz] = si;
+        }
+    for (i = 0; i < n; i++)
+        for (ky = 0; ky < n; ky++)
+            for (kz = 0; kz < nh; kz++) {
+                double sr = 0, si = 0;
+                for (j = 0; j < n; j++) {
+                    double xr = s1r[(i * n + j) * nh + kz], xi = s1i[(i * n + j) * nh + kz];
+                    double w0 = pl->wr[ky * n + j], w1 = pl->wi[ky * n + j];
+                    sr += xr * w0 - xi * w1;
+                    si += xr * w1 + xi * w0;
+                }
+                s2r[(i * n + ky) * nh + kz] = sr; s2i[(i * n + ky) * nh + kz] = si;
+            }
+    for (kx = 0; kx < n; kx++)
+        for (ky = 0; ky < n; ky++)
+            for (kz = 0; kz < nh; kz++) {
+                double sr = 0, si = 0;
+                size_t f = ((size_t)kx * n + ky) * nh + kz;
+                for (i = 0; i < n; i++) {
+                    double xr = s2r[(i * n + ky) * nh + kz], xi = s2i[(i * n + ky) * nh + kz];
+                    double w0 = pl->wr[kx * n + i], w1 = pl->wi[kx * n + i];
+                    sr += xr * w0 - xi * w1;
+                    si += xr * w1 + xi * w0;
+                }
+                khat[2 * f] = sr; khat[2 * f + 1] = si;
+            }
+}
+
+/* Spectrum of one surface density m (ne values) into out: frequency f goes
+ * to out[(f / F) * cstride + (f % F) * 16] (re) and 8 further (im). Pruned:
+ * only the p^3 lattice is nonzero. */
+KIFMM__FN void kifmm__fft_forward(const kifmm__fft *pl, const double *m, void *out,
+                                  size_t cstride, double *work)
+{
+    int p = pl->p, n = pl->n, nh = pl->nh, s, i, j, kx, ky, kz, q;
+    double *s1r = work, *s1i = s1r + p * p * nh, *s2r = s1i + p * p * nh, *s2i = s2r + p * n * nh;
+    double *tr = s2i + p * n * nh, *ti = tr + n * nh;
+    memset(s1r, 0, sizeof(double) * 2 * p * p * nh);
+    for (s = 0; s < pl->ne; s++) {
+        int a = pl->ijk[3 * s], b = pl->ijk[3 * s + 1], c = pl->ijk[3 * s + 2];
+        double v = m[s], *r = s1r + (a * p + b) * nh, *im = s1i + (a * p + b) * nh;
+        for (kz = 0; kz < nh; kz++) {
+            r[kz] += v * pl->wr[kz * n + c];
+            im[kz] += v * pl->wi[kz * n + c];
+        }
+    }
+    for (i = 0; i < p; i++)
+        for (ky = 0; ky < n; ky++) {
+            double *dr = s2r + (i * n + ky) * nh, *di = s2i + (i * n + ky) * nh;
+            for (kz = 0; kz < nh; kz++) dr[kz] = di[kz] = 0.0;
+            for (j = 0; j < p; j++) {
+                const double *xr = s1r + (i * p + j) * nh, *xi = s1i + (i * p + j) * nh;
+                double w0 = pl->wr[ky * n + j], w1 = pl->wi[ky * n + j];
+                for (kz = 0; kz < nh; kz++) {
+                    dr[kz] += xr[kz] * w0 - xi[kz] * w1;
+                    di[kz] += xr[kz] * w1 + xi[kz] * w0;
+                }
+            }
+        }
+    for (kx = 0; kx < n; kx++) {
+        int f0 = kx * n * nh;
+        for (q = 0; q < n * nh; q++) tr[q] = ti[q] = 0.0;
+        for (i = 0; i < p; i++) {
+            const double *xr = s2r + i * n * nh, *xi = s2i + i * n * nh;
+            double w0 = pl->wr[kx * n + i], w1 = pl->wi[kx * n + i];
+            for (q = 0; q < n * nh; q++) {
+                tr[q] += xr[q] * w0 - xi[q] * w1;
+                ti[q] += xr[q] * w1 + xi[q] * w0;
+            }
+        }
+        for (q = 0; q < n * nh; q++) {
+            int f = f0 + q;
+            size_t a = (size_t)(f / KIFMM__FFT_F) * cstride + (size_t)(f % KIFMM__FFT_F) * 16;
+            if (pl->single) {
+                ((float *)out)[a] = (float)tr[q];
+                ((float *)out)[a + 8] = (float)ti[q];
+            } else {
+                ((double *)out)[a] = tr[q];
+                ((double *)out)[a + 8] = ti[q];
+            }
+        }
+    }
+}
+
+/* Inverse: a half spectrum addressed as in kifmm__fft_forward -> the values
+ * at the ne lattice surface points, written to chk. */
+KIFMM__FN void kifmm__fft_inverse(const kifmm__fft *pl, const void *in, size_t cstride,
+                                  double *chk, double *work)
+{
+    int p = pl->p, n = pl->n, nh = pl->nh, i, j, k, kx, ky, kz, q, s;
+    double *yr = work, *yi = yr + n * n * nh, *t1r = yi + n * n * nh, *t1i = t1r + p * n * nh;
+    double *t2r = t1i + p * n * nh, *t2i = t2r + p * p * nh;
+    for (q = 0; q < pl->nf; q++) {
+        size_t a = (size_t)(q / KIFMM__FFT_F) * cstride + (size_t)(q % KIFMM__FFT_F) * 16;
+        yr[q] = pl->single ? (double)((const float *)in)[a] : ((const double *)in)[a];
+        yi[q] = pl->single ? (double)((const float *)in)[a + 8] : ((const double *)in)[a + 8];
+    }
+    for (i = 0; i < p; i++) {
+        double *dr = t1r + i * n * nh, *di = t1i + i * n * nh;
+        for (q = 0; q < n * nh; q++) dr[q] = di[q] = 0.0;
+        for (kx = 0; kx < n; kx++) {
+            const double *xr = yr + kx * n * nh, *xi = yi + kx * n * nh;
+            double w0 = pl->wr[kx * n + i], w1 = -pl->wi[kx * n + i];
+            for (q = 0; q < n * nh; q++) {
+                dr[q] += xr[q] * w0 - xi[q] * w1;
+                di[q] += xr[q] * w1 + xi[q] * w0;
+            }
+        }
+    }
+    for (i = 0; i < p; i++)
+        for (j = 0; j < p; j++) {
+            double *dr = t2r + (i * p + j) * nh, *di = t2i + (i * p + j) * nh;
+            for (kz = 0; kz < nh; kz++) dr[kz] = di[kz] = 0.0;
+            for (ky = 0; ky < n; ky++) {
+                const double *xr = t1r + (i * n + ky) * nh, *xi = t1i + (i * n + ky) * nh;
+                double w0 = pl->wr[ky * n + j], w1 = -pl->wi[ky * n + j];
+                for (kz = 0; kz < nh; kz++) {
+                    dr[kz] += xr[kz] * w0 - xi[kz] * w1;
+                    di[kz] += xr[kz] * w1 + xi[kz] * w0;
+                }
+            }
+        }
+    for (s = 0; s < pl->ne; s++) {
+        double acc = 0.0;
+        const double *xr, *xi;
+        i = pl->ijk[3 * s]; j = pl->ijk[3 * s + 1]; k = pl->ijk[3 * s + 2];
+        xr = t2r + (i * p + j) * nh;
+        xi = t2i + (i * p + j) * nh;
+        for (kz = 0; kz < nh; kz++)
+            acc += pl->wz[kz] * (xr[kz] * pl->wr[kz * n + k] + xi[kz] * pl->wi[kz * n + k]);
+        chk[s] = acc;
+    }
+}
+
+/* Transfer vector of each child pair of two parents at offset o (0..26,
+ * (ox+1) 9 + (oy+1) 3 + (oz+1)): tv[(o 8 + cs) 8 + ct], -1 if adjacent. */
+KIFMM__FN void kifmm__fft_tvmap(int *tv)
+{
+    int o, cs, ct;
+    for (o = 0; o < 27; o++)
+        for (cs = 0; cs < 8; cs++)
+            for (ct = 0; ct < 8; ct++) {
+                int dx = 2 * (o / 9 - 1) + (cs >> 2 & 1) - (ct >> 2 & 1);
+                int dy = 2 * (o / 3 % 3 - 1) + (cs >> 1 & 1) - (ct >> 1 & 1);
+                int dz = 2 * (o % 3 - 1) + (cs & 1) - (ct & 1);
+                int near = dx >= -1 && dx <= 1 && dy >= -1 && dy <= 1 && dz >= -1 && dz <= 1;
+                tv[(o * 8 + cs) * 8 + ct] = near ? -1 : kifmm__transfer_index(dx, dy, dz);
+            }
+}
+
+/* The 8 x 8 blocks of frequency chunk ch for the 27 parent offsets, from the
+ * 316 spectra (khat[t * 2 nfp + 2 f]): kb[(o F + fi) 128 + cs 16 + ct] (re),
+ * + 8 (im). */
+KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const int *tv, int ch,
+                                 void *kbv)
+{
+    double *kb = (double *)kbv;
+    float *kf = (float *)kbv;
+    int o, fi, cs, ct;
+    for (o = 0; o < 27; o++)
+        for (cs = 0; cs < 8; cs++)
+            for (ct = 0; ct < 8; ct++) {
+                int t = tv[(o * 8 + cs) * 8 + ct];
+                for (fi = 0; fi < KIFMM__FFT_F; fi++) {
+                    size_t a = ((size_t)o * KIFMM__FFT_F + fi) * 128 + cs * 16 + ct;
+                    const double *s = khat + (size_t)(t < 0 ? 0 : t) * 2 * pl->nfp +
+                                      2 * ((size_t)ch * KIFMM__FFT_F + fi);
+                    double re = t < 0 ? 0.0 : s[0], im = t < 0 ? 0.0 : s[1];
+                    if (pl->single) {
+                        kf[a] = (float)re;
+                        kf[a + 8] = (float)im;
+                    } else {
+                        kb[a] = re;
+                        kb[a + 8] = im;
+                    }
+                }
+            }
+}
+
+/* One target parent, one chunk: oc[fi 16 ..] = sum over its nn source
+ * parents e of K[no[e]][fi] (8 x 8 complex) times the 8 child spectra
+ * sc[nb[e]] at fi (re 8 | im 8). */
+KIFMM__FN void kifmm__fft_products(int nn, const int32_t *nb, const unsigned char *no,
+                                   const double *sc, const double *kb, double *oc)
+{
+    int fi, e, cs;
+#if defined(__AVX2__) && defined(__FMA__)
+    /* two frequencies at a time: 8 accumulators in registers over all e */
+    for (fi = 0; fi < KIFMM__FFT_F; fi += 2) {
+        __m256d a0 = _mm256_setzero_pd(), a1 = a0, a2 = a0, a3 = a0;
+        __m256d b0 = a0, b1 = a0, b2 = a0, b3 = a0;
+        for (e = 0; e < nn; e++) {
+            const double *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
+            const double *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
+            for (cs = 0; cs < 8; cs++) {
+                __m256d xr = _mm256_broadcast_sd(x + cs), xi = _mm256_broadcast_sd(x + 8 + cs);
+                __m256d yr = _mm256_broadcast_sd(x + 16 + cs), yi = _mm256_broadcast_sd(x + 24 + cs);
+                const double *k0 = k + cs * 16, *k1 = k + 128 + cs * 16;
+                __m256d r0 = _mm256_load_pd(k0), r1 = _mm256_load_pd(k0 + 4);
+                __m256d i0 = _mm256_load_pd(k0 + 8), i1 = _mm256_load_pd(k0 + 12);
+                a0 = _mm256_fmadd_pd(r0, xr, a0); a1 = _mm256_fmadd_pd(r1, xr, a1);
+                a2 = _mm256_fmadd_pd(r0, xi, a2); a3 = _mm256_fmadd_pd(r1, xi, a3);
+                a0 = _mm256_fnmadd_pd(i0, xi, a0); a1 = _mm256_fnmadd_pd(i1, xi, a1);
+                a2 = _mm256_fmadd_pd(i0, xr, a2); a3 = _mm256_fmadd_pd(i1, xr, a3);
+                r0 = _mm256_load_pd(k1); r1 = _mm256_load_pd(k1 + 4);
+                i0 = _mm256_load_pd(k1 + 8); i1 = _mm256_load_pd(k1 + 12);
+                b0 = _mm256_fmadd_pd(r0, yr, b0); b1 = _mm256_fmadd_pd(r1, yr, b1);
+                b2 = _mm256_fmadd_pd(r0, yi, b2); b3 = _mm256_fmadd_pd(r1, yi, b3);
+                b0 = _mm256_fnmadd_pd(i0, yi, b0); b1 = _mm256_fnmadd_pd(i1, yi, b1);
+                b2 = _mm256_fmadd_pd(i0, yr, b2); b3 = _mm256_fmadd_pd(i1, yr, b3);
+            }
+        }
+        _mm256_store_pd(oc + fi * 16, a0); _mm256_store_pd(oc + fi * 16 + 4, a1);
+        _mm256_store_pd(oc + fi * 16 + 8, a2); _mm256_store_pd(oc + fi * 16 + 12, a3);
+        _mm256_store_pd(oc + fi * 16 + 16, b0); _mm256_store_pd(oc + fi * 16 + 20, b1);
+        _mm256_store_pd(oc + fi * 16 + 24, b2); _mm256_store_pd(oc + fi * 16 + 28, b3);
+    }
+#else
+    int ct;
+    memset(oc, 0, sizeof(double) * 16 * KIFMM__FFT_F);
+    for (e = 0; e < nn; e++)
+        for (fi = 0; fi < KIFMM__FFT_F; fi++) {
+            const double *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
+            const double *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
+            double *acc = oc + fi * 16;
+            for (cs = 0; cs < 8; cs++) {
+                double xr = x[cs], xi = x[8 + cs];
+                for (ct = 0; ct < 8; ct++) {
+                    double kr = k[cs * 16 + ct], ki = k[cs * 16 + 8 + ct];
+                    acc[ct] += kr * xr - ki * xi;
+                    acc[8 + ct] += kr * xi + ki * xr;
+                }
+            }
+        }
+#endif
+}
+
+/* kifmm__fft_products in float: spectra and blocks of 16 floats (re 8 |
+ * im 8) per frequency, the 8 target children in one AVX register. */
+KIFMM__FN void kifmm__fft_products_f(int nn, const int32_t *nb, const unsigned char *no,
+                                     const float *sc, const float *kb, float *oc)
+{
+    int e, cs;
+#if defined(__AVX2__) && defined(__FMA__)
+    /* the 4 frequencies of a chunk at once: 8 accumulators over all e */
+    __m256 r0 = _mm256_setzero_ps(), i0 = r0, r1 = r0, i1 = r0, r2 = r0, i2 = r0, r3 = r0, i3 = r0;
+    for (e = 0; e < nn; e++) {
+        const float *x = sc + (size_t)nb[e] * KIFMM__FFT_F * 16;
+        const float *k = kb + (size_t)no[e] * KIFMM__FFT_F * 128;
+        for (cs = 0; cs < 8; cs++) {
+#define KIFMM__FFT_STEP(R, I, fi)                                                              \
+    {                                                                                          \
+        const __m256 xr = _mm256_broadcast_ss(x + (fi) * 16 + cs);                             \
+        const __m256 xi = _mm256_broadcast_ss(x + (fi) * 16 + 8 + cs);                         \
+        const __m256 kr = _mm256_load_ps(k + (fi) * 128 + cs * 16);                            \
+        const __m256 ki = _mm256_load_ps(k + (fi) * 128 + cs * 16 + 8);                        \
+        R = _mm256_fmadd_ps(kr, xr, R);                                                        \
+        R = _mm256_fnmadd_ps(ki, xi, R);                                                       \
+        I = _mm256_fmadd_ps(kr, xi, I);                                                        \
+        I = _mm256_fmadd_ps(ki, xr, I);                                                        \
+    }
+            KIFMM__FFT_STEP(r0, i0, 0)
+            KIFMM__FFT_STEP(r1, i1, 1)
+            KIFMM__FFT_STEP(r2, i2, 2)
+            KIFMM__FFT_STEP(r3, i3, 3)
+#undef KIFMM__FFT_STEP
+        }
+    }
+    _mm256_store_ps(oc, r0); _mm256_store_ps(oc + 8, i0);
+    _mm256_store_ps(oc + 16, r1); _mm256_store_ps(oc + 24, i1);
+    _mm256_store_ps(oc + 32, r2); _mm256_store_ps(oc + 40, i2);
+    _mm256_store_ps(oc + 48, r3); _mm256_store_ps(oc + 56, i3);
+#else
+    int fi, ct;
+    memset(oc, 0, sizeof(float) * 16 * KIFMM__FFT_F);
+    for (e = 0; e < nn; e++)
+        for (fi = 0; fi < KIFMM__FFT_F; fi++) {
+            const float *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
+            const float *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
+            float *acc = oc + fi * 16;
+            for (cs = 0; cs < 8; cs++) {
+                float xr = x[cs], xi = x[8 + cs];
+                for (ct = 0; ct < 8; ct++) {
+                    float kr = k[cs * 16 + ct], ki = k[cs * 16 + 8 + ct];
+                    acc[ct] += kr * xr - ki * xi;
+                    acc[8 + ct] += kr * xi + ki * xr;
+                }
+            }
+        }
+#endif
+}
+
+/* Internal neighbours ("colleagues") of every internal box of level l - 1,
+ * for the M2L into level l: for the j-th internal box of level l - 1, the
+ * internal indices (relative to the level) of its adjacent internal boxes
+ * at that level and their offset codes (not 13, the box itself). CSR over
+ * all internal boxes in the order of t->inner. */
+KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, int32_t **co_out,
+                                int32_t **cj_out, unsigned char **cc_out)
+{
+    int32_t ni = t->ioff[t->nlev], i, *co, *cj;
+    unsigned char *cc;
+    int pass;
+    co = (int32_t *)kifmm__calloc((size_t)ni + 1, sizeof(int32_t));
+    cj = (int32_t *)kifmm__alloc((size_t)ni * 26 + 1, sizeof(int32_t));
+    cc = (unsigned char *)kifmm__alloc((size_t)ni * 26 + 1, 1);
+    *co_out = co; *cj_out = cj; *cc_out = cc;
+    if (!co || !cj || !cc) return KIFMM_ERR_NOMEM;
+    (void)nth;
+    for (pass = 0; pass < 2; pass++) {
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+        for (i = 0; i < ni; i++) {
+            int32_t p = t->inner[i], m = 0;
+            int l = t->lev[p], o;
+            int64_t side = (int64_t)1 << l;
+            const int32_t *a = t->anchor + 3 * (size_t)p;
+            for (o = 0; o < 27; o++) {
+                int64_t x = a[0] + o / 9 - 1, y = a[1] + o / 3 % 3 - 1, z = a[2] + o % 3 - 1;
+                int32_t q;
+                if (o == 13 || x < 0 || y < 0 || z < 0 || x >= side || y >= side || z >= side)
+                    continue;
+                q = kifmm__find(t, l, kifmm__encode(x, y, z));
+                if (q < 0 || t->child[q] < 0) continue;
+                if (pass == 1) {
+                    cj[co[i] + m] = (t->child[q] - t->loff[l + 1]) / 8;
+                    cc[co[i] + m] = (unsigned char)o;
+                }
+                m++;
+            }
+            if (pass == 0) co[i + 1] = m;
+        }
+        if (pass == 0)
+            for (i = 0; i < ni; i++) co[i + 1] += co[i];
+    }
+    return KIFMM_SUCCESS;
 }
 
 /* KIFMM_REAL must name one of these two types. */
@@ -1122,6 +1567,15 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
                      KIFMM__CAT(KIFMM_NAME, _equivalent_kernel_must_map_SRC_DIM_to_SRC_DIM));
 #endif
 
+/* M2L by FFT for kernels with one density component (unless
+ * KIFMM_M2L_DENSE is defined); dense stacked GEMMs otherwise. */
+#if KIFMM__SD == 1 && !defined(KIFMM_M2L_DENSE)
+#define KIFMM__FFT 1
+#else
+#define KIFMM__FFT 0
+#endif
+#define KIFMM__FFT_TB 32 /* target parents per FFT M2L task */
+
 /* The near-field hook of this precision, if the kernel has one. */
 #if KIFMM__FLOAT
 #define KIFMM__HAS_HOOK KIFMM__K(_P2PF)
@@ -1140,7 +1594,8 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 /* Operators of one level in the instance's precision (see kifmm__ops). */
 typedef struct {
     int ku, kd;
-    KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l;
+    KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l, *conv;
+    double *khat;
 } KIFMM__F(__ops);
 
 /* Expansions and workspace for up to `nrhs` density vectors, rhs-major:
@@ -1172,6 +1627,14 @@ struct KIFMM_NAME {
     KIFMM__R *scratch;       /* per thread: 3 surfaces of max(nsc, nse) points */
     int nthreads;
     KIFMM__F(__work) *w;     /* grows to the largest nrhs evaluated (<= RHS_MAX) */
+    kifmm__fft fft;          /* FFT M2L: transforms of the order-p lattice */
+    int32_t *co, *cj;        /* FFT M2L: internal colleagues of internal boxes */
+    unsigned char *cc;       /*          and their offset codes */
+    void *spec;              /* FFT M2L: child spectra of one slab (float or double) */
+    int32_t slots;           /*          parents whose spectra fit in spec */
+    int32_t *loc, *need, *cjl; /*        slab: slot of a parent, parents, local colleagues */
+    double *fbuf;            /* FFT M2L: per-thread blocks, products, work */
+    size_t fbuf_per;         /* doubles of fbuf per thread */
     kifmm_stats *stats;      /* written by create and evaluate */
 };
 
@@ -1350,6 +1813,81 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
         kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_OUTER * 2.0 * r, pe);
         KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->l2l + (size_t)oct * nc, (size_t)8 * nc);
     }
+#if KIFMM__FFT
+    /* M2L check: the order-p lattice at 1.05 r, with its own pseudo-inverse;
+     * the 316 kernel spectra on the (2p-1)^3 grid of lattice offsets */
+    {
+        /* conv (nc x ne): the order-p upward equivalent density -> a density
+         * on the check-order lattice at the same radius with the same field
+         * outside (fitted on the upward check surface) */
+        double *kb2 = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+        double *ut2 = NULL, *vs2 = NULL, *tmp2 = NULL;
+        int k2 = 0;
+        if (!kb2) { rc = KIFMM_ERR_NOMEM; goto done; }
+        kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_OUTER * r, pc);
+        kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_INNER * r, pe);
+        KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, kb2, (size_t)nc);
+        kifmm__free(a);
+        a = (double *)kifmm__alloc((size_t)nc * nc, sizeof(double));
+        if (a) {
+            double *pe2 = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
+            if (pe2) {
+                kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pe2);
+                KIFMM__F(__kmat)(prm, pc, nsc, pe2, nsc, a, (size_t)nc);
+                rc = kifmm__pinv(a, nc, nc, KIFMM_SVD_CUTOFF, &ut2, &vs2, &k2);
+                kifmm__free(pe2);
+            } else {
+                rc = KIFMM_ERR_NOMEM;
+            }
+        } else {
+            rc = KIFMM_ERR_NOMEM;
+        }
+        if (!rc) {
+            tmp2 = (double *)kifmm__alloc((size_t)k2 * ne, sizeof(double));
+            o->conv = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+            if (tmp2 && o->conv) {
+                kifmm__gemm(0, 0, k2, ne, nc, 1.0, ut2, k2, kb2, nc, 0.0, tmp2, k2);
+                kifmm__gemm(0, 0, nc, ne, k2, 1.0, vs2, nc, tmp2, k2, 0.0, o->conv, nc);
+            } else {
+                rc = KIFMM_ERR_NOMEM;
+            }
+        }
+        kifmm__free(kb2);
+        kifmm__free(ut2);
+        kifmm__free(vs2);
+        kifmm__free(tmp2);
+        if (rc) goto done;
+    }
+    {
+        const kifmm__fft *pl = &c->fft;
+        const int n = pl->n, p = pl->p;
+        const size_t per = (size_t)n * n * n + kifmm__fft_work(pl);
+        const double h = 2.0 * KIFMM__ALPHA_INNER * r / (p - 1);
+        o->khat = (double *)kifmm__calloc((size_t)KIFMM__NT * 2 * pl->nfp, sizeof(double));
+        kall = (double *)kifmm__alloc((size_t)c->nthreads * per, sizeof(double));
+        if (!o->khat || !kall) { rc = KIFMM_ERR_NOMEM; goto done; }
+        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
+        for (tv = 0; tv < KIFMM__NT; tv++) {
+#ifdef _OPENMP
+            double *g = kall + (size_t)omp_get_thread_num() * per;
+#else
+            double *g = kall;
+#endif
+            double kv[1];
+            int d[3] = {0, 0, 0}, i, j, k;
+            kifmm__transfer_vector(tv, d);
+            memset(g, 0, sizeof(double) * (size_t)n * n * n);
+            for (i = 1 - p; i < p; i++)
+                for (j = 1 - p; j < p; j++)
+                    for (k = 1 - p; k < p; k++) {
+                        KIFMM__EVALE(prm, h * i - 2.0 * r * d[0], h * j - 2.0 * r * d[1],
+                                     h * k - 2.0 * r * d[2], kv);
+                        g[((i + n) % n * n + (j + n) % n) * n + (k + n) % n] = kv[0];
+                    }
+            kifmm__fft_grid(pl, g, o->khat + (size_t)tv * 2 * pl->nfp, g + (size_t)n * n * n);
+        }
+    }
+#else
     /* M2L: source equivalent (centre 2 r t) -> target check, times ut_dn;
      * assembled CH transfer vectors at a time (in parallel), then one GEMM */
     o->m2l = (double *)kifmm__alloc((size_t)o->kd * KIFMM__NT * ne, sizeof(double));
@@ -1371,6 +1909,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
         kifmm__gemm(0, 0, o->kd, nch * ne, nc, 1.0, o->ut_dn, o->kd, kall, nc, 0.0,
                     o->m2l + (size_t)tv * ne * o->kd, o->kd);
     }
+#endif
 done:
     kifmm__free(a);
     kifmm__free(pe);
@@ -1398,9 +1937,18 @@ KIFMM__FN int KIFMM__F(__ops_make)(const KIFMM_NAME *c, double r, KIFMM__F(__ops
         out->vs_dn = KIFMM__F(__own)(&o.vs_dn, ne * (size_t)o.kd);
         out->m2m = KIFMM__F(__own)(&o.m2m, nc * 8 * ne);
         out->l2l = KIFMM__F(__own)(&o.l2l, 8 * nc * ne);
+#if KIFMM__FFT
+        out->conv = KIFMM__F(__own)(&o.conv, nc * ne);
+
+        out->khat = o.khat;
+        o.khat = NULL;
+        if (!out->conv) rc = KIFMM_ERR_NOMEM;
+#else
         out->m2l = KIFMM__F(__own)(&o.m2l, (size_t)o.kd * KIFMM__NT * ne);
+        if (!out->m2l) rc = KIFMM_ERR_NOMEM;
+#endif
         if (!out->ut_up || !out->vs_up || !out->ut_dn || !out->vs_dn || !out->m2m ||
-            !out->l2l || !out->m2l)
+            !out->l2l)
             rc = KIFMM_ERR_NOMEM;
     }
     kifmm__ops_free(&o);
@@ -1412,6 +1960,7 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
     kifmm__free(o->ut_up); kifmm__free(o->vs_up);
     kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
     kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
+    kifmm__free(o->conv); kifmm__free(o->khat);
     memset(o, 0, sizeof *o);
 }
 
@@ -1477,13 +2026,20 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     w->de = (KIFMM__R *)kifmm__alloc(n * sz[0], sizeof(KIFMM__R));
     w->chk = (KIFMM__R *)kifmm__alloc(n * sz[1], sizeof(KIFMM__R));
     w->tmp = (KIFMM__R *)kifmm__alloc(n * sz[2], sizeof(KIFMM__R));
+#if KIFMM__FFT
+    (void)big;
+#else
     w->stack = (KIFMM__R *)kifmm__alloc((size_t)c->m2l_cols * KIFMM__NT * (size_t)c->ne,
                                         sizeof(KIFMM__R));
     w->m2l_out = (KIFMM__R *)kifmm__alloc((size_t)c->m2l_cols * big, sizeof(KIFMM__R));
+    if (!w->stack || !w->m2l_out) {
+        KIFMM__F(__work_free)(w);
+        return NULL;
+    }
+#endif
     w->qs = (KIFMM__R *)kifmm__alloc(n * sz[3], sizeof(KIFMM__R));
     w->outs = (KIFMM__R *)kifmm__alloc(n * sz[4], sizeof(KIFMM__R));
-    if (!w->ue || !w->de || !w->chk || !w->tmp || !w->stack || !w->m2l_out || !w->qs ||
-        !w->outs) {
+    if (!w->ue || !w->de || !w->chk || !w->tmp || !w->qs || !w->outs) {
         KIFMM__F(__work_free)(w);
         return NULL;
     }
@@ -1503,14 +2059,27 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
     b += 4.0 * (t->uo[t->nbox] + t->wo[t->nbox] + t->xo[t->nbox]) + 6.0 * t->vo[t->nbox];
     for (i = 0; i < c->nops; i++) {
         const KIFMM__F(__ops) *o = &c->ops[i];
-        if (!o->m2l) continue;
-        b += R * ((o->ku + o->kd) * (nc + ne) + 16 * nc * ne + (double)o->kd * KIFMM__NT * ne);
+        if (!o->ut_up) continue;
+        b += R * ((o->ku + o->kd) * (nc + ne) + 16 * nc * ne);
+        b += R * (double)o->kd * KIFMM__NT * ne * (o->m2l != NULL);
+        b += R * nc * ne * (o->conv != NULL) + 8.0 * KIFMM__NT * 2 * c->fft.nfp * (o->khat != NULL);
     }
     if (c->w) {
         KIFMM__F(__work_sizes)(c, sz);
         b += R * c->w->nrhs * (2.0 * sz[0] + sz[1] + sz[2] + sz[3] + sz[4]);
+#if KIFMM__FFT
+        b += 0.0 * big;
+#else
         b += R * (double)c->m2l_cols * (KIFMM__NT * ne + big);
+#endif
     }
+#if KIFMM__FFT
+    if (c->spec) {
+        b += (c->fft.single ? 4.0 : 8.0) * 16 * c->fft.nfp * c->slots + 8.0 * c->nthreads * c->fbuf_per;
+        b += 12.0 * c->slots + 4.0 * c->co[t->ioff[t->nlev]];
+        b += 5.0 * c->co[t->ioff[t->nlev]] + 4.0 * t->ioff[t->nlev];
+    }
+#endif
     b += R * c->nthreads * 9 * ns;
     return b;
 }
@@ -1602,6 +2171,7 @@ KIFMM__FN void KIFMM__F(__l2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
  * the first factor of the downward solve (ut_dn K_t), so the results are added
  * to the level's tmp (kd rows) between the two solve steps. No target is
  * written by two threads. */
+#if !KIFMM__FFT
 KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                      int l)
 {
@@ -1635,6 +2205,119 @@ KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
         }
     }
 }
+#endif
+
+#if KIFMM__FFT
+/* The calling thread's FFT buffers: blocks, products, transform work, one
+ * density in double. */
+KIFMM__FN double *KIFMM__F(__fbuf)(const KIFMM_NAME *c)
+{
+#ifdef _OPENMP
+    return c->fbuf + (size_t)omp_get_thread_num() * c->fbuf_per;
+#else
+    return c->fbuf;
+#endif
+}
+
+/* M2L into level l by FFT (see kifmm__fft): the level's multipoles
+ * (children of the internal boxes of level l - 1) moved to the check
+ * surface's lattice (conv) and transformed, products per target parent over
+ * its internal colleagues, inverse transforms added to the downward check
+ * vectors of the boxes with a V list, before the downward solve. Target
+ * parents are processed in slabs whose source spectra fit the spectra buffer;
+ * within a slab each target parent belongs to one task, so no output is
+ * written by two threads. */
+KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                   int l)
+{
+    const kifmm__tree *t = &c->tree;
+    const kifmm__fft *pl = &c->fft;
+    const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
+    const int32_t ni = t->ioff[l] - t->ioff[l - 1], base = t->ioff[l - 1];
+    const int nl = KIFMM__LVL(c, l), ne = c->ne, nc = c->nc;
+    const size_t cstride = (size_t)c->slots * KIFMM__FFT_F * 16, per = (size_t)t->nbox * ne;
+    const size_t ocs = (size_t)KIFMM__FFT_TB * KIFMM__FFT_F * 16;
+    const size_t kbn = (size_t)27 * 128 * KIFMM__FFT_F, outn = (size_t)pl->nfp * KIFMM__FFT_TB * 16;
+    const size_t esz = pl->single ? sizeof(float) : sizeof(double); /* spectra, blocks */
+    const int32_t *co = c->co, *cj = c->cj;
+    int32_t *loc = c->loc, *need = c->need, *cjl = c->cjl, s0, s1, e;
+    int tv[27 * 64], r;
+    kifmm__fft_tvmap(tv);
+    for (s0 = 0; s0 < ni; s0 = s1) {
+        /* a slab of target parents [s0, s1) whose source parents fit */
+        int32_t nneed = 0, nblk, b, blk;
+        for (s1 = s0; s1 < ni; s1++) {
+            int32_t g = base + s1, add = 0;
+            for (e = co[g]; e < co[g + 1]; e++) add += loc[cj[e]] < 0;
+            if (s1 > s0 && nneed + add > c->slots) break;
+            for (e = co[g]; e < co[g + 1]; e++) {
+                if (loc[cj[e]] < 0) {
+                    loc[cj[e]] = nneed;
+                    need[nneed++] = cj[e];
+                }
+                cjl[e - co[base + s0]] = loc[cj[e]];
+            }
+        }
+        nblk = (s1 - s0 + KIFMM__FFT_TB - 1) / KIFMM__FFT_TB;
+        for (r = 0; r < nrhs; r++) {
+            const KIFMM__R *ue = w->ue + r * per + (size_t)t->loff[l] * ne;
+            KIFMM__R *chk = w->chk + (size_t)r * nl * nc;
+            KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+            for (b = 0; b < 8 * nneed; b++) {
+                double *work = KIFMM__F(__fbuf)(c) + kbn + outn, *m = work + kifmm__fft_work(pl);
+                const KIFMM__R *u = ue + ((size_t)8 * need[b >> 3] + (size_t)(b & 7)) * ne;
+                int i, j;
+                /* the density on the check-order lattice: m = conv u */
+                for (i = 0; i < nc; i++) m[i] = 0.0;
+                for (j = 0; j < ne; j++) {
+                    const KIFMM__R *col = o->conv + (size_t)j * nc;
+                    const double uj = (double)u[j];
+                    for (i = 0; i < nc; i++) m[i] += (double)col[i] * uj;
+                }
+                kifmm__fft_forward(
+                    pl, m,
+                    (char *)c->spec + ((size_t)(b >> 3) * KIFMM__FFT_F * 16 + (size_t)(b & 7)) * esz,
+                    cstride, work);
+            }
+            KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
+            for (blk = 0; blk < nblk; blk++) {
+                double *kb = KIFMM__F(__fbuf)(c), *out = kb + kbn, *work = out + outn;
+                double *dchk = work + kifmm__fft_work(pl);
+                int32_t p0 = s0 + blk * KIFMM__FFT_TB;
+                int32_t nb = s1 - p0 < KIFMM__FFT_TB ? s1 - p0 : KIFMM__FFT_TB, P, q;
+                int ch, i;
+                for (ch = 0; ch < pl->nchunk; ch++) {
+                    kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
+                    for (P = 0; P < nb; P++) {
+                        int32_t g = base + p0 + P, nn = co[g + 1] - co[g];
+                        const int32_t *nbr = cjl + (co[g] - co[base + s0]);
+                        size_t oo = (size_t)ch * ocs + (size_t)P * KIFMM__FFT_F * 16;
+                        if (pl->single)
+                            kifmm__fft_products_f(nn, nbr, c->cc + co[g],
+                                                  (const float *)c->spec + (size_t)ch * cstride,
+                                                  (const float *)kb, (float *)out + oo);
+                        else
+                            kifmm__fft_products(nn, nbr, c->cc + co[g],
+                                                (const double *)c->spec + (size_t)ch * cstride,
+                                                kb, out + oo);
+                    }
+                }
+                for (q = 0; q < 8 * nb; q++) {
+                    int32_t lb = 8 * p0 + q, box = t->loff[l] + lb;
+                    KIFMM__R *dst = chk + (size_t)lb * nc;
+                    if (t->vo[box + 1] == t->vo[box]) continue;
+                    kifmm__fft_inverse(pl,
+                                       (const char *)out + ((size_t)(q >> 3) * KIFMM__FFT_F * 16 +
+                                                            (size_t)(q & 7)) * esz,
+                                       ocs, dchk, work);
+                    for (i = 0; i < nc; i++) dst[i] += (KIFMM__R)dchk[i];
+                }
+            }
+        }
+        for (e = 0; e < nneed; e++) loc[need[e]] = -1;
+    }
+}
+#endif
 
 /* ---- the evaluation passes, in pipeline order -------------------------- */
 
@@ -1718,14 +2401,25 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
         }
     }
     t2 = kifmm__now();
+#if KIFMM__FFT
+    /* FFT M2L: potentials on the check surface itself, added to chk */
+    KIFMM__F(__m2l_fft)(c, w, nrhs, l);
+    t3 = kifmm__now();
+    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 0);
+    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 1);
+    t4 = kifmm__now();
+    c->stats->t_m2l += t3 - t2;
+    c->stats->t_l2l += (t1 - t0) + (t4 - t3);
+#else
     KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 0);
     t3 = kifmm__now();
-    KIFMM__F(__m2l_level)(c, w, nrhs, l);
+    KIFMM__F(__m2l_level)(c, w, nrhs, l); /* into the first step's result */
     t4 = kifmm__now();
     KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 1);
-    c->stats->t_p2l += t2 - t1;
     c->stats->t_m2l += t4 - t3;
     c->stats->t_l2l += (t1 - t0) + (t3 - t2) + (kifmm__now() - t4);
+#endif
+    c->stats->t_p2l += t2 - t1;
 }
 
 /* out += the field, at nt targets, of densities (vector stride `per`) on the
@@ -1816,6 +2510,15 @@ KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->surf_c);
     kifmm__free(h->scratch);
     KIFMM__F(__work_free)(h->w);
+    kifmm__fft_free(&h->fft);
+    kifmm__free(h->co);
+    kifmm__free(h->cj);
+    kifmm__free(h->cc);
+    kifmm__free(h->spec);
+    kifmm__free(h->fbuf);
+    kifmm__free(h->loc);
+    kifmm__free(h->need);
+    kifmm__free(h->cjl);
     kifmm__free(h->stats);
     kifmm__free(h);
 }
@@ -1935,6 +2638,35 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     t0 = kifmm__now();
     if ((rc = KIFMM__F(__tree)(h, nsources, src_xyz, ntargets, trg_xyz))) goto fail;
     t1 = kifmm__now();
+#if KIFMM__FFT
+    if ((rc = kifmm__fft_init(&h->fft, o.order + KIFMM_CHECK_ORDER_DIFF))) goto fail;
+    h->fft.single = KIFMM__FLOAT || o.order <= KIFMM_FFT_SINGLE_MAX_ORDER;
+    if ((rc = kifmm__colleagues(&h->tree, h->nthreads, &h->co, &h->cj, &h->cc))) goto fail;
+    {
+        const kifmm__tree *t = &h->tree;
+        const size_t slot = (size_t)h->fft.nfp * 16 * (h->fft.single ? sizeof(float) : sizeof(double));
+        int32_t l, m = 1, mc = 1, i;
+        for (l = 1; l + 1 < t->nlev; l++) {
+            if (t->ioff[l + 1] - t->ioff[l] > m) m = t->ioff[l + 1] - t->ioff[l];
+            if (h->co[t->ioff[l + 1]] - h->co[t->ioff[l]] > mc)
+                mc = h->co[t->ioff[l + 1]] - h->co[t->ioff[l]];
+        }
+        h->slots = (int32_t)((size_t)KIFMM_FFT_SPEC_MB * 1048576u / slot);
+        if (h->slots < 27) h->slots = 27;
+        if (h->slots > m) h->slots = m;
+        h->loc = (int32_t *)kifmm__alloc((size_t)m, sizeof(int32_t));
+        h->need = (int32_t *)kifmm__alloc((size_t)m, sizeof(int32_t));
+        h->cjl = (int32_t *)kifmm__alloc((size_t)mc, sizeof(int32_t));
+        if (!h->loc || !h->need || !h->cjl) { rc = KIFMM_ERR_NOMEM; goto fail; }
+        for (i = 0; i < m; i++) h->loc[i] = -1;
+        h->spec = kifmm__alloc((size_t)h->slots, slot);
+        h->fbuf_per = (size_t)27 * 128 * KIFMM__FFT_F + (size_t)h->fft.nfp * KIFMM__FFT_TB * 16 +
+                      kifmm__fft_work(&h->fft) + (size_t)h->nc;
+        h->fbuf_per = (h->fbuf_per + 7) / 8 * 8; /* keeps each thread's part 64-byte aligned */
+        h->fbuf = (double *)kifmm__alloc((size_t)h->nthreads * h->fbuf_per, sizeof(double));
+        if (!h->spec || !h->fbuf) { rc = KIFMM_ERR_NOMEM; goto fail; }
+    }
+#endif
     if ((rc = KIFMM__F(__precompute)(h))) goto fail;
     h->mb = kifmm__max_level_boxes(&h->tree);
     {
@@ -2062,6 +2794,9 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 /* 5. Epilogue: the next include starts clean                              */
 /* ======================================================================== */
 #undef KIFMM__LVL
+#undef KIFMM__FFT_TB
+#undef KIFMM__FFT
+#undef KIFMM_M2L_DENSE
 #undef KIFMM__DEFINE_P2P_HOOK
 #undef KIFMM__DEFINE_P2P
 #undef KIFMM__HOOKE

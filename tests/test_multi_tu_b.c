@@ -1,6 +1,9 @@
 /* test_multi_tu_b.c - the second translation unit of test_multi_tu: it
  * instantiates the same kernels as test_multi_tu_a.c, plus one under its own
- * prefix (KIFMM_NAME), and runs a small problem. */
+ * prefix (KIFMM_NAME), and runs a small problem. Its compile-time options
+ * differ from unit a's: the FFT M2L gets the smallest spectra buffer, so
+ * every level with more than 27 parents is done in many slabs. */
+#define KIFMM_FFT_SPEC_MB 0
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
@@ -35,6 +38,7 @@ int tu_b_run(int64_t n, uint64_t seed, double *err_pot, double *err_grad, double
         *err_pot = e.pot;
         *err_grad = e.grad;
     }
+    o.leaf_size = 20; /* a deeper tree: 64 parents at level 2 */
     if (rc == KIFMM_SUCCESS) rc = tu_b_pot_create(&hb, &o, n, x, n, x);
     if (rc == KIFMM_SUCCESS) rc = tu_b_pot_evaluate(hb, q, out);
     tu_b_pot_destroy(hb);

@@ -3,6 +3,10 @@
  * list bounds, and that the lists of a leaf and its ancestors account for
  * every source exactly once). */
 #include "kifmm.h"
+/* the same kernel with the dense M2L (stacked GEMMs), for comparison */
+#define KIFMM_M2L_DENSE
+#define KIFMM_NAME kifmm_laplace_dense
+#include "kifmm.h"
 #include "test.h"
 
 /* Equivalent density -> potential at points y (interleaved), with the test's
@@ -147,9 +151,40 @@ static void test_upward(int p)
     kifmm_laplace_destroy(h);
 }
 
+/* M2L of one box pair through the FFT path: the source density moved to the
+ * check-order lattice, its spectrum times the kernel spectrum of transfer
+ * vector tv, inverse onto the downward check surface, then the downward
+ * solve. */
+static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de)
+{
+    kifmm__fft plan = c->fft; /* this helper works in double throughout */
+    const kifmm__fft *pl = &plan;
+    const kifmm_laplace__ops *o = &c->ops[0];
+    const size_t cs = 16 * KIFMM__FFT_F;
+    double *spec = t_doubles(16 * pl->nfp), *prod = t_doubles(16 * pl->nfp);
+    double *work = t_doubles((int64_t)kifmm__fft_work(pl)), *chk = t_doubles(c->nc);
+    double *m = t_doubles(c->nc);
+    int f;
+    plan.single = 0;
+    t_fill(16 * pl->nfp, spec, 0.0);
+    t_fill(16 * pl->nfp, prod, 0.0);
+    kifmm__gemm(0, 0, c->nc, 1, c->ne, 1.0, o->conv, c->nc, ue, c->ne, 0.0, m, c->nc);
+    kifmm__fft_forward(pl, m, spec, cs, work);
+    for (f = 0; f < pl->nf; f++) {
+        size_t a = (size_t)(f / KIFMM__FFT_F) * cs + (size_t)(f % KIFMM__FFT_F) * 16;
+        const double *k = o->khat + (size_t)tv * 2 * pl->nfp + 2 * f;
+        prod[a] = spec[a] * k[0] - spec[a + 8] * k[1];
+        prod[a + 8] = spec[a] * k[1] + spec[a + 8] * k[0];
+    }
+    kifmm__fft_inverse(pl, prod, cs, chk, work);
+    solve(c, 0, chk, de);
+    free(spec); free(prod); free(work); free(chk); free(m);
+}
+
 static void test_downward(int p)
 {
     kifmm_laplace *h = handle(p);
+    kifmm_laplace_dense *hd = NULL;
     const kifmm_laplace *c = h;
     t_rng g = t_rng_seed(23 + p);
     double ctr[3] = {-0.1, 0.2, 0.05}, r = 0.125, *x, *q, *y, *pot, *ue, *de, *dec, *chk, *pe,
@@ -160,6 +195,11 @@ static void test_downward(int p)
     ue = t_doubles(c->ne); de = t_doubles(c->ne); dec = t_doubles(c->ne);
     chk = t_doubles(8 * c->nc); pe = t_doubles(3 * c->nse); pc = t_doubles(3 * c->nsc);
     xs = t_doubles(3 * ns);
+    {
+        double two[6] = {0, 0, 0, 1, 1, 1};
+        kifmm_opts o = t_opts(p, 0, 0);
+        CHECK(kifmm_laplace_dense_create(&hd, &o, 2, two, 2, two) == 0, "dense create %d", p);
+    }
 
     /* M2L: source box at transfer vector d (in box widths), P2M there, M2L,
      * solve, evaluate at targets inside the target box */
@@ -171,16 +211,24 @@ static void test_downward(int p)
         t_gen_charges(&g, ns, q, -1, 1);
         points_in_box(&g, ny, ctr, r, y);
         p2m(c, cs, r, ns, x, q, ue);
-        /* the stored M2L matrices include the first factor of the solve */
-        kifmm__gemm(0, 0, c->ops[0].kd, 1, c->ne, 1.0,
-                    c->ops[0].m2l + (size_t)tv * c->ne * c->ops[0].kd, c->ops[0].kd, ue, c->ne,
-                    0.0, chk, c->ops[0].kd);
-        kifmm__gemm(0, 0, c->ne, 1, c->ops[0].kd, 1.0, c->ops[0].vs_dn, c->ne, chk,
-                    c->ops[0].kd, 0.0, de, c->ne);
         kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_OUTER * r, pe);
+        /* FFT path */
+        m2l_fft(c, tv, ue, de);
         eval_equiv(c, c->nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
-                  "M2L p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
+                  "M2L (FFT) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
+        /* dense path: the stored matrices include the first factor of the
+         * solve */
+        {
+            const kifmm_laplace_dense__ops *od = &hd->ops[0];
+            kifmm__gemm(0, 0, od->kd, 1, c->ne, 1.0, od->m2l + (size_t)tv * c->ne * od->kd,
+                        od->kd, ue, c->ne, 0.0, chk, od->kd);
+            kifmm__gemm(0, 0, c->ne, 1, od->kd, 1.0, od->vs_dn, c->ne, chk, od->kd, 0.0, de,
+                        c->ne);
+        }
+        eval_equiv(c, c->nse, pe, de, ny, y, pot);
+        CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
+                  "M2L (dense) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
     }
 
     /* P2L then L2L: sources well apart from a parent of half-width 2r; the
@@ -214,6 +262,7 @@ static void test_downward(int p)
     free(x); free(q); free(y); free(pot); free(ue); free(de); free(dec); free(chk);
     free(pe); free(pc); free(xs);
     kifmm_laplace_destroy(h);
+    kifmm_laplace_dense_destroy(hd);
 }
 
 static void test_transfer_vectors(void)
