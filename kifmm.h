@@ -1108,7 +1108,8 @@ KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
  * neighbouring source parents, one 8 x 8 complex block (child of source
  * parent -> child of target parent) per frequency, zero for adjacent child
  * pairs (those are not in the V list). Below, p is the lattice order q. */
-#define KIFMM__FFT_F 4 /* frequencies per chunk */
+#define KIFMM__FFT_F 4 /* frequencies per chunk (the AVX2 product kernels assume 4) */
+KIFMM__STATIC_ASSERT(KIFMM__FFT_F == 4, fft_product_kernels_take_4_frequencies_per_chunk);
 
 typedef struct kifmm__fft {
     int p, n, nh, nf, nchunk, nfp, ne; /* nfp = nchunk * F */
@@ -1574,7 +1575,14 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #else
 #define KIFMM__FFT 0
 #endif
-#define KIFMM__FFT_TB 32 /* target parents per FFT M2L task */
+
+
+/* Singular value cutoff of the check-to-equivalent pseudo-inverses. */
+#if KIFMM__FLOAT
+#define KIFMM__CUTOFF (KIFMM_SVD_CUTOFF > 1e-7 ? KIFMM_SVD_CUTOFF : 1e-7)
+#else
+#define KIFMM__CUTOFF KIFMM_SVD_CUTOFF
+#endif
 
 /* The near-field hook of this precision, if the kernel has one. */
 #if KIFMM__FLOAT
@@ -1635,6 +1643,8 @@ struct KIFMM_NAME {
     int32_t *loc, *need, *cjl; /*        slab: slot of a parent, parents, local colleagues */
     double *fbuf;            /* FFT M2L: per-thread blocks, products, work */
     size_t fbuf_per;         /* doubles of fbuf per thread */
+    int ftb;                 /* FFT M2L: target parents per task (products buffer) */
+    int32_t fft_m, fft_mc;   /*          sizes of loc/need and cjl */
     kifmm_stats *stats;      /* written by create and evaluate */
 };
 
@@ -1788,15 +1798,17 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
     o->l2l = (double *)kifmm__alloc((size_t)8 * nc * ne, sizeof(double));
     if (!a || !pe || !pc || !o->m2m || !o->l2l) { rc = KIFMM_ERR_NOMEM; goto done; }
 
-    /* upward: check at 2.95 r, equivalent at 1.05 r; downward the reverse */
+    /* upward: check at 2.95 r, equivalent at 1.05 r; downward the reverse.
+     * Float instances truncate at float resolution: factors that resolve
+     * singular values below it would amplify the rounding of the passes. */
     kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_OUTER * r, pc);
     kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_INNER * r, pe);
     KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, a, (size_t)nc);
-    if ((rc = kifmm__pinv(a, nc, ne, KIFMM_SVD_CUTOFF, &o->ut_up, &o->vs_up, &o->ku))) goto done;
+    if ((rc = kifmm__pinv(a, nc, ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku))) goto done;
     kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
     kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_OUTER * r, pe);
     KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, a, (size_t)nc);
-    if ((rc = kifmm__pinv(a, nc, ne, KIFMM_SVD_CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd))) goto done;
+    if ((rc = kifmm__pinv(a, nc, ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd))) goto done;
 
     for (oct = 0; oct < 8; oct++) {
         double sgn[3] = {(oct >> 2 & 1) ? 1.0 : -1.0, (oct >> 1 & 1) ? 1.0 : -1.0,
@@ -1834,7 +1846,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
             if (pe2) {
                 kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pe2);
                 KIFMM__F(__kmat)(prm, pc, nsc, pe2, nsc, a, (size_t)nc);
-                rc = kifmm__pinv(a, nc, nc, KIFMM_SVD_CUTOFF, &ut2, &vs2, &k2);
+                rc = kifmm__pinv(a, nc, nc, KIFMM__CUTOFF, &ut2, &vs2, &k2);
                 kifmm__free(pe2);
             } else {
                 rc = KIFMM_ERR_NOMEM;
@@ -2068,7 +2080,7 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
         KIFMM__F(__work_sizes)(c, sz);
         b += R * c->w->nrhs * (2.0 * sz[0] + sz[1] + sz[2] + sz[3] + sz[4]);
 #if KIFMM__FFT
-        b += 0.0 * big;
+        (void)big;
 #else
         b += R * (double)c->m2l_cols * (KIFMM__NT * ne + big);
 #endif
@@ -2076,8 +2088,8 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
 #if KIFMM__FFT
     if (c->spec) {
         b += (c->fft.single ? 4.0 : 8.0) * 16 * c->fft.nfp * c->slots + 8.0 * c->nthreads * c->fbuf_per;
-        b += 12.0 * c->slots + 4.0 * c->co[t->ioff[t->nlev]];
-        b += 5.0 * c->co[t->ioff[t->nlev]] + 4.0 * t->ioff[t->nlev];
+        b += 8.0 * c->fft_m + 4.0 * c->fft_mc;
+        b += 4.0 * (t->ioff[t->nlev] + 1) + 5.0 * (26.0 * t->ioff[t->nlev] + 1); /* co, cj, cc */
     }
 #endif
     b += R * c->nthreads * 9 * ns;
@@ -2103,8 +2115,8 @@ KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
 
 /* Check vectors -> equivalent densities for every box of level l: step 0,
  * tmp = ut chk (one GEMM over boxes and vectors); step 1, equiv = vs tmp. The
- * downward pass adds the M2L results between the two (they are kept in the
- * ut space already). */
+ * dense M2L adds its results between the two (its matrices include ut_dn);
+ * the FFT M2L adds to chk before step 0. */
 KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                       int l, int up, int step)
 {
@@ -2219,6 +2231,15 @@ KIFMM__FN double *KIFMM__F(__fbuf)(const KIFMM_NAME *c)
 #endif
 }
 
+/* Does any child of the j-th internal box of level l - 1 receive M2L? */
+KIFMM__FN int KIFMM__F(__fft_wanted)(const kifmm__tree *t, int l, int32_t j)
+{
+    int32_t b = t->loff[l] + 8 * j, c;
+    for (c = 0; c < 8; c++)
+        if (t->vo[b + c + 1] > t->vo[b + c]) return 1;
+    return 0;
+}
+
 /* M2L into level l by FFT (see kifmm__fft): the level's multipoles
  * (children of the internal boxes of level l - 1) moved to the check
  * surface's lattice (conv) and transformed, products per target parent over
@@ -2236,9 +2257,11 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const int32_t ni = t->ioff[l] - t->ioff[l - 1], base = t->ioff[l - 1];
     const int nl = KIFMM__LVL(c, l), ne = c->ne, nc = c->nc;
     const size_t cstride = (size_t)c->slots * KIFMM__FFT_F * 16, per = (size_t)t->nbox * ne;
-    const size_t ocs = (size_t)KIFMM__FFT_TB * KIFMM__FFT_F * 16;
-    const size_t kbn = (size_t)27 * 128 * KIFMM__FFT_F, outn = (size_t)pl->nfp * KIFMM__FFT_TB * 16;
     const size_t esz = pl->single ? sizeof(float) : sizeof(double); /* spectra, blocks */
+    const int32_t tb = c->ftb;
+    const size_t ocs = (size_t)tb * KIFMM__FFT_F * 16; /* elements of esz */
+    const size_t kbn = (size_t)27 * 128 * KIFMM__FFT_F * esz / sizeof(double); /* doubles */
+    const size_t outn = ((size_t)pl->nfp * tb * 16 * esz + sizeof(double) - 1) / sizeof(double);
     const int32_t *co = c->co, *cj = c->cj;
     int32_t *loc = c->loc, *need = c->need, *cjl = c->cjl, s0, s1, e;
     int tv[27 * 64], r;
@@ -2248,6 +2271,7 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
         int32_t nneed = 0, nblk, b, blk;
         for (s1 = s0; s1 < ni; s1++) {
             int32_t g = base + s1, add = 0;
+            if (!KIFMM__F(__fft_wanted)(t, l, s1)) continue; /* no child has a V list */
             for (e = co[g]; e < co[g + 1]; e++) add += loc[cj[e]] < 0;
             if (s1 > s0 && nneed + add > c->slots) break;
             for (e = co[g]; e < co[g + 1]; e++) {
@@ -2258,7 +2282,7 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                 cjl[e - co[base + s0]] = loc[cj[e]];
             }
         }
-        nblk = (s1 - s0 + KIFMM__FFT_TB - 1) / KIFMM__FFT_TB;
+        nblk = (s1 - s0 + tb - 1) / tb;
         for (r = 0; r < nrhs; r++) {
             const KIFMM__R *ue = w->ue + r * per + (size_t)t->loff[l] * ne;
             KIFMM__R *chk = w->chk + (size_t)r * nl * nc;
@@ -2283,13 +2307,14 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
             for (blk = 0; blk < nblk; blk++) {
                 double *kb = KIFMM__F(__fbuf)(c), *out = kb + kbn, *work = out + outn;
                 double *dchk = work + kifmm__fft_work(pl);
-                int32_t p0 = s0 + blk * KIFMM__FFT_TB;
-                int32_t nb = s1 - p0 < KIFMM__FFT_TB ? s1 - p0 : KIFMM__FFT_TB, P, q;
+                int32_t p0 = s0 + blk * tb;
+                int32_t nb = s1 - p0 < tb ? s1 - p0 : tb, P, q;
                 int ch, i;
                 for (ch = 0; ch < pl->nchunk; ch++) {
                     kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
                     for (P = 0; P < nb; P++) {
                         int32_t g = base + p0 + P, nn = co[g + 1] - co[g];
+                        if (!KIFMM__F(__fft_wanted)(t, l, p0 + P)) continue;
                         const int32_t *nbr = cjl + (co[g] - co[base + s0]);
                         size_t oo = (size_t)ch * ocs + (size_t)P * KIFMM__FFT_F * 16;
                         if (pl->single)
@@ -2352,9 +2377,10 @@ KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
     c->stats->t_m2m += kifmm__now() - t1;
 }
 
-/* Downward pass at level l: L2L from the parents, P2L over X lists, the first
- * solve step, M2L over V lists (already in the solve's space), the second
- * solve step. Timed as L2L (with the solve), P2L and M2L. */
+/* Downward pass at level l: L2L from the parents, P2L over X lists, then
+ * either the FFT M2L into the check vectors and the two solve steps, or the
+ * first solve step, the dense M2L (already in the solve's space) and the
+ * second. Timed as L2L (with the solve), P2L and M2L. */
 KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                     int l)
 {
@@ -2644,7 +2670,8 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     if ((rc = kifmm__colleagues(&h->tree, h->nthreads, &h->co, &h->cj, &h->cc))) goto fail;
     {
         const kifmm__tree *t = &h->tree;
-        const size_t slot = (size_t)h->fft.nfp * 16 * (h->fft.single ? sizeof(float) : sizeof(double));
+        const size_t esz = h->fft.single ? sizeof(float) : sizeof(double);
+        const size_t slot = (size_t)h->fft.nfp * 16 * esz;
         int32_t l, m = 1, mc = 1, i;
         for (l = 1; l + 1 < t->nlev; l++) {
             if (t->ioff[l + 1] - t->ioff[l] > m) m = t->ioff[l + 1] - t->ioff[l];
@@ -2659,8 +2686,15 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
         h->cjl = (int32_t *)kifmm__alloc((size_t)mc, sizeof(int32_t));
         if (!h->loc || !h->need || !h->cjl) { rc = KIFMM_ERR_NOMEM; goto fail; }
         for (i = 0; i < m; i++) h->loc[i] = -1;
-        h->spec = kifmm__alloc((size_t)h->slots, slot);
-        h->fbuf_per = (size_t)27 * 128 * KIFMM__FFT_F + (size_t)h->fft.nfp * KIFMM__FFT_TB * 16 +
+        h->spec = kifmm__calloc((size_t)h->slots, slot); /* padding frequencies stay 0 */
+        h->fft_m = m;
+        h->fft_mc = mc;
+        /* products of up to 32 target parents per task, about 4 MiB */
+        h->ftb = (int)((size_t)(4u << 20) / ((size_t)h->fft.nfp * 16 * esz));
+        if (h->ftb > 32) h->ftb = 32;
+        if (h->ftb < 1) h->ftb = 1;
+        h->fbuf_per = (size_t)27 * 128 * KIFMM__FFT_F * esz / sizeof(double) +
+                      ((size_t)h->fft.nfp * h->ftb * 16 * esz + 7) / 8 +
                       kifmm__fft_work(&h->fft) + (size_t)h->nc;
         h->fbuf_per = (h->fbuf_per + 7) / 8 * 8; /* keeps each thread's part 64-byte aligned */
         h->fbuf = (double *)kifmm__alloc((size_t)h->nthreads * h->fbuf_per, sizeof(double));
@@ -2794,8 +2828,8 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 /* 5. Epilogue: the next include starts clean                              */
 /* ======================================================================== */
 #undef KIFMM__LVL
-#undef KIFMM__FFT_TB
 #undef KIFMM__FFT
+#undef KIFMM__CUTOFF
 #undef KIFMM_M2L_DENSE
 #undef KIFMM__DEFINE_P2P_HOOK
 #undef KIFMM__DEFINE_P2P

@@ -333,6 +333,17 @@ int main(void)
     check(&STKF, &sph, 4, 0, 1.0, 1e-3, 0);
     check(&LAPF, &cube, 6, 0, 0, 3e-5, 0);
     check(&LAPGF, &sph, 6, 0, 0, 3e-5, 3e-4);
+    /* higher orders in float: the pseudo-inverses are truncated at float
+     * resolution (without that, p = 8 with small leaves diverged) */
+    {
+        kifmm_opts o8 = t_opts(8, 16, 0);
+        double *out = t_doubles(cube.n), e[4];
+        int rc = run_kifmm_laplacef(&o8, cube.n, cube.x, cube.n, cube.x, cube.q, 1, out, NULL);
+        CHECK(rc == KIFMM_SUCCESS, "laplacef p=8 rc=%d", rc);
+        errors(K_LAPLACE, 0, cube.n, cube.x, cube.q, cube.n, cube.x, out, 1, e);
+        CHECK_ERR(e[0], 3e-6, "laplacef      cube   p=8 leaf 16 (float floor)");
+        free(out);
+    }
     /* and the double instances of the same two kernels alongside */
     check(&LAP, &cube, 6, 0, 0, 4e-6, 0);
     check(&LAPG, &sph, 6, 0, 0, 4e-6, 4e-5);
