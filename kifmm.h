@@ -1356,6 +1356,26 @@ KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const
             }
 }
 
+/* The products of kifmm__fft_products in plain C, for element type T
+ * (variables nn, nb, no, sc, kb, oc, e, fi, cs of the caller). */
+#define KIFMM__FFT_PRODUCTS_C(T)                                                              \
+    do {                                                                                      \
+        int ct_;                                                                              \
+        memset(oc, 0, sizeof(T) * 16 * KIFMM__FFT_F);                                         \
+        for (e = 0; e < nn; e++)                                                              \
+            for (fi = 0; fi < KIFMM__FFT_F; fi++) {                                           \
+                const T *x_ = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;                  \
+                const T *k_ = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;                 \
+                T *acc_ = oc + fi * 16;                                                       \
+                for (cs = 0; cs < 8; cs++)                                                    \
+                    for (ct_ = 0; ct_ < 8; ct_++) {                                           \
+                        T kr_ = k_[cs * 16 + ct_], ki_ = k_[cs * 16 + 8 + ct_];               \
+                        acc_[ct_] += kr_ * x_[cs] - ki_ * x_[8 + cs];                         \
+                        acc_[8 + ct_] += kr_ * x_[8 + cs] + ki_ * x_[cs];                     \
+                    }                                                                         \
+            }                                                                                 \
+    } while (0)
+
 /* One target parent, one chunk: oc[fi 16 ..] = sum over its nn source
  * parents e of K[no[e]][fi] (8 x 8 complex) times the 8 child spectra
  * sc[nb[e]] at fi (re 8 | im 8). */
@@ -1395,22 +1415,7 @@ KIFMM__FN void kifmm__fft_products(int nn, const int32_t *nb, const unsigned cha
         _mm256_store_pd(oc + fi * 16 + 24, b2); _mm256_store_pd(oc + fi * 16 + 28, b3);
     }
 #else
-    int ct;
-    memset(oc, 0, sizeof(double) * 16 * KIFMM__FFT_F);
-    for (e = 0; e < nn; e++)
-        for (fi = 0; fi < KIFMM__FFT_F; fi++) {
-            const double *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
-            const double *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
-            double *acc = oc + fi * 16;
-            for (cs = 0; cs < 8; cs++) {
-                double xr = x[cs], xi = x[8 + cs];
-                for (ct = 0; ct < 8; ct++) {
-                    double kr = k[cs * 16 + ct], ki = k[cs * 16 + 8 + ct];
-                    acc[ct] += kr * xr - ki * xi;
-                    acc[8 + ct] += kr * xi + ki * xr;
-                }
-            }
-        }
+    KIFMM__FFT_PRODUCTS_C(double);
 #endif
 }
 
@@ -1450,22 +1455,8 @@ KIFMM__FN void kifmm__fft_products_f(int nn, const int32_t *nb, const unsigned c
     _mm256_store_ps(oc + 32, r2); _mm256_store_ps(oc + 40, i2);
     _mm256_store_ps(oc + 48, r3); _mm256_store_ps(oc + 56, i3);
 #else
-    int fi, ct;
-    memset(oc, 0, sizeof(float) * 16 * KIFMM__FFT_F);
-    for (e = 0; e < nn; e++)
-        for (fi = 0; fi < KIFMM__FFT_F; fi++) {
-            const float *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
-            const float *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
-            float *acc = oc + fi * 16;
-            for (cs = 0; cs < 8; cs++) {
-                float xr = x[cs], xi = x[8 + cs];
-                for (ct = 0; ct < 8; ct++) {
-                    float kr = k[cs * 16 + ct], ki = k[cs * 16 + 8 + ct];
-                    acc[ct] += kr * xr - ki * xi;
-                    acc[8 + ct] += kr * xi + ki * xr;
-                }
-            }
-        }
+    int fi;
+    KIFMM__FFT_PRODUCTS_C(float);
 #endif
 }
 

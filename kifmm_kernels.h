@@ -57,6 +57,15 @@ static inline void kifmm_kernel_laplace_grad_eval(const double *param, double dx
     k[3] = -dz * inv3;
 }
 
+/* Setup of a kernel whose param[0] must be positive, 0 meaning 1: lambda
+ * of yukawa, mu of stokes. Nonzero (KIFMM_ERR_PARAM) for a bad value. */
+static inline int kifmm_kernel__positive_setup(const double *in, double *out)
+{
+    out[0] = in[0] == 0.0 ? 1.0 : in[0];
+    out[1] = out[2] = out[3] = 0.0;
+    return out[0] > 0.0 && out[0] <= 1e300 ? 0 : -1;
+}
+
 /* yukawa: the modified Helmholtz (screened Coulomb) potential
  * phi(y) = q exp(-lambda |y - x|) / (4 pi |y - x|), lambda = param[0] > 0
  * (0 = the default, 1). Not scale invariant: operators are built per level. */
@@ -65,12 +74,7 @@ static inline void kifmm_kernel_laplace_grad_eval(const double *param, double dx
 #define kifmm_kernel_yukawa_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_DEGREE 0
 #define kifmm_kernel_yukawa_SETUP 1
-static inline int kifmm_kernel_yukawa_setup(const double *in, double *out)
-{
-    out[0] = in[0] == 0.0 ? 1.0 : in[0];
-    out[1] = out[2] = out[3] = 0.0;
-    return out[0] > 0.0 && out[0] <= 1e300 ? 0 : -1;
-}
+#define kifmm_kernel_yukawa_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
 {
@@ -86,7 +90,7 @@ static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, doub
 #define kifmm_kernel_yukawa_grad_DEGREE 0
 #define kifmm_kernel_yukawa_grad_EQUIV yukawa
 #define kifmm_kernel_yukawa_grad_SETUP 1
-#define kifmm_kernel_yukawa_grad_setup kifmm_kernel_yukawa_setup
+#define kifmm_kernel_yukawa_grad_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx, double dy,
                                                  double dz, double *k)
 {
@@ -113,12 +117,7 @@ static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx,
 #define kifmm_kernel_stokes_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_DEGREE (-1)
 #define kifmm_kernel_stokes_SETUP 1
-static inline int kifmm_kernel_stokes_setup(const double *in, double *out)
-{
-    out[0] = in[0] == 0.0 ? 1.0 : in[0];
-    out[1] = out[2] = out[3] = 0.0;
-    return out[0] > 0.0 && out[0] <= 1e300 ? 0 : -1;
-}
+#define kifmm_kernel_stokes_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_stokes_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
 {
