@@ -1163,6 +1163,18 @@ KIFMM__FN size_t kifmm__fft_work(const kifmm__fft *pl)
     return (size_t)4 * pl->n * pl->n * pl->nh + (size_t)pl->n * pl->n * pl->n;
 }
 
+/* d += x w over n complex values in split form (dr, di += (xr, xi) (w0 + i w1)):
+ * the one step of every separable DFT stage below. */
+KIFMM__FN void kifmm__caxpy(int n, double w0, double w1, const double *xr, const double *xi,
+                            double *dr, double *di)
+{
+    int q;
+    for (q = 0; q < n; q++) {
+        dr[q] += xr[q] * w0 - xi[q] * w1;
+        di[q] += xr[q] * w1 + xi[q] * w0;
+    }
+}
+
 /* Spectrum of a real n^3 grid g ([(i n + j) n + k]) into khat (frequency f
  * at 2 f, re and im), full transform. */
 KIFMM__FN void kifmm__fft_grid(const kifmm__fft *pl, const double *g, double *khat, double *work)
@@ -1230,10 +1242,7 @@ KIFMM__FN void kifmm__fft_forward(const kifmm__fft *pl, const double *m, void *o
             for (j = 0; j < p; j++) {
                 const double *xr = s1r + (i * p + j) * nh, *xi = s1i + (i * p + j) * nh;
                 double w0 = pl->wr[ky * n + j], w1 = pl->wi[ky * n + j];
-                for (kz = 0; kz < nh; kz++) {
-                    dr[kz] += xr[kz] * w0 - xi[kz] * w1;
-                    di[kz] += xr[kz] * w1 + xi[kz] * w0;
-                }
+                kifmm__caxpy(nh, w0, w1, xr, xi, dr, di);
             }
         }
     for (kx = 0; kx < n; kx++) {
@@ -1242,10 +1251,7 @@ KIFMM__FN void kifmm__fft_forward(const kifmm__fft *pl, const double *m, void *o
         for (i = 0; i < p; i++) {
             const double *xr = s2r + i * n * nh, *xi = s2i + i * n * nh;
             double w0 = pl->wr[kx * n + i], w1 = pl->wi[kx * n + i];
-            for (q = 0; q < n * nh; q++) {
-                tr[q] += xr[q] * w0 - xi[q] * w1;
-                ti[q] += xr[q] * w1 + xi[q] * w0;
-            }
+            kifmm__caxpy(n * nh, w0, w1, xr, xi, tr, ti);
         }
         for (q = 0; q < n * nh; q++) {
             int f = f0 + q;
@@ -1280,10 +1286,7 @@ KIFMM__FN void kifmm__fft_inverse(const kifmm__fft *pl, const void *in, size_t c
         for (kx = 0; kx < n; kx++) {
             const double *xr = yr + kx * n * nh, *xi = yi + kx * n * nh;
             double w0 = pl->wr[kx * n + i], w1 = -pl->wi[kx * n + i];
-            for (q = 0; q < n * nh; q++) {
-                dr[q] += xr[q] * w0 - xi[q] * w1;
-                di[q] += xr[q] * w1 + xi[q] * w0;
-            }
+            kifmm__caxpy(n * nh, w0, w1, xr, xi, dr, di);
         }
     }
     for (i = 0; i < p; i++)
@@ -1293,10 +1296,7 @@ KIFMM__FN void kifmm__fft_inverse(const kifmm__fft *pl, const void *in, size_t c
             for (ky = 0; ky < n; ky++) {
                 const double *xr = t1r + (i * n + ky) * nh, *xi = t1i + (i * n + ky) * nh;
                 double w0 = pl->wr[ky * n + j], w1 = -pl->wi[ky * n + j];
-                for (kz = 0; kz < nh; kz++) {
-                    dr[kz] += xr[kz] * w0 - xi[kz] * w1;
-                    di[kz] += xr[kz] * w1 + xi[kz] * w0;
-                }
+                kifmm__caxpy(nh, w0, w1, xr, xi, dr, di);
             }
         }
     for (s = 0; s < pl->ne; s++) {
