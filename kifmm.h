@@ -595,15 +595,17 @@ KIFMM__FN void kifmm__box_center(const kifmm__tree *t, int32_t b, double *c, dou
  * [-1, 1], among the 316 in lexicographic order. */
 KIFMM__FN int kifmm__transfer_index(int dx, int dy, int dz)
 {
-    int i = (dx + 3) * 49 + (dy + 3) * 7 + (dz + 3), near = 0, a, b;
-    /* near offsets (all |d| <= 1) lexicographically before (dx, dy, dz) */
-    for (a = -1; a <= 1; a++)
-        for (b = -1; b <= 1; b++) {
-            int base = (a + 3) * 49 + (b + 3) * 7;
-            if (base + 4 < i) near += 3;
-            else if (base + 2 < i) near += i - (base + 2);
-        }
-    return i - near;
+    /* minus the near offsets (all |d| <= 1) lexicographically before it: 9 per
+     * near x-slab before dx, 3 per near row before dy in the same slab, then the
+     * near cells before dz in the same row */
+#define KIFMM__CL3(v) ((v) < -1 ? 0 : (v) > 1 ? 3 : (v) + 1)
+    int near = 9 * KIFMM__CL3(dx);
+    if (dx >= -1 && dx <= 1) {
+        near += 3 * KIFMM__CL3(dy);
+        if (dy >= -1 && dy <= 1) near += KIFMM__CL3(dz);
+    }
+#undef KIFMM__CL3
+    return (dx + 3) * 49 + (dy + 3) * 7 + (dz + 3) - near;
 }
 
 KIFMM__FN void kifmm__transfer_vector(int t, int *d)
@@ -785,53 +787,111 @@ KIFMM__FN void kifmm__box_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L
     }
 }
 
-/* Two passes over the boxes with targets: count, then fill. */
+/* The lists of a range of boxes, appended in box order: U, V, W, X (and the
+ * transfer vectors of V), growing by doubling. */
+typedef struct {
+    int32_t *a[4];
+    uint16_t *vt;
+    size_t n[4], cap[4];
+    int fail;
+} kifmm__lbuf;
+
+KIFMM__FN void kifmm__lbuf_put(kifmm__lbuf *B, int j, const int32_t *src, int cnt,
+                               const uint16_t *vt)
+{
+    if (B->fail || cnt == 0) return;
+    if (B->n[j] + (size_t)cnt > B->cap[j]) {
+        size_t cap = 2 * (B->n[j] + (size_t)cnt) + 256;
+        int32_t *a = (int32_t *)kifmm__alloc(cap, sizeof(int32_t));
+        uint16_t *v = j == 1 ? (uint16_t *)kifmm__alloc(cap, sizeof(uint16_t)) : NULL;
+        if (!a || (j == 1 && !v)) {
+            kifmm__free(a);
+            kifmm__free(v);
+            B->fail = 1;
+            return;
+        }
+        if (B->n[j]) memcpy(a, B->a[j], B->n[j] * sizeof(int32_t));
+        kifmm__free(B->a[j]);
+        B->a[j] = a;
+        if (j == 1) {
+            if (B->n[j]) memcpy(v, B->vt, B->n[j] * sizeof(uint16_t));
+            kifmm__free(B->vt);
+            B->vt = v;
+        }
+        B->cap[j] = cap;
+    }
+    memcpy(B->a[j] + B->n[j], src, (size_t)cnt * sizeof(int32_t));
+    if (j == 1) memcpy(B->vt + B->n[j], vt, (size_t)cnt * sizeof(uint16_t));
+    B->n[j] += (size_t)cnt;
+}
+
+/* One pass over the boxes with targets, in chunks of consecutive boxes (many
+ * more than threads, for balance), each collecting its lists in a buffer of
+ * its own; then the offsets, and each chunk's lists copied into place. */
 KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth)
 {
-    int32_t nb = t->nbox, b;
-    int64_t tot[4] = {0, 0, 0, 0};
-    int overflow = 0, pass, l;
+    int32_t nb = t->nbox, b, nk = 16 * (nth > 0 ? nth : 1), k;
+    int overflow = 0, fail = 0, l, j;
     int32_t *off[4];
+    kifmm__lbuf *buf;
+    if (nk > nb) nk = nb;
     t->uo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
     t->vo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
     t->wo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
     t->xo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
-    if (!t->uo || !t->vo || !t->wo || !t->xo) return KIFMM_ERR_NOMEM;
+    buf = (kifmm__lbuf *)kifmm__calloc((size_t)nk, sizeof(kifmm__lbuf));
+    if (!t->uo || !t->vo || !t->wo || !t->xo || !buf) {
+        kifmm__free(buf);
+        return KIFMM_ERR_NOMEM;
+    }
     off[0] = t->uo; off[1] = t->vo; off[2] = t->wo; off[3] = t->xo;
-    (void)nth;
-    for (pass = 0; pass < 2; pass++) {
-        KIFMM__OMP(parallel for schedule(dynamic, 64) num_threads(nth) reduction(| : overflow))
-        for (b = 0; b < nb; b++) {
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) reduction(| : overflow))
+    for (k = 0; k < nk; k++) {
+        const int32_t b0 = (int32_t)((int64_t)nb * k / nk), b1 = (int32_t)((int64_t)nb * (k + 1) / nk);
+        int32_t c;
+        for (c = b0; c < b1; c++) {
             kifmm__lists L;
-            if (t->t1[b] == t->t0[b]) continue;
-            kifmm__box_lists(t, b, &L);
+            if (t->t1[c] == t->t0[c]) continue;
+            kifmm__box_lists(t, c, &L);
             overflow |= L.overflow;
-            if (pass == 0) {
-                t->uo[b + 1] = L.nu; t->vo[b + 1] = L.nv;
-                t->wo[b + 1] = L.nw; t->xo[b + 1] = L.nx;
-            } else {
-                memcpy(t->u + t->uo[b], L.u, (size_t)L.nu * sizeof(int32_t));
-                memcpy(t->v + t->vo[b], L.v, (size_t)L.nv * sizeof(int32_t));
-                memcpy(t->vt + t->vo[b], L.vt, (size_t)L.nv * sizeof(uint16_t));
-                memcpy(t->w + t->wo[b], L.w, (size_t)L.nw * sizeof(int32_t));
-                memcpy(t->x + t->xo[b], L.x, (size_t)L.nx * sizeof(int32_t));
-            }
-        }
-        if (overflow) return KIFMM_ERR_INTERNAL;
-        if (pass == 0) {
-            int j;
-            for (j = 0; j < 4; j++) {
-                for (b = 0; b < nb; b++) off[j][b + 1] += off[j][b];
-                tot[j] = off[j][nb];
-            }
-            t->u = (int32_t *)kifmm__alloc((size_t)tot[0] + 1, sizeof(int32_t));
-            t->v = (int32_t *)kifmm__alloc((size_t)tot[1] + 1, sizeof(int32_t));
-            t->vt = (uint16_t *)kifmm__alloc((size_t)tot[1] + 1, sizeof(uint16_t));
-            t->w = (int32_t *)kifmm__alloc((size_t)tot[2] + 1, sizeof(int32_t));
-            t->x = (int32_t *)kifmm__alloc((size_t)tot[3] + 1, sizeof(int32_t));
-            if (!t->u || !t->v || !t->vt || !t->w || !t->x) return KIFMM_ERR_NOMEM;
+            t->uo[c + 1] = L.nu; t->vo[c + 1] = L.nv;
+            t->wo[c + 1] = L.nw; t->xo[c + 1] = L.nx;
+            kifmm__lbuf_put(&buf[k], 0, L.u, L.nu, NULL);
+            kifmm__lbuf_put(&buf[k], 1, L.v, L.nv, L.vt);
+            kifmm__lbuf_put(&buf[k], 2, L.w, L.nw, NULL);
+            kifmm__lbuf_put(&buf[k], 3, L.x, L.nx, NULL);
         }
     }
+    for (k = 0; k < nk; k++) fail |= buf[k].fail;
+    if (!overflow && !fail) {
+        for (j = 0; j < 4; j++)
+            for (b = 0; b < nb; b++) off[j][b + 1] += off[j][b];
+        t->u = (int32_t *)kifmm__alloc((size_t)t->uo[nb] + 1, sizeof(int32_t));
+        t->v = (int32_t *)kifmm__alloc((size_t)t->vo[nb] + 1, sizeof(int32_t));
+        t->vt = (uint16_t *)kifmm__alloc((size_t)t->vo[nb] + 1, sizeof(uint16_t));
+        t->w = (int32_t *)kifmm__alloc((size_t)t->wo[nb] + 1, sizeof(int32_t));
+        t->x = (int32_t *)kifmm__alloc((size_t)t->xo[nb] + 1, sizeof(int32_t));
+        fail = !t->u || !t->v || !t->vt || !t->w || !t->x;
+    }
+    if (!overflow && !fail) {
+        int32_t *dst[4];
+        dst[0] = t->u; dst[1] = t->v; dst[2] = t->w; dst[3] = t->x;
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+        for (k = 0; k < nk; k++) {
+            const int32_t b0 = (int32_t)((int64_t)nb * k / nk);
+            int m;
+            for (m = 0; m < 4; m++)
+                if (buf[k].n[m]) memcpy(dst[m] + off[m][b0], buf[k].a[m], buf[k].n[m] * sizeof(int32_t));
+            if (buf[k].n[1]) memcpy(t->vt + t->vo[b0], buf[k].vt, buf[k].n[1] * sizeof(uint16_t));
+        }
+    }
+    for (k = 0; k < nk; k++) {
+        for (j = 0; j < 4; j++) kifmm__free(buf[k].a[j]);
+        kifmm__free(buf[k].vt);
+    }
+    kifmm__free(buf);
+    if (overflow) return KIFMM_ERR_INTERNAL;
+    if (fail) return KIFMM_ERR_NOMEM;
     /* per level, the boxes that receive M2L; and the leaves with targets */
     t->m2lo = (int32_t *)kifmm__calloc((size_t)t->nlev + 1, sizeof(int32_t));
     t->m2l = (int32_t *)kifmm__alloc((size_t)nb + 1, sizeof(int32_t));
@@ -896,7 +956,20 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     t->width = 2.0 * half;
 
     rc = kifmm__sort_points(t, ns, src, &t->src, &t->sperm, &skey, nth);
-    if (!rc) rc = kifmm__sort_points(t, nt, trg, &t->trg, &t->tperm, &tkey, nth);
+    if (!rc && trg == src && nt == ns) {
+        /* targets = sources: copy the sorted sources instead of sorting again */
+        t->trg = (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
+        t->tperm = (int64_t *)kifmm__alloc((size_t)nt, sizeof(int64_t));
+        tkey = (uint64_t *)kifmm__alloc((size_t)nt, sizeof(uint64_t));
+        if (!t->trg || !t->tperm || !tkey) rc = KIFMM_ERR_NOMEM;
+        else {
+            memcpy(t->trg, t->src, sizeof(double) * 3 * (size_t)nt);
+            memcpy(t->tperm, t->sperm, sizeof(int64_t) * (size_t)nt);
+            memcpy(tkey, skey, sizeof(uint64_t) * (size_t)nt);
+        }
+    } else if (!rc) {
+        rc = kifmm__sort_points(t, nt, trg, &t->trg, &t->tperm, &tkey, nth);
+    }
     if (rc) goto done;
 
     /* top down: in[l] holds the keys of the boxes of level l that split */
@@ -1070,8 +1143,8 @@ typedef struct kifmm__ops {
     double *conv;           /* FFT M2L, nc x ne: upward equivalent density -> a density
                                on the check surface's lattice (1.05 r) with the same
                                field outside the upward check surface */
-    double *khat;           /* FFT M2L: 316 kernel spectra on that lattice, 2 nfp
-                               doubles each */
+    double *khat;           /* FFT M2L: the 316 kernel spectra on that lattice,
+                               frequency-major: khat[(f 316 + t) 2] (re, im) */
 } kifmm__ops;
 
 KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
@@ -1109,6 +1182,7 @@ KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
  * parent -> child of target parent) per frequency, zero for adjacent child
  * pairs (those are not in the V list). Below, p is the lattice order q. */
 #define KIFMM__FFT_F 4 /* frequencies per chunk (the AVX2 product kernels assume 4) */
+#define KIFMM__FFT_KB_MB 24 /* the products' blocks are kept if they fit in this */
 KIFMM__STATIC_ASSERT(KIFMM__FFT_F == 4, fft_product_kernels_take_4_frequencies_per_chunk);
 
 typedef struct kifmm__fft {
@@ -1157,7 +1231,7 @@ KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p)
     return KIFMM_SUCCESS;
 }
 
-/* Doubles of work space for one transform. */
+/* Doubles of work space for kifmm__fft_grid. */
 KIFMM__FN size_t kifmm__fft_work(const kifmm__fft *pl)
 {
     return (size_t)4 * pl->n * pl->n * pl->nh + (size_t)pl->n * pl->n * pl->n;
@@ -1217,97 +1291,131 @@ KIFMM__FN void kifmm__fft_grid(const kifmm__fft *pl, const double *g, double *kh
             }
 }
 
-/* Spectrum of one surface density m (ne values) into out: frequency f goes
- * to out[(f / F) * cstride + (f % F) * 16] (re) and 8 further (im). Pruned:
- * only the p^3 lattice is nonzero. */
-KIFMM__FN void kifmm__fft_forward(const kifmm__fft *pl, const double *m, void *out,
-                                  size_t cstride, double *work)
+/* Lanes of the batched transforms: the 8 children of one parent at once. */
+#define KIFMM__FFT_L 8
+
+/* Doubles of work space for one batched transform (forward or inverse). */
+KIFMM__FN size_t kifmm__fft_work8(const kifmm__fft *pl)
 {
-    int p = pl->p, n = pl->n, nh = pl->nh, s, i, j, kx, ky, kz, q;
-    double *s1r = work, *s1i = s1r + p * p * nh, *s2r = s1i + p * p * nh, *s2i = s2r + p * n * nh;
-    double *tr = s2i + p * n * nh, *ti = tr + n * nh;
-    memset(s1r, 0, sizeof(double) * 2 * p * p * nh);
+    return (size_t)KIFMM__FFT_L * 2 * pl->nh * ((size_t)pl->n * pl->n + (size_t)pl->p * pl->n +
+                                                 (size_t)pl->p * pl->p);
+}
+
+/* Spectra of 8 surface densities at once, m[s 8 + v] (lane v = child v),
+ * into out: frequency f of lane v goes to out[(f / F) cstride + (f % F) 16 +
+ * v] (re) and 8 further (im), the layout of the products. Pruned: only the
+ * p^3 lattice is nonzero. Every stage is a loop over the 8 lanes with the
+ * same twiddle, which compilers vectorise. */
+KIFMM__FN void kifmm__fft_forward8(const kifmm__fft *pl, const double *m, void *out,
+                                   size_t cstride, double *work)
+{
+    const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
+    int s, i, j, kx, ky, kz, q, v;
+    double *s1r = work, *s1i = s1r + L * p * p * nh, *s2r = s1i + L * p * p * nh;
+    double *s2i = s2r + L * p * n * nh, *tr = s2i + L * p * n * nh, *ti = tr + L * n * nh;
+    memset(s1r, 0, sizeof(double) * 2 * L * p * p * nh);
     for (s = 0; s < pl->ne; s++) {
         int a = pl->ijk[3 * s], b = pl->ijk[3 * s + 1], c = pl->ijk[3 * s + 2];
-        double v = m[s], *r = s1r + (a * p + b) * nh, *im = s1i + (a * p + b) * nh;
+        const double *mv = m + L * s;
+        double *r = s1r + L * (a * p + b) * nh, *im = s1i + L * (a * p + b) * nh;
         for (kz = 0; kz < nh; kz++) {
-            r[kz] += v * pl->wr[kz * n + c];
-            im[kz] += v * pl->wi[kz * n + c];
+            const double w0 = pl->wr[kz * n + c], w1 = pl->wi[kz * n + c];
+            for (v = 0; v < L; v++) {
+                r[L * kz + v] += mv[v] * w0;
+                im[L * kz + v] += mv[v] * w1;
+            }
         }
     }
     for (i = 0; i < p; i++)
         for (ky = 0; ky < n; ky++) {
-            double *dr = s2r + (i * n + ky) * nh, *di = s2i + (i * n + ky) * nh;
-            for (kz = 0; kz < nh; kz++) dr[kz] = di[kz] = 0.0;
-            for (j = 0; j < p; j++) {
-                const double *xr = s1r + (i * p + j) * nh, *xi = s1i + (i * p + j) * nh;
-                double w0 = pl->wr[ky * n + j], w1 = pl->wi[ky * n + j];
-                kifmm__caxpy(nh, w0, w1, xr, xi, dr, di);
-            }
+            double *dr = s2r + L * (i * n + ky) * nh, *di = s2i + L * (i * n + ky) * nh;
+            memset(dr, 0, sizeof(double) * L * nh);
+            memset(di, 0, sizeof(double) * L * nh);
+            for (j = 0; j < p; j++)
+                kifmm__caxpy(L * nh, pl->wr[ky * n + j], pl->wi[ky * n + j],
+                             s1r + L * (i * p + j) * nh, s1i + L * (i * p + j) * nh, dr, di);
         }
     for (kx = 0; kx < n; kx++) {
-        int f0 = kx * n * nh;
-        for (q = 0; q < n * nh; q++) tr[q] = ti[q] = 0.0;
-        for (i = 0; i < p; i++) {
-            const double *xr = s2r + i * n * nh, *xi = s2i + i * n * nh;
-            double w0 = pl->wr[kx * n + i], w1 = pl->wi[kx * n + i];
-            kifmm__caxpy(n * nh, w0, w1, xr, xi, tr, ti);
-        }
+        const int f0 = kx * n * nh;
+        memset(tr, 0, sizeof(double) * L * n * nh);
+        memset(ti, 0, sizeof(double) * L * n * nh);
+        for (i = 0; i < p; i++)
+            kifmm__caxpy(L * n * nh, pl->wr[kx * n + i], pl->wi[kx * n + i], s2r + L * i * n * nh,
+                         s2i + L * i * n * nh, tr, ti);
         for (q = 0; q < n * nh; q++) {
-            int f = f0 + q;
-            size_t a = (size_t)(f / KIFMM__FFT_F) * cstride + (size_t)(f % KIFMM__FFT_F) * 16;
+            const int f = f0 + q;
+            const size_t a = (size_t)(f / KIFMM__FFT_F) * cstride + (size_t)(f % KIFMM__FFT_F) * 16;
             if (pl->single) {
-                ((float *)out)[a] = (float)tr[q];
-                ((float *)out)[a + 8] = (float)ti[q];
+                float *o = (float *)out + a;
+                for (v = 0; v < L; v++) {
+                    o[v] = (float)tr[L * q + v];
+                    o[8 + v] = (float)ti[L * q + v];
+                }
             } else {
-                ((double *)out)[a] = tr[q];
-                ((double *)out)[a + 8] = ti[q];
+                double *o = (double *)out + a;
+                for (v = 0; v < L; v++) {
+                    o[v] = tr[L * q + v];
+                    o[8 + v] = ti[L * q + v];
+                }
             }
         }
     }
 }
 
-/* Inverse: a half spectrum addressed as in kifmm__fft_forward -> the values
- * at the ne lattice surface points, written to chk. */
-KIFMM__FN void kifmm__fft_inverse(const kifmm__fft *pl, const void *in, size_t cstride,
-                                  double *chk, double *work)
+/* Inverse of 8 half spectra addressed as in kifmm__fft_forward8 -> the
+ * values at the ne lattice surface points, chk[s 8 + v]. */
+KIFMM__FN void kifmm__fft_inverse8(const kifmm__fft *pl, const void *in, size_t cstride,
+                                   double *chk, double *work)
 {
-    int p = pl->p, n = pl->n, nh = pl->nh, i, j, k, kx, ky, kz, q, s;
-    double *yr = work, *yi = yr + n * n * nh, *t1r = yi + n * n * nh, *t1i = t1r + p * n * nh;
-    double *t2r = t1i + p * n * nh, *t2i = t2r + p * p * nh;
+    const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
+    int i, j, k, kx, ky, kz, q, s, v;
+    double *yr = work, *yi = yr + L * n * n * nh, *t1r = yi + L * n * n * nh;
+    double *t1i = t1r + L * p * n * nh, *t2r = t1i + L * p * n * nh, *t2i = t2r + L * p * p * nh;
     for (q = 0; q < pl->nf; q++) {
-        size_t a = (size_t)(q / KIFMM__FFT_F) * cstride + (size_t)(q % KIFMM__FFT_F) * 16;
-        yr[q] = pl->single ? (double)((const float *)in)[a] : ((const double *)in)[a];
-        yi[q] = pl->single ? (double)((const float *)in)[a + 8] : ((const double *)in)[a + 8];
+        const size_t a = (size_t)(q / KIFMM__FFT_F) * cstride + (size_t)(q % KIFMM__FFT_F) * 16;
+        if (pl->single) {
+            const float *x = (const float *)in + a;
+            for (v = 0; v < L; v++) {
+                yr[L * q + v] = (double)x[v];
+                yi[L * q + v] = (double)x[8 + v];
+            }
+        } else {
+            const double *x = (const double *)in + a;
+            for (v = 0; v < L; v++) {
+                yr[L * q + v] = x[v];
+                yi[L * q + v] = x[8 + v];
+            }
+        }
     }
     for (i = 0; i < p; i++) {
-        double *dr = t1r + i * n * nh, *di = t1i + i * n * nh;
-        for (q = 0; q < n * nh; q++) dr[q] = di[q] = 0.0;
-        for (kx = 0; kx < n; kx++) {
-            const double *xr = yr + kx * n * nh, *xi = yi + kx * n * nh;
-            double w0 = pl->wr[kx * n + i], w1 = -pl->wi[kx * n + i];
-            kifmm__caxpy(n * nh, w0, w1, xr, xi, dr, di);
-        }
+        double *dr = t1r + L * i * n * nh, *di = t1i + L * i * n * nh;
+        memset(dr, 0, sizeof(double) * L * n * nh);
+        memset(di, 0, sizeof(double) * L * n * nh);
+        for (kx = 0; kx < n; kx++)
+            kifmm__caxpy(L * n * nh, pl->wr[kx * n + i], -pl->wi[kx * n + i], yr + L * kx * n * nh,
+                         yi + L * kx * n * nh, dr, di);
     }
     for (i = 0; i < p; i++)
         for (j = 0; j < p; j++) {
-            double *dr = t2r + (i * p + j) * nh, *di = t2i + (i * p + j) * nh;
-            for (kz = 0; kz < nh; kz++) dr[kz] = di[kz] = 0.0;
-            for (ky = 0; ky < n; ky++) {
-                const double *xr = t1r + (i * n + ky) * nh, *xi = t1i + (i * n + ky) * nh;
-                double w0 = pl->wr[ky * n + j], w1 = -pl->wi[ky * n + j];
-                kifmm__caxpy(nh, w0, w1, xr, xi, dr, di);
-            }
+            double *dr = t2r + L * (i * p + j) * nh, *di = t2i + L * (i * p + j) * nh;
+            memset(dr, 0, sizeof(double) * L * nh);
+            memset(di, 0, sizeof(double) * L * nh);
+            for (ky = 0; ky < n; ky++)
+                kifmm__caxpy(L * nh, pl->wr[ky * n + j], -pl->wi[ky * n + j],
+                             t1r + L * (i * n + ky) * nh, t1i + L * (i * n + ky) * nh, dr, di);
         }
     for (s = 0; s < pl->ne; s++) {
-        double acc = 0.0;
+        double acc[KIFMM__FFT_L];
         const double *xr, *xi;
         i = pl->ijk[3 * s]; j = pl->ijk[3 * s + 1]; k = pl->ijk[3 * s + 2];
-        xr = t2r + (i * p + j) * nh;
-        xi = t2i + (i * p + j) * nh;
-        for (kz = 0; kz < nh; kz++)
-            acc += pl->wz[kz] * (xr[kz] * pl->wr[kz * n + k] + xi[kz] * pl->wi[kz * n + k]);
-        chk[s] = acc;
+        xr = t2r + L * (i * p + j) * nh;
+        xi = t2i + L * (i * p + j) * nh;
+        for (v = 0; v < L; v++) acc[v] = 0.0;
+        for (kz = 0; kz < nh; kz++) {
+            const double w0 = pl->wz[kz] * pl->wr[kz * n + k], w1 = pl->wz[kz] * pl->wi[kz * n + k];
+            for (v = 0; v < L; v++) acc[v] += xr[L * kz + v] * w0 + xi[L * kz + v] * w1;
+        }
+        for (v = 0; v < L; v++) chk[L * s + v] = acc[v];
     }
 }
 
@@ -1328,7 +1436,7 @@ KIFMM__FN void kifmm__fft_tvmap(int *tv)
 }
 
 /* The 8 x 8 blocks of frequency chunk ch for the 27 parent offsets, from the
- * 316 spectra (khat[t * 2 nfp + 2 f]): kb[(o F + fi) 128 + cs 16 + ct] (re),
+ * 316 spectra (khat[(f 316 + t) 2]): kb[(o F + fi) 128 + cs 16 + ct] (re),
  * + 8 (im). */
 KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const int *tv, int ch,
                                  void *kbv)
@@ -1342,8 +1450,8 @@ KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const
                 int t = tv[(o * 8 + cs) * 8 + ct];
                 for (fi = 0; fi < KIFMM__FFT_F; fi++) {
                     size_t a = ((size_t)o * KIFMM__FFT_F + fi) * 128 + cs * 16 + ct;
-                    const double *s = khat + (size_t)(t < 0 ? 0 : t) * 2 * pl->nfp +
-                                      2 * ((size_t)ch * KIFMM__FFT_F + fi);
+                    const double *s =
+                        khat + (((size_t)ch * KIFMM__FFT_F + fi) * KIFMM__NT + (t < 0 ? 0 : t)) * 2;
                     double re = t < 0 ? 0.0 : s[0], im = t < 0 ? 0.0 : s[1];
                     if (pl->single) {
                         kf[a] = (float)re;
@@ -1581,11 +1689,19 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #define KIFMM__HOOK KIFMM__K(_p2pf)
 #define KIFMM__HAS_HOOKE KIFMM__KE(_P2PF)
 #define KIFMM__HOOKE KIFMM__KE(_p2pf)
+#define KIFMM__HAS_HOOKN KIFMM__K(_P2PNF)
+#define KIFMM__HOOKN KIFMM__K(_p2pnf)
+#define KIFMM__HAS_HOOKNE KIFMM__KE(_P2PNF)
+#define KIFMM__HOOKNE KIFMM__KE(_p2pnf)
 #else
 #define KIFMM__HAS_HOOK KIFMM__K(_P2P)
 #define KIFMM__HOOK KIFMM__K(_p2p)
 #define KIFMM__HAS_HOOKE KIFMM__KE(_P2P)
 #define KIFMM__HOOKE KIFMM__KE(_p2p)
+#define KIFMM__HAS_HOOKN KIFMM__K(_P2PN)
+#define KIFMM__HOOKN KIFMM__K(_p2pn)
+#define KIFMM__HAS_HOOKNE KIFMM__KE(_P2PN)
+#define KIFMM__HOOKNE KIFMM__KE(_p2pn)
 #endif
 
 /* ---- the handle ---------------------------------------------------------- */
@@ -1595,6 +1711,8 @@ typedef struct {
     int ku, kd;
     KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l, *conv;
     double *khat;
+    void *kb; /* FFT M2L: the 8 x 8 blocks of every chunk (kifmm__fft_blocks), or NULL
+                 when they would take too much memory and are built per task */
 } KIFMM__F(__ops);
 
 /* Expansions and workspace for up to `nrhs` density vectors, rhs-major:
@@ -1740,15 +1858,35 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
                  out + r * old);                                                             \
     }
 
+/* The same through a kernel's many-vector hook when nrhs > 1. */
+#define KIFMM__DEFINE_P2P_HOOKN(fname, hook, hookn)                                          \
+    KIFMM__FN void fname(const double *prm, const KIFMM__R *tx, const KIFMM__R *ty,          \
+                         const KIFMM__R *tz, int64_t nt, const KIFMM__R *sx,                 \
+                         const KIFMM__R *sy, const KIFMM__R *sz, const KIFMM__R *q,          \
+                         int64_t ns, int nrhs, size_t qld, double scale, KIFMM__R *out,      \
+                         size_t old)                                                         \
+    {                                                                                        \
+        if (nrhs > 1)                                                                        \
+            hookn(prm, tx, ty, tz, nt, sx, sy, sz, q, ns, nrhs, qld, (KIFMM__R)scale, out,   \
+                  old);                                                                      \
+        else                                                                                 \
+            hook(prm, tx, ty, tz, nt, sx, sy, sz, q, ns, (KIFMM__R)scale, out);              \
+    }
+
 /* A kernel may bring its own near-field loop (kifmm_kernel_<name>_P2P, or
- * _P2PF for float instances, e.g. vectorised by hand); otherwise the generic
- * loop above is instantiated. */
-#if KIFMM__HAS_HOOK
+ * _P2PF for float instances, e.g. vectorised by hand, and _P2PN / _P2PNF for
+ * several density vectors at once); otherwise the generic loop above is
+ * instantiated. */
+#if KIFMM__HAS_HOOK && KIFMM__HAS_HOOKN
+KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p), KIFMM__HOOK, KIFMM__HOOKN)
+#elif KIFMM__HAS_HOOK
 KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p), KIFMM__HOOK)
 #else
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p), KIFMM__EVAL, KIFMM__TD)
 #endif
-#if KIFMM__HAS_HOOKE
+#if KIFMM__HAS_HOOKE && KIFMM__HAS_HOOKNE
+KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p_equiv), KIFMM__HOOKE, KIFMM__HOOKNE)
+#elif KIFMM__HAS_HOOKE
 KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_equiv), KIFMM__HOOKE)
 #else
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p_equiv), KIFMM__EVALE, KIFMM__SD)
@@ -1866,9 +2004,14 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
         const int n = pl->n, p = pl->p;
         const size_t per = (size_t)n * n * n + kifmm__fft_work(pl);
         const double h = 2.0 * KIFMM__ALPHA_INNER * r / (p - 1);
+        double *kt; /* spectra per transfer vector, transposed below */
+        int32_t f;
         o->khat = (double *)kifmm__calloc((size_t)KIFMM__NT * 2 * pl->nfp, sizeof(double));
-        kall = (double *)kifmm__alloc((size_t)c->nthreads * per, sizeof(double));
+        kall = (double *)kifmm__alloc((size_t)c->nthreads * per + (size_t)KIFMM__NT * 2 * pl->nfp,
+                                      sizeof(double));
         if (!o->khat || !kall) { rc = KIFMM_ERR_NOMEM; goto done; }
+        kt = kall + (size_t)c->nthreads * per;
+        memset(kt, 0, sizeof(double) * KIFMM__NT * 2 * (size_t)pl->nfp); /* padding frequencies */
         KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
         for (tv = 0; tv < KIFMM__NT; tv++) {
 #ifdef _OPENMP
@@ -1887,8 +2030,16 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
                                      h * k - 2.0 * r * d[2], kv);
                         g[((i + n) % n * n + (j + n) % n) * n + (k + n) % n] = kv[0];
                     }
-            kifmm__fft_grid(pl, g, o->khat + (size_t)tv * 2 * pl->nfp, g + (size_t)n * n * n);
+            kifmm__fft_grid(pl, g, kt + (size_t)tv * 2 * pl->nfp, g + (size_t)n * n * n);
         }
+        /* frequency-major, so that the blocks of a chunk read one contiguous piece */
+        KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+        for (f = 0; f < pl->nfp; f++)
+            for (tv = 0; tv < KIFMM__NT; tv++) {
+                o->khat[((size_t)f * KIFMM__NT + tv) * 2] = kt[(size_t)tv * 2 * pl->nfp + 2 * f];
+                o->khat[((size_t)f * KIFMM__NT + tv) * 2 + 1] =
+                    kt[(size_t)tv * 2 * pl->nfp + 2 * f + 1];
+            }
     }
 #else
     /* M2L: source equivalent (centre 2 r t) -> target check, times ut_dn;
@@ -1963,7 +2114,7 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
     kifmm__free(o->ut_up); kifmm__free(o->vs_up);
     kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
     kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
-    kifmm__free(o->conv); kifmm__free(o->khat);
+    kifmm__free(o->conv); kifmm__free(o->khat); kifmm__free(o->kb);
     memset(o, 0, sizeof *o);
 }
 
@@ -1975,11 +2126,38 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
     c->nops = KIFMM__K(_SCALE_INVARIANT) ? 1 : c->tree.nlev;
     c->ops = (KIFMM__F(__ops) *)kifmm__calloc((size_t)c->nops, sizeof(KIFMM__F(__ops)));
     if (!c->ops) return KIFMM_ERR_NOMEM;
-    if (KIFMM__K(_SCALE_INVARIANT)) return KIFMM__F(__ops_make)(c, 1.0, &c->ops[0]);
-    for (l = 2; l < c->tree.nlev; l++) {
-        double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-        if ((rc = KIFMM__F(__ops_make)(c, half, &c->ops[l]))) return rc;
+    if (KIFMM__K(_SCALE_INVARIANT)) {
+        if ((rc = KIFMM__F(__ops_make)(c, 1.0, &c->ops[0]))) return rc;
+    } else {
+        for (l = 2; l < c->tree.nlev; l++) {
+            double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
+            if ((rc = KIFMM__F(__ops_make)(c, half, &c->ops[l]))) return rc;
+        }
     }
+#if KIFMM__FFT
+    {
+        /* the products' blocks of every chunk, built once when all of them fit in
+         * KIFMM__FFT_KB_MB (float spectra, one set of operators: 5.6 MiB at p = 4,
+         * 16 MiB at p = 6); otherwise each task builds the blocks of its chunk */
+        const kifmm__fft *pl = &c->fft;
+        const size_t esz = pl->single ? sizeof(float) : sizeof(double);
+        const size_t per = (size_t)27 * 128 * KIFMM__FFT_F * esz, all = per * (size_t)pl->nchunk;
+        int tvm[27 * 64], n = 0, ch;
+        for (l = 0; l < c->nops; l++) n += c->ops[l].khat != NULL;
+        if (n > 0 && all * (size_t)n <= (size_t)KIFMM__FFT_KB_MB << 20) {
+            kifmm__fft_tvmap(tvm);
+            for (l = 0; l < c->nops; l++) {
+                KIFMM__F(__ops) *o = &c->ops[l];
+                if (!o->khat) continue;
+                o->kb = kifmm__alloc(all, 1);
+                if (!o->kb) return KIFMM_ERR_NOMEM;
+                KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+                for (ch = 0; ch < pl->nchunk; ch++)
+                    kifmm__fft_blocks(pl, o->khat, tvm, ch, (char *)o->kb + per * (size_t)ch);
+            }
+        }
+    }
+#endif
     return KIFMM_SUCCESS;
 }
 
@@ -2066,6 +2244,7 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
         b += R * ((o->ku + o->kd) * (nc + ne) + 16 * nc * ne);
         b += R * (double)o->kd * KIFMM__NT * ne * (o->m2l != NULL);
         b += R * nc * ne * (o->conv != NULL) + 8.0 * KIFMM__NT * 2 * c->fft.nfp * (o->khat != NULL);
+        b += (o->kb != NULL) * 27.0 * 128 * KIFMM__FFT_F * (c->fft.single ? 4 : 8) * c->fft.nchunk;
     }
     if (c->w) {
         KIFMM__F(__work_sizes)(c, sz);
@@ -2222,6 +2401,48 @@ KIFMM__FN double *KIFMM__F(__fbuf)(const KIFMM_NAME *c)
 #endif
 }
 
+/* The densities of 8 multipoles u_v (ne values each, consecutive) on the
+ * check-order lattice: m[i 8 + v] = sum_j conv[j nc + i] u_v[j]. */
+KIFMM__FN void KIFMM__F(__conv8)(const KIFMM__R *conv, int nc, int ne, const KIFMM__R *u,
+                                 double *m)
+{
+    int i, j, v;
+#if defined(__AVX2__) && defined(__FMA__)
+    for (i = 0; i < 8 * nc; i++) m[i] = 0.0;
+    for (j = 0; j < ne; j += 4) {
+        /* four columns of conv per sweep over m; the 8 lanes in two registers */
+        const int nj = ne - j < 4 ? ne - j : 4;
+        __m256d ua[4], ub[4];
+        const KIFMM__R *cj[4];
+        double t[8];
+        int a;
+        for (a = 0; a < 4; a++) {
+            for (v = 0; v < 8; v++) t[v] = a < nj ? (double)u[(size_t)v * ne + j + a] : 0.0;
+            ua[a] = _mm256_loadu_pd(t);
+            ub[a] = _mm256_loadu_pd(t + 4);
+            cj[a] = conv + (size_t)(a < nj ? j + a : j) * nc;
+        }
+        for (i = 0; i < nc; i++) {
+            __m256d x = _mm256_loadu_pd(m + 8 * i), y = _mm256_loadu_pd(m + 8 * i + 4);
+            for (a = 0; a < 4; a++) {
+                const __m256d c = _mm256_set1_pd((double)cj[a][i]);
+                x = _mm256_fmadd_pd(c, ua[a], x);
+                y = _mm256_fmadd_pd(c, ub[a], y);
+            }
+            _mm256_storeu_pd(m + 8 * i, x);
+            _mm256_storeu_pd(m + 8 * i + 4, y);
+        }
+    }
+#else
+    for (i = 0; i < 8 * nc; i++) m[i] = 0.0;
+    for (j = 0; j < ne; j++)
+        for (v = 0; v < 8; v++) {
+            const double uj = (double)u[(size_t)v * ne + j];
+            for (i = 0; i < nc; i++) m[8 * i + v] += (double)conv[(size_t)j * nc + i] * uj;
+        }
+#endif
+}
+
 /* Does any child of the j-th internal box of level l - 1 receive M2L? */
 KIFMM__FN int KIFMM__F(__fft_wanted)(const kifmm__tree *t, int l, int32_t j)
 {
@@ -2249,12 +2470,12 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const int nl = KIFMM__LVL(c, l), ne = c->ne, nc = c->nc;
     const size_t cstride = (size_t)c->slots * KIFMM__FFT_F * 16, per = (size_t)t->nbox * ne;
     const size_t esz = pl->single ? sizeof(float) : sizeof(double); /* spectra, blocks */
-    const int32_t tb = c->ftb;
-    const size_t ocs = (size_t)tb * KIFMM__FFT_F * 16; /* elements of esz */
     const size_t kbn = (size_t)27 * 128 * KIFMM__FFT_F * esz / sizeof(double); /* doubles */
-    const size_t outn = ((size_t)pl->nfp * tb * 16 * esz + sizeof(double) - 1) / sizeof(double);
+    const size_t outn =
+        ((size_t)pl->nfp * c->ftb * 16 * esz + sizeof(double) - 1) / sizeof(double);
     const int32_t *co = c->co, *cj = c->cj;
-    int32_t *loc = c->loc, *need = c->need, *cjl = c->cjl, s0, s1, e;
+    int32_t *loc = c->loc, *need = c->need, *cjl = c->cjl, s0, s1, e, tb;
+    size_t ocs;
     int tv[27 * 64], r;
     kifmm__fft_tvmap(tv);
     for (s0 = 0; s0 < ni; s0 = s1) {
@@ -2273,36 +2494,34 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                 cjl[e - co[base + s0]] = loc[cj[e]];
             }
         }
+        /* target parents per task: up to ftb, but at least 4 tasks per thread */
+        tb = (s1 - s0) / (4 * c->nthreads);
+        tb = tb < 1 ? 1 : tb > c->ftb ? c->ftb : tb;
+        ocs = (size_t)tb * KIFMM__FFT_F * 16; /* elements of esz */
         nblk = (s1 - s0 + tb - 1) / tb;
         for (r = 0; r < nrhs; r++) {
             const KIFMM__R *ue = w->ue + r * per + (size_t)t->loff[l] * ne;
             KIFMM__R *chk = w->chk + (size_t)r * nl * nc;
             KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-            for (b = 0; b < 8 * nneed; b++) {
-                double *work = KIFMM__F(__fbuf)(c) + kbn + outn, *m = work + kifmm__fft_work(pl);
-                const KIFMM__R *u = ue + ((size_t)8 * need[b >> 3] + (size_t)(b & 7)) * ne;
-                int i, j;
-                /* the density on the check-order lattice: m = conv u */
-                for (i = 0; i < nc; i++) m[i] = 0.0;
-                for (j = 0; j < ne; j++) {
-                    const KIFMM__R *col = o->conv + (size_t)j * nc;
-                    const double uj = (double)u[j];
-                    for (i = 0; i < nc; i++) m[i] += (double)col[i] * uj;
-                }
-                kifmm__fft_forward(
-                    pl, m,
-                    (char *)c->spec + ((size_t)(b >> 3) * KIFMM__FFT_F * 16 + (size_t)(b & 7)) * esz,
-                    cstride, work);
+            for (b = 0; b < nneed; b++) {
+                double *work = KIFMM__F(__fbuf)(c) + kbn + outn;
+                double *m = work + kifmm__fft_work8(pl);
+                const KIFMM__R *u = ue + (size_t)8 * need[b] * ne; /* the 8 children */
+                KIFMM__F(__conv8)(o->conv, nc, ne, u, m);
+                kifmm__fft_forward8(pl, m, (char *)c->spec + (size_t)b * KIFMM__FFT_F * 16 * esz,
+                                    cstride, work);
             }
             KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
             for (blk = 0; blk < nblk; blk++) {
                 double *kb = KIFMM__F(__fbuf)(c), *out = kb + kbn, *work = out + outn;
-                double *dchk = work + kifmm__fft_work(pl);
+                double *dchk = work + kifmm__fft_work8(pl);
                 int32_t p0 = s0 + blk * tb;
                 int32_t nb = s1 - p0 < tb ? s1 - p0 : tb, P, q;
                 int ch, i;
                 for (ch = 0; ch < pl->nchunk; ch++) {
-                    kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
+                    const double *kc = kb;
+                    if (o->kb) kc = (const double *)o->kb + kbn * (size_t)ch;
+                    else kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
                     for (P = 0; P < nb; P++) {
                         int32_t g = base + p0 + P, nn = co[g + 1] - co[g];
                         if (!KIFMM__F(__fft_wanted)(t, l, p0 + P)) continue;
@@ -2311,22 +2530,23 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                         if (pl->single)
                             kifmm__fft_products_f(nn, nbr, c->cc + co[g],
                                                   (const float *)c->spec + (size_t)ch * cstride,
-                                                  (const float *)kb, (float *)out + oo);
+                                                  (const float *)kc, (float *)out + oo);
                         else
                             kifmm__fft_products(nn, nbr, c->cc + co[g],
                                                 (const double *)c->spec + (size_t)ch * cstride,
-                                                kb, out + oo);
+                                                kc, out + oo);
                     }
                 }
-                for (q = 0; q < 8 * nb; q++) {
-                    int32_t lb = 8 * p0 + q, box = t->loff[l] + lb;
-                    KIFMM__R *dst = chk + (size_t)lb * nc;
-                    if (t->vo[box + 1] == t->vo[box]) continue;
-                    kifmm__fft_inverse(pl,
-                                       (const char *)out + ((size_t)(q >> 3) * KIFMM__FFT_F * 16 +
-                                                            (size_t)(q & 7)) * esz,
-                                       ocs, dchk, work);
-                    for (i = 0; i < nc; i++) dst[i] += (KIFMM__R)dchk[i];
+                for (P = 0; P < nb; P++) {
+                    if (!KIFMM__F(__fft_wanted)(t, l, p0 + P)) continue;
+                    kifmm__fft_inverse8(pl, (const char *)out + (size_t)P * KIFMM__FFT_F * 16 * esz,
+                                        ocs, dchk, work);
+                    for (q = 0; q < 8; q++) {
+                        int32_t lb = 8 * (p0 + P) + q, box = t->loff[l] + lb;
+                        KIFMM__R *dst = chk + (size_t)lb * nc;
+                        if (t->vo[box + 1] == t->vo[box]) continue;
+                        for (i = 0; i < nc; i++) dst[i] += (KIFMM__R)dchk[8 * i + q];
+                    }
                 }
             }
         }
@@ -2572,19 +2792,21 @@ KIFMM__FN int KIFMM__F(__tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, i
     const kifmm_opts *o = &c->opts;
     int rc;
 #if KIFMM__FLOAT
+    const int same = src == trg && ns == nt; /* one copy, and the tree sorts once */
     double *s = (double *)kifmm__alloc((size_t)(3 * ns), sizeof(double));
-    double *g = (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
+    double *g = same ? s : (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
     int64_t i;
     if (!s || !g) {
         kifmm__free(s);
-        kifmm__free(g);
+        if (!same) kifmm__free(g);
         return KIFMM_ERR_NOMEM;
     }
     for (i = 0; i < 3 * ns; i++) s[i] = src[i];
-    for (i = 0; i < 3 * nt; i++) g[i] = trg[i];
+    if (!same)
+        for (i = 0; i < 3 * nt; i++) g[i] = trg[i];
     rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads);
     kifmm__free(s);
-    kifmm__free(g);
+    if (!same) kifmm__free(g);
     if (rc) return rc;
     c->src = KIFMM__F(__own)(&c->tree.src, (size_t)(3 * ns));
     c->trg = KIFMM__F(__own)(&c->tree.trg, (size_t)(3 * nt));
@@ -2680,13 +2902,13 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
         h->spec = kifmm__calloc((size_t)h->slots, slot); /* padding frequencies stay 0 */
         h->fft_m = m;
         h->fft_mc = mc;
-        /* products of up to 32 target parents per task, about 4 MiB */
+        /* products of up to 128 target parents per task, at most about 4 MiB */
         h->ftb = (int)((size_t)(4u << 20) / ((size_t)h->fft.nfp * 16 * esz));
-        if (h->ftb > 32) h->ftb = 32;
+        if (h->ftb > 128) h->ftb = 128;
         if (h->ftb < 1) h->ftb = 1;
         h->fbuf_per = (size_t)27 * 128 * KIFMM__FFT_F * esz / sizeof(double) +
                       ((size_t)h->fft.nfp * h->ftb * 16 * esz + 7) / 8 +
-                      kifmm__fft_work(&h->fft) + (size_t)h->nc;
+                      kifmm__fft_work8(&h->fft) + (size_t)8 * h->nc;
         h->fbuf_per = (h->fbuf_per + 7) / 8 * 8; /* keeps each thread's part 64-byte aligned */
         h->fbuf = (double *)kifmm__alloc((size_t)h->nthreads * h->fbuf_per, sizeof(double));
         if (!h->spec || !h->fbuf) { rc = KIFMM_ERR_NOMEM; goto fail; }
@@ -2822,8 +3044,13 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__FFT
 #undef KIFMM__CUTOFF
 #undef KIFMM_M2L_DENSE
+#undef KIFMM__DEFINE_P2P_HOOKN
 #undef KIFMM__DEFINE_P2P_HOOK
 #undef KIFMM__DEFINE_P2P
+#undef KIFMM__HOOKNE
+#undef KIFMM__HAS_HOOKNE
+#undef KIFMM__HOOKN
+#undef KIFMM__HAS_HOOKN
 #undef KIFMM__HOOKE
 #undef KIFMM__HAS_HOOKE
 #undef KIFMM__HOOK

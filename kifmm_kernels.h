@@ -682,4 +682,244 @@ static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const flo
 }
 #endif
 
+/* ------------------------------------------------------------------------ */
+/* Many-vector near-field hooks (kifmm_kernel_NAME_P2PN / _p2pn, and      */
+/* _P2PNF / _p2pnf in float)                                               */
+/* ------------------------------------------------------------------------ */
+/* kifmm_kernel_NAME_p2pn(param, tx, ty, tz, nt, sx, sy, sz, q, ns, nrhs, qld,
+ *                        scale, out, old):
+ * for r < nrhs, out[r * old + i * TRG_DIM + k] += scale * sum_j K_k(t_i - s_j)
+ * q[r * qld + j * SRC_DIM + s]: the _p2p contract for nrhs density vectors at
+ * once, with the pair geometry and 1 / r computed once for all of them. Used
+ * by evaluate_many; evaluate calls _p2p. AVX2 + FMA, up to 8 vectors per
+ * pass; the double loops use the same correctly rounded 1 / sqrt as the AVX2
+ * _p2p (the potential sums are then bitwise those of _p2p), the float loops
+ * rsqrt and one Newton step, as _p2pf (also on AVX-512 machines). Without
+ * AVX2, and for double on AVX-512, _p2p is called once per vector. */
+#if defined(__AVX2__) && defined(__FMA__)
+#include <float.h>
+#include <immintrin.h>
+
+#define KIFMM_KERNEL__NV 8 /* density vectors per pass of the many-vector loops */
+
+/* Lanes [0, n) set, 0 <= n <= 4 (double) / 8 (float). */
+static inline __m256d kifmm_kernel__nmask(int64_t n)
+{
+    return _mm256_castsi256_pd(
+        _mm256_cmpgt_epi64(_mm256_set1_epi64x((long long)n), _mm256_setr_epi64x(0, 1, 2, 3)));
+}
+static inline __m256 kifmm_kernel__nmaskf(int64_t n)
+{
+    return _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32((int)n),
+                                                  _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+}
+
+/* 4 sources from j on (the lanes of m, the rest 0): differences to (X, Y, Z)
+ * and 1 / r (0 where r = 0 or the lane is off). */
+static inline __m256d kifmm_kernel__geomn(__m256d X, __m256d Y, __m256d Z, const double *sx,
+                                          const double *sy, const double *sz, __m256d m,
+                                          __m256d *dx, __m256d *dy, __m256d *dz)
+{
+    const __m256i mi = _mm256_castpd_si256(m);
+    __m256d r2;
+    *dx = _mm256_sub_pd(X, _mm256_maskload_pd(sx, mi));
+    *dy = _mm256_sub_pd(Y, _mm256_maskload_pd(sy, mi));
+    *dz = _mm256_sub_pd(Z, _mm256_maskload_pd(sz, mi));
+    r2 = _mm256_fmadd_pd(*dz, *dz, _mm256_fmadd_pd(*dy, *dy, _mm256_mul_pd(*dx, *dx)));
+    m = _mm256_and_pd(m, _mm256_cmp_pd(r2, _mm256_setzero_pd(), _CMP_GT_OQ));
+    return _mm256_and_pd(_mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(r2)), m);
+}
+
+static inline __m256 kifmm_kernel__geomnf(__m256 X, __m256 Y, __m256 Z, const float *sx,
+                                          const float *sy, const float *sz, __m256 m,
+                                          __m256 *dx, __m256 *dy, __m256 *dz)
+{
+    const __m256i mi = _mm256_castps_si256(m);
+    __m256 r2, y, e;
+    *dx = _mm256_sub_ps(X, _mm256_maskload_ps(sx, mi));
+    *dy = _mm256_sub_ps(Y, _mm256_maskload_ps(sy, mi));
+    *dz = _mm256_sub_ps(Z, _mm256_maskload_ps(sz, mi));
+    r2 = _mm256_fmadd_ps(*dz, *dz, _mm256_fmadd_ps(*dy, *dy, _mm256_mul_ps(*dx, *dx)));
+    m = _mm256_and_ps(m, _mm256_and_ps(_mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MIN), _CMP_GE_OQ),
+                                       _mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ)));
+    y = _mm256_rsqrt_ps(r2);
+    e = _mm256_fnmadd_ps(_mm256_mul_ps(r2, y), y, _mm256_set1_ps(1.0f));
+    y = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), y), e, y);
+    return _mm256_and_ps(y, m);
+}
+
+static inline double kifmm_kernel__hsumn(__m256d v)
+{
+    __m128d s = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(s, _mm_unpackhi_pd(s, s)));
+}
+static inline float kifmm_kernel__hsumnf(__m256 v)
+{
+    __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    s = _mm_add_ps(s, _mm_movehl_ps(s, s));
+    return _mm_cvtss_f32(_mm_add_ss(s, _mm_movehdup_ps(s)));
+}
+
+/* The four loops below share one shape. Per target, sources go in chunks of
+ * KIFMM_KERNEL__CH: first the geometry of the chunk once (g0 = 1 / r, and for
+ * GRAD g1..3 = d / r^3, 0 in lanes that do not count), then every vector
+ * against it, two (GRAD) or four at a time with their sums in registers.
+ * GRAD gives the potential q / r and the gradient -q d / r^3 (TRG_DIM 4). */
+#define KIFMM_KERNEL__CH 128
+#define KIFMM_KERNEL__P2PN_BODY(T, V, W, GEOM, MASK, SET1, ZERO, LOADU, STOREU, MLOAD, MUL,     \
+                                FMADD, FNMADD, HSUM, GRAD)                                     \
+    {                                                                                          \
+        const int td = (GRAD) ? 4 : 1;                                                         \
+        const T s = (T)(scale * KIFMM_INV_4PI);                                                \
+        V acc[KIFMM_KERNEL__NV * 4];                                                           \
+        T g[4][KIFMM_KERNEL__CH];                                                              \
+        int r, r0, nr, k;                                                                      \
+        int64_t i, j, j0;                                                                      \
+        (void)param;                                                                           \
+        for (r0 = 0; r0 < nrhs; r0 += KIFMM_KERNEL__NV) /* passes of up to 8 vectors */      \
+        for (i = 0; i < nt; i++) {                                                             \
+            const V X = SET1(tx[i]), Y = SET1(ty[i]), Z = SET1(tz[i]);                         \
+            const T *qq = q + (size_t)r0 * qld;                                                \
+            T *oo = out + (size_t)r0 * old;                                                    \
+            nr = nrhs - r0 < KIFMM_KERNEL__NV ? nrhs - r0 : KIFMM_KERNEL__NV;                  \
+            for (k = 0; k < 4 * nr; k++) acc[k] = ZERO;                                        \
+            for (j0 = 0; j0 < ns; j0 += KIFMM_KERNEL__CH) {                                    \
+                const int64_t nj = ns - j0 < KIFMM_KERNEL__CH ? ns - j0 : KIFMM_KERNEL__CH;    \
+                const int64_t nf = nj / (W) * (W);  /* full blocks of W */                     \
+                const V mt = MASK(nj - nf);         /* the tail block */                       \
+                for (j = 0; j < nj; j += (W)) {                                                \
+                    V dx, dy, dz;                                                              \
+                    const V inv = GEOM(X, Y, Z, sx + j0 + j, sy + j0 + j, sz + j0 + j,          \
+                                       j < nf ? MASK(W) : mt, &dx, &dy, &dz);                  \
+                    STOREU(g[0] + j, inv);                                                     \
+                    if (GRAD) {                                                                \
+                        const V inv3 = MUL(MUL(inv, inv), inv);                                \
+                        STOREU(g[1] + j, MUL(inv3, dx));                                       \
+                        STOREU(g[2] + j, MUL(inv3, dy));                                       \
+                        STOREU(g[3] + j, MUL(inv3, dz));                                       \
+                    }                                                                          \
+                }                                                                              \
+                for (r = 0; r < nr; r += (GRAD) ? 2 : 4) {                                   \
+                    const int two = (GRAD) ? r + 1 < nr : 0;                                    \
+                    const T *qa = qq + (size_t)r * qld + j0;                                    \
+                    if (GRAD) {                                                                \
+                        const T *qb = two ? qa + qld : qa;                                     \
+                        V a0 = acc[4 * r], a1 = acc[4 * r + 1], a2 = acc[4 * r + 2],           \
+                          a3 = acc[4 * r + 3], b0 = ZERO, b1 = ZERO, b2 = ZERO, b3 = ZERO;     \
+                        if (two) {                                                             \
+                            b0 = acc[4 * r + 4]; b1 = acc[4 * r + 5];                          \
+                            b2 = acc[4 * r + 6]; b3 = acc[4 * r + 7];                          \
+                        }                                                                      \
+                        for (j = 0; j < nj; j += (W)) {                                        \
+                            const V G0 = LOADU(g[0] + j), G1 = LOADU(g[1] + j),                \
+                                    G2 = LOADU(g[2] + j), G3 = LOADU(g[3] + j);                \
+                            const V u = j < nf ? LOADU(qa + j) : MLOAD(qa + j, mt);            \
+                            const V v = j < nf ? LOADU(qb + j) : MLOAD(qb + j, mt);            \
+                            a0 = FMADD(u, G0, a0); a1 = FNMADD(u, G1, a1);                     \
+                            a2 = FNMADD(u, G2, a2); a3 = FNMADD(u, G3, a3);                    \
+                            b0 = FMADD(v, G0, b0); b1 = FNMADD(v, G1, b1);                     \
+                            b2 = FNMADD(v, G2, b2); b3 = FNMADD(v, G3, b3);                    \
+                        }                                                                      \
+                        acc[4 * r] = a0; acc[4 * r + 1] = a1;                                  \
+                        acc[4 * r + 2] = a2; acc[4 * r + 3] = a3;                              \
+                        if (two) {                                                             \
+                            acc[4 * r + 4] = b0; acc[4 * r + 5] = b1;                          \
+                            acc[4 * r + 6] = b2; acc[4 * r + 7] = b3;                          \
+                        }                                                                      \
+                    } else {                                                                   \
+                        const int nu = nr - r < 4 ? nr - r : 4;                                \
+                        const T *q1 = nu > 1 ? qa + qld : qa, *q2 = nu > 2 ? qa + 2 * qld : qa, \
+                                *q3 = nu > 3 ? qa + 3 * qld : qa;                              \
+                        V a0 = acc[r], a1 = nu > 1 ? acc[r + 1] : ZERO,                        \
+                          a2 = nu > 2 ? acc[r + 2] : ZERO, a3 = nu > 3 ? acc[r + 3] : ZERO;    \
+                        for (j = 0; j < nj; j += (W)) {                                        \
+                            const V G0 = LOADU(g[0] + j);                                      \
+                            if (j < nf) {                                                      \
+                                a0 = FMADD(LOADU(qa + j), G0, a0);                             \
+                                a1 = FMADD(LOADU(q1 + j), G0, a1);                             \
+                                a2 = FMADD(LOADU(q2 + j), G0, a2);                             \
+                                a3 = FMADD(LOADU(q3 + j), G0, a3);                             \
+                            } else {                                                           \
+                                a0 = FMADD(MLOAD(qa + j, mt), G0, a0);                         \
+                                a1 = FMADD(MLOAD(q1 + j, mt), G0, a1);                         \
+                                a2 = FMADD(MLOAD(q2 + j, mt), G0, a2);                         \
+                                a3 = FMADD(MLOAD(q3 + j, mt), G0, a3);                         \
+                            }                                                                  \
+                        }                                                                      \
+                        acc[r] = a0;                                                           \
+                        if (nu > 1) acc[r + 1] = a1;                                           \
+                        if (nu > 2) acc[r + 2] = a2;                                           \
+                        if (nu > 3) acc[r + 3] = a3;                                           \
+                    }                                                                          \
+                }                                                                              \
+            }                                                                                  \
+            for (r = 0; r < nr; r++)                                                           \
+                for (k = 0; k < td; k++)                                                       \
+                    oo[(size_t)r * old + (size_t)i * td + k] +=                                \
+                        s * HSUM(acc[(GRAD) ? 4 * r + k : r]);                                 \
+        }                                                                                      \
+    }
+
+#define KIFMM_KERNEL__MLOADN(p, m) _mm256_maskload_pd((p), _mm256_castpd_si256(m))
+#define KIFMM_KERNEL__MLOADNF(p, m) _mm256_maskload_ps((p), _mm256_castps_si256(m))
+#define KIFMM_KERNEL__P2PN_D(GRAD)                                                                \
+    KIFMM_KERNEL__P2PN_BODY(double, __m256d, 4, kifmm_kernel__geomn, kifmm_kernel__nmask,        \
+                            _mm256_set1_pd, _mm256_setzero_pd(), _mm256_loadu_pd,                \
+                            _mm256_storeu_pd, KIFMM_KERNEL__MLOADN, _mm256_mul_pd,               \
+                            _mm256_fmadd_pd, _mm256_fnmadd_pd, kifmm_kernel__hsumn, GRAD)
+#define KIFMM_KERNEL__P2PN_F(GRAD)                                                                \
+    KIFMM_KERNEL__P2PN_BODY(float, __m256, 8, kifmm_kernel__geomnf, kifmm_kernel__nmaskf,        \
+                            _mm256_set1_ps, _mm256_setzero_ps(), _mm256_loadu_ps,                \
+                            _mm256_storeu_ps, KIFMM_KERNEL__MLOADNF, _mm256_mul_ps,              \
+                            _mm256_fmadd_ps, _mm256_fnmadd_ps, kifmm_kernel__hsumnf, GRAD)
+
+/* Double: on AVX-512 machines the single-vector hooks are the AVX-512 ones,
+ * and evaluate_many calls them once per vector, so that it agrees with
+ * separate evaluate calls to the last bit there as well. */
+#if !defined(__AVX512F__)
+#define kifmm_kernel_laplace_P2PN 1
+static inline void kifmm_kernel_laplace_p2pn(const double *param, const double *tx,
+                                             const double *ty, const double *tz, int64_t nt,
+                                             const double *sx, const double *sy,
+                                             const double *sz, const double *q, int64_t ns,
+                                             int nrhs, size_t qld, double scale, double *out,
+                                             size_t old)
+KIFMM_KERNEL__P2PN_D(0)
+
+#define kifmm_kernel_laplace_grad_P2PN 1
+static inline void kifmm_kernel_laplace_grad_p2pn(const double *param, const double *tx,
+                                                  const double *ty, const double *tz,
+                                                  int64_t nt, const double *sx,
+                                                  const double *sy, const double *sz,
+                                                  const double *q, int64_t ns, int nrhs,
+                                                  size_t qld, double scale, double *out,
+                                                  size_t old)
+KIFMM_KERNEL__P2PN_D(1)
+#endif
+
+#define kifmm_kernel_laplace_P2PNF 1
+static inline void kifmm_kernel_laplace_p2pnf(const double *param, const float *tx,
+                                              const float *ty, const float *tz, int64_t nt,
+                                              const float *sx, const float *sy, const float *sz,
+                                              const float *q, int64_t ns, int nrhs, size_t qld,
+                                              float scale, float *out, size_t old)
+KIFMM_KERNEL__P2PN_F(0)
+
+#define kifmm_kernel_laplace_grad_P2PNF 1
+static inline void kifmm_kernel_laplace_grad_p2pnf(const double *param, const float *tx,
+                                                   const float *ty, const float *tz, int64_t nt,
+                                                   const float *sx, const float *sy,
+                                                   const float *sz, const float *q, int64_t ns,
+                                                   int nrhs, size_t qld, float scale,
+                                                   float *out, size_t old)
+KIFMM_KERNEL__P2PN_F(1)
+
+#undef KIFMM_KERNEL__P2PN_D
+#undef KIFMM_KERNEL__P2PN_F
+#undef KIFMM_KERNEL__MLOADN
+#undef KIFMM_KERNEL__MLOADNF
+#undef KIFMM_KERNEL__P2PN_BODY
+#undef KIFMM_KERNEL__CH
+#endif
+
 #endif /* KIFMM_KERNELS_H */

@@ -68,9 +68,26 @@ static double rand01(uint64_t *s)
 }
 
 #define NMAX 512
-static double tx[NMAX], ty[NMAX], tz[NMAX], sx[NMAX], sy[NMAX], sz[NMAX], q[NMAX];
-static double out[4 * NMAX];
+#define NV 8 /* density vectors of the many-vector hooks */
+static double tx[NMAX], ty[NMAX], tz[NMAX], sx[NMAX], sy[NMAX], sz[NMAX], q[NV * NMAX];
+static double out[NV * 4 * NMAX];
 static double checksum;
+
+#if kifmm_kernel_laplace_P2PN && kifmm_kernel_laplace_grad_P2PN
+typedef void (*p2pn_fn)(const double *, const double *, const double *, const double *, int64_t,
+                        const double *, const double *, const double *, const double *, int64_t,
+                        int, size_t, double, double *, size_t);
+static p2pn_fn g_many;
+static int64_t g_td;
+/* NV vectors per call of the many-vector hook g_many */
+static void many8(const double *prm, const double *tx_, const double *ty_, const double *tz_,
+                  int64_t nt, const double *sx_, const double *sy_, const double *sz_,
+                  const double *q_, int64_t ns, double scale, double *out_)
+{
+    g_many(prm, tx_, ty_, tz_, nt, sx_, sy_, sz_, q_, ns, NV, NMAX, scale, out_,
+           (size_t)(g_td * NMAX));
+}
+#endif
 
 /* Best pairs per second of `f` on an n x n block over 5 measurements. */
 static double rate(p2p_fn f, int td, int64_t n, double seconds)
@@ -108,6 +125,7 @@ int main(int argc, char **argv)
     int i, k;
 
     /* targets and sources: two independent uniform sets in the unit cube */
+    for (i = 0; i < NV * NMAX; i++) q[i] = 2.0 * rand01(&s) - 1.0;
     for (i = 0; i < NMAX; i++) {
         tx[i] = rand01(&s);
         ty[i] = rand01(&s);
@@ -115,7 +133,6 @@ int main(int argc, char **argv)
         sx[i] = rand01(&s);
         sy[i] = rand01(&s);
         sz[i] = rand01(&s);
-        q[i] = 2.0 * rand01(&s) - 1.0;
     }
     printf("bench_p2p: near-field pairs per second, single thread, hook body: %s\n", BODY);
     printf("%-13s %6s %14s %14s %8s\n", "kernel", "nt=ns", "generic (1/s)", "hook (1/s)",
@@ -131,6 +148,23 @@ int main(int argc, char **argv)
             fflush(stdout);
         }
     }
+#if kifmm_kernel_laplace_P2PN && kifmm_kernel_laplace_grad_P2PN
+    printf("\nmany-vector hooks (_p2pn), %d density vectors per call: pairs x vectors per second\n",
+           NV);
+    printf("%-13s %6s %14s %14s %8s\n", "kernel", "nt=ns", "_p2p (1/s)", "_p2pn (1/s)", "speedup");
+    for (k = 0; k < 2; k++) {
+        const char *name = k == 0 ? "laplace" : "laplace_grad";
+        p2p_fn h = k == 0 ? kifmm_kernel_laplace_p2p : kifmm_kernel_laplace_grad_p2p;
+        int td = k == 0 ? 1 : 4;
+        g_many = k == 0 ? kifmm_kernel_laplace_p2pn : kifmm_kernel_laplace_grad_p2pn;
+        g_td = td;
+        for (i = 0; i < (int)(sizeof sizes / sizeof sizes[0]); i++) {
+            double rh = rate(h, td, sizes[i], seconds), rm = NV * rate(many8, td, sizes[i], seconds);
+            printf("%-13s %6ld %14.3e %14.3e %7.2fx\n", name, (long)sizes[i], rh, rm, rm / rh);
+            fflush(stdout);
+        }
+    }
+#endif
     printf("(checksum %.6e)\n", checksum);
     return 0;
 }

@@ -208,7 +208,7 @@ for n in $VNS; do
             wait_quiet
             rm -f "$res"
             # shellcheck disable=SC2086
-            if run_measured "$OUT/bench" cube "$n" "$p" --sample 500 --result "$res" $opt > "$OUT/.row"; then
+            if run_measured "$OUT/bench" cube "$n" "$p" --sample 500 --repeat 3 --result "$res" $opt > "$OUT/.row"; then
                 echo "$(cat "$OUT/.row")    $BG"
             else
                 echo "cube $n $p $opt: FAILED"

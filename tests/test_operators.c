@@ -162,23 +162,27 @@ static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de
     const kifmm_laplace__ops *o = &c->ops[0];
     const size_t cs = 16 * KIFMM__FFT_F;
     double *spec = t_doubles(16 * pl->nfp), *prod = t_doubles(16 * pl->nfp);
-    double *work = t_doubles((int64_t)kifmm__fft_work(pl)), *chk = t_doubles(c->nc);
-    double *m = t_doubles(c->nc);
-    int f;
+    double *work = t_doubles((int64_t)kifmm__fft_work8(pl)), *chk = t_doubles(8 * c->nc);
+    double *m = t_doubles(c->nc), *m8 = t_doubles(8 * c->nc);
+    int f, i;
     plan.single = 0;
     t_fill(16 * pl->nfp, spec, 0.0);
     t_fill(16 * pl->nfp, prod, 0.0);
     kifmm__gemm(0, 0, c->nc, 1, c->ne, 1.0, o->conv, c->nc, ue, c->ne, 0.0, m, c->nc);
-    kifmm__fft_forward(pl, m, spec, cs, work);
+    /* lane 3 of the batched transforms carries the density, the others 0 */
+    t_fill(8 * c->nc, m8, 0.0);
+    for (i = 0; i < c->nc; i++) m8[8 * i + 3] = m[i];
+    kifmm__fft_forward8(pl, m8, spec, cs, work);
     for (f = 0; f < pl->nf; f++) {
-        size_t a = (size_t)(f / KIFMM__FFT_F) * cs + (size_t)(f % KIFMM__FFT_F) * 16;
-        const double *k = o->khat + (size_t)tv * 2 * pl->nfp + 2 * f;
+        size_t a = (size_t)(f / KIFMM__FFT_F) * cs + (size_t)(f % KIFMM__FFT_F) * 16 + 3;
+        const double *k = o->khat + ((size_t)f * KIFMM__NT + tv) * 2;
         prod[a] = spec[a] * k[0] - spec[a + 8] * k[1];
         prod[a + 8] = spec[a] * k[1] + spec[a + 8] * k[0];
     }
-    kifmm__fft_inverse(pl, prod, cs, chk, work);
-    solve(c, 0, chk, de);
-    free(spec); free(prod); free(work); free(chk); free(m);
+    kifmm__fft_inverse8(pl, prod, cs, chk, work);
+    for (i = 0; i < c->nc; i++) m[i] = chk[8 * i + 3];
+    solve(c, 0, m, de);
+    free(spec); free(prod); free(work); free(chk); free(m); free(m8);
 }
 
 static void test_downward(int p)

@@ -210,6 +210,75 @@ static void test_blocks(const char *name, hook_fn hook, int td, uint64_t seed)
 }
 
 /* ------------------------------------------------------------------------ */
+/* Many-vector hooks (_p2pn): each vector against the same long double sums  */
+/* ------------------------------------------------------------------------ */
+
+#if kifmm_kernel_laplace_P2PN && kifmm_kernel_laplace_grad_P2PN
+typedef void (*hookn_fn)(const double *, const double *, const double *, const double *,
+                         int64_t, const double *, const double *, const double *,
+                         const double *, int64_t, int, size_t, double, double *, size_t);
+
+/* The many-vector hook under test, the number of vectors, the vector that
+ * carries the block's charges and outputs (the others get random ones), and
+ * the output components per target. */
+static hookn_fn g_many;
+static int g_nrhs, g_slot, g_td;
+static t_rng g_rng;
+
+/* A hook_fn for one_block: runs g_many on g_nrhs vectors (odd strides
+ * between them) and hands back vector g_slot; the other vectors' outputs must
+ * change only where their own charges say. */
+static void many_as_one(const double *prm, const double *tx, const double *ty, const double *tz,
+                        int64_t nt, const double *sx, const double *sy, const double *sz,
+                        const double *q, int64_t ns, double scale, double *out)
+{
+    const size_t qld = (size_t)ns + 3, old = (size_t)nt * g_td + 5;
+    double *qa = t_doubles((int64_t)(g_nrhs * qld + 1)), *oa = t_doubles((int64_t)(g_nrhs * old + 1));
+    size_t i;
+    int r;
+    for (i = 0; i < g_nrhs * qld; i++) qa[i] = t_uniform(&g_rng, -1.0, 1.0);
+    for (i = 0; i < g_nrhs * old; i++) oa[i] = SENTINEL;
+    for (r = 0; r < g_nrhs; r++)
+        for (i = 0; i < (size_t)nt * g_td; i++) oa[r * old + i] = t_uniform(&g_rng, -0.01, 0.01);
+    for (i = 0; i < (size_t)ns; i++) qa[g_slot * qld + i] = q[i];
+    for (i = 0; i < (size_t)nt * g_td; i++) oa[g_slot * old + i] = out[i];
+    g_many(prm, tx, ty, tz, nt, sx, sy, sz, qa, ns, g_nrhs, qld, scale, oa, old);
+    for (i = 0; i < (size_t)nt * g_td; i++) out[i] = oa[g_slot * old + i];
+    for (r = 0; r < g_nrhs; r++) /* the gaps between output vectors are untouched */
+        for (i = (size_t)nt * g_td; i < old; i++)
+            if (oa[r * old + i] != SENTINEL) out[0] = NAN;
+    free(qa);
+    free(oa);
+}
+
+static void test_many(void)
+{
+    static const int cases[][2] = {{1, 0}, {2, 1}, {3, 0}, {5, 4}, {8, 6}, {11, 9}, {16, 8}};
+    int c;
+    g_rng = t_rng_seed(77);
+    for (c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
+        char name[64];
+        g_nrhs = cases[c][0];
+        g_slot = cases[c][1];
+        g_many = kifmm_kernel_laplace_p2pn;
+        g_td = 1;
+        snprintf(name, sizeof name, "laplace_p2pn %d vectors, #%d", g_nrhs, g_slot);
+        test_blocks(name, many_as_one, 1, 100 + (uint64_t)c);
+        g_many = kifmm_kernel_laplace_grad_p2pn;
+        g_td = 4;
+        snprintf(name, sizeof name, "laplace_grad_p2pn %d vectors, #%d", g_nrhs, g_slot);
+        test_blocks(name, many_as_one, 4, 200 + (uint64_t)c);
+    }
+}
+#else
+static void test_many(void)
+{
+    printf("many-vector hooks: not compiled for this target (%s), evaluate_many calls _p2p\n",
+           BODY);
+}
+#endif
+
+/* ------------------------------------------------------------------------ */
 /* Single pairs over the whole exponent range                               */
 /* ------------------------------------------------------------------------ */
 
@@ -390,6 +459,19 @@ static void test_wiring(void)
     kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
     CHECK(memcmp(a, b, (size_t)nt * sizeof(double)) == 0,
           "kifmm_laplace_grad__p2p_equiv (surface kernel laplace)");
+#if kifmm_kernel_laplace_grad_P2PN
+    { /* two vectors (the second = 0.5 q) go to the many-vector hook */
+        double q2[2 * 29], a2[8 * 37], b2[8 * 37];
+        for (i = 0; i < ns; i++) q2[i] = q[i], q2[ns + i] = 0.5 * q[i];
+        memset(a2, 0, sizeof a2);
+        memset(b2, 0, sizeof b2);
+        kifmm_laplace_grad__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q2, ns, 2, (size_t)ns,
+                                0.7, a2, (size_t)(4 * nt));
+        kifmm_kernel_laplace_grad_p2pn(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q2, ns, 2,
+                                       (size_t)ns, 0.7, b2, (size_t)(4 * nt));
+        CHECK(memcmp(a2, b2, sizeof a2) == 0, "kifmm_laplace_grad__p2p, 2 vectors (_p2pn)");
+    }
+#endif
     free(t.mem);
     free(s.mem);
 }
@@ -487,6 +569,7 @@ int main(void)
     test_pairs();
     test_blocks("laplace", kifmm_kernel_laplace_p2p, 1, 11);
     test_blocks("laplace_grad", kifmm_kernel_laplace_grad_p2p, 4, 12);
+    test_many();
     test_fmm();
     return t_finish();
 }

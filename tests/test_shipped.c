@@ -354,6 +354,7 @@ int main(void)
     check_many(&STK, &cube, 4, 2, 1e-12);
     check_many(&YUKG, &cube, 4, 9, 1e-12); /* more than one group of 8 */
     check_many(&LAPF, &cube, 4, 5, 1e-5);
+    check_many(&LAPGF, &sph, 4, 8, 1e-5);
 
     free(cube.x); free(cube.q); free(sph.x); free(sph.q);
     printf("test_shipped: %.1fs\n", t_wall() - t0);
