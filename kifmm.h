@@ -108,7 +108,8 @@
 
 /* Memory for the spectra of the FFT M2L, in MiB: a level whose source
  * spectra do not fit is done in slabs of target parents, each with the
- * spectra of its own neighbours (some computed twice). */
+ * spectra of its own neighbours (some computed twice). A handle whose two
+ * expansion arrays take more uses that much, up to 4 times this. */
 #ifndef KIFMM_FFT_SPEC_MB
 #define KIFMM_FFT_SPEC_MB 64
 #endif
@@ -1182,7 +1183,9 @@ KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
  * parent -> child of target parent) per frequency, zero for adjacent child
  * pairs (those are not in the V list). Below, p is the lattice order q. */
 #define KIFMM__FFT_F 4 /* frequencies per chunk (the AVX2 product kernels assume 4) */
+#ifndef KIFMM__FFT_KB_MB
 #define KIFMM__FFT_KB_MB 24 /* the products' blocks are kept if they fit in this */
+#endif
 KIFMM__STATIC_ASSERT(KIFMM__FFT_F == 4, fft_product_kernels_take_4_frequencies_per_chunk);
 
 typedef struct kifmm__fft {
@@ -1237,17 +1240,6 @@ KIFMM__FN size_t kifmm__fft_work(const kifmm__fft *pl)
     return (size_t)4 * pl->n * pl->n * pl->nh + (size_t)pl->n * pl->n * pl->n;
 }
 
-/* d += x w over n complex values in split form (dr, di += (xr, xi) (w0 + i w1)):
- * the one step of every separable DFT stage below. */
-KIFMM__FN void kifmm__caxpy(int n, double w0, double w1, const double *xr, const double *xi,
-                            double *dr, double *di)
-{
-    int q;
-    for (q = 0; q < n; q++) {
-        dr[q] += xr[q] * w0 - xi[q] * w1;
-        di[q] += xr[q] * w1 + xi[q] * w0;
-    }
-}
 
 /* Spectrum of a real n^3 grid g ([(i n + j) n + k]) into khat (frequency f
  * at 2 f, re and im), full transform. */
@@ -1301,123 +1293,148 @@ KIFMM__FN size_t kifmm__fft_work8(const kifmm__fft *pl)
                                                  (size_t)pl->p * pl->p);
 }
 
-/* Spectra of 8 surface densities at once, m[s 8 + v] (lane v = child v),
- * into out: frequency f of lane v goes to out[(f / F) cstride + (f % F) 16 +
- * v] (re) and 8 further (im), the layout of the products. Pruned: only the
- * p^3 lattice is nonzero. Every stage is a loop over the 8 lanes with the
- * same twiddle, which compilers vectorise. */
-KIFMM__FN void kifmm__fft_forward8(const kifmm__fft *pl, const double *m, void *out,
-                                   size_t cstride, double *work)
-{
-    const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
-    int s, i, j, kx, ky, kz, q, v;
-    double *s1r = work, *s1i = s1r + L * p * p * nh, *s2r = s1i + L * p * p * nh;
-    double *s2i = s2r + L * p * n * nh, *tr = s2i + L * p * n * nh, *ti = tr + L * n * nh;
-    memset(s1r, 0, sizeof(double) * 2 * L * p * p * nh);
-    for (s = 0; s < pl->ne; s++) {
-        int a = pl->ijk[3 * s], b = pl->ijk[3 * s + 1], c = pl->ijk[3 * s + 2];
-        const double *mv = m + L * s;
-        double *r = s1r + L * (a * p + b) * nh, *im = s1i + L * (a * p + b) * nh;
-        for (kz = 0; kz < nh; kz++) {
-            const double w0 = pl->wr[kz * n + c], w1 = pl->wi[kz * n + c];
-            for (v = 0; v < L; v++) {
-                r[L * kz + v] += mv[v] * w0;
-                im[L * kz + v] += mv[v] * w1;
-            }
-        }
+/* The batched transforms, for work arrays of type T (suffix SFX): double,
+ * and float where the spectra are float (the products' precision).
+ *
+ * kifmm__caxpy: d += x w over n complex values in split form (dr, di +=
+ * (xr, xi) (w0 + i w1)), the one step of every separable DFT stage.
+ *
+ * kifmm__fft_forward8: spectra of 8 surface densities at once, m[s 8 + v]
+ * (lane v = child v), into out: frequency f of lane v goes to out[(f / F)
+ * cstride + (f % F) 16 + v] (re) and 8 further (im), the layout of the
+ * products. Pruned: only the p^3 lattice is nonzero. Every stage is a loop
+ * over the 8 lanes with the same twiddle, which compilers vectorise.
+ *
+ * kifmm__fft_inverse8: 8 half spectra addressed as above -> the values at
+ * the ne lattice surface points, chk[s 8 + v]. */
+#define KIFMM__FFT_XFORMS(T, SFX)                                                              \
+    KIFMM__FN void kifmm__caxpy##SFX(int n, T w0, T w1, const T *xr, const T *xi, T *dr,       \
+                                     T *di)                                                    \
+    {                                                                                          \
+        int q;                                                                                 \
+        for (q = 0; q < n; q++) {                                                              \
+            dr[q] += xr[q] * w0 - xi[q] * w1;                                                  \
+            di[q] += xr[q] * w1 + xi[q] * w0;                                                  \
+        }                                                                                      \
+    }                                                                                          \
+    KIFMM__FN void kifmm__fft_forward8##SFX(const kifmm__fft *pl, const double *m, void *out,  \
+                                            size_t cstride, T *work)                           \
+    {                                                                                          \
+        const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;                         \
+        int s, i, j, kx, ky, kz, q, v;                                                         \
+        T *s1r = work, *s1i = s1r + L * p * p * nh, *s2r = s1i + L * p * p * nh;               \
+        T *s2i = s2r + L * p * n * nh, *tr = s2i + L * p * n * nh, *ti = tr + L * n * nh;      \
+        memset(s1r, 0, sizeof(T) * 2 * L * p * p * nh);                                        \
+        for (s = 0; s < pl->ne; s++) {                                                         \
+            int a = pl->ijk[3 * s], b = pl->ijk[3 * s + 1], c = pl->ijk[3 * s + 2];            \
+            T mv[KIFMM__FFT_L], *r = s1r + L * (a * p + b) * nh, *im = s1i + L * (a * p + b) * nh; \
+            for (v = 0; v < L; v++) mv[v] = (T)m[L * s + v];                                   \
+            for (kz = 0; kz < nh; kz++) {                                                      \
+                const T w0 = (T)pl->wr[kz * n + c], w1 = (T)pl->wi[kz * n + c];                \
+                for (v = 0; v < L; v++) {                                                      \
+                    r[L * kz + v] += mv[v] * w0;                                               \
+                    im[L * kz + v] += mv[v] * w1;                                              \
+                }                                                                              \
+            }                                                                                  \
+        }                                                                                      \
+        for (i = 0; i < p; i++)                                                                \
+            for (ky = 0; ky < n; ky++) {                                                       \
+                T *dr = s2r + L * (i * n + ky) * nh, *di = s2i + L * (i * n + ky) * nh;        \
+                memset(dr, 0, sizeof(T) * L * nh);                                             \
+                memset(di, 0, sizeof(T) * L * nh);                                             \
+                for (j = 0; j < p; j++)                                                        \
+                    kifmm__caxpy##SFX(L * nh, (T)pl->wr[ky * n + j], (T)pl->wi[ky * n + j],    \
+                                      s1r + L * (i * p + j) * nh, s1i + L * (i * p + j) * nh,  \
+                                      dr, di);                                                 \
+            }                                                                                  \
+        for (kx = 0; kx < n; kx++) {                                                           \
+            const int f0 = kx * n * nh;                                                        \
+            memset(tr, 0, sizeof(T) * L * n * nh);                                             \
+            memset(ti, 0, sizeof(T) * L * n * nh);                                             \
+            for (i = 0; i < p; i++)                                                            \
+                kifmm__caxpy##SFX(L * n * nh, (T)pl->wr[kx * n + i], (T)pl->wi[kx * n + i],    \
+                                  s2r + L * i * n * nh, s2i + L * i * n * nh, tr, ti);         \
+            for (q = 0; q < n * nh; q++) {                                                     \
+                const int f = f0 + q;                                                          \
+                const size_t a =                                                               \
+                    (size_t)(f / KIFMM__FFT_F) * cstride + (size_t)(f % KIFMM__FFT_F) * 16;    \
+                if (pl->single) {                                                              \
+                    float *o = (float *)out + a;                                               \
+                    for (v = 0; v < L; v++) {                                                  \
+                        o[v] = (float)tr[L * q + v];                                           \
+                        o[8 + v] = (float)ti[L * q + v];                                       \
+                    }                                                                          \
+                } else {                                                                       \
+                    double *o = (double *)out + a;                                             \
+                    for (v = 0; v < L; v++) {                                                  \
+                        o[v] = (double)tr[L * q + v];                                          \
+                        o[8 + v] = (double)ti[L * q + v];                                      \
+                    }                                                                          \
+                }                                                                              \
+            }                                                                                  \
+        }                                                                                      \
+    }                                                                                          \
+    KIFMM__FN void kifmm__fft_inverse8##SFX(const kifmm__fft *pl, const void *in, size_t cstride, \
+                                            double *chk, T *work)                              \
+    {                                                                                          \
+        const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;                         \
+        int i, j, k, kx, ky, kz, q, s, v;                                                      \
+        T *yr = work, *yi = yr + L * n * n * nh, *t1r = yi + L * n * n * nh;                   \
+        T *t1i = t1r + L * p * n * nh, *t2r = t1i + L * p * n * nh, *t2i = t2r + L * p * p * nh; \
+        for (q = 0; q < pl->nf; q++) {                                                         \
+            const size_t a =                                                                   \
+                (size_t)(q / KIFMM__FFT_F) * cstride + (size_t)(q % KIFMM__FFT_F) * 16;        \
+            if (pl->single) {                                                                  \
+                const float *x = (const float *)in + a;                                        \
+                for (v = 0; v < L; v++) {                                                      \
+                    yr[L * q + v] = (T)x[v];                                                   \
+                    yi[L * q + v] = (T)x[8 + v];                                               \
+                }                                                                              \
+            } else {                                                                           \
+                const double *x = (const double *)in + a;                                      \
+                for (v = 0; v < L; v++) {                                                      \
+                    yr[L * q + v] = (T)x[v];                                                   \
+                    yi[L * q + v] = (T)x[8 + v];                                               \
+                }                                                                              \
+            }                                                                                  \
+        }                                                                                      \
+        for (i = 0; i < p; i++) {                                                              \
+            T *dr = t1r + L * i * n * nh, *di = t1i + L * i * n * nh;                          \
+            memset(dr, 0, sizeof(T) * L * n * nh);                                            \
+            memset(di, 0, sizeof(T) * L * n * nh);                                            \
+            for (kx = 0; kx < n; kx++)                                                         \
+                kifmm__caxpy##SFX(L * n * nh, (T)pl->wr[kx * n + i], (T)-pl->wi[kx * n + i],   \
+                                  yr + L * kx * n * nh, yi + L * kx * n * nh, dr, di);         \
+        }                                                                                      \
+        for (i = 0; i < p; i++)                                                                \
+            for (j = 0; j < p; j++) {                                                          \
+                T *dr = t2r + L * (i * p + j) * nh, *di = t2i + L * (i * p + j) * nh;          \
+                memset(dr, 0, sizeof(T) * L * nh);                                             \
+                memset(di, 0, sizeof(T) * L * nh);                                             \
+                for (ky = 0; ky < n; ky++)                                                     \
+                    kifmm__caxpy##SFX(L * nh, (T)pl->wr[ky * n + j], (T)-pl->wi[ky * n + j],   \
+                                      t1r + L * (i * n + ky) * nh, t1i + L * (i * n + ky) * nh, \
+                                      dr, di);                                                 \
+            }                                                                                  \
+        for (s = 0; s < pl->ne; s++) {                                                         \
+            T acc[KIFMM__FFT_L];                                                               \
+            const T *xr, *xi;                                                                  \
+            i = pl->ijk[3 * s]; j = pl->ijk[3 * s + 1]; k = pl->ijk[3 * s + 2];                \
+            xr = t2r + L * (i * p + j) * nh;                                                   \
+            xi = t2i + L * (i * p + j) * nh;                                                   \
+            for (v = 0; v < L; v++) acc[v] = 0;                                                \
+            for (kz = 0; kz < nh; kz++) {                                                      \
+                const T w0 = (T)(pl->wz[kz] * pl->wr[kz * n + k]);                             \
+                const T w1 = (T)(pl->wz[kz] * pl->wi[kz * n + k]);                             \
+                for (v = 0; v < L; v++) acc[v] += xr[L * kz + v] * w0 + xi[L * kz + v] * w1;   \
+            }                                                                                  \
+            for (v = 0; v < L; v++) chk[L * s + v] = (double)acc[v];                           \
+        }                                                                                      \
     }
-    for (i = 0; i < p; i++)
-        for (ky = 0; ky < n; ky++) {
-            double *dr = s2r + L * (i * n + ky) * nh, *di = s2i + L * (i * n + ky) * nh;
-            memset(dr, 0, sizeof(double) * L * nh);
-            memset(di, 0, sizeof(double) * L * nh);
-            for (j = 0; j < p; j++)
-                kifmm__caxpy(L * nh, pl->wr[ky * n + j], pl->wi[ky * n + j],
-                             s1r + L * (i * p + j) * nh, s1i + L * (i * p + j) * nh, dr, di);
-        }
-    for (kx = 0; kx < n; kx++) {
-        const int f0 = kx * n * nh;
-        memset(tr, 0, sizeof(double) * L * n * nh);
-        memset(ti, 0, sizeof(double) * L * n * nh);
-        for (i = 0; i < p; i++)
-            kifmm__caxpy(L * n * nh, pl->wr[kx * n + i], pl->wi[kx * n + i], s2r + L * i * n * nh,
-                         s2i + L * i * n * nh, tr, ti);
-        for (q = 0; q < n * nh; q++) {
-            const int f = f0 + q;
-            const size_t a = (size_t)(f / KIFMM__FFT_F) * cstride + (size_t)(f % KIFMM__FFT_F) * 16;
-            if (pl->single) {
-                float *o = (float *)out + a;
-                for (v = 0; v < L; v++) {
-                    o[v] = (float)tr[L * q + v];
-                    o[8 + v] = (float)ti[L * q + v];
-                }
-            } else {
-                double *o = (double *)out + a;
-                for (v = 0; v < L; v++) {
-                    o[v] = tr[L * q + v];
-                    o[8 + v] = ti[L * q + v];
-                }
-            }
-        }
-    }
-}
 
-/* Inverse of 8 half spectra addressed as in kifmm__fft_forward8 -> the
- * values at the ne lattice surface points, chk[s 8 + v]. */
-KIFMM__FN void kifmm__fft_inverse8(const kifmm__fft *pl, const void *in, size_t cstride,
-                                   double *chk, double *work)
-{
-    const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
-    int i, j, k, kx, ky, kz, q, s, v;
-    double *yr = work, *yi = yr + L * n * n * nh, *t1r = yi + L * n * n * nh;
-    double *t1i = t1r + L * p * n * nh, *t2r = t1i + L * p * n * nh, *t2i = t2r + L * p * p * nh;
-    for (q = 0; q < pl->nf; q++) {
-        const size_t a = (size_t)(q / KIFMM__FFT_F) * cstride + (size_t)(q % KIFMM__FFT_F) * 16;
-        if (pl->single) {
-            const float *x = (const float *)in + a;
-            for (v = 0; v < L; v++) {
-                yr[L * q + v] = (double)x[v];
-                yi[L * q + v] = (double)x[8 + v];
-            }
-        } else {
-            const double *x = (const double *)in + a;
-            for (v = 0; v < L; v++) {
-                yr[L * q + v] = x[v];
-                yi[L * q + v] = x[8 + v];
-            }
-        }
-    }
-    for (i = 0; i < p; i++) {
-        double *dr = t1r + L * i * n * nh, *di = t1i + L * i * n * nh;
-        memset(dr, 0, sizeof(double) * L * n * nh);
-        memset(di, 0, sizeof(double) * L * n * nh);
-        for (kx = 0; kx < n; kx++)
-            kifmm__caxpy(L * n * nh, pl->wr[kx * n + i], -pl->wi[kx * n + i], yr + L * kx * n * nh,
-                         yi + L * kx * n * nh, dr, di);
-    }
-    for (i = 0; i < p; i++)
-        for (j = 0; j < p; j++) {
-            double *dr = t2r + L * (i * p + j) * nh, *di = t2i + L * (i * p + j) * nh;
-            memset(dr, 0, sizeof(double) * L * nh);
-            memset(di, 0, sizeof(double) * L * nh);
-            for (ky = 0; ky < n; ky++)
-                kifmm__caxpy(L * nh, pl->wr[ky * n + j], -pl->wi[ky * n + j],
-                             t1r + L * (i * n + ky) * nh, t1i + L * (i * n + ky) * nh, dr, di);
-        }
-    for (s = 0; s < pl->ne; s++) {
-        double acc[KIFMM__FFT_L];
-        const double *xr, *xi;
-        i = pl->ijk[3 * s]; j = pl->ijk[3 * s + 1]; k = pl->ijk[3 * s + 2];
-        xr = t2r + L * (i * p + j) * nh;
-        xi = t2i + L * (i * p + j) * nh;
-        for (v = 0; v < L; v++) acc[v] = 0.0;
-        for (kz = 0; kz < nh; kz++) {
-            const double w0 = pl->wz[kz] * pl->wr[kz * n + k], w1 = pl->wz[kz] * pl->wi[kz * n + k];
-            for (v = 0; v < L; v++) acc[v] += xr[L * kz + v] * w0 + xi[L * kz + v] * w1;
-        }
-        for (v = 0; v < L; v++) chk[L * s + v] = acc[v];
-    }
-}
+KIFMM__FFT_XFORMS(double, )
+KIFMM__FFT_XFORMS(float, f)
+#undef KIFMM__FFT_XFORMS
 
 /* Transfer vector of each child pair of two parents at offset o (0..26,
  * (ox+1) 9 + (oy+1) 3 + (oz+1)): tv[(o 8 + cs) 8 + ct], -1 if adjacent. */
@@ -2138,13 +2155,16 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
     {
         /* the products' blocks of every chunk, built once when all of them fit in
          * KIFMM__FFT_KB_MB (float spectra, one set of operators: 5.6 MiB at p = 4,
-         * 16 MiB at p = 6); otherwise each task builds the blocks of its chunk */
+         * 16 MiB at p = 6) or take no more than one expansion array of the handle
+         * (double spectra at p = 8: 72 MiB, kept from about 1M points on);
+         * otherwise each task builds the blocks of its chunk */
         const kifmm__fft *pl = &c->fft;
         const size_t esz = pl->single ? sizeof(float) : sizeof(double);
         const size_t per = (size_t)27 * 128 * KIFMM__FFT_F * esz, all = per * (size_t)pl->nchunk;
         int tvm[27 * 64], n = 0, ch;
+        const size_t one = (size_t)c->tree.nbox * (size_t)c->ne * sizeof(KIFMM__R);
         for (l = 0; l < c->nops; l++) n += c->ops[l].khat != NULL;
-        if (n > 0 && all * (size_t)n <= (size_t)KIFMM__FFT_KB_MB << 20) {
+        if (n > 0 && (all * (size_t)n <= (size_t)KIFMM__FFT_KB_MB << 20 || all * (size_t)n <= one)) {
             kifmm__fft_tvmap(tvm);
             for (l = 0; l < c->nops; l++) {
                 KIFMM__F(__ops) *o = &c->ops[l];
@@ -2508,8 +2528,12 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                 double *m = work + kifmm__fft_work8(pl);
                 const KIFMM__R *u = ue + (size_t)8 * need[b] * ne; /* the 8 children */
                 KIFMM__F(__conv8)(o->conv, nc, ne, u, m);
-                kifmm__fft_forward8(pl, m, (char *)c->spec + (size_t)b * KIFMM__FFT_F * 16 * esz,
-                                    cstride, work);
+                if (pl->single)
+                    kifmm__fft_forward8f(pl, m, (char *)c->spec + (size_t)b * KIFMM__FFT_F * 16 * esz,
+                                         cstride, (float *)work);
+                else
+                    kifmm__fft_forward8(pl, m, (char *)c->spec + (size_t)b * KIFMM__FFT_F * 16 * esz,
+                                        cstride, work);
             }
             KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
             for (blk = 0; blk < nblk; blk++) {
@@ -2539,8 +2563,9 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                 }
                 for (P = 0; P < nb; P++) {
                     if (!KIFMM__F(__fft_wanted)(t, l, p0 + P)) continue;
-                    kifmm__fft_inverse8(pl, (const char *)out + (size_t)P * KIFMM__FFT_F * 16 * esz,
-                                        ocs, dchk, work);
+                    const char *op = (const char *)out + (size_t)P * KIFMM__FFT_F * 16 * esz;
+                    if (pl->single) kifmm__fft_inverse8f(pl, op, ocs, dchk, (float *)work);
+                    else kifmm__fft_inverse8(pl, op, ocs, dchk, work);
                     for (q = 0; q < 8; q++) {
                         int32_t lb = 8 * (p0 + P) + q, box = t->loff[l] + lb;
                         KIFMM__R *dst = chk + (size_t)lb * nc;
@@ -2891,7 +2916,15 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
             if (h->co[t->ioff[l + 1]] - h->co[t->ioff[l]] > mc)
                 mc = h->co[t->ioff[l + 1]] - h->co[t->ioff[l]];
         }
-        h->slots = (int32_t)((size_t)KIFMM_FFT_SPEC_MB * 1048576u / slot);
+        {
+            /* KIFMM_FFT_SPEC_MB, or as much as the handle's two expansion arrays
+             * when they are larger, up to 4 times that: fewer slabs and fewer
+             * spectra computed twice where the handle is big anyway */
+            const size_t lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
+            size_t budget = (size_t)2 * (size_t)t->nbox * (size_t)h->ne * sizeof(KIFMM__R);
+            budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
+            h->slots = (int32_t)(budget / slot);
+        }
         if (h->slots < 27) h->slots = 27;
         if (h->slots > m) h->slots = m;
         h->loc = (int32_t *)kifmm__alloc((size_t)m, sizeof(int32_t));
