@@ -2,7 +2,7 @@
 #
 #   make run        build and run examples/laplace.c (1M points, order 6;
 #                   other sizes: make run ARGS="200000 8")
-#   make test       build and run the test suite in every configuration
+#   make test       build and run the test suite (five configurations; CONFIGS=all for nine)
 #                   (tests/run.sh: gcc and clang, C99 and C11, with and
 #                   without OpenMP, and a sanitizer build)
 #   make custom     build and run examples/custom_kernel.c (a kernel written in
@@ -98,7 +98,7 @@ run: deps
 	./$(BUILD)/laplace $(ARGS)
 
 test: deps
-	EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/run.sh
+	EXTRA_CFLAGS="$(CBLAS_CFLAGS)" CONFIGS="$(CONFIGS)" bash tests/run.sh
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/custom_kernel 20000 6
 
