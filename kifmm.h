@@ -1320,11 +1320,23 @@ KIFMM__FN size_t kifmm__fft_work8(const kifmm__fft *pl)
             di[q] += xr[q] * w1 + xi[q] * w0;                                                  \
         }                                                                                      \
     }                                                                                          \
+    /* d = sum_j x_j (wr + i sg wi)[j ws] over nin inputs x_j = x + j xs (len values) */      \
+    KIFMM__FN void kifmm__dft_sum##SFX(int len, int nin, const double *wr, const double *wi,   \
+                                       int ws, double sg, const T *xr, const T *xi, size_t xs, \
+                                       T *dr, T *di)                                           \
+    {                                                                                          \
+        int j;                                                                                 \
+        memset(dr, 0, sizeof(T) * (size_t)len);                                                \
+        memset(di, 0, sizeof(T) * (size_t)len);                                                \
+        for (j = 0; j < nin; j++)                                                              \
+            kifmm__caxpy##SFX(len, (T)wr[j * ws], (T)(sg * wi[j * ws]), xr + j * xs,           \
+                              xi + j * xs, dr, di);                                            \
+    }                                                                                          \
     KIFMM__FN void kifmm__fft_forward8##SFX(const kifmm__fft *pl, const double *m, void *out,  \
                                             size_t cstride, T *work)                           \
     {                                                                                          \
         const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;                         \
-        int s, i, j, kx, ky, kz, q, v;                                                         \
+        int s, i, kx, ky, kz, q, v;                                                            \
         T *s1r = work, *s1i = s1r + L * p * p * nh, *s2r = s1i + L * p * p * nh;               \
         T *s2i = s2r + L * p * n * nh, *tr = s2i + L * p * n * nh, *ti = tr + L * n * nh;      \
         memset(s1r, 0, sizeof(T) * 2 * L * p * p * nh);                                        \
@@ -1341,22 +1353,14 @@ KIFMM__FN size_t kifmm__fft_work8(const kifmm__fft *pl)
             }                                                                                  \
         }                                                                                      \
         for (i = 0; i < p; i++)                                                                \
-            for (ky = 0; ky < n; ky++) {                                                       \
-                T *dr = s2r + L * (i * n + ky) * nh, *di = s2i + L * (i * n + ky) * nh;        \
-                memset(dr, 0, sizeof(T) * L * nh);                                             \
-                memset(di, 0, sizeof(T) * L * nh);                                             \
-                for (j = 0; j < p; j++)                                                        \
-                    kifmm__caxpy##SFX(L * nh, (T)pl->wr[ky * n + j], (T)pl->wi[ky * n + j],    \
-                                      s1r + L * (i * p + j) * nh, s1i + L * (i * p + j) * nh,  \
-                                      dr, di);                                                 \
-            }                                                                                  \
+            for (ky = 0; ky < n; ky++)                                                         \
+                kifmm__dft_sum##SFX(L * nh, p, pl->wr + ky * n, pl->wi + ky * n, 1, 1.0,       \
+                                    s1r + L * i * p * nh, s1i + L * i * p * nh, (size_t)L * nh, \
+                                    s2r + L * (i * n + ky) * nh, s2i + L * (i * n + ky) * nh); \
         for (kx = 0; kx < n; kx++) {                                                           \
             const int f0 = kx * n * nh;                                                        \
-            memset(tr, 0, sizeof(T) * L * n * nh);                                             \
-            memset(ti, 0, sizeof(T) * L * n * nh);                                             \
-            for (i = 0; i < p; i++)                                                            \
-                kifmm__caxpy##SFX(L * n * nh, (T)pl->wr[kx * n + i], (T)pl->wi[kx * n + i],    \
-                                  s2r + L * i * n * nh, s2i + L * i * n * nh, tr, ti);         \
+            kifmm__dft_sum##SFX(L * n * nh, p, pl->wr + kx * n, pl->wi + kx * n, 1, 1.0, s2r,  \
+                                s2i, (size_t)L * n * nh, tr, ti);                              \
             for (q = 0; q < n * nh; q++) {                                                     \
                 const int f = f0 + q;                                                          \
                 const size_t a =                                                               \
@@ -1381,7 +1385,7 @@ KIFMM__FN size_t kifmm__fft_work8(const kifmm__fft *pl)
                                             double *chk, T *work)                              \
     {                                                                                          \
         const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;                         \
-        int i, j, k, kx, ky, kz, q, s, v;                                                      \
+        int i, j, k, kz, q, s, v;                                                              \
         T *yr = work, *yi = yr + L * n * n * nh, *t1r = yi + L * n * n * nh;                   \
         T *t1i = t1r + L * p * n * nh, *t2r = t1i + L * p * n * nh, *t2i = t2r + L * p * p * nh; \
         for (q = 0; q < pl->nf; q++) {                                                         \
@@ -1401,24 +1405,14 @@ KIFMM__FN size_t kifmm__fft_work8(const kifmm__fft *pl)
                 }                                                                              \
             }                                                                                  \
         }                                                                                      \
-        for (i = 0; i < p; i++) {                                                              \
-            T *dr = t1r + L * i * n * nh, *di = t1i + L * i * n * nh;                          \
-            memset(dr, 0, sizeof(T) * L * n * nh);                                            \
-            memset(di, 0, sizeof(T) * L * n * nh);                                            \
-            for (kx = 0; kx < n; kx++)                                                         \
-                kifmm__caxpy##SFX(L * n * nh, (T)pl->wr[kx * n + i], (T)-pl->wi[kx * n + i],   \
-                                  yr + L * kx * n * nh, yi + L * kx * n * nh, dr, di);         \
-        }                                                                                      \
         for (i = 0; i < p; i++)                                                                \
-            for (j = 0; j < p; j++) {                                                          \
-                T *dr = t2r + L * (i * p + j) * nh, *di = t2i + L * (i * p + j) * nh;          \
-                memset(dr, 0, sizeof(T) * L * nh);                                             \
-                memset(di, 0, sizeof(T) * L * nh);                                             \
-                for (ky = 0; ky < n; ky++)                                                     \
-                    kifmm__caxpy##SFX(L * nh, (T)pl->wr[ky * n + j], (T)-pl->wi[ky * n + j],   \
-                                      t1r + L * (i * n + ky) * nh, t1i + L * (i * n + ky) * nh, \
-                                      dr, di);                                                 \
-            }                                                                                  \
+            kifmm__dft_sum##SFX(L * n * nh, n, pl->wr + i, pl->wi + i, n, -1.0, yr, yi,        \
+                                (size_t)L * n * nh, t1r + L * i * n * nh, t1i + L * i * n * nh); \
+        for (i = 0; i < p; i++)                                                                \
+            for (j = 0; j < p; j++)                                                            \
+                kifmm__dft_sum##SFX(L * nh, n, pl->wr + j, pl->wi + j, n, -1.0,                \
+                                    t1r + L * i * n * nh, t1i + L * i * n * nh, (size_t)L * nh, \
+                                    t2r + L * (i * p + j) * nh, t2i + L * (i * p + j) * nh);   \
         for (s = 0; s < pl->ne; s++) {                                                         \
             T acc[KIFMM__FFT_L];                                                               \
             const T *xr, *xi;                                                                  \
