@@ -1826,16 +1826,20 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
 
 /* ---- direct interactions ------------------------------------------------ */
 
+/* The signature of the instance's direct-interaction loops below. */
+#define KIFMM__P2P_SIG(fname)                                                                \
+    KIFMM__FN void fname(const double *prm, const KIFMM__R *tx, const KIFMM__R *ty,          \
+                         const KIFMM__R *tz, int64_t nt, const KIFMM__R *sx,                 \
+                         const KIFMM__R *sy, const KIFMM__R *sz, const KIFMM__R *q,          \
+                         int64_t ns, int nrhs, size_t qld, double scale, KIFMM__R *out,      \
+                         size_t old)
+
 /* out[r*old + i*dim + a] += scale * sum_j K(t_i - s_j) q[r*qld + j*SD + s] for
  * nrhs density vectors; targets and sources as structure-of-arrays
  * coordinates; `kfun` has `dim` output components. The kernel is evaluated
  * once per pair for all vectors. */
 #define KIFMM__DEFINE_P2P(fname, kfun, dim)                                                  \
-    KIFMM__FN void fname(const double *prm, const KIFMM__R *tx, const KIFMM__R *ty,          \
-                         const KIFMM__R *tz, int64_t nt, const KIFMM__R *sx,                 \
-                         const KIFMM__R *sy, const KIFMM__R *sz, const KIFMM__R *q,          \
-                         int64_t ns, int nrhs, size_t qld, double scale, KIFMM__R *out,      \
-                         size_t old)                                                         \
+    KIFMM__P2P_SIG(fname)                                                                    \
     {                                                                                        \
         int64_t i, j;                                                                        \
         int a, s, r;                                                                         \
@@ -1860,11 +1864,7 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
 
 /* The same through a kernel's hand-written hook, one vector at a time. */
 #define KIFMM__DEFINE_P2P_HOOK(fname, hook)                                                  \
-    KIFMM__FN void fname(const double *prm, const KIFMM__R *tx, const KIFMM__R *ty,          \
-                         const KIFMM__R *tz, int64_t nt, const KIFMM__R *sx,                 \
-                         const KIFMM__R *sy, const KIFMM__R *sz, const KIFMM__R *q,          \
-                         int64_t ns, int nrhs, size_t qld, double scale, KIFMM__R *out,      \
-                         size_t old)                                                         \
+    KIFMM__P2P_SIG(fname)                                                                    \
     {                                                                                        \
         int r;                                                                               \
         for (r = 0; r < nrhs; r++)                                                           \
@@ -1874,11 +1874,7 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
 
 /* The same through a kernel's many-vector hook when nrhs > 1. */
 #define KIFMM__DEFINE_P2P_HOOKN(fname, hook, hookn)                                          \
-    KIFMM__FN void fname(const double *prm, const KIFMM__R *tx, const KIFMM__R *ty,          \
-                         const KIFMM__R *tz, int64_t nt, const KIFMM__R *sx,                 \
-                         const KIFMM__R *sy, const KIFMM__R *sz, const KIFMM__R *q,          \
-                         int64_t ns, int nrhs, size_t qld, double scale, KIFMM__R *out,      \
-                         size_t old)                                                         \
+    KIFMM__P2P_SIG(fname)                                                                    \
     {                                                                                        \
         if (nrhs > 1)                                                                        \
             hookn(prm, tx, ty, tz, nt, sx, sy, sz, q, ns, nrhs, qld, (KIFMM__R)scale, out,   \
@@ -3075,6 +3071,7 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__CUTOFF
 #undef KIFMM_M2L_DENSE
 #undef KIFMM__DEFINE_P2P_HOOKN
+#undef KIFMM__P2P_SIG
 #undef KIFMM__DEFINE_P2P_HOOK
 #undef KIFMM__DEFINE_P2P
 #undef KIFMM__HOOKNE
