@@ -1186,9 +1186,7 @@ KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
  * parent -> child of target parent) per frequency, zero for adjacent child
  * pairs (those are not in the V list). Below, p is the lattice order q. */
 #define KIFMM__FFT_F 4 /* frequencies per chunk (the AVX2 product kernels assume 4) */
-#ifndef KIFMM__FFT_KB_MB
 #define KIFMM__FFT_KB_MB 24 /* the products' blocks are kept if they fit in this */
-#endif
 KIFMM__STATIC_ASSERT(KIFMM__FFT_F == 4, fft_product_kernels_take_4_frequencies_per_chunk);
 
 typedef struct kifmm__fft {
