@@ -308,19 +308,22 @@ KIFMM__FN int kifmm__pinv(double *a, int m, int n, double cutoff, double **ut_ou
     int mn = m < n ? m : n, i, j, k, rc = KIFMM_SUCCESS;
     lapack_int info;
     double query, *s, *u, *vt, *work = NULL, *ut = NULL, *vs = NULL;
+    lapack_int *iwork = NULL;
     size_t lwork;
     s = (double *)kifmm__alloc((size_t)mn, sizeof(double));
     u = (double *)kifmm__alloc((size_t)m * mn, sizeof(double));
     vt = (double *)kifmm__alloc((size_t)mn * n, sizeof(double));
     if (!s || !u || !vt) { rc = KIFMM_ERR_NOMEM; goto done; }
-    info = LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'S', 'S', m, n, a, m, s, u, m, vt, mn,
-                               &query, -1);
+    iwork = (lapack_int *)kifmm__alloc((size_t)8 * mn, sizeof(lapack_int));
+    if (!iwork) { rc = KIFMM_ERR_NOMEM; goto done; }
+    info = LAPACKE_dgesdd_work(LAPACK_COL_MAJOR, 'S', m, n, a, m, s, u, m, vt, mn, &query, -1,
+                               iwork);
     if (info != 0) { rc = KIFMM_ERR_LAPACK; goto done; }
     lwork = (size_t)query + 1;
     work = (double *)kifmm__alloc(lwork, sizeof(double));
     if (!work) { rc = KIFMM_ERR_NOMEM; goto done; }
-    info = LAPACKE_dgesvd_work(LAPACK_COL_MAJOR, 'S', 'S', m, n, a, m, s, u, m, vt, mn, work,
-                               (lapack_int)lwork);
+    info = LAPACKE_dgesdd_work(LAPACK_COL_MAJOR, 'S', m, n, a, m, s, u, m, vt, mn, work,
+                               (lapack_int)lwork, iwork);
     if (info != 0) { rc = KIFMM_ERR_LAPACK; goto done; }
     for (k = 0; k < mn && s[k] > cutoff * s[0]; k++) {}
     if (k == 0) k = 1;
@@ -340,6 +343,7 @@ done:
     kifmm__free(u);
     kifmm__free(vt);
     kifmm__free(work);
+    kifmm__free(iwork);
     kifmm__free(ut);
     kifmm__free(vs);
     return rc;
