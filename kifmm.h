@@ -1164,11 +1164,17 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
     memset(o, 0, sizeof *o);
 }
 
-KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
+/* Boxes per block of the check-to-equivalent solve (the columns of its two
+ * GEMMs), which bounds the solve's workspace. */
+#define KIFMM__SOLVE_BLOCK 4096
+
+/* Most boxes (internal boxes if `inner`) on one level, at least 1. */
+KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t, int inner)
 {
+    const int32_t *off = inner ? t->ioff : t->loff;
     int l, m = 1;
     for (l = 0; l < t->nlev; l++)
-        if (t->loff[l + 1] - t->loff[l] > m) m = t->loff[l + 1] - t->loff[l];
+        if (off[l + 1] - off[l] > m) m = off[l + 1] - off[l];
     return m;
 }
 
@@ -1757,6 +1763,7 @@ struct KIFMM_NAME {
     double param[4];         /* kernel parameters, defaults resolved */
     int m2l_cols;            /* columns (box x vector) per M2L GEMM */
     int mb;                  /* most boxes on one level */
+    int mi;                  /* most internal boxes on one level */
     KIFMM__R *scratch;       /* per thread: 3 surfaces of max(nsc, nse) points */
     int nthreads;
     KIFMM__F(__work) *w;     /* grows to the largest nrhs evaluated (<= RHS_MAX) */
@@ -2206,7 +2213,16 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
     size_t big = (size_t)(c->nc > c->ne ? c->nc : c->ne);
     sz[0] = (size_t)c->tree.nbox * (size_t)c->ne;                  /* ue, de */
     sz[1] = (size_t)c->mb * (size_t)c->nc;                         /* chk */
-    sz[2] = (size_t)c->mb * big;                                   /* tmp */
+#if KIFMM__FFT
+    /* tmp: M2M and L2L products of one level's internal boxes, or one block
+     * of the solve */
+    {
+        size_t blk = (size_t)(c->mb < KIFMM__SOLVE_BLOCK ? c->mb : KIFMM__SOLVE_BLOCK);
+        sz[2] = ((size_t)c->mi > blk ? (size_t)c->mi : blk) * big;
+    }
+#else
+    sz[2] = (size_t)c->mb * big; /* tmp: also the dense M2L's results, a whole level */
+#endif
     sz[3] = (size_t)c->tree.ns * KIFMM__SD;                        /* qs */
     sz[4] = (size_t)c->tree.nt * KIFMM__TD;                        /* outs */
 }
@@ -2298,10 +2314,32 @@ KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
  * `rows` entries per box: [(r * n_l + (b - loff[l])) * rows]. */
 #define KIFMM__LVL(c, l) ((c)->tree.loff[(l) + 1] - (c)->tree.loff[(l)])
 
-/* Check vectors -> equivalent densities for every box of level l: step 0,
- * tmp = ut chk (one GEMM over boxes and vectors); step 1, equiv = vs tmp. The
- * dense M2L adds its results between the two (its matrices include ut_dn);
- * the FFT M2L adds to chk before step 0. */
+/* Check vectors -> equivalent densities for every box of level l, in blocks
+ * of KIFMM__SOLVE_BLOCK boxes so that tmp stays small: tmp = ut chk, then
+ * equiv = vs tmp (the two factors of the pseudo-inverse, one after the
+ * other). */
+KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l,
+                                 int up)
+{
+    const kifmm__tree *t = &c->tree;
+    const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
+    int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd, r, b0;
+    size_t per = (size_t)t->nbox * (size_t)c->ne;
+    for (r = 0; r < nrhs; r++)
+        for (b0 = 0; b0 < n; b0 += KIFMM__SOLVE_BLOCK) {
+            int nb = n - b0 < KIFMM__SOLVE_BLOCK ? n - b0 : KIFMM__SOLVE_BLOCK;
+            KIFMM__F(__gemm)(k, nb, c->nc, up ? o->ut_up : o->ut_dn, k,
+                             w->chk + ((size_t)r * n + (size_t)b0) * c->nc, c->nc, 0, w->tmp, k);
+            KIFMM__F(__gemm)(c->ne, nb, k, up ? o->vs_up : o->vs_dn, c->ne, w->tmp, k, 0,
+                             (up ? w->ue : w->de) + r * per + ((size_t)t->loff[l] + b0) * c->ne,
+                             c->ne);
+        }
+}
+
+#if !KIFMM__FFT
+/* The downward solve around the dense M2L, which adds its results between
+ * the two factors (its matrices include ut_dn): step 0, tmp = ut chk (one GEMM
+ * over boxes and vectors); step 1, equiv = vs tmp. */
 KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                       int l, int up, int step)
 {
@@ -2319,6 +2357,7 @@ KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work
                          w->tmp + (size_t)r * n * k, k, 0,
                          (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * c->ne, c->ne);
 }
+#endif
 
 /* M2M into the internal boxes of level l: the children of the j-th internal
  * box are columns 8j..8j+7 of level l+1, so one GEMM per vector does the
@@ -2603,8 +2642,7 @@ KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
     t1 = kifmm__now();
     c->stats->t_p2m += t1 - t0;
     KIFMM__F(__m2m_level)(c, w, nrhs, l);
-    KIFMM__F(__solve_step)(c, w, nrhs, l, 1, 0);
-    KIFMM__F(__solve_step)(c, w, nrhs, l, 1, 1);
+    KIFMM__F(__solve)(c, w, nrhs, l, 1);
     c->stats->t_m2m += kifmm__now() - t1;
 }
 
@@ -2662,8 +2700,7 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     /* FFT M2L: potentials on the check surface itself, added to chk */
     KIFMM__F(__m2l_fft)(c, w, nrhs, l);
     t3 = kifmm__now();
-    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 0);
-    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 1);
+    KIFMM__F(__solve)(c, w, nrhs, l, 0);
     t4 = kifmm__now();
     c->stats->t_m2l += t3 - t2;
     c->stats->t_l2l += (t1 - t0) + (t4 - t3);
@@ -2943,7 +2980,8 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     }
 #endif
     if ((rc = KIFMM__F(__precompute)(h))) goto fail;
-    h->mb = kifmm__max_level_boxes(&h->tree);
+    h->mb = kifmm__max_level_boxes(&h->tree, 0);
+    h->mi = kifmm__max_level_boxes(&h->tree, 1);
     {
         /* about 64 MB of stacked multipoles per M2L GEMM */
         size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->ne);
