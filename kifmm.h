@@ -521,6 +521,7 @@ typedef struct kifmm__tree {
     int64_t ns, nt;
     double *src, *trg;       /* sorted points, structure of arrays (x | y | z) */
     int64_t *sperm, *tperm;  /* sorted position -> caller's index */
+    int same;                /* targets are the sources: trg = src, tperm = sperm */
     double lo[3], width;     /* root cube: lower corner and edge */
     int nlev;                /* levels 0 .. nlev - 1 */
     int32_t nbox;
@@ -534,8 +535,9 @@ typedef struct kifmm__tree {
     int32_t *dsrc;                /* box whose local expansion serves this box, or -1 */
     int32_t *inner;               /* internal boxes, level by level */
     int64_t *s0, *s1, *t0, *t1;   /* point ranges of each box */
-    int32_t *uo, *u, *vo, *v, *wo, *w, *xo, *x; /* lists, offsets per box */
-    uint16_t *vt;                 /* transfer vector index of each V entry */
+    int32_t *uo, *u, *vo, *v, *wo, *w, *xo, *x; /* lists, offsets per box (v: NULL
+                                                   unless built with V entries) */
+    uint16_t *vt;                 /* transfer vector index of each V entry (or NULL) */
     int32_t *m2lo, *m2l;          /* per level: boxes with targets and a V list */
     int32_t *leaves;              /* leaves with targets */
     int32_t nleaves;
@@ -543,7 +545,7 @@ typedef struct kifmm__tree {
 
 KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
 {
-    void *p[] = {t->src, t->trg, t->sperm, t->tperm, t->key, t->child, t->parent, t->anchor, t->lev, t->dsrc, t->inner,
+    void *p[] = {t->src, t->same ? NULL : t->trg, t->sperm, t->same ? NULL : t->tperm, t->key, t->child, t->parent, t->anchor, t->lev, t->dsrc, t->inner,
                  t->s0, t->s1, t->t0, t->t1, t->uo, t->u, t->vo, t->v, t->wo, t->w,
                  t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves};
     size_t i;
@@ -835,8 +837,10 @@ KIFMM__FN void kifmm__lbuf_put(kifmm__lbuf *B, int j, const int32_t *src, int cn
 
 /* One pass over the boxes with targets, in chunks of consecutive boxes (many
  * more than threads, for balance), each collecting its lists in a buffer of
- * its own; then the offsets, and each chunk's lists copied into place. */
-KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth)
+ * its own; then the offsets, and each chunk's lists copied into place. The
+ * V entries themselves are kept only if `vlists` (the dense M2L reads them;
+ * the FFT M2L works from the colleagues and needs only their counts). */
+KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
 {
     int32_t nb = t->nbox, b, nk = 16 * (nth > 0 ? nth : 1), k;
     int overflow = 0, fail = 0, l, j;
@@ -865,7 +869,7 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth)
             t->uo[c + 1] = L.nu; t->vo[c + 1] = L.nv;
             t->wo[c + 1] = L.nw; t->xo[c + 1] = L.nx;
             kifmm__lbuf_put(&buf[k], 0, L.u, L.nu, NULL);
-            kifmm__lbuf_put(&buf[k], 1, L.v, L.nv, L.vt);
+            if (vlists) kifmm__lbuf_put(&buf[k], 1, L.v, L.nv, L.vt);
             kifmm__lbuf_put(&buf[k], 2, L.w, L.nw, NULL);
             kifmm__lbuf_put(&buf[k], 3, L.x, L.nx, NULL);
         }
@@ -875,11 +879,13 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth)
         for (j = 0; j < 4; j++)
             for (b = 0; b < nb; b++) off[j][b + 1] += off[j][b];
         t->u = (int32_t *)kifmm__alloc((size_t)t->uo[nb] + 1, sizeof(int32_t));
-        t->v = (int32_t *)kifmm__alloc((size_t)t->vo[nb] + 1, sizeof(int32_t));
-        t->vt = (uint16_t *)kifmm__alloc((size_t)t->vo[nb] + 1, sizeof(uint16_t));
+        if (vlists) {
+            t->v = (int32_t *)kifmm__alloc((size_t)t->vo[nb] + 1, sizeof(int32_t));
+            t->vt = (uint16_t *)kifmm__alloc((size_t)t->vo[nb] + 1, sizeof(uint16_t));
+        }
         t->w = (int32_t *)kifmm__alloc((size_t)t->wo[nb] + 1, sizeof(int32_t));
         t->x = (int32_t *)kifmm__alloc((size_t)t->xo[nb] + 1, sizeof(int32_t));
-        fail = !t->u || !t->v || !t->vt || !t->w || !t->x;
+        fail = !t->u || (vlists && (!t->v || !t->vt)) || !t->w || !t->x;
     }
     if (!overflow && !fail) {
         int32_t *dst[4];
@@ -932,7 +938,7 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth)
 /* Build the tree: bounding cube, sorted points, top-down refinement while a
  * box holds more than `leaf` sources or targets, 2:1 balance, lists. */
 KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
-                                const double *trg, int leaf, int maxdepth, int nth)
+                                const double *trg, int leaf, int maxdepth, int nth, int vlists)
 {
     double lo[3], hi[3], half = 0.0;
     uint64_t *skey = NULL, *tkey = NULL;
@@ -965,16 +971,11 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
 
     rc = kifmm__sort_points(t, ns, src, &t->src, &t->sperm, &skey, nth);
     if (!rc && trg == src && nt == ns) {
-        /* targets = sources: copy the sorted sources instead of sorting again */
-        t->trg = (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
-        t->tperm = (int64_t *)kifmm__alloc((size_t)nt, sizeof(int64_t));
-        tkey = (uint64_t *)kifmm__alloc((size_t)nt, sizeof(uint64_t));
-        if (!t->trg || !t->tperm || !tkey) rc = KIFMM_ERR_NOMEM;
-        else {
-            memcpy(t->trg, t->src, sizeof(double) * 3 * (size_t)nt);
-            memcpy(t->tperm, t->sperm, sizeof(int64_t) * (size_t)nt);
-            memcpy(tkey, skey, sizeof(uint64_t) * (size_t)nt);
-        }
+        /* targets = sources: the sorted sources serve as both */
+        t->same = 1;
+        t->trg = t->src;
+        t->tperm = t->sperm;
+        tkey = skey;
     } else if (!rc) {
         rc = kifmm__sort_points(t, nt, trg, &t->trg, &t->tperm, &tkey, nth);
     }
@@ -1129,11 +1130,11 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
             t->t1[b] = kifmm__lower_bound(tkey, nt, k1);
         }
     }
-    rc = kifmm__tree_lists(t, nth);
+    rc = kifmm__tree_lists(t, nth, vlists);
 done:
     for (l = 0; l <= KIFMM__D; l++) kifmm__free(in[l].a);
     kifmm__free(skey);
-    kifmm__free(tkey);
+    if (tkey != skey) kifmm__free(tkey);
     return rc;
 }
 
@@ -2266,9 +2267,10 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
     double b = 0.0, big = nc > ne ? nc : ne, ns = c->nsc > c->nse ? c->nsc : c->nse;
     size_t sz[5];
     int i;
-    b += (double)t->ns * (3 * R + 8) + (double)t->nt * (3 * R + 8);
+    b += (double)t->ns * (3 * R + 8) + (t->same ? 0.0 : (double)t->nt * (3 * R + 8));
     b += (double)t->nbox * (8 + 4 * 4 + 4 * 8 + 5 * 4 + 1);
-    b += 4.0 * (t->uo[t->nbox] + t->wo[t->nbox] + t->xo[t->nbox]) + 6.0 * t->vo[t->nbox];
+    b += 4.0 * (t->uo[t->nbox] + t->wo[t->nbox] + t->xo[t->nbox]);
+    if (t->v) b += 6.0 * t->vo[t->nbox];
     for (i = 0; i < c->nops; i++) {
         const KIFMM__F(__ops) *o = &c->ops[i];
         if (!o->ut_up) continue;
@@ -2793,7 +2795,7 @@ KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
     if (!h) return;
 #if KIFMM__FLOAT
     kifmm__free(h->src);
-    kifmm__free(h->trg);
+    if (h->trg != h->src) kifmm__free(h->trg);
 #endif
     kifmm__tree_free(&h->tree);
     if (h->ops) {
@@ -2861,15 +2863,22 @@ KIFMM__FN int KIFMM__F(__tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, i
     for (i = 0; i < 3 * ns; i++) s[i] = src[i];
     if (!same)
         for (i = 0; i < 3 * nt; i++) g[i] = trg[i];
-    rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads);
+    rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads,
+                           !KIFMM__FFT);
     kifmm__free(s);
     if (!same) kifmm__free(g);
     if (rc) return rc;
     c->src = KIFMM__F(__own)(&c->tree.src, (size_t)(3 * ns));
-    c->trg = KIFMM__F(__own)(&c->tree.trg, (size_t)(3 * nt));
+    if (c->tree.same) {
+        c->trg = c->src;
+        c->tree.trg = NULL;
+    } else {
+        c->trg = KIFMM__F(__own)(&c->tree.trg, (size_t)(3 * nt));
+    }
     if (!c->src || !c->trg) return KIFMM_ERR_NOMEM;
 #else
-    rc = kifmm__tree_build(&c->tree, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads);
+    rc = kifmm__tree_build(&c->tree, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads,
+                           !KIFMM__FFT);
     if (rc) return rc;
     c->src = c->tree.src;
     c->trg = c->tree.trg;

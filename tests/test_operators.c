@@ -285,13 +285,23 @@ static void test_tree(const char *name, int64_t n, const double *xyz, int leaf)
 {
     kifmm_laplace *h = NULL;
     kifmm_opts o = t_opts(4, leaf, 0);
-    const kifmm__tree *t;
+    kifmm__tree tree;
+    const kifmm__tree *t = &tree;
     int32_t b, a, i;
     int unbalanced = 0, badcover = 0, over = 0, maxu = 0, maxv = 0, maxw = 0, maxx = 0;
     int64_t *cover;
     CHECK(kifmm_laplace_create(&h, &o, n, xyz, n, xyz) == 0, "create %s", name);
     if (!h) return;
-    t = &h->tree;
+    /* the handle's tree again, with its V entries (the FFT M2L keeps only
+     * their counts): the same builder, the same options */
+    CHECK(kifmm__tree_build(&tree, n, xyz, n, xyz, h->opts.leaf_size, h->opts.max_depth,
+                            h->opts.nthreads, 1) == 0,
+          "tree with V entries, %s", name);
+    CHECK(tree.nbox == h->tree.nbox && tree.nlev == h->tree.nlev &&
+              !memcmp(tree.vo, h->tree.vo, ((size_t)tree.nbox + 1) * sizeof(int32_t)) &&
+              !memcmp(tree.uo, h->tree.uo, ((size_t)tree.nbox + 1) * sizeof(int32_t)) &&
+              h->tree.v == NULL,
+          "%s: the handle's tree matches, without V entries", name);
     cover = (int64_t *)t_malloc_or_die((size_t)(t->ns + 1) * sizeof(int64_t));
     /* 2:1 balance: adjacent leaves differ by at most one level */
     for (b = 0; b < t->nbox; b++) {
@@ -335,6 +345,7 @@ static void test_tree(const char *name, int64_t n, const double *xyz, int leaf)
     printf("  ok   %-62s levels %d, boxes %d, max |U| %d |V| %d |W| %d |X| %d\n", name, t->nlev,
            (int)t->nbox, maxu, maxv, maxw, maxx);
     free(cover);
+    kifmm__tree_free(&tree);
     kifmm_laplace_destroy(h);
 }
 
