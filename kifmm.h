@@ -545,7 +545,8 @@ typedef struct kifmm__tree {
 
 KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
 {
-    void *p[] = {t->src, t->same ? NULL : t->trg, t->sperm, t->same ? NULL : t->tperm, t->key, t->child, t->parent, t->anchor, t->lev, t->dsrc, t->inner,
+    void *p[] = {t->src, t->same ? NULL : t->trg, t->sperm, t->same ? NULL : t->tperm,
+                 t->key, t->child, t->parent, t->anchor, t->lev, t->dsrc, t->inner,
                  t->s0, t->s1, t->t0, t->t1, t->uo, t->u, t->vo, t->v, t->wo, t->w,
                  t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves};
     size_t i;
