@@ -664,7 +664,7 @@ typedef struct kifmm__tree {
                                                    unless built with V entries) */
     uint16_t *vt;                 /* transfer vector index of each V entry (or NULL) */
     int32_t *m2lo, *m2l;          /* per level: boxes with targets and a V list */
-    int32_t *leaves;              /* leaves with targets */
+    int32_t *leaves;              /* leaves with targets, in Morton order */
     int32_t nleaves;
 } kifmm__tree;
 
@@ -1042,9 +1042,21 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
         for (b = t->loff[l]; b < t->loff[l + 1]; b++)
             if (t->vo[b + 1] > t->vo[b]) t->m2l[t->m2lo[l + 1]++] = b;
     }
+    /* leaves in Morton order (depth first, children in key order), which is
+     * the order of their points */
     t->nleaves = 0;
-    for (b = 0; b < nb; b++)
-        if (t->child[b] < 0 && t->t1[b] > t->t0[b]) t->leaves[t->nleaves++] = b;
+    if (nb > 0) {
+        int32_t stk[8 * (KIFMM__D + 2)], sp = 0;
+        stk[sp++] = 0;
+        while (sp > 0) {
+            int o;
+            b = stk[--sp];
+            if (t->t1[b] == t->t0[b]) continue;
+            if (t->child[b] < 0) t->leaves[t->nleaves++] = b;
+            else
+                for (o = 7; o >= 0; o--) stk[sp++] = t->child[b] + o;
+        }
+    }
     /* A box refits a local expansion only where its own level brings new
      * far-field content (a V or X list). Elsewhere it keeps its ancestor's,
      * which is evaluated directly: a refit adds an error of the fit order
@@ -1843,6 +1855,8 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #define KIFMM__HOOKN KIFMM__K(_p2pnf)
 #define KIFMM__HAS_HOOKNE KIFMM__KE(_P2PNF)
 #define KIFMM__HOOKNE KIFMM__KE(_p2pnf)
+#define KIFMM__HAS_HOOKS KIFMM__K(_P2PSF)
+#define KIFMM__HOOKS KIFMM__K(_p2psf)
 #else
 #define KIFMM__HAS_HOOK KIFMM__K(_P2P)
 #define KIFMM__HOOK KIFMM__K(_p2p)
@@ -1852,6 +1866,8 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #define KIFMM__HOOKN KIFMM__K(_p2pn)
 #define KIFMM__HAS_HOOKNE KIFMM__KE(_P2PN)
 #define KIFMM__HOOKNE KIFMM__KE(_p2pn)
+#define KIFMM__HAS_HOOKS KIFMM__K(_P2PS)
+#define KIFMM__HOOKS KIFMM__K(_p2ps)
 #endif
 
 /* ---- the handle ---------------------------------------------------------- */
@@ -1905,6 +1921,8 @@ struct KIFMM_NAME {
     size_t fbuf_per;         /* doubles of fbuf per thread */
     int ftb;                 /* FFT M2L: target parents per task (products buffer) */
     int32_t fft_m, fft_mc;   /*          sizes of loc/need and cjl */
+    int32_t *pchunk;         /* mutual near field: chunks of leaves (or NULL) */
+    int npchunk;
     kifmm_stats *stats;      /* written by create and evaluate */
 };
 
@@ -2413,6 +2431,7 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
     b += (double)t->ns * (3 * R + 8) + (t->same ? 0.0 : (double)t->nt * (3 * R + 8));
     b += (double)t->nbox * (8 + 4 * 4 + 4 * 8 + 5 * 4 + 1);
     b += 4.0 * (t->uo[t->nbox] + t->wo[t->nbox] + t->xo[t->nbox]);
+    b += 4.0 * (c->pchunk ? c->npchunk + 1 : 0);
     if (t->v) b += 6.0 * t->vo[t->nbox];
     for (i = 0; i < c->nops; i++) {
         const KIFMM__F(__ops) *o = &c->ops[i];
@@ -2919,43 +2938,131 @@ KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__wo
                     (size_t)t->ns * KIFMM__SD, 1.0, out, (size_t)t->nt * KIFMM__TD);
 }
 
-/* Leaves with targets: L2P, M2P over W (direct when the box holds fewer
- * sources than its surface has points), P2P over U. */
+/* Leaf i of t->leaves: L2P, M2P over W (direct when the box holds fewer
+ * sources than its surface has points), P2P over U. With the mutual near
+ * field (lo < hi: the points [lo, hi) of the leaf's chunk), a U leaf of the
+ * same chunk is computed once for both leaves by the one first in Morton
+ * order, and skipped by the other. tm[0..2] += the time of the three. */
+KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                int32_t i, int64_t lo, int64_t hi, double *tm)
+{
+    const kifmm__tree *t = &c->tree;
+    int32_t b = t->leaves[i], e;
+    int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
+    const KIFMM__R *tx = c->trg + t0, *ty = c->trg + t->nt + t0, *tz = c->trg + 2 * t->nt + t0;
+    KIFMM__R *out = w->outs + t0 * KIFMM__TD, *pe = KIFMM__F(__scratch)(c);
+    double c0 = kifmm__now(), c1, c2;
+    if (t->dsrc[b] >= 0)
+        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__ALPHA_OUTER,
+                                 w->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe, out);
+    c1 = kifmm__now();
+    for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
+        int32_t a = t->w[e];
+        if (t->s1[a] - t->s0[a] <= c->nse)
+            KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out);
+        else
+            KIFMM__F(__from_surface)(c, w, nrhs, a, KIFMM__ALPHA_INNER,
+                                     w->ue + (size_t)a * c->ne, tx, ty, tz, ntb, pe, out);
+    }
+    c2 = kifmm__now();
+    for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
+        int32_t a = t->u[e];
+#if KIFMM__HAS_HOOKS
+        int64_t ta = t->t0[a];
+        if (a != b && ta >= lo && ta < hi) {
+            if (ta > t0) /* sources are the targets: s0 = t0, src = trg */
+                KIFMM__HOOKS(c->param, tx, ty, tz, w->qs + t0, ntb, c->src + ta,
+                             c->src + t->ns + ta, c->src + 2 * t->ns + ta, w->qs + ta,
+                             t->t1[a] - ta, (KIFMM__R)1, out, w->outs + ta * KIFMM__TD);
+            continue;
+        }
+#else
+        (void)lo;
+        (void)hi;
+#endif
+        KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out);
+    }
+    tm[0] += c1 - c0;
+    tm[1] += c2 - c1;
+    tm[2] += kifmm__now() - c2;
+}
+
+/* The leaves' passes. With the mutual near field (one density vector,
+ * sources = targets, a kernel with a _p2ps hook: c->pchunk), the leaves go
+ * in chunks of consecutive leaves, one chunk per task, so that both leaves
+ * of a pair computed once belong to the thread that writes their outputs. */
 KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
 {
     const kifmm__tree *t = &c->tree;
     int32_t i;
     double tl = 0.0, tw = 0.0, tu = 0.0;
-    KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
-    for (i = 0; i < t->nleaves; i++) {
-        int32_t b = t->leaves[i], e;
-        int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
-        const KIFMM__R *tx = c->trg + t0, *ty = c->trg + t->nt + t0, *tz = c->trg + 2 * t->nt + t0;
-        KIFMM__R *out = w->outs + t0 * KIFMM__TD, *pe = KIFMM__F(__scratch)(c);
-        double c0 = kifmm__now(), c1, c2;
-        if (t->dsrc[b] >= 0)
-            KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__ALPHA_OUTER,
-                                     w->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe,
-                                     out);
-        c1 = kifmm__now();
-        for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
-            int32_t a = t->w[e];
-            if (t->s1[a] - t->s0[a] <= c->nse)
-                KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out);
-            else
-                KIFMM__F(__from_surface)(c, w, nrhs, a, KIFMM__ALPHA_INNER,
-                                         w->ue + (size_t)a * c->ne, tx, ty, tz, ntb, pe, out);
+    if (c->pchunk && nrhs == 1) {
+        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
+        for (i = 0; i < c->npchunk; i++) {
+            const int32_t i0 = c->pchunk[i], i1 = c->pchunk[i + 1];
+            double tm[3] = {0.0, 0.0, 0.0};
+            int32_t j;
+            if (i0 < i1) {
+                const int64_t lo = t->t0[t->leaves[i0]];
+                const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
+                for (j = i0; j < i1; j++) KIFMM__F(__leaf)(c, w, nrhs, j, lo, hi, tm);
+            }
+            tl += tm[0];
+            tw += tm[1];
+            tu += tm[2];
         }
-        c2 = kifmm__now();
-        for (e = t->uo[b]; e < t->uo[b + 1]; e++)
-            KIFMM__F(__from_sources)(c, w, nrhs, t->u[e], tx, ty, tz, ntb, out);
-        tl += c1 - c0;
-        tw += c2 - c1;
-        tu += kifmm__now() - c2;
+    } else {
+        KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
+        for (i = 0; i < t->nleaves; i++) {
+            double tm[3] = {0.0, 0.0, 0.0};
+            KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm);
+            tl += tm[0];
+            tw += tm[1];
+            tu += tm[2];
+        }
     }
     c->stats->t_l2p += tl / c->nthreads;
     c->stats->t_m2p += tw / c->nthreads;
     c->stats->t_p2p += tu / c->nthreads;
+}
+
+/* The chunks of the mutual near field: the leaves in Morton order cut into
+ * KIFMM__PAIR_CHUNKS chunks per thread of about equal estimated work (U
+ * pairs counted half, and the surface evaluations). A pair of leaves in two
+ * chunks is computed by each for its own targets, so fewer, larger chunks
+ * compute fewer pairs twice; several per thread keep the threads balanced.
+ * One thread: one chunk. */
+#ifndef KIFMM__PAIR_CHUNKS
+#define KIFMM__PAIR_CHUNKS 4
+#endif
+KIFMM__FN int KIFMM__F(__pair_plan)(KIFMM_NAME *c)
+{
+    const kifmm__tree *t = &c->tree;
+    int32_t nk = c->nthreads > 1 ? KIFMM__PAIR_CHUNKS * c->nthreads : 1, i, k = 0;
+    double total = 0.0, acc = 0.0;
+    int pass;
+    if (nk > t->nleaves) nk = t->nleaves;
+    if (nk < 1) return KIFMM_SUCCESS;
+    c->pchunk = (int32_t *)kifmm__alloc((size_t)nk + 1, sizeof(int32_t));
+    if (!c->pchunk) return KIFMM_ERR_NOMEM;
+    for (pass = 0; pass < 2; pass++) {
+        for (i = 0; i < t->nleaves; i++) {
+            int32_t b = t->leaves[i], e;
+            double wk = (double)c->nse * (1 + t->wo[b + 1] - t->wo[b]);
+            for (e = t->uo[b]; e < t->uo[b + 1]; e++)
+                wk += 0.5 * (double)(t->s1[t->u[e]] - t->s0[t->u[e]]);
+            wk *= (double)(t->t1[b] - t->t0[b]);
+            if (pass == 0) {
+                total += wk;
+                continue;
+            }
+            while (k < nk && acc >= total * k / nk) c->pchunk[k++] = i;
+            acc += wk;
+        }
+    }
+    while (k <= nk) c->pchunk[k++] = t->nleaves; /* any empty chunks last */
+    c->npchunk = nk;
+    return KIFMM_SUCCESS;
 }
 
 /* ---- public entry points ------------------------------------------------ */
@@ -2988,6 +3095,7 @@ KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->loc);
     kifmm__free(h->need);
     kifmm__free(h->cjl);
+    kifmm__free(h->pchunk);
     kifmm__free(h->stats);
     kifmm__free(h);
 }
@@ -3163,6 +3271,9 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
         if (!h->spec || !h->fbuf) { rc = KIFMM_ERR_NOMEM; goto fail; }
     }
 #endif
+#if KIFMM__HAS_HOOKS
+    if (h->tree.same && (rc = KIFMM__F(__pair_plan)(h))) goto fail;
+#endif
     if ((rc = KIFMM__F(__precompute)(h))) goto fail;
     h->mb = kifmm__max_level_boxes(&h->tree);
     {
@@ -3302,6 +3413,8 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__HAS_HOOKNE
 #undef KIFMM__HOOKN
 #undef KIFMM__HAS_HOOKN
+#undef KIFMM__HOOKS
+#undef KIFMM__HAS_HOOKS
 #undef KIFMM__HOOKE
 #undef KIFMM__HAS_HOOKE
 #undef KIFMM__HOOK

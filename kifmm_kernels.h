@@ -914,6 +914,124 @@ static inline void kifmm_kernel_laplace_grad_p2pnf(const double *param, const fl
                                                    float *out, size_t old)
 KIFMM_KERNEL__P2PN_F(1)
 
+/* ------------------------------------------------------------------------ */
+/* Mutual near-field hooks (kifmm_kernel_NAME_P2PS / _p2ps, _P2PSF / _p2psf) */
+/* ------------------------------------------------------------------------ */
+/* kifmm_kernel_NAME_p2ps(param, ax, ay, az, qa, na, bx, by, bz, qb, nb, scale,
+ * outa, outb): both directions between two disjoint point sets A and B, for
+ * a kernel with K(-d) = K(d) in the potential (and -K(d) in the gradient):
+ *   outa[i * TRG_DIM + k] += scale * sum_j K_k(a_i - b_j) qb_j,
+ *   outb[j * TRG_DIM + k] += scale * sum_i K_k(b_j - a_i) qa_i,
+ * with each pair's 1 / r computed once.  When the sources are the targets,
+ * kifmm.h calls it once per pair of neighbouring leaves instead of _p2p
+ * twice.  B goes in blocks of KIFMM_KERNEL__SB points whose sums sit in a
+ * structure-of-arrays block on the stack; A's sums are in registers. */
+#define KIFMM_KERNEL__SB 64
+#define KIFMM_KERNEL__P2PS_BODY(T, V, W, GEOM, MASK, SET1, ZERO, LOADU, STOREU, MLOAD, ADD,      \
+                                MUL, FMADD, FNMADD, HSUM, GRAD)                                \
+    {                                                                                          \
+        const T s = (T)scale * (T)KIFMM_INV_4PI;                                               \
+        T pb[(GRAD ? 4 : 1) * KIFMM_KERNEL__SB], g[4 * KIFMM_KERNEL__SB], qp[KIFMM_KERNEL__SB]; \
+        int64_t i, j, j0, jb, k;                                                               \
+        (void)param;                                                                           \
+        for (j0 = 0; j0 < nb; j0 += KIFMM_KERNEL__SB) {                                        \
+            const T *px = bx + j0, *py = by + j0, *pz = bz + j0;                               \
+            jb = nb - j0 < KIFMM_KERNEL__SB ? nb - j0 : KIFMM_KERNEL__SB;                      \
+            for (k = 0; k < (GRAD ? 4 : 1) * KIFMM_KERNEL__SB; k++) pb[k] = 0;                 \
+            for (k = 0; k < KIFMM_KERNEL__SB; k++) qp[k] = k < jb ? qb[j0 + k] : 0;            \
+            for (i = 0; i < na; i++) {                                                         \
+                const V X = SET1(ax[i]), Y = SET1(ay[i]), Z = SET1(az[i]), QA = SET1(qa[i]);   \
+                V a0 = ZERO, a1 = ZERO, a2 = ZERO, a3 = ZERO, dx, dy, dz, inv, qbi, qai;       \
+                /* the divisions first, in a loop of their own, then the sums */             \
+                for (j = 0; j < jb; j += W) {                                                  \
+                    inv = GEOM(X, Y, Z, px + j, py + j, pz + j, MASK(jb - j), &dx, &dy, &dz);  \
+                    STOREU(g + j, inv);                                                        \
+                    if (GRAD) {                                                                \
+                        STOREU(g + KIFMM_KERNEL__SB + j, dx);                                  \
+                        STOREU(g + 2 * KIFMM_KERNEL__SB + j, dy);                              \
+                        STOREU(g + 3 * KIFMM_KERNEL__SB + j, dz);                              \
+                    }                                                                          \
+                }                                                                              \
+                for (j = 0; j < jb; j += W) {                                                  \
+                    inv = LOADU(g + j);                                                        \
+                    qbi = MUL(LOADU(qp + j), inv);                                             \
+                    qai = MUL(QA, inv);                                                        \
+                    a0 = ADD(a0, qbi);                                                         \
+                    STOREU(pb + j, ADD(LOADU(pb + j), qai));                                   \
+                    if (GRAD) {                                                                \
+                        const V i2 = MUL(inv, inv), qb3 = MUL(qbi, i2), qa3 = MUL(qai, i2);    \
+                        T *o = pb + KIFMM_KERNEL__SB + j;                                      \
+                        dx = LOADU(g + KIFMM_KERNEL__SB + j);                                  \
+                        dy = LOADU(g + 2 * KIFMM_KERNEL__SB + j);                              \
+                        dz = LOADU(g + 3 * KIFMM_KERNEL__SB + j);                              \
+                        a1 = FNMADD(qb3, dx, a1);                                              \
+                        a2 = FNMADD(qb3, dy, a2);                                              \
+                        a3 = FNMADD(qb3, dz, a3);                                              \
+                        STOREU(o, FMADD(qa3, dx, LOADU(o)));                                   \
+                        o += KIFMM_KERNEL__SB;                                                 \
+                        STOREU(o, FMADD(qa3, dy, LOADU(o)));                                   \
+                        o += KIFMM_KERNEL__SB;                                                 \
+                        STOREU(o, FMADD(qa3, dz, LOADU(o)));                                   \
+                    }                                                                          \
+                }                                                                              \
+                if (GRAD) {                                                                    \
+                    outa[4 * i + 0] += s * HSUM(a0);                                           \
+                    outa[4 * i + 1] += s * HSUM(a1);                                           \
+                    outa[4 * i + 2] += s * HSUM(a2);                                           \
+                    outa[4 * i + 3] += s * HSUM(a3);                                           \
+                } else {                                                                       \
+                    outa[i] += s * HSUM(a0);                                                   \
+                }                                                                              \
+            }                                                                                  \
+            for (j = 0; j < jb; j++) {                                                         \
+                if (GRAD)                                                                      \
+                    for (k = 0; k < 4; k++)                                                    \
+                        outb[4 * (j0 + j) + k] += s * pb[k * KIFMM_KERNEL__SB + j];            \
+                else                                                                           \
+                    outb[j0 + j] += s * pb[j];                                                 \
+            }                                                                                  \
+        }                                                                                      \
+    }
+
+#define KIFMM_KERNEL__P2PS_D(GRAD)                                                                \
+    KIFMM_KERNEL__P2PS_BODY(double, __m256d, 4, kifmm_kernel__geomn, kifmm_kernel__nmask,        \
+                            _mm256_set1_pd, _mm256_setzero_pd(), _mm256_loadu_pd,                \
+                            _mm256_storeu_pd, KIFMM_KERNEL__MLOADN, _mm256_add_pd,               \
+                            _mm256_mul_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd,                    \
+                            kifmm_kernel__hsumn, GRAD)
+#define KIFMM_KERNEL__P2PS_F(GRAD)                                                                \
+    KIFMM_KERNEL__P2PS_BODY(float, __m256, 8, kifmm_kernel__geomnf, kifmm_kernel__nmaskf,        \
+                            _mm256_set1_ps, _mm256_setzero_ps(), _mm256_loadu_ps,                \
+                            _mm256_storeu_ps, KIFMM_KERNEL__MLOADNF, _mm256_add_ps,              \
+                            _mm256_mul_ps, _mm256_fmadd_ps, _mm256_fnmadd_ps,                    \
+                            kifmm_kernel__hsumnf, GRAD)
+
+#define KIFMM_KERNEL__P2PS_SIG(name, T)                                                        \
+    static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
+                            const T *qa, int64_t na, const T *bx, const T *by, const T *bz,    \
+                            const T *qb, int64_t nb, T scale, T *outa, T *outb)
+
+/* Double only where the single-vector hooks are the AVX2 ones (see above). */
+#if !defined(__AVX512F__)
+#define kifmm_kernel_laplace_P2PS 1
+KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2ps, double)
+KIFMM_KERNEL__P2PS_D(0)
+#define kifmm_kernel_laplace_grad_P2PS 1
+KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2ps, double)
+KIFMM_KERNEL__P2PS_D(1)
+#endif
+#define kifmm_kernel_laplace_P2PSF 1
+KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2psf, float)
+KIFMM_KERNEL__P2PS_F(0)
+#define kifmm_kernel_laplace_grad_P2PSF 1
+KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2psf, float)
+KIFMM_KERNEL__P2PS_F(1)
+
+#undef KIFMM_KERNEL__P2PS_SIG
+#undef KIFMM_KERNEL__P2PS_D
+#undef KIFMM_KERNEL__P2PS_F
+#undef KIFMM_KERNEL__P2PS_BODY
+#undef KIFMM_KERNEL__SB
 #undef KIFMM_KERNEL__P2PN_D
 #undef KIFMM_KERNEL__P2PN_F
 #undef KIFMM_KERNEL__MLOADN

@@ -279,6 +279,81 @@ static void test_many(void)
 #endif
 
 /* ------------------------------------------------------------------------ */
+/* Mutual hooks (_p2ps): both directions of a pair of point sets at once    */
+/* ------------------------------------------------------------------------ */
+
+#if kifmm_kernel_laplace_P2PS && kifmm_kernel_laplace_grad_P2PS
+typedef void (*hooks_fn)(const double *, const double *, const double *, const double *,
+                         const double *, int64_t, const double *, const double *, const double *,
+                         const double *, int64_t, double, double *, double *);
+
+static hooks_fn g_mut;
+static int g_mtd;
+static t_rng g_mrng;
+static double g_mut_err;    /* worst error of the B side, relative to max |ref| */
+static int g_mut_guards = 1;
+
+/* A hook_fn for one_block: A = the block's targets (random charges of their
+ * own), B = its sources.  A's outputs go back to one_block; B's are checked
+ * here against the long double sums of A's charges at B's points. */
+static void mutual_as_one(const double *prm, const double *tx, const double *ty, const double *tz,
+                          int64_t nt, const double *sx, const double *sy, const double *sz,
+                          const double *q, int64_t ns, double scale, double *out)
+{
+    double *qa = t_doubles(nt + 1), *ob = t_doubles(ns * g_mtd + 2 * GUARD), *pre;
+    size_t lbytes = (size_t)(ns * g_mtd + 1) * sizeof(long double);
+    long double *inc = (long double *)t_malloc_or_die(lbytes);
+    long double *mag = (long double *)t_malloc_or_die(lbytes);
+    long double num = 0, den = 0;
+    int64_t i;
+    pre = t_doubles(ns * g_mtd + 1);
+    for (i = 0; i < nt; i++) qa[i] = t_uniform(&g_mrng, -1.0, 1.0);
+    for (i = 0; i < ns * g_mtd + 2 * GUARD; i++) ob[i] = SENTINEL;
+    for (i = 0; i < ns * g_mtd; i++) ob[GUARD + i] = pre[i] = t_uniform(&g_mrng, -0.01, 0.01);
+    g_mut(prm, tx, ty, tz, qa, nt, sx, sy, sz, q, ns, scale, out, ob + GUARD);
+    ref_sum(g_mtd, ns, sx, sy, sz, nt, tx, ty, tz, qa, scale, inc, mag);
+    for (i = 0; i < GUARD; i++)
+        if (ob[i] != SENTINEL || ob[GUARD + ns * g_mtd + i] != SENTINEL) g_mut_guards = 0;
+    for (i = 0; i < ns * g_mtd; i++) {
+        long double d = fabsl((long double)ob[GUARD + i] - (pre[i] + inc[i]));
+        long double m = fabsl((long double)pre[i]) + mag[i];
+        if (d != d) num = INFINITY;
+        if (d > num) num = d;
+        if (m > den) den = m;
+    }
+    if (den > 0 && (double)(num / den) > g_mut_err) g_mut_err = (double)(num / den);
+    if (den == 0 && num > 0) g_mut_err = 1.0;
+    free(qa);
+    free(ob);
+    free(pre);
+    free(inc);
+    free(mag);
+}
+
+static void test_mutual(void)
+{
+    g_mrng = t_rng_seed(91);
+    g_mut = kifmm_kernel_laplace_p2ps;
+    g_mtd = 1;
+    g_mut_err = 0.0;
+    test_blocks("laplace_p2ps, A side", mutual_as_one, 1, 301);
+    CHECK_ERR(g_mut_err, 1e-14, "laplace_p2ps, B side, all shapes: vs sum|terms|");
+    g_mut = kifmm_kernel_laplace_grad_p2ps;
+    g_mtd = 4;
+    g_mut_err = 0.0;
+    test_blocks("laplace_grad_p2ps, A side", mutual_as_one, 4, 302);
+    CHECK_ERR(g_mut_err, 1e-14, "laplace_grad_p2ps, B side, all shapes: vs sum|terms|");
+    CHECK(g_mut_guards, "p2ps wrote outside outb[0 .. nb*td-1]");
+}
+#else
+static void test_mutual(void)
+{
+    printf("mutual hooks: not compiled for this target (%s), each leaf pair is computed twice\n",
+           BODY);
+}
+#endif
+
+/* ------------------------------------------------------------------------ */
 /* Single pairs over the whole exponent range                               */
 /* ------------------------------------------------------------------------ */
 
@@ -570,6 +645,7 @@ int main(void)
     test_blocks("laplace", kifmm_kernel_laplace_p2p, 1, 11);
     test_blocks("laplace_grad", kifmm_kernel_laplace_grad_p2p, 4, 12);
     test_many();
+    test_mutual();
     test_fmm();
     return t_finish();
 }
