@@ -927,8 +927,8 @@ KIFMM_KERNEL__P2PN_F(1)
  * twice.  B goes in blocks of KIFMM_KERNEL__SB points whose sums sit in a
  * structure-of-arrays block on the stack; A's sums are in registers. */
 #define KIFMM_KERNEL__SB 64
-#define KIFMM_KERNEL__P2PS_BODY(T, V, W, GEOM, MASK, SET1, ZERO, LOADU, STOREU, MLOAD, ADD,      \
-                                MUL, FMADD, FNMADD, HSUM, GRAD)                                \
+#define KIFMM_KERNEL__P2PS_BODY(T, V, W, GEOM, MASK, SET1, ZERO, LOADU, STOREU, ADD, MUL,       \
+                                FMADD, FNMADD, HSUM, GRAD)                                     \
     {                                                                                          \
         const T s = (T)scale * (T)KIFMM_INV_4PI;                                               \
         T pb[(GRAD ? 4 : 1) * KIFMM_KERNEL__SB], g[4 * KIFMM_KERNEL__SB], qp[KIFMM_KERNEL__SB]; \
@@ -996,15 +996,13 @@ KIFMM_KERNEL__P2PN_F(1)
 #define KIFMM_KERNEL__P2PS_D(GRAD)                                                                \
     KIFMM_KERNEL__P2PS_BODY(double, __m256d, 4, kifmm_kernel__geomn, kifmm_kernel__nmask,        \
                             _mm256_set1_pd, _mm256_setzero_pd(), _mm256_loadu_pd,                \
-                            _mm256_storeu_pd, KIFMM_KERNEL__MLOADN, _mm256_add_pd,               \
-                            _mm256_mul_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd,                    \
-                            kifmm_kernel__hsumn, GRAD)
+                            _mm256_storeu_pd, _mm256_add_pd, _mm256_mul_pd, _mm256_fmadd_pd,       \
+                            _mm256_fnmadd_pd, kifmm_kernel__hsumn, GRAD)
 #define KIFMM_KERNEL__P2PS_F(GRAD)                                                                \
     KIFMM_KERNEL__P2PS_BODY(float, __m256, 8, kifmm_kernel__geomnf, kifmm_kernel__nmaskf,        \
                             _mm256_set1_ps, _mm256_setzero_ps(), _mm256_loadu_ps,                \
-                            _mm256_storeu_ps, KIFMM_KERNEL__MLOADNF, _mm256_add_ps,              \
-                            _mm256_mul_ps, _mm256_fmadd_ps, _mm256_fnmadd_ps,                    \
-                            kifmm_kernel__hsumnf, GRAD)
+                            _mm256_storeu_ps, _mm256_add_ps, _mm256_mul_ps, _mm256_fmadd_ps,       \
+                            _mm256_fnmadd_ps, kifmm_kernel__hsumnf, GRAD)
 
 #define KIFMM_KERNEL__P2PS_SIG(name, T)                                                        \
     static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
