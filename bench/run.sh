@@ -8,8 +8,9 @@
 # Environment (all optional; `make bench BIG=1 P=10` passes them through):
 #   BIG=1          add N = 1e7
 #   P="10 12"      add these expansion orders
-#   THREADS=2      threads for kifmm, the direct sums and FMM3D (OMP_NUM_THREADS and
-#                  OPENBLAS_NUM_THREADS are set to it unless already set)
+#   THREADS=2      threads for kifmm, the direct sums and FMM3D (OMP_NUM_THREADS is set
+#                  to it unless already set; OPENBLAS_NUM_THREADS, unless set, to 1 on
+#                  AVX2 machines, where evaluate calls no BLAS, and to THREADS elsewhere)
 #   FMM3D=0        skip the FMM3D comparison
 #   QUIET_WAIT=300 seconds to wait for the machine to be quiet before the run
 #                  (1-minute load average < 0.7) and up to a tenth of that before
@@ -49,7 +50,21 @@ exec > >(tee "$OUT/results.txt") 2>&1
 
 # ---------------------------------------------------------------- settings
 export OMP_NUM_THREADS=${OMP_NUM_THREADS:-$THREADS}
-export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-$THREADS}
+# With AVX2 evaluate makes no BLAS call and create's are small: one OpenBLAS
+# thread, so that no idle OpenBLAS thread spins (about 0.1 s after process
+# start and after each call) on a core the library's own threads need
+# (docs/api.md, "Threads and BLAS").
+if [ -z "${OPENBLAS_NUM_THREADS:-}" ]; then
+    if grep -qw avx2 /proc/cpuinfo 2>/dev/null; then
+        export OPENBLAS_NUM_THREADS=1
+        BLASNOTE="OPENBLAS_NUM_THREADS was unset: this benchmark set 1 (AVX2: evaluate calls no BLAS; see docs/api.md)"
+    else
+        export OPENBLAS_NUM_THREADS=$THREADS
+        BLASNOTE="OPENBLAS_NUM_THREADS was unset: this benchmark set $THREADS (no AVX2: the level passes call BLAS)"
+    fi
+else
+    BLASNOTE="OPENBLAS_NUM_THREADS=$OPENBLAS_NUM_THREADS was set by the caller"
+fi
 CORENOTE="OPENBLAS_CORETYPE=${OPENBLAS_CORETYPE:-} was set by the caller"
 if [ -z "${OPENBLAS_CORETYPE:-}" ]; then
     if grep -qw avx2 /proc/cpuinfo 2>/dev/null; then
@@ -71,6 +86,7 @@ if ! $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I.
     exit 1
 fi
 echo "note:        $CORENOTE"
+echo "note:        $BLASNOTE"
 OPENBLAS_VERBOSE=2 "$OUT/bench" --info 2>&1 | sed 's/^Core: /OpenBLAS verbose: Core: /'
 
 # ---------------------------------------------------------------- FMM3D
