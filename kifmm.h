@@ -2971,9 +2971,10 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
         int64_t ta = t->t0[a];
         if (a != b && ta >= lo && ta < hi) {
             if (ta > t0) /* sources are the targets: s0 = t0, src = trg */
-                KIFMM__HOOKS(c->param, tx, ty, tz, w->qs + t0, ntb, c->src + ta,
-                             c->src + t->ns + ta, c->src + 2 * t->ns + ta, w->qs + ta,
-                             t->t1[a] - ta, (KIFMM__R)1, out, w->outs + ta * KIFMM__TD);
+                KIFMM__HOOKS(c->param, tx, ty, tz, w->qs + t0 * KIFMM__SD, ntb, c->src + ta,
+                             c->src + t->ns + ta, c->src + 2 * t->ns + ta,
+                             w->qs + ta * KIFMM__SD, t->t1[a] - ta, (KIFMM__R)1, out,
+                             w->outs + ta * KIFMM__TD);
             continue;
         }
 #else
