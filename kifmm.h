@@ -2535,20 +2535,23 @@ KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work
 }
 #endif
 
-/* M2M into the internal boxes of level l: the children of the j-th internal
- * box are boxes 8j..8j+7 of level l+1, whose equivalent densities are one
- * column of 8 ne values; the product is added to the box's check vector.
- * Columns (box x vector) in pieces of KIFMM__GC_NC over the threads. */
-KIFMM__FN void KIFMM__F(__m2m_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                     int l)
+/* Between the internal boxes of level lp and their children, whose boxes are
+ * 8j..8j+7 of level lp + 1 for the j-th internal box: M2M (down = 0) adds
+ * the children's equivalent densities, one column of 8 ne values, to the
+ * parent's check vector; L2L (down = 1) sets the children's check vectors,
+ * one column of 8 nc values, from the parent's equivalent density. Columns
+ * (box x vector) in pieces of KIFMM__GC_NC over the threads. */
+KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
+                                        int nrhs, int lp, int down)
 {
     const kifmm__tree *t = &c->tree;
-    const int ni = t->ioff[l + 1] - t->ioff[l], n = KIFMM__LVL(c, l);
+    const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
     const int np = (ni * nrhs + KIFMM__GC_NC - 1) / KIFMM__GC_NC;
+    const int m = down ? 8 * c->nc : c->nc, k = down ? c->ne : 8 * c->ne;
     const size_t per = (size_t)t->nbox * (size_t)c->ne;
-    const KIFMM__R *m2m = KIFMM__F(__ops_at)(c, l)->m2m;
+    const KIFMM__R *op = down ? KIFMM__F(__ops_at)(c, lp + 1)->l2l : KIFMM__F(__ops_at)(c, lp)->m2m;
     int p;
-    if (ni == 0 || l + 1 >= t->nlev) return;
+    if (ni == 0 || lp + 1 >= t->nlev) return;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) if (KIFMM__GC_FAST))
     for (p = 0; p < np; p++) {
         const KIFMM__R *bp[KIFMM__GC_NC];
@@ -2557,39 +2560,16 @@ KIFMM__FN void KIFMM__F(__m2m_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
         if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
         for (q = 0; q < nq; q++) {
             const int j = p * KIFMM__GC_NC + q, jb = j % ni, jr = j / ni;
-            const int32_t b = t->inner[t->ioff[l] + jb];
-            bp[q] = w->ue + jr * per + ((size_t)t->loff[l + 1] + 8 * (size_t)jb) * c->ne;
-            cp[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[l])) * c->nc;
+            const int32_t b = t->inner[t->ioff[lp] + jb];
+            if (down) {
+                bp[q] = w->de + jr * per + (size_t)b * c->ne;
+                cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * c->nc;
+            } else {
+                bp[q] = w->ue + jr * per + ((size_t)t->loff[lp + 1] + 8 * (size_t)jb) * c->ne;
+                cp[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[lp])) * c->nc;
+            }
         }
-        KIFMM__GEMM_COLS(c->nc, 8 * c->ne, m2m, c->nc, nq, bp, cp, 1,
-                         KIFMM__F(__gbuf)(c) + (size_t)c->ne * KIFMM__GC_NC);
-    }
-}
-
-/* L2L from level l-1 sets the check vectors of all boxes of level l: the
- * children of the j-th internal box of l-1 are boxes 8j..8j+7 of level l,
- * one column of 8 nc check values. */
-KIFMM__FN void KIFMM__F(__l2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                     int l)
-{
-    const kifmm__tree *t = &c->tree;
-    const int ni = t->ioff[l] - t->ioff[l - 1], n = KIFMM__LVL(c, l);
-    const int np = (ni * nrhs + KIFMM__GC_NC - 1) / KIFMM__GC_NC;
-    const size_t per = (size_t)t->nbox * (size_t)c->ne;
-    const KIFMM__R *l2l = KIFMM__F(__ops_at)(c, l)->l2l;
-    int p;
-    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) if (KIFMM__GC_FAST))
-    for (p = 0; p < np; p++) {
-        const KIFMM__R *bp[KIFMM__GC_NC];
-        KIFMM__R *cp[KIFMM__GC_NC];
-        int q, nq = ni * nrhs - p * KIFMM__GC_NC;
-        if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
-        for (q = 0; q < nq; q++) {
-            const int j = p * KIFMM__GC_NC + q, jb = j % ni, jr = j / ni;
-            bp[q] = w->de + jr * per + (size_t)t->inner[t->ioff[l - 1] + jb] * c->ne;
-            cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * c->nc;
-        }
-        KIFMM__GEMM_COLS(8 * c->nc, c->ne, l2l, 8 * c->nc, nq, bp, cp, 0,
+        KIFMM__GEMM_COLS(m, k, op, m, nq, bp, cp, !down,
                          KIFMM__F(__gbuf)(c) + (size_t)c->ne * KIFMM__GC_NC);
     }
 }
@@ -2834,7 +2814,7 @@ KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
     }
     t1 = kifmm__now();
     c->stats->t_p2m += t1 - t0;
-    KIFMM__F(__m2m_level)(c, w, nrhs, l);
+    KIFMM__F(__family_level)(c, w, nrhs, l, 0); /* M2M */
     KIFMM__F(__solve)(c, w, nrhs, l, 1);
     c->stats->t_m2m += kifmm__now() - t1;
 }
@@ -2851,7 +2831,7 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     int nl = KIFMM__LVL(c, l);
     size_t cst = (size_t)nl * c->nc, per = (size_t)t->nbox * (size_t)c->ne;
     double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1, t2, t3, t4;
-    if (l >= 3) KIFMM__F(__l2l_level)(c, w, nrhs, l);
+    if (l >= 3) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
     t1 = kifmm__now();
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
