@@ -1920,6 +1920,8 @@ struct KIFMM_NAME {
     double *fbuf;            /* FFT M2L: per-thread blocks, products, work */
     size_t fbuf_per;         /* doubles of fbuf per thread */
     int ftb;                 /* FFT M2L: target parents per task (products buffer) */
+    void *fout;              /* FFT M2L without kept blocks: products of a slab's target
+                                parents (slots of them), chunk-major; or NULL */
     int32_t fft_m, fft_mc;   /*          sizes of loc/need and cjl */
     int32_t *pchunk;         /* mutual near field: chunks of leaves (or NULL) */
     int npchunk;
@@ -2452,7 +2454,8 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
     }
 #if KIFMM__FFT
     if (c->spec) {
-        b += (c->fft.single ? 4.0 : 8.0) * 16 * c->fft.nfp * c->slots + 8.0 * c->nthreads * c->fbuf_per;
+        b += (c->fft.single ? 4.0 : 8.0) * 16 * c->fft.nfp * c->slots * (1 + (c->fout != NULL)) +
+             8.0 * c->nthreads * c->fbuf_per;
         b += 8.0 * c->fft_m + 4.0 * c->fft_mc;
         b += 4.0 * (t->ioff[t->nlev] + 1) + 5.0 * (26.0 * t->ioff[t->nlev] + 1); /* co, cj, cc */
     }
@@ -2679,6 +2682,39 @@ KIFMM__FN int KIFMM__F(__fft_wanted)(const kifmm__tree *t, int l, int32_t j)
     return 0;
 }
 
+/* The products of one target parent for frequency chunk ch (see
+ * kifmm__fft_products): its nn source parents at slots nbr, offsets cc. */
+KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32_t *nbr, int nn,
+                                        const unsigned char *cc, const void *kb, void *out)
+{
+    const size_t at = (size_t)ch * (size_t)c->slots * KIFMM__FFT_F * 16;
+    if (c->fft.single)
+        kifmm__fft_products_f(nn, nbr, cc, (const float *)c->spec + at, (const float *)kb,
+                              (float *)out);
+    else
+        kifmm__fft_products(nn, nbr, cc, (const double *)c->spec + at, (const double *)kb,
+                            (double *)out);
+}
+
+/* The inverse transforms of the products of the j-th target parent of level
+ * l - 1 (op: its first chunk, chunks ocs elements apart), added to the check
+ * vectors chk of its children that have a V list. */
+KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, const void *op,
+                                      size_t ocs, double *work, KIFMM__R *chk)
+{
+    const kifmm__tree *t = &c->tree;
+    double *dchk = work + kifmm__fft_work8(&c->fft);
+    int q, i, nc = c->nc;
+    if (c->fft.single) kifmm__fft_inverse8f(&c->fft, op, ocs, dchk, (float *)work);
+    else kifmm__fft_inverse8(&c->fft, op, ocs, dchk, work);
+    for (q = 0; q < 8; q++) {
+        int32_t lb = 8 * j + q, box = t->loff[l] + lb;
+        KIFMM__R *dst = chk + (size_t)lb * nc;
+        if (t->vo[box + 1] == t->vo[box]) continue;
+        for (i = 0; i < nc; i++) dst[i] += (KIFMM__R)dchk[8 * i + q];
+    }
+}
+
 /* M2L into level l by FFT (see kifmm__fft): the level's multipoles
  * (children of the internal boxes of level l - 1) moved to the check
  * surface's lattice (conv) and transformed, products per target parent over
@@ -2710,6 +2746,7 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
         int32_t nneed = 0, nblk, b, blk;
         for (s1 = s0; s1 < ni; s1++) {
             int32_t g = base + s1, add = 0;
+            if (!o->kb && s1 - s0 >= c->slots) break; /* the outputs fit in fout */
             if (!KIFMM__F(__fft_wanted)(t, l, s1)) continue; /* no child has a V list */
             for (e = co[g]; e < co[g + 1]; e++) add += loc[cj[e]] < 0;
             if (s1 > s0 && nneed + add > c->slots) break;
@@ -2742,44 +2779,58 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                     kifmm__fft_forward8(pl, m, (char *)c->spec + (size_t)b * KIFMM__FFT_F * 16 * esz,
                                         cstride, work);
             }
+            if (!o->kb) {
+                /* blocks not kept: tasks over chunks, all target parents of the
+                 * slab in each, so that each chunk's blocks are built once */
+                const size_t fcs = (size_t)c->slots * KIFMM__FFT_F * 16; /* fout chunk */
+                int ch;
+                KIFMM__OMP(parallel for schedule(dynamic, 2) num_threads(c->nthreads))
+                for (ch = 0; ch < pl->nchunk; ch++) {
+                    double *kb = KIFMM__F(__fbuf)(c);
+                    int32_t P;
+                    kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
+                    for (P = s0; P < s1; P++)
+                        if (KIFMM__F(__fft_wanted)(t, l, P))
+                            KIFMM__F(__fft_products)(c, ch, cjl + (co[base + P] - co[base + s0]),
+                                                     co[base + P + 1] - co[base + P],
+                                                     c->cc + co[base + P], kb,
+                                                     (char *)c->fout + (ch * fcs + (size_t)(P - s0) *
+                                                                        KIFMM__FFT_F * 16) * esz);
+                }
+                KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
+                for (b = s0; b < s1; b++) {
+                    double *work = KIFMM__F(__fbuf)(c) + kbn + outn;
+                    if (KIFMM__F(__fft_wanted)(t, l, b))
+                        KIFMM__F(__fft_finish)(c, l, b,
+                                               (const char *)c->fout +
+                                                   (size_t)(b - s0) * KIFMM__FFT_F * 16 * esz,
+                                               fcs, work, chk);
+                }
+                continue;
+            }
             KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
             for (blk = 0; blk < nblk; blk++) {
                 double *kb = KIFMM__F(__fbuf)(c), *out = kb + kbn, *work = out + outn;
-                double *dchk = work + kifmm__fft_work8(pl);
                 int32_t p0 = s0 + blk * tb;
-                int32_t nb = s1 - p0 < tb ? s1 - p0 : tb, P, q;
-                int ch, i;
+                int32_t nb = s1 - p0 < tb ? s1 - p0 : tb, P;
+                int ch;
                 for (ch = 0; ch < pl->nchunk; ch++) {
-                    const double *kc = kb;
-                    if (o->kb) kc = (const double *)o->kb + kbn * (size_t)ch;
-                    else kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
+                    const double *kc = (const double *)o->kb + kbn * (size_t)ch;
                     for (P = 0; P < nb; P++) {
-                        int32_t g = base + p0 + P, nn = co[g + 1] - co[g];
-                        if (!KIFMM__F(__fft_wanted)(t, l, p0 + P)) continue;
-                        const int32_t *nbr = cjl + (co[g] - co[base + s0]);
-                        size_t oo = (size_t)ch * ocs + (size_t)P * KIFMM__FFT_F * 16;
-                        if (pl->single)
-                            kifmm__fft_products_f(nn, nbr, c->cc + co[g],
-                                                  (const float *)c->spec + (size_t)ch * cstride,
-                                                  (const float *)kc, (float *)out + oo);
-                        else
-                            kifmm__fft_products(nn, nbr, c->cc + co[g],
-                                                (const double *)c->spec + (size_t)ch * cstride,
-                                                kc, out + oo);
+                        int32_t g = base + p0 + P;
+                        if (KIFMM__F(__fft_wanted)(t, l, p0 + P))
+                            KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]),
+                                                     co[g + 1] - co[g], c->cc + co[g], kc,
+                                                     (char *)out + ((size_t)ch * ocs +
+                                                                    (size_t)P * KIFMM__FFT_F * 16) *
+                                                                       esz);
                     }
                 }
-                for (P = 0; P < nb; P++) {
-                    if (!KIFMM__F(__fft_wanted)(t, l, p0 + P)) continue;
-                    const char *op = (const char *)out + (size_t)P * KIFMM__FFT_F * 16 * esz;
-                    if (pl->single) kifmm__fft_inverse8f(pl, op, ocs, dchk, (float *)work);
-                    else kifmm__fft_inverse8(pl, op, ocs, dchk, work);
-                    for (q = 0; q < 8; q++) {
-                        int32_t lb = 8 * (p0 + P) + q, box = t->loff[l] + lb;
-                        KIFMM__R *dst = chk + (size_t)lb * nc;
-                        if (t->vo[box + 1] == t->vo[box]) continue;
-                        for (i = 0; i < nc; i++) dst[i] += (KIFMM__R)dchk[8 * i + q];
-                    }
-                }
+                for (P = 0; P < nb; P++)
+                    if (KIFMM__F(__fft_wanted)(t, l, p0 + P))
+                        KIFMM__F(__fft_finish)(c, l, p0 + P,
+                                               (const char *)out + (size_t)P * KIFMM__FFT_F * 16 * esz,
+                                               ocs, work, chk);
             }
         }
         for (e = 0; e < nneed; e++) loc[need[e]] = -1;
@@ -3073,6 +3124,7 @@ KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->cc);
     kifmm__free(h->spec);
     kifmm__free(h->fbuf);
+    kifmm__free(h->fout);
     kifmm__free(h->loc);
     kifmm__free(h->need);
     kifmm__free(h->cjl);
@@ -3230,7 +3282,7 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
             budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
             h->slots = (int32_t)(budget / slot);
         }
-        if (h->slots < 27) h->slots = 27;
+        if (h->slots < 256) h->slots = 256; /* at high orders: few slabs per level */
         if (h->slots > m) h->slots = m;
         h->loc = (int32_t *)kifmm__alloc((size_t)m, sizeof(int32_t));
         h->need = (int32_t *)kifmm__alloc((size_t)m, sizeof(int32_t));
@@ -3256,6 +3308,21 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     if (h->tree.same && (rc = KIFMM__F(__pair_plan)(h))) goto fail;
 #endif
     if ((rc = KIFMM__F(__precompute)(h))) goto fail;
+#if KIFMM__FFT
+    {
+        /* a level whose products' blocks are not kept runs its products over
+         * chunks of frequencies (each chunk's blocks built once per slab), into
+         * one output buffer for the slab's target parents */
+        int l;
+        for (l = 0; l < h->nops; l++)
+            if (h->ops[l].khat && !h->ops[l].kb) break;
+        if (l < h->nops) {
+            h->fout = kifmm__alloc((size_t)h->slots,
+                                   (size_t)h->fft.nfp * 16 * (h->fft.single ? 4 : 8));
+            if (!h->fout) { rc = KIFMM_ERR_NOMEM; goto fail; }
+        }
+    }
+#endif
     h->mb = kifmm__max_level_boxes(&h->tree);
     {
         /* about 64 MB of stacked multipoles per M2L GEMM */

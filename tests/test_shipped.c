@@ -390,6 +390,7 @@ int main(void)
 
     t_group("evaluate_many against separate evaluations");
     check_many(&LAP, &cube, 6, 3, 1e-12);
+    check_many(&LAP, &cube, 8, 2, 1e-12); /* double spectra, blocks built per slab */
     check_many(&LAPG, &sph, 4, 8, 1e-12);
     check_many(&STK, &cube, 4, 2, 1e-12);
     check_many(&YUKG, &cube, 4, 9, 1e-12); /* more than one group of 8 */
