@@ -966,6 +966,25 @@ KIFMM__FN void kifmm__lbuf_put(kifmm__lbuf *B, int j, const int32_t *src, int cn
  * its own; then the offsets, and each chunk's lists copied into place. The
  * V entries themselves are kept only if `vlists` (the dense M2L reads them;
  * the FFT M2L works from the colleagues and needs only their counts). */
+/* t->dsrc: a box refits a local expansion only where its own level brings
+ * new far-field content: a V list, or an X list when the box holds at least
+ * `xdirect` targets (boxes with fewer take their X sources directly).
+ * Elsewhere it keeps its ancestor's, which is evaluated directly: a refit
+ * adds an error of the fit order relative to the whole local field on the
+ * box's own scale, which along a chain of boxes down to an isolated cluster
+ * would swamp its gradient. */
+KIFMM__FN void kifmm__tree_dsrc(kifmm__tree *t, int64_t xdirect)
+{
+    int32_t b;
+    for (b = 0; b < t->nbox; b++) {
+        int fresh = t->vo[b + 1] > t->vo[b] ||
+                    (t->xo[b + 1] > t->xo[b] && t->t1[b] - t->t0[b] >= xdirect);
+        if (b < t->loff[2 < t->nlev ? 2 : t->nlev]) t->dsrc[b] = -1;
+        else if (fresh) t->dsrc[b] = b;
+        else t->dsrc[b] = t->dsrc[t->parent[b]];
+    }
+}
+
 KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
 {
     int32_t nb = t->nbox, b, nk = 16 * (nth > 0 ? nth : 1), k;
@@ -1057,19 +1076,11 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
                 for (o = 7; o >= 0; o--) stk[sp++] = t->child[b] + o;
         }
     }
-    /* A box refits a local expansion only where its own level brings new
-     * far-field content (a V or X list). Elsewhere it keeps its ancestor's,
-     * which is evaluated directly: a refit adds an error of the fit order
-     * relative to the whole local field on the box's own scale, which along
-     * a chain of boxes down to an isolated cluster would swamp its gradient. */
+    /* which box's local expansion serves each box (the handle redoes this
+     * with its X threshold) */
     t->dsrc = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
     if (!t->dsrc) return KIFMM_ERR_NOMEM;
-    for (b = 0; b < nb; b++) {
-        int fresh = t->vo[b + 1] > t->vo[b] || t->xo[b + 1] > t->xo[b];
-        if (b < t->loff[2 < t->nlev ? 2 : t->nlev]) t->dsrc[b] = -1;
-        else if (fresh) t->dsrc[b] = b;
-        else t->dsrc[b] = t->dsrc[t->parent[b]];
-    }
+    kifmm__tree_dsrc(t, 0);
     return KIFMM_SUCCESS;
 }
 
@@ -1619,6 +1630,16 @@ KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const
             }
 }
 
+/* Keeps a loaded vector in a register: each block vector is used by two
+ * FMAs, and compilers otherwise fold the load into both as a memory operand,
+ * which doubles the loads of a loop that is bound by them (float products
+ * 37 -> 45-55 Gflop/s on one core) */
+#if defined(__GNUC__) || defined(__clang__)
+#define KIFMM__IN_REG(v) __asm__("" : "+x"(v))
+#else
+#define KIFMM__IN_REG(v) ((void)0)
+#endif
+
 /* The products of kifmm__fft_products in plain C, for element type T
  * (variables nn, nb, no, sc, kb, oc, e, fi, cs of the caller). */
 #define KIFMM__FFT_PRODUCTS_C(T)                                                              \
@@ -1660,12 +1681,14 @@ KIFMM__FN void kifmm__fft_products(int nn, const int32_t *nb, const unsigned cha
                 const double *k0 = k + cs * 16, *k1 = k + 128 + cs * 16;
                 __m256d r0 = _mm256_load_pd(k0), r1 = _mm256_load_pd(k0 + 4);
                 __m256d i0 = _mm256_load_pd(k0 + 8), i1 = _mm256_load_pd(k0 + 12);
+                KIFMM__IN_REG(r0); KIFMM__IN_REG(r1); KIFMM__IN_REG(i0); KIFMM__IN_REG(i1);
                 a0 = _mm256_fmadd_pd(r0, xr, a0); a1 = _mm256_fmadd_pd(r1, xr, a1);
                 a2 = _mm256_fmadd_pd(r0, xi, a2); a3 = _mm256_fmadd_pd(r1, xi, a3);
                 a0 = _mm256_fnmadd_pd(i0, xi, a0); a1 = _mm256_fnmadd_pd(i1, xi, a1);
                 a2 = _mm256_fmadd_pd(i0, xr, a2); a3 = _mm256_fmadd_pd(i1, xr, a3);
                 r0 = _mm256_load_pd(k1); r1 = _mm256_load_pd(k1 + 4);
                 i0 = _mm256_load_pd(k1 + 8); i1 = _mm256_load_pd(k1 + 12);
+                KIFMM__IN_REG(r0); KIFMM__IN_REG(r1); KIFMM__IN_REG(i0); KIFMM__IN_REG(i1);
                 b0 = _mm256_fmadd_pd(r0, yr, b0); b1 = _mm256_fmadd_pd(r1, yr, b1);
                 b2 = _mm256_fmadd_pd(r0, yi, b2); b3 = _mm256_fmadd_pd(r1, yi, b3);
                 b0 = _mm256_fnmadd_pd(i0, yi, b0); b1 = _mm256_fnmadd_pd(i1, yi, b1);
@@ -1699,8 +1722,10 @@ KIFMM__FN void kifmm__fft_products_f(int nn, const int32_t *nb, const unsigned c
     {                                                                                          \
         const __m256 xr = _mm256_broadcast_ss(x + (fi) * 16 + cs);                             \
         const __m256 xi = _mm256_broadcast_ss(x + (fi) * 16 + 8 + cs);                         \
-        const __m256 kr = _mm256_load_ps(k + (fi) * 128 + cs * 16);                            \
-        const __m256 ki = _mm256_load_ps(k + (fi) * 128 + cs * 16 + 8);                        \
+        __m256 kr = _mm256_load_ps(k + (fi) * 128 + cs * 16);                                  \
+        __m256 ki = _mm256_load_ps(k + (fi) * 128 + cs * 16 + 8);                              \
+        KIFMM__IN_REG(kr);                                                                     \
+        KIFMM__IN_REG(ki);                                                                     \
         R = _mm256_fmadd_ps(kr, xr, R);                                                        \
         R = _mm256_fnmadd_ps(ki, xi, R);                                                       \
         I = _mm256_fmadd_ps(kr, xi, I);                                                        \
@@ -2870,7 +2895,21 @@ KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
     c->stats->t_m2m += kifmm__now() - t1;
 }
 
-/* Downward pass at level l: L2L from the parents, P2L over X lists, then
+/* out += the field, at nt targets, of the sources of box a. */
+KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                        int32_t a, const KIFMM__R *tx, const KIFMM__R *ty,
+                                        const KIFMM__R *tz, int64_t nt, KIFMM__R *out)
+{
+    const kifmm__tree *t = &c->tree;
+    int64_t s0 = t->s0[a];
+    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, c->src + s0, c->src + t->ns + s0,
+                    c->src + 2 * t->ns + s0, w->qs + s0 * KIFMM__SD, t->s1[a] - s0, nrhs,
+                    (size_t)t->ns * KIFMM__SD, 1.0, out, (size_t)t->nt * KIFMM__TD);
+}
+
+/* Downward pass at level l: L2L from the parents, P2L over X lists (their
+ * sources straight to the targets of a box with fewer targets than check
+ * points), then
  * either the FFT M2L into the check vectors and the two solve steps, or the
  * first solve step, the dense M2L (already in the solve's space) and the
  * second. Timed as L2L (with the solve), P2L and M2L. */
@@ -2891,7 +2930,17 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
         double ctr[3], half;
         KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * c->nc;
         int32_t e, a = l >= 3 ? t->dsrc[t->parent[b]] : -1;
+        const int64_t tb0 = t->t0[b], ntb = t->t1[b] - tb0;
+        const int xdirect = ntb < c->nsc;
         int r;
+        if (xdirect)
+            /* fewer targets than check points: X sources straight to the
+             * targets (only this task writes them; the leaves' pass runs
+             * after the downward pass), and no refit for them (dsrc) */
+            for (e = t->xo[b]; e < t->xo[b + 1]; e++)
+                KIFMM__F(__from_sources)(c, w, nrhs, t->x[e], c->trg + tb0, c->trg + t->nt + tb0,
+                                         c->trg + 2 * t->nt + tb0, ntb,
+                                         w->outs + tb0 * KIFMM__TD);
         if (t->dsrc[b] != b) {
             /* no refit here: the box is served by an ancestor's expansion */
             for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)c->nc * sizeof(KIFMM__R));
@@ -2910,7 +2959,7 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
                                   pe + c->nse, pe + 2 * c->nse, w->de + (size_t)a * c->ne,
                                   c->nse, nrhs, per, scale, chk, cst);
         }
-        for (e = t->xo[b]; e < t->xo[b + 1]; e++) {
+        for (e = t->xo[b]; e < t->xo[b + 1] && !xdirect; e++) {
             int32_t xb = t->x[e];
             int64_t s0 = t->s0[xb];
             KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc,
@@ -2955,18 +3004,6 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
                     nrhs, (size_t)c->tree.nbox * c->ne, 1.0, out,
                     (size_t)c->tree.nt * KIFMM__TD);
     (void)w;
-}
-
-/* out += the field, at nt targets, of the sources of box a. */
-KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                        int32_t a, const KIFMM__R *tx, const KIFMM__R *ty,
-                                        const KIFMM__R *tz, int64_t nt, KIFMM__R *out)
-{
-    const kifmm__tree *t = &c->tree;
-    int64_t s0 = t->s0[a];
-    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, c->src + s0, c->src + t->ns + s0,
-                    c->src + 2 * t->ns + s0, w->qs + s0 * KIFMM__SD, t->s1[a] - s0, nrhs,
-                    (size_t)t->ns * KIFMM__SD, 1.0, out, (size_t)t->nt * KIFMM__TD);
 }
 
 /* Leaf i of t->leaves: L2P, M2P over W (direct when the box holds fewer
@@ -3258,6 +3295,7 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     kifmm__surf_unit(o.order + KIFMM_CHECK_ORDER_DIFF, h->surf_c);
     t0 = kifmm__now();
     if ((rc = KIFMM__F(__tree)(h, nsources, src_xyz, ntargets, trg_xyz))) goto fail;
+    kifmm__tree_dsrc(&h->tree, h->nsc); /* X lists of boxes with few targets go direct */
     t1 = kifmm__now();
 #if KIFMM__FFT
     if ((rc = kifmm__fft_init(&h->fft, o.order + KIFMM_CHECK_ORDER_DIFF))) goto fail;
