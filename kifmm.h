@@ -2332,7 +2332,7 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
          * KIFMM__FFT_KB_MB (float spectra, one set of operators: 5.6 MiB at p = 4,
          * 16 MiB at p = 6) or take no more than one expansion array of the handle
          * (double spectra at p = 8: 72 MiB, kept from about 1M points on);
-         * otherwise each task builds the blocks of its chunk */
+         * otherwise the products build each chunk's blocks once per slab */
         const kifmm__fft *pl = &c->fft;
         const size_t esz = pl->single ? sizeof(float) : sizeof(double);
         const size_t per = (size_t)27 * 128 * KIFMM__FFT_F * esz, all = per * (size_t)pl->nchunk;
