@@ -1636,8 +1636,10 @@ KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const
  * 37 -> 45-55 Gflop/s on one core) */
 #if defined(__GNUC__) || defined(__clang__)
 #define KIFMM__IN_REG(v) __asm__("" : "+x"(v))
+#define KIFMM__PREFETCH(a) __builtin_prefetch((a), 0, 3)
 #else
 #define KIFMM__IN_REG(v) ((void)0)
+#define KIFMM__PREFETCH(a) ((void)0)
 #endif
 
 /* The products of kifmm__fft_products in plain C, for element type T
@@ -2708,11 +2710,22 @@ KIFMM__FN int KIFMM__F(__fft_wanted)(const kifmm__tree *t, int l, int32_t j)
 }
 
 /* The products of one target parent for frequency chunk ch (see
- * kifmm__fft_products): its nn source parents at slots nbr, offsets cc. */
+ * kifmm__fft_products): its nn source parents at slots nbr, offsets cc.
+ * The spectra at chunk chx of the nx source parents at slots nxt (the next
+ * target parent's) are prefetched meanwhile: they lie scattered over the
+ * spectra buffer, out of reach of the hardware prefetchers. */
 KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32_t *nbr, int nn,
-                                        const unsigned char *cc, const void *kb, void *out)
+                                        const unsigned char *cc, const void *kb, void *out,
+                                        int chx, const int32_t *nxt, int nx)
 {
     const size_t at = (size_t)ch * (size_t)c->slots * KIFMM__FFT_F * 16;
+    const size_t ax = (size_t)chx * (size_t)c->slots * KIFMM__FFT_F * 16;
+    const size_t esz = c->fft.single ? sizeof(float) : sizeof(double);
+    int e, q;
+    for (e = 0; e < nx; e++) {
+        const char *a = (const char *)c->spec + (ax + (size_t)nxt[e] * KIFMM__FFT_F * 16) * esz;
+        for (q = 0; q < (int)(KIFMM__FFT_F * 16 * esz); q += 64) KIFMM__PREFETCH(a + q);
+    }
     if (c->fft.single)
         kifmm__fft_products_f(nn, nbr, cc, (const float *)c->spec + at, (const float *)kb,
                               (float *)out);
@@ -2814,13 +2827,15 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                     double *kb = KIFMM__F(__fbuf)(c);
                     int32_t P;
                     kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
-                    for (P = s0; P < s1; P++)
+                    for (P = s0; P < s1; P++) {
+                        const int32_t g = base + P, nx = P + 1 < s1 ? co[g + 2] - co[g + 1] : 0;
                         if (KIFMM__F(__fft_wanted)(t, l, P))
-                            KIFMM__F(__fft_products)(c, ch, cjl + (co[base + P] - co[base + s0]),
-                                                     co[base + P + 1] - co[base + P],
-                                                     c->cc + co[base + P], kb,
+                            KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]),
+                                                     co[g + 1] - co[g], c->cc + co[g], kb,
                                                      (char *)c->fout + (ch * fcs + (size_t)(P - s0) *
-                                                                        KIFMM__FFT_F * 16) * esz);
+                                                                        KIFMM__FFT_F * 16) * esz,
+                                                     ch, cjl + (co[g + 1] - co[base + s0]), nx);
+                    }
                 }
                 KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
                 for (b = s0; b < s1; b++) {
@@ -2842,13 +2857,19 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                 for (ch = 0; ch < pl->nchunk; ch++) {
                     const double *kc = (const double *)o->kb + kbn * (size_t)ch;
                     for (P = 0; P < nb; P++) {
-                        int32_t g = base + p0 + P;
+                        /* prefetched: the next target parent's sources, or
+                         * after the last the first's at the next chunk */
+                        const int32_t g = base + p0 + P, last = P + 1 == nb;
+                        const int32_t gx = last ? base + p0 : g + 1;
+                        const int chx = last ? ch + 1 : ch;
                         if (KIFMM__F(__fft_wanted)(t, l, p0 + P))
                             KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]),
                                                      co[g + 1] - co[g], c->cc + co[g], kc,
                                                      (char *)out + ((size_t)ch * ocs +
                                                                     (size_t)P * KIFMM__FFT_F * 16) *
-                                                                       esz);
+                                                                       esz,
+                                                     chx, cjl + (co[gx] - co[base + s0]),
+                                                     chx < pl->nchunk ? co[gx + 1] - co[gx] : 0);
                     }
                 }
                 for (P = 0; P < nb; P++)
