@@ -1917,7 +1917,13 @@ typedef struct {
     KIFMM__R *tmp;           /* dense M2L: max(nc, ne) x (boxes of a level) */
     KIFMM__R *stack;         /* 316 ne x (M2L block columns) */
     KIFMM__R *m2l_out;       /* kd x (M2L block columns) */
-    KIFMM__R *qs, *outs;     /* densities and outputs in sorted order */
+    KIFMM__R *qs;            /* densities in sorted order */
+    /* Outputs: either all of them in sorted order (outs), gathered into the
+     * caller's order at the end; or, when that saves memory, each task sums
+     * its targets in its thread's part of lbuf (lbuf_per values) and adds
+     * them to the caller's out (dst, set during an evaluate) itself. */
+    KIFMM__R *outs, *lbuf, *dst;
+    size_t lbuf_per;
 } KIFMM__F(__work);
 
 typedef struct KIFMM_NAME KIFMM_NAME;
@@ -2379,6 +2385,7 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
     if (!w) return;
     kifmm__free(w->ue); kifmm__free(w->de); kifmm__free(w->chk); kifmm__free(w->tmp);
     kifmm__free(w->stack); kifmm__free(w->m2l_out); kifmm__free(w->qs); kifmm__free(w->outs);
+    kifmm__free(w->lbuf);
     kifmm__free(w);
 }
 
@@ -2396,6 +2403,58 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 #endif
     sz[3] = (size_t)c->tree.ns * KIFMM__SD;                        /* qs */
     sz[4] = (size_t)c->tree.nt * KIFMM__TD;                        /* outs */
+}
+
+/* Values per thread of the task output buffers for up to nrhs vectors: the
+ * targets of a leaf, of a box with X sources evaluated directly (fewer than
+ * nsc) and of a chunk of the mutual near field; 0 when they would not take
+ * less than half of the sorted output array. */
+KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
+{
+    const kifmm__tree *t = &c->tree;
+    int64_t m = c->nsc, all = t->nt * (int64_t)nrhs * KIFMM__TD;
+    int32_t i;
+    for (i = 0; i < t->nleaves; i++)
+        if (t->t1[t->leaves[i]] - t->t0[t->leaves[i]] > m)
+            m = t->t1[t->leaves[i]] - t->t0[t->leaves[i]];
+    m *= nrhs;
+    for (i = 0; c->pchunk && i < c->npchunk; i++) {
+        const int32_t i0 = c->pchunk[i], i1 = c->pchunk[i + 1];
+        const int64_t lo = i0 < t->nleaves ? t->t0[t->leaves[i0]] : t->nt;
+        const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
+        if (hi - lo > m) m = hi - lo;
+    }
+    m *= KIFMM__TD;
+    return 2 * (int64_t)c->nthreads * m <= all ? (size_t)m : 0;
+}
+
+/* out[r dst + tperm[t0 + i] TD + k] += b[r ld + i TD + k]: a task's sums for
+ * its n targets from sorted position t0 on, added to the caller's outputs. */
+KIFMM__FN void KIFMM__F(__put)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                               int64_t t0, int64_t n, const KIFMM__R *b, size_t ld)
+{
+    const kifmm__tree *t = &c->tree;
+    const size_t oper = (size_t)t->nt * KIFMM__TD;
+    int64_t i;
+    int r, k;
+    for (r = 0; r < nrhs; r++)
+        for (i = 0; i < n; i++) {
+            KIFMM__R *d = w->dst + r * oper + (size_t)t->tperm[t0 + i] * KIFMM__TD;
+            const KIFMM__R *s = b + r * ld + (size_t)i * KIFMM__TD;
+            for (k = 0; k < KIFMM__TD; k++) d[k] += s[k];
+        }
+}
+
+/* The calling thread's task output buffer, zeroed for nrhs x n targets. */
+KIFMM__FN KIFMM__R *KIFMM__F(__lbuf)(const KIFMM__F(__work) *w, int nrhs, int64_t n)
+{
+#ifdef _OPENMP
+    KIFMM__R *b = w->lbuf + (size_t)omp_get_thread_num() * w->lbuf_per;
+#else
+    KIFMM__R *b = w->lbuf;
+#endif
+    memset(b, 0, (size_t)nrhs * (size_t)n * KIFMM__TD * sizeof(KIFMM__R));
+    return b;
 }
 
 KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
@@ -2421,8 +2480,11 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     }
 #endif
     w->qs = (KIFMM__R *)kifmm__alloc(n * sz[3], sizeof(KIFMM__R));
-    w->outs = (KIFMM__R *)kifmm__alloc(n * sz[4], sizeof(KIFMM__R));
-    if (!w->ue || !w->de || !w->chk || !w->qs || !w->outs) {
+    w->lbuf_per = KIFMM__F(__lbuf_per)(c, nrhs);
+    if (w->lbuf_per) w->lbuf = (KIFMM__R *)kifmm__alloc((size_t)c->nthreads * w->lbuf_per,
+                                                        sizeof(KIFMM__R));
+    else w->outs = (KIFMM__R *)kifmm__alloc(n * sz[4], sizeof(KIFMM__R));
+    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf)) {
         KIFMM__F(__work_free)(w);
         return NULL;
     }
@@ -2472,7 +2534,8 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
     }
     if (c->w) {
         KIFMM__F(__work_sizes)(c, sz);
-        b += R * c->w->nrhs * (2.0 * sz[0] + sz[1] + sz[2] + sz[3] + sz[4]);
+        b += R * c->w->nrhs * (2.0 * sz[0] + sz[1] + sz[2] + sz[3]);
+        b += R * (c->w->lbuf ? (double)c->nthreads * c->w->lbuf_per : (double)c->w->nrhs * sz[4]);
 #if KIFMM__FFT
         (void)big;
 #else
@@ -2916,16 +2979,18 @@ KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
     c->stats->t_m2m += kifmm__now() - t1;
 }
 
-/* out += the field, at nt targets, of the sources of box a. */
+/* out += the field, at nt targets, of the sources of box a (vector r's
+ * outputs from out + r old on). */
 KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                         int32_t a, const KIFMM__R *tx, const KIFMM__R *ty,
-                                        const KIFMM__R *tz, int64_t nt, KIFMM__R *out)
+                                        const KIFMM__R *tz, int64_t nt, KIFMM__R *out,
+                                        size_t old)
 {
     const kifmm__tree *t = &c->tree;
     int64_t s0 = t->s0[a];
     KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, c->src + s0, c->src + t->ns + s0,
                     c->src + 2 * t->ns + s0, w->qs + s0 * KIFMM__SD, t->s1[a] - s0, nrhs,
-                    (size_t)t->ns * KIFMM__SD, 1.0, out, (size_t)t->nt * KIFMM__TD);
+                    (size_t)t->ns * KIFMM__SD, 1.0, out, old);
 }
 
 /* Downward pass at level l: L2L from the parents, P2L over X lists (their
@@ -2954,14 +3019,17 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
         const int64_t tb0 = t->t0[b], ntb = t->t1[b] - tb0;
         const int xdirect = ntb < c->nsc;
         int r;
-        if (xdirect)
+        if (xdirect && t->xo[b + 1] > t->xo[b]) {
             /* fewer targets than check points: X sources straight to the
              * targets (only this task writes them; the leaves' pass runs
              * after the downward pass), and no refit for them (dsrc) */
+            KIFMM__R *o = w->outs ? w->outs + tb0 * KIFMM__TD : KIFMM__F(__lbuf)(w, nrhs, ntb);
+            const size_t old = w->outs ? (size_t)t->nt * KIFMM__TD : (size_t)ntb * KIFMM__TD;
             for (e = t->xo[b]; e < t->xo[b + 1]; e++)
                 KIFMM__F(__from_sources)(c, w, nrhs, t->x[e], c->trg + tb0, c->trg + t->nt + tb0,
-                                         c->trg + 2 * t->nt + tb0, ntb,
-                                         w->outs + tb0 * KIFMM__TD);
+                                         c->trg + 2 * t->nt + tb0, ntb, o, old);
+            if (!w->outs) KIFMM__F(__put)(c, w, nrhs, tb0, ntb, o, old);
+        }
         if (t->dsrc[b] != b) {
             /* no refit here: the box is served by an ancestor's expansion */
             for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)c->nc * sizeof(KIFMM__R));
@@ -3010,20 +3078,20 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     c->stats->t_p2l += t2 - t1;
 }
 
-/* out += the field, at nt targets, of densities (vector stride `per`) on the
- * surface of box a (radius alpha half-widths); pe holds the placed surface. */
+/* out += the field, at nt targets, of densities (vector stride nbox ne) on
+ * the surface of box a (radius alpha half-widths); pe holds the placed
+ * surface; vector r's outputs from out + r old on. */
 KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                         int32_t a, double alpha, const KIFMM__R *dens,
                                         const KIFMM__R *tx, const KIFMM__R *ty,
                                         const KIFMM__R *tz, int64_t nt, KIFMM__R *pe,
-                                        KIFMM__R *out)
+                                        KIFMM__R *out, size_t old)
 {
     double ctr[3], half;
     kifmm__box_center(&c->tree, a, ctr, &half);
     KIFMM__F(__place)(c->surf_e, c->nse, ctr, alpha * half, pe);
     KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, pe, pe + c->nse, pe + 2 * c->nse, dens, c->nse,
-                    nrhs, (size_t)c->tree.nbox * c->ne, 1.0, out,
-                    (size_t)c->tree.nt * KIFMM__TD);
+                    nrhs, (size_t)c->tree.nbox * c->ne, 1.0, out, old);
     (void)w;
 }
 
@@ -3031,27 +3099,31 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
  * sources than its surface has points), P2P over U. With the mutual near
  * field (lo < hi: the points [lo, hi) of the leaf's chunk), a U leaf of the
  * same chunk is computed once for both leaves by the one first in Morton
- * order, and skipped by the other. tm[0..2] += the time of the three. */
+ * order, and skipped by the other. The outputs of sorted target j go to
+ * ob + (j - base) TD, vector r's old further on. tm[0..2] += the time of the
+ * three. */
 KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                int32_t i, int64_t lo, int64_t hi, double *tm)
+                                int32_t i, int64_t lo, int64_t hi, double *tm, KIFMM__R *ob,
+                                int64_t base, size_t old)
 {
     const kifmm__tree *t = &c->tree;
     int32_t b = t->leaves[i], e;
     int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
     const KIFMM__R *tx = c->trg + t0, *ty = c->trg + t->nt + t0, *tz = c->trg + 2 * t->nt + t0;
-    KIFMM__R *out = w->outs + t0 * KIFMM__TD, *pe = KIFMM__F(__scratch)(c);
+    KIFMM__R *out = ob + (t0 - base) * KIFMM__TD, *pe = KIFMM__F(__scratch)(c);
     double c0 = kifmm__now(), c1, c2;
     if (t->dsrc[b] >= 0)
         KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__ALPHA_OUTER,
-                                 w->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe, out);
+                                 w->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe, out,
+                                 old);
     c1 = kifmm__now();
     for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
         int32_t a = t->w[e];
         if (t->s1[a] - t->s0[a] <= c->nse)
-            KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out);
+            KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
         else
             KIFMM__F(__from_surface)(c, w, nrhs, a, KIFMM__ALPHA_INNER,
-                                     w->ue + (size_t)a * c->ne, tx, ty, tz, ntb, pe, out);
+                                     w->ue + (size_t)a * c->ne, tx, ty, tz, ntb, pe, out, old);
     }
     c2 = kifmm__now();
     for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
@@ -3063,14 +3135,14 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
                 KIFMM__HOOKS(c->param, tx, ty, tz, w->qs + t0 * KIFMM__SD, ntb, c->src + ta,
                              c->src + t->ns + ta, c->src + 2 * t->ns + ta,
                              w->qs + ta * KIFMM__SD, t->t1[a] - ta, (KIFMM__R)1, out,
-                             w->outs + ta * KIFMM__TD);
+                             ob + (ta - base) * KIFMM__TD);
             continue;
         }
 #else
         (void)lo;
         (void)hi;
 #endif
-        KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out);
+        KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
     }
     tm[0] += c1 - c0;
     tm[1] += c2 - c1;
@@ -3095,7 +3167,16 @@ KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
             if (i0 < i1) {
                 const int64_t lo = t->t0[t->leaves[i0]];
                 const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
-                for (j = i0; j < i1; j++) KIFMM__F(__leaf)(c, w, nrhs, j, lo, hi, tm);
+                const size_t old = (size_t)(hi - lo) * KIFMM__TD;
+                if (w->outs) {
+                    for (j = i0; j < i1; j++)
+                        KIFMM__F(__leaf)(c, w, 1, j, lo, hi, tm, w->outs, 0,
+                                         (size_t)t->nt * KIFMM__TD);
+                } else {
+                    KIFMM__R *ob = KIFMM__F(__lbuf)(w, 1, hi - lo);
+                    for (j = i0; j < i1; j++) KIFMM__F(__leaf)(c, w, 1, j, lo, hi, tm, ob, lo, old);
+                    KIFMM__F(__put)(c, w, 1, lo, hi - lo, ob, old);
+                }
             }
             tl += tm[0];
             tw += tm[1];
@@ -3105,7 +3186,14 @@ KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
         KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
         for (i = 0; i < t->nleaves; i++) {
             double tm[3] = {0.0, 0.0, 0.0};
-            KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm);
+            const int64_t t0 = t->t0[t->leaves[i]], n = t->t1[t->leaves[i]] - t0;
+            if (w->outs) {
+                KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm, w->outs, 0, (size_t)t->nt * KIFMM__TD);
+            } else if (n > 0) {
+                KIFMM__R *ob = KIFMM__F(__lbuf)(w, nrhs, n);
+                KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm, ob, t0, (size_t)n * KIFMM__TD);
+                KIFMM__F(__put)(c, w, nrhs, t0, n, ob, (size_t)n * KIFMM__TD);
+            }
             tl += tm[0];
             tw += tm[1];
             tu += tm[2];
@@ -3460,17 +3548,23 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
                     w->qs[r * qper + i * KIFMM__SD + k] =
                         densities[(r0 + r) * qper + t->sperm[i] * KIFMM__SD + k];
         }
-        memset(w->outs, 0, (size_t)nr * oper * sizeof(KIFMM__R));
+        /* outputs summed in sorted order (outs) and gathered at the end, or
+         * added by each task to the caller's out (dst, see the workspace) */
+        w->dst = out + (size_t)r0 * oper;
+        memset(w->outs ? w->outs : w->dst, 0, (size_t)nr * oper * sizeof(KIFMM__R));
         for (l = t->nlev - 1; l >= 2; l--) KIFMM__F(__upward)(h, w, nr, l);
         for (l = 2; l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
         KIFMM__F(__leaves)(h, w, nr);
-        KIFMM__OMP(parallel for schedule(static) num_threads(h->nthreads))
-        for (i = 0; i < t->nt; i++) {
-            int k, r;
-            for (r = 0; r < nr; r++)
-                for (k = 0; k < KIFMM__TD; k++)
-                    out[(r0 + r) * oper + t->tperm[i] * KIFMM__TD + k] =
-                        w->outs[r * oper + i * KIFMM__TD + k];
+        w->dst = NULL;
+        if (w->outs) {
+            KIFMM__OMP(parallel for schedule(static) num_threads(h->nthreads))
+            for (i = 0; i < t->nt; i++) {
+                int k, r;
+                for (r = 0; r < nr; r++)
+                    for (k = 0; k < KIFMM__TD; k++)
+                        out[(r0 + r) * oper + t->tperm[i] * KIFMM__TD + k] =
+                            w->outs[r * oper + i * KIFMM__TD + k];
+            }
         }
     }
     h->stats->t_evaluate = kifmm__now() - t0;
