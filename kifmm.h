@@ -1885,6 +1885,8 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #define KIFMM__HOOKNE KIFMM__KE(_p2pnf)
 #define KIFMM__HAS_HOOKS KIFMM__K(_P2PSF)
 #define KIFMM__HOOKS KIFMM__K(_p2psf)
+#define KIFMM__HAS_HOOKSN KIFMM__K(_P2PSNF)
+#define KIFMM__HOOKSN KIFMM__K(_p2psnf)
 #else
 #define KIFMM__HAS_HOOK KIFMM__K(_P2P)
 #define KIFMM__HOOK KIFMM__K(_p2p)
@@ -1896,6 +1898,8 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #define KIFMM__HOOKNE KIFMM__KE(_p2pn)
 #define KIFMM__HAS_HOOKS KIFMM__K(_P2PS)
 #define KIFMM__HOOKS KIFMM__K(_p2ps)
+#define KIFMM__HAS_HOOKSN KIFMM__K(_P2PSN)
+#define KIFMM__HOOKSN KIFMM__K(_p2psn)
 #endif
 
 /* ---- the handle ---------------------------------------------------------- */
@@ -2418,14 +2422,13 @@ KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
     for (i = 0; i < t->nleaves; i++)
         if (t->t1[t->leaves[i]] - t->t0[t->leaves[i]] > m)
             m = t->t1[t->leaves[i]] - t->t0[t->leaves[i]];
-    m *= nrhs;
     for (i = 0; c->pchunk && i < c->npchunk; i++) {
         const int32_t i0 = c->pchunk[i], i1 = c->pchunk[i + 1];
         const int64_t lo = i0 < t->nleaves ? t->t0[t->leaves[i0]] : t->nt;
         const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
         if (hi - lo > m) m = hi - lo;
     }
-    m *= KIFMM__TD;
+    m *= (int64_t)nrhs * KIFMM__TD;
     return 2 * (int64_t)c->nthreads * m <= all ? (size_t)m : 0;
 }
 
@@ -3132,11 +3135,27 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
 #if KIFMM__HAS_HOOKS
         int64_t ta = t->t0[a];
         if (a != b && ta >= lo && ta < hi) {
-            if (ta > t0) /* sources are the targets: s0 = t0, src = trg */
-                KIFMM__HOOKS(c->param, tx, ty, tz, w->qs + t0 * KIFMM__SD, ntb, c->src + ta,
-                             c->src + t->ns + ta, c->src + 2 * t->ns + ta,
-                             w->qs + ta * KIFMM__SD, t->t1[a] - ta, (KIFMM__R)1, out,
-                             ob + (ta - base) * KIFMM__TD);
+            /* sources are the targets: s0 = t0, src = trg */
+            const KIFMM__R *qa = w->qs + t0 * KIFMM__SD, *qb = w->qs + ta * KIFMM__SD;
+            const size_t qld = (size_t)t->ns * KIFMM__SD;
+            KIFMM__R *oa = ob + (ta - base) * KIFMM__TD;
+            if (ta > t0 && nrhs == 1)
+                KIFMM__HOOKS(c->param, tx, ty, tz, qa, ntb, c->src + ta, c->src + t->ns + ta,
+                             c->src + 2 * t->ns + ta, qb, t->t1[a] - ta, (KIFMM__R)1, out, oa);
+            else if (ta > t0)
+#if KIFMM__HAS_HOOKSN
+                KIFMM__HOOKSN(c->param, tx, ty, tz, qa, ntb, c->src + ta, c->src + t->ns + ta,
+                              c->src + 2 * t->ns + ta, qb, t->t1[a] - ta, nrhs, qld,
+                              (KIFMM__R)1, out, oa, old);
+#else
+            {
+                int r;
+                for (r = 0; r < nrhs; r++)
+                    KIFMM__HOOKS(c->param, tx, ty, tz, qa + r * qld, ntb, c->src + ta,
+                                 c->src + t->ns + ta, c->src + 2 * t->ns + ta, qb + r * qld,
+                                 t->t1[a] - ta, (KIFMM__R)1, out + r * old, oa + r * old);
+            }
+#endif
             continue;
         }
 #else
@@ -3150,8 +3169,8 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     tm[2] += kifmm__now() - c2;
 }
 
-/* The leaves' passes. With the mutual near field (one density vector,
- * sources = targets, a kernel with a _p2ps hook: c->pchunk), the leaves go
+/* The leaves' passes. With the mutual near field (sources = targets, a
+ * kernel with a _p2ps hook: c->pchunk), the leaves go
  * in chunks of consecutive leaves, one chunk per task, so that both leaves
  * of a pair computed once belong to the thread that writes their outputs. */
 KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
@@ -3159,7 +3178,7 @@ KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
     const kifmm__tree *t = &c->tree;
     int32_t i;
     double tl = 0.0, tw = 0.0, tu = 0.0;
-    if (c->pchunk && nrhs == 1) {
+    if (c->pchunk) {
         KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
         for (i = 0; i < c->npchunk; i++) {
             const int32_t i0 = c->pchunk[i], i1 = c->pchunk[i + 1];
@@ -3171,12 +3190,13 @@ KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
                 const size_t old = (size_t)(hi - lo) * KIFMM__TD;
                 if (w->outs) {
                     for (j = i0; j < i1; j++)
-                        KIFMM__F(__leaf)(c, w, 1, j, lo, hi, tm, w->outs, 0,
+                        KIFMM__F(__leaf)(c, w, nrhs, j, lo, hi, tm, w->outs, 0,
                                          (size_t)t->nt * KIFMM__TD);
                 } else {
-                    KIFMM__R *ob = KIFMM__F(__lbuf)(w, 1, hi - lo);
-                    for (j = i0; j < i1; j++) KIFMM__F(__leaf)(c, w, 1, j, lo, hi, tm, ob, lo, old);
-                    KIFMM__F(__put)(c, w, 1, lo, hi - lo, ob, old);
+                    KIFMM__R *ob = KIFMM__F(__lbuf)(w, nrhs, hi - lo);
+                    for (j = i0; j < i1; j++)
+                        KIFMM__F(__leaf)(c, w, nrhs, j, lo, hi, tm, ob, lo, old);
+                    KIFMM__F(__put)(c, w, nrhs, lo, hi - lo, ob, old);
                 }
             }
             tl += tm[0];
@@ -3619,6 +3639,8 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__HAS_HOOKN
 #undef KIFMM__HOOKS
 #undef KIFMM__HAS_HOOKS
+#undef KIFMM__HOOKSN
+#undef KIFMM__HAS_HOOKSN
 #undef KIFMM__HOOKE
 #undef KIFMM__HAS_HOOKE
 #undef KIFMM__HOOK

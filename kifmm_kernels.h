@@ -1025,6 +1025,168 @@ KIFMM_KERNEL__P2PS_F(0)
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2psf, float)
 KIFMM_KERNEL__P2PS_F(1)
 
+/* ------------------------------------------------------------------------ */
+/* Mutual many-vector hooks (_P2PSN / _p2psn, _P2PSNF / _p2psnf)            */
+/* ------------------------------------------------------------------------ */
+/* kifmm_kernel_NAME_p2psn(param, ax, ay, az, qa, na, bx, by, bz, qb, nb, nrhs,
+ * qld, scale, outa, outb, old): _p2ps for nrhs density vectors at once,
+ * vector r's densities at qa + r qld and qb + r qld, its outputs at
+ * outa + r old and outb + r old; each pair's geometry computed once for all
+ * of them. Used by evaluate_many when the sources are the targets. Per
+ * target of A and block of B: the geometry (1 / r, and for GRAD d / r^3)
+ * into a block on the stack, then the vectors two (GRAD) or four at a time,
+ * A's sums in registers and B's in a structure-of-arrays block. */
+#define KIFMM_KERNEL__P2PSN_BODY(T, V, W, GEOM, MASK, SET1, ZERO, LOADU, STOREU, MUL, FMADD,       \
+                                 FNMADD, HSUM, GRAD)                                               \
+    {                                                                                              \
+        enum { SB_ = KIFMM_KERNEL__SB, NV_ = KIFMM_KERNEL__NV, TD_ = (GRAD) ? 4 : 1 };             \
+        const T s = (T)scale * (T)KIFMM_INV_4PI;                                                   \
+        /* pb: B's sums, NV_ vectors plus one sink for a missing partner */                        \
+        T g[4 * SB_], qp[(NV_ + 1) * SB_], pb[(NV_ + 1) * TD_ * SB_];                              \
+        int64_t i, j, j0, jb, k;                                                                   \
+        int r, r0, nr;                                                                             \
+        (void)param;                                                                               \
+        for (r0 = 0; r0 < nrhs; r0 += NV_) {                                                       \
+            nr = nrhs - r0 < NV_ ? nrhs - r0 : NV_;                                                \
+            for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
+                const T *px = bx + j0, *py = by + j0, *pz = bz + j0;                               \
+                jb = nb - j0 < SB_ ? nb - j0 : SB_;                                                \
+                const int64_t jw = (jb + (W) - 1) / (W) * (W); /* lanes touched */                 \
+                for (r = 0; r <= NV_; r++) {                                                       \
+                    if (r < nr || r == NV_) {                                                      \
+                        const T *qr = qb + (size_t)(r0 + (r < nr ? r : 0)) * qld + j0;             \
+                        for (k = 0; k < TD_ * SB_; k++) pb[r * TD_ * SB_ + k] = 0;                 \
+                        for (k = 0; k < jw; k++) qp[r * SB_ + k] = r < nr && k < jb ? qr[k] : 0;   \
+                    }                                                                              \
+                }                                                                                  \
+                for (i = 0; i < na; i++) {                                                         \
+                    const V X = SET1(ax[i]), Y = SET1(ay[i]), Z = SET1(az[i]);                     \
+                    for (j = 0; j < jb; j += W) {                                                  \
+                        V dx, dy, dz;                                                              \
+                        const V inv =                                                              \
+                            GEOM(X, Y, Z, px + j, py + j, pz + j, MASK(jb - j), &dx, &dy, &dz);    \
+                        STOREU(g + j, inv);                                                        \
+                        if (GRAD) {                                                                \
+                            const V inv3 = MUL(MUL(inv, inv), inv);                                \
+                            STOREU(g + SB_ + j, MUL(inv3, dx));                                    \
+                            STOREU(g + 2 * SB_ + j, MUL(inv3, dy));                                \
+                            STOREU(g + 3 * SB_ + j, MUL(inv3, dz));                                \
+                        }                                                                          \
+                    }                                                                              \
+                    for (r = 0; r < nr; r += (GRAD) ? 2 : 4) {                                     \
+                        if (GRAD) {                                                                \
+                            /* vectors r and r2 (the sink when r is the last) */                   \
+                            const int two = r + 1 < nr, r2 = two ? r + 1 : NV_;                    \
+                            const V QA = SET1(qa[(size_t)(r0 + r) * qld + i]);                     \
+                            const V QB = SET1(two ? qa[(size_t)(r0 + r + 1) * qld + i] : (T)0);    \
+                            const T *u0 = qp + r * SB_, *v0 = qp + r2 * SB_;                       \
+                            T *pu = pb + r * 4 * SB_, *pv = pb + r2 * 4 * SB_;                     \
+                            V a0 = ZERO, a1 = ZERO, a2 = ZERO, a3 = ZERO;                          \
+                            V b0 = ZERO, b1 = ZERO, b2 = ZERO, b3 = ZERO;                          \
+                            for (j = 0; j < jb; j += W) {                                          \
+                                const V G0 = LOADU(g + j), G1 = LOADU(g + SB_ + j),                \
+                                        G2 = LOADU(g + 2 * SB_ + j), G3 = LOADU(g + 3 * SB_ + j);  \
+                                const V u = LOADU(u0 + j), v = LOADU(v0 + j);                      \
+                                a0 = FMADD(u, G0, a0); a1 = FNMADD(u, G1, a1);                     \
+                                a2 = FNMADD(u, G2, a2); a3 = FNMADD(u, G3, a3);                    \
+                                b0 = FMADD(v, G0, b0); b1 = FNMADD(v, G1, b1);                     \
+                                b2 = FNMADD(v, G2, b2); b3 = FNMADD(v, G3, b3);                    \
+                                STOREU(pu + j, FMADD(QA, G0, LOADU(pu + j)));                      \
+                                STOREU(pu + SB_ + j, FMADD(QA, G1, LOADU(pu + SB_ + j)));          \
+                                STOREU(pu + 2 * SB_ + j, FMADD(QA, G2, LOADU(pu + 2 * SB_ + j)));  \
+                                STOREU(pu + 3 * SB_ + j, FMADD(QA, G3, LOADU(pu + 3 * SB_ + j)));  \
+                                STOREU(pv + j, FMADD(QB, G0, LOADU(pv + j)));                      \
+                                STOREU(pv + SB_ + j, FMADD(QB, G1, LOADU(pv + SB_ + j)));          \
+                                STOREU(pv + 2 * SB_ + j, FMADD(QB, G2, LOADU(pv + 2 * SB_ + j)));  \
+                                STOREU(pv + 3 * SB_ + j, FMADD(QB, G3, LOADU(pv + 3 * SB_ + j)));  \
+                            }                                                                      \
+                            {                                                                      \
+                                T *oa = outa + (size_t)(r0 + r) * old + 4 * i;                     \
+                                oa[0] += s * HSUM(a0); oa[1] += s * HSUM(a1);                      \
+                                oa[2] += s * HSUM(a2); oa[3] += s * HSUM(a3);                      \
+                                if (two) {                                                         \
+                                    oa += old;                                                     \
+                                    oa[0] += s * HSUM(b0); oa[1] += s * HSUM(b1);                  \
+                                    oa[2] += s * HSUM(b2); oa[3] += s * HSUM(b3);                  \
+                                }                                                                  \
+                            }                                                                      \
+                        } else {                                                                   \
+                            /* vectors r .. r + 3, the missing ones into the sink */               \
+                            const int nu = nr - r < 4 ? nr - r : 4;                                \
+                            const int c1 = nu > 1 ? r + 1 : NV_, c2 = nu > 2 ? r + 2 : NV_,        \
+                                      c3 = nu > 3 ? r + 3 : NV_;                                   \
+                            const V Q0 = SET1(qa[(size_t)(r0 + r) * qld + i]);                     \
+                            const V Q1 = SET1(nu > 1 ? qa[(size_t)(r0 + r + 1) * qld + i] : (T)0); \
+                            const V Q2 = SET1(nu > 2 ? qa[(size_t)(r0 + r + 2) * qld + i] : (T)0); \
+                            const V Q3 = SET1(nu > 3 ? qa[(size_t)(r0 + r + 3) * qld + i] : (T)0); \
+                            const T *q0 = qp + r * SB_, *q1 = qp + c1 * SB_, *q2 = qp + c2 * SB_,  \
+                                    *q3 = qp + c3 * SB_;                                           \
+                            T *p0 = pb + r * SB_, *p1 = pb + c1 * SB_, *p2 = pb + c2 * SB_,        \
+                              *p3 = pb + c3 * SB_;                                                 \
+                            V a0 = ZERO, a1 = ZERO, a2 = ZERO, a3 = ZERO;                          \
+                            for (j = 0; j < jb; j += W) {                                          \
+                                const V G0 = LOADU(g + j);                                         \
+                                a0 = FMADD(LOADU(q0 + j), G0, a0);                                 \
+                                a1 = FMADD(LOADU(q1 + j), G0, a1);                                 \
+                                a2 = FMADD(LOADU(q2 + j), G0, a2);                                 \
+                                a3 = FMADD(LOADU(q3 + j), G0, a3);                                 \
+                                STOREU(p0 + j, FMADD(Q0, G0, LOADU(p0 + j)));                      \
+                                STOREU(p1 + j, FMADD(Q1, G0, LOADU(p1 + j)));                      \
+                                STOREU(p2 + j, FMADD(Q2, G0, LOADU(p2 + j)));                      \
+                                STOREU(p3 + j, FMADD(Q3, G0, LOADU(p3 + j)));                      \
+                            }                                                                      \
+                            outa[(size_t)(r0 + r) * old + i] += s * HSUM(a0);                      \
+                            if (nu > 1) outa[(size_t)(r0 + r + 1) * old + i] += s * HSUM(a1);      \
+                            if (nu > 2) outa[(size_t)(r0 + r + 2) * old + i] += s * HSUM(a2);      \
+                            if (nu > 3) outa[(size_t)(r0 + r + 3) * old + i] += s * HSUM(a3);      \
+                        }                                                                          \
+                    }                                                                              \
+                }                                                                                  \
+                for (r = 0; r < nr; r++)                                                           \
+                    for (j = 0; j < jb; j++)                                                       \
+                        for (k = 0; k < TD_; k++)                                                  \
+                            outb[(size_t)(r0 + r) * old + (size_t)(j0 + j) * TD_ + k] +=           \
+                                s * pb[((size_t)r * TD_ + k) * SB_ + j];                           \
+            }                                                                                      \
+        }                                                                                          \
+    }
+
+#define KIFMM_KERNEL__P2PSN_D(GRAD)                                                               \
+    KIFMM_KERNEL__P2PSN_BODY(double, __m256d, 4, kifmm_kernel__geomn, kifmm_kernel__nmask,       \
+                             _mm256_set1_pd, _mm256_setzero_pd(), _mm256_loadu_pd,               \
+                             _mm256_storeu_pd, _mm256_mul_pd, _mm256_fmadd_pd, _mm256_fnmadd_pd,  \
+                             kifmm_kernel__hsumn, GRAD)
+#define KIFMM_KERNEL__P2PSN_F(GRAD)                                                               \
+    KIFMM_KERNEL__P2PSN_BODY(float, __m256, 8, kifmm_kernel__geomnf, kifmm_kernel__nmaskf,       \
+                             _mm256_set1_ps, _mm256_setzero_ps(), _mm256_loadu_ps,               \
+                             _mm256_storeu_ps, _mm256_mul_ps, _mm256_fmadd_ps, _mm256_fnmadd_ps,  \
+                             kifmm_kernel__hsumnf, GRAD)
+
+#define KIFMM_KERNEL__P2PSN_SIG(name, T)                                                       \
+    static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
+                            const T *qa, int64_t na, const T *bx, const T *by, const T *bz,    \
+                            const T *qb, int64_t nb, int nrhs, size_t qld, T scale, T *outa,   \
+                            T *outb, size_t old)
+
+#if !defined(__AVX512F__)
+#define kifmm_kernel_laplace_P2PSN 1
+KIFMM_KERNEL__P2PSN_SIG(kifmm_kernel_laplace_p2psn, double)
+KIFMM_KERNEL__P2PSN_D(0)
+#define kifmm_kernel_laplace_grad_P2PSN 1
+KIFMM_KERNEL__P2PSN_SIG(kifmm_kernel_laplace_grad_p2psn, double)
+KIFMM_KERNEL__P2PSN_D(1)
+#endif
+#define kifmm_kernel_laplace_P2PSNF 1
+KIFMM_KERNEL__P2PSN_SIG(kifmm_kernel_laplace_p2psnf, float)
+KIFMM_KERNEL__P2PSN_F(0)
+#define kifmm_kernel_laplace_grad_P2PSNF 1
+KIFMM_KERNEL__P2PSN_SIG(kifmm_kernel_laplace_grad_p2psnf, float)
+KIFMM_KERNEL__P2PSN_F(1)
+
+#undef KIFMM_KERNEL__P2PSN_SIG
+#undef KIFMM_KERNEL__P2PSN_D
+#undef KIFMM_KERNEL__P2PSN_F
+#undef KIFMM_KERNEL__P2PSN_BODY
 #undef KIFMM_KERNEL__P2PS_SIG
 #undef KIFMM_KERNEL__P2PS_D
 #undef KIFMM_KERNEL__P2PS_F

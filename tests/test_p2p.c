@@ -345,6 +345,106 @@ static void test_mutual(void)
     CHECK_ERR(g_mut_err, 1e-14, "laplace_grad_p2ps, B side, all shapes: vs sum|terms|");
     CHECK(g_mut_guards, "p2ps wrote outside outb[0 .. nb*td-1]");
 }
+
+/* Mutual many-vector hooks (_p2psn): vector g_slot through one_block, the
+ * B side of every vector against long double sums. */
+#if kifmm_kernel_laplace_P2PSN && kifmm_kernel_laplace_grad_P2PSN
+typedef void (*hooksn_fn)(const double *, const double *, const double *, const double *,
+                          const double *, int64_t, const double *, const double *,
+                          const double *, const double *, int64_t, int, size_t, double, double *,
+                          double *, size_t);
+static hooksn_fn g_mutn;
+
+/* A hook_fn for one_block: runs g_mutn on g_nrhs vectors (odd strides
+ * between them). A = the block's targets, with random charges; B = its
+ * sources, with the block's charges in vector g_slot and random ones in the
+ * others. Vector g_slot's A outputs go back to one_block; the B outputs of
+ * every vector are checked here, and the gaps between vectors must stay. */
+static void mutualn_as_one(const double *prm, const double *tx, const double *ty,
+                           const double *tz, int64_t nt, const double *sx, const double *sy,
+                           const double *sz, const double *q, int64_t ns, double scale,
+                           double *out)
+{
+    const int64_t big = nt > ns ? nt : ns;
+    const size_t qld = (size_t)big + 3, old = (size_t)big * g_mtd + 5, tot = g_nrhs * old + 1;
+    double *qa = t_doubles((int64_t)(g_nrhs * qld + 1)), *qb = t_doubles((int64_t)(g_nrhs * qld + 1));
+    double *oa = t_doubles((int64_t)tot), *ob = t_doubles((int64_t)tot), *pre = t_doubles((int64_t)tot);
+    size_t lbytes = (size_t)(ns * g_mtd + 1) * sizeof(long double), i;
+    long double *inc = (long double *)t_malloc_or_die(lbytes);
+    long double *mag = (long double *)t_malloc_or_die(lbytes);
+    int r;
+    for (i = 0; i < g_nrhs * qld; i++) {
+        qa[i] = t_uniform(&g_mrng, -1.0, 1.0);
+        qb[i] = t_uniform(&g_mrng, -1.0, 1.0);
+    }
+    for (i = 0; i < (size_t)ns; i++) qb[g_slot * qld + i] = q[i];
+    for (i = 0; i < tot; i++) oa[i] = ob[i] = SENTINEL;
+    for (r = 0; r < g_nrhs; r++) {
+        for (i = 0; i < (size_t)nt * g_mtd; i++) oa[r * old + i] = t_uniform(&g_mrng, -0.01, 0.01);
+        for (i = 0; i < (size_t)ns * g_mtd; i++)
+            ob[r * old + i] = pre[r * old + i] = t_uniform(&g_mrng, -0.01, 0.01);
+    }
+    for (i = 0; i < (size_t)nt * g_mtd; i++) oa[g_slot * old + i] = out[i];
+    g_mutn(prm, tx, ty, tz, qa, nt, sx, sy, sz, qb, ns, g_nrhs, qld, scale, oa, ob, old);
+    for (i = 0; i < (size_t)nt * g_mtd; i++) out[i] = oa[g_slot * old + i];
+    for (r = 0; r < g_nrhs; r++) {
+        long double num = 0, den = 0;
+        for (i = (size_t)nt * g_mtd; i < old; i++)
+            if (oa[r * old + i] != SENTINEL) g_mut_guards = 0;
+        for (i = (size_t)ns * g_mtd; i < old; i++)
+            if (ob[r * old + i] != SENTINEL) g_mut_guards = 0;
+        ref_sum(g_mtd, ns, sx, sy, sz, nt, tx, ty, tz, qa + r * qld, scale, inc, mag);
+        for (i = 0; i < (size_t)ns * g_mtd; i++) {
+            long double d = fabsl((long double)ob[r * old + i] - (pre[r * old + i] + inc[i]));
+            long double m = fabsl((long double)pre[r * old + i]) + mag[i];
+            if (d != d) num = INFINITY;
+            if (d > num) num = d;
+            if (m > den) den = m;
+        }
+        if (den > 0 && (double)(num / den) > g_mut_err) g_mut_err = (double)(num / den);
+        if (den == 0 && num > 0) g_mut_err = 1.0;
+    }
+    free(qa);
+    free(qb);
+    free(oa);
+    free(ob);
+    free(pre);
+    free(inc);
+    free(mag);
+}
+
+static void test_mutual_many(void)
+{
+    static const int cases[][2] = {{1, 0}, {2, 1}, {3, 2}, {5, 4}, {8, 7}, {11, 9}};
+    int c;
+    g_mrng = t_rng_seed(93);
+    g_mut_guards = 1;
+    for (c = 0; c < (int)(sizeof cases / sizeof cases[0]); c++) {
+        char name[64];
+        g_nrhs = cases[c][0];
+        g_slot = cases[c][1];
+        g_mutn = kifmm_kernel_laplace_p2psn;
+        g_mtd = 1;
+        g_mut_err = 0.0;
+        snprintf(name, sizeof name, "laplace_p2psn %d vectors, #%d, A side", g_nrhs, g_slot);
+        test_blocks(name, mutualn_as_one, 1, 400 + (uint64_t)c);
+        CHECK_ERR(g_mut_err, 1e-14, "laplace_p2psn %d vectors, B sides: vs sum|terms|", g_nrhs);
+        g_mutn = kifmm_kernel_laplace_grad_p2psn;
+        g_mtd = 4;
+        g_mut_err = 0.0;
+        snprintf(name, sizeof name, "laplace_grad_p2psn %d vectors, #%d, A side", g_nrhs, g_slot);
+        test_blocks(name, mutualn_as_one, 4, 500 + (uint64_t)c);
+        CHECK_ERR(g_mut_err, 1e-14, "laplace_grad_p2psn %d vectors, B sides: vs sum|terms|",
+                  g_nrhs);
+    }
+    CHECK(g_mut_guards, "p2psn wrote outside its outputs or between vectors");
+}
+#else
+static void test_mutual_many(void)
+{
+    printf("mutual many-vector hooks: not compiled for this target (%s)\n", BODY);
+}
+#endif
 #else
 static void test_mutual(void)
 {
@@ -646,6 +746,7 @@ int main(void)
     test_blocks("laplace_grad", kifmm_kernel_laplace_grad_p2p, 4, 12);
     test_many();
     test_mutual();
+    test_mutual_many();
     test_fmm();
     return t_finish();
 }
