@@ -193,9 +193,10 @@ KIFMM__FN int kifmm__default_leaf(int order)
     /* Larger expansions make the far field dearer per box, so leaves grow
      * with the number of surface points; from p = 7 on the M2L products run
      * in double and leaves of a few hundred points pay (measured: 1M uniform
-     * points, p = 8: 5.8 s at 384 against 10.3 s at 192); see
-     * docs/algorithm.md. */
-    static const int leaf[KIFMM_MAX_ORDER + 1] = {0, 0, 32, 48, 64, 96, 128, 384, 384,
+     * points, p = 8: 5.8 s at 384 against 10.3 s at 192; 1M points on a
+     * sphere: p = 4 1.4 s at 128 against 2.3 s at 64, p = 5 2.0 s at 128
+     * against 2.8 s at 96); see docs/algorithm.md. */
+    static const int leaf[KIFMM_MAX_ORDER + 1] = {0, 0, 32, 48, 128, 128, 128, 384, 384,
                                                   448, 512, 576, 640};
     return leaf[order];
 }
