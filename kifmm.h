@@ -1635,7 +1635,7 @@ KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const
 /* Keeps a loaded vector in a register: each block vector is used by two
  * FMAs, and compilers otherwise fold the load into both as a memory operand,
  * which doubles the loads of a loop that is bound by them (float products
- * 37 -> 45-55 Gflop/s on one core) */
+ * 37 -> 45-55 Gflop/s on one core). KIFMM__PREFETCH: a read prefetch hint. */
 #if defined(__GNUC__) || defined(__clang__)
 #define KIFMM__IN_REG(v) __asm__("" : "+x"(v))
 #define KIFMM__PREFETCH(a) __builtin_prefetch((a), 0, 3)
@@ -2413,8 +2413,9 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 
 /* Values per thread of the task output buffers for up to nrhs vectors: the
  * targets of a leaf, of a box with X sources evaluated directly (fewer than
- * nsc) and of a chunk of the mutual near field; 0 when they would not take
- * less than half of the sorted output array. */
+ * nsc) and of a chunk of the mutual near field, a multiple of 16 (64-byte
+ * parts for double); 0 when all threads' parts would take more than half
+ * of the sorted output array. */
 KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
 {
     const kifmm__tree *t = &c->tree;
@@ -2429,7 +2430,7 @@ KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
         const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
         if (hi - lo > m) m = hi - lo;
     }
-    m *= (int64_t)nrhs * KIFMM__TD;
+    m = (m * (int64_t)nrhs * KIFMM__TD + 15) / 16 * 16;
     return 2 * (int64_t)c->nthreads * m <= all ? (size_t)m : 0;
 }
 
@@ -2896,7 +2897,11 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                     int32_t P;
                     kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
                     for (P = s0; P < s1; P++) {
-                        const int32_t g = base + P, nx = P + 1 < s1 ? co[g + 2] - co[g + 1] : 0;
+                        /* (slots are set only for wanted target parents) */
+                        const int32_t g = base + P;
+                        const int32_t nx = P + 1 < s1 && KIFMM__F(__fft_wanted)(t, l, P + 1)
+                                               ? co[g + 2] - co[g + 1]
+                                               : 0;
                         if (KIFMM__F(__fft_wanted)(t, l, P))
                             KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]),
                                                      co[g + 1] - co[g], c->cc + co[g], kb,
@@ -2937,7 +2942,10 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                                                                     (size_t)P * KIFMM__FFT_F * 16) *
                                                                        esz,
                                                      chx, cjl + (co[gx] - co[base + s0]),
-                                                     chx < pl->nchunk ? co[gx + 1] - co[gx] : 0);
+                                                     chx < pl->nchunk &&
+                                                             KIFMM__F(__fft_wanted)(t, l, gx - base)
+                                                         ? co[gx + 1] - co[gx]
+                                                         : 0);
                     }
                 }
                 for (P = 0; P < nb; P++)
