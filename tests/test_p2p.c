@@ -293,6 +293,24 @@ static t_rng g_mrng;
 static double g_mut_err;    /* worst error of the B side, relative to max |ref| */
 static int g_mut_guards = 1;
 
+/* g_mut_err = max(g_mut_err, the worst error of n B-side outputs o against
+ * pre + inc, relative to max(|pre| + mag)). */
+static void b_side_err(int64_t n, const double *o, const double *pre, const long double *inc,
+                       const long double *mag)
+{
+    long double num = 0, den = 0;
+    int64_t i;
+    for (i = 0; i < n; i++) {
+        long double d = fabsl((long double)o[i] - (pre[i] + inc[i]));
+        long double m = fabsl((long double)pre[i]) + mag[i];
+        if (d != d) num = INFINITY;
+        if (d > num) num = d;
+        if (m > den) den = m;
+    }
+    if (den > 0 && (double)(num / den) > g_mut_err) g_mut_err = (double)(num / den);
+    if (den == 0 && num > 0) g_mut_err = 1.0;
+}
+
 /* A hook_fn for one_block: A = the block's targets (random charges of their
  * own), B = its sources.  A's outputs go back to one_block; B's are checked
  * here against the long double sums of A's charges at B's points. */
@@ -304,7 +322,6 @@ static void mutual_as_one(const double *prm, const double *tx, const double *ty,
     size_t lbytes = (size_t)(ns * g_mtd + 1) * sizeof(long double);
     long double *inc = (long double *)t_malloc_or_die(lbytes);
     long double *mag = (long double *)t_malloc_or_die(lbytes);
-    long double num = 0, den = 0;
     int64_t i;
     pre = t_doubles(ns * g_mtd + 1);
     for (i = 0; i < nt; i++) qa[i] = t_uniform(&g_mrng, -1.0, 1.0);
@@ -314,15 +331,7 @@ static void mutual_as_one(const double *prm, const double *tx, const double *ty,
     ref_sum(g_mtd, ns, sx, sy, sz, nt, tx, ty, tz, qa, scale, inc, mag);
     for (i = 0; i < GUARD; i++)
         if (ob[i] != SENTINEL || ob[GUARD + ns * g_mtd + i] != SENTINEL) g_mut_guards = 0;
-    for (i = 0; i < ns * g_mtd; i++) {
-        long double d = fabsl((long double)ob[GUARD + i] - (pre[i] + inc[i]));
-        long double m = fabsl((long double)pre[i]) + mag[i];
-        if (d != d) num = INFINITY;
-        if (d > num) num = d;
-        if (m > den) den = m;
-    }
-    if (den > 0 && (double)(num / den) > g_mut_err) g_mut_err = (double)(num / den);
-    if (den == 0 && num > 0) g_mut_err = 1.0;
+    b_side_err(ns * g_mtd, ob + GUARD, pre, inc, mag);
     free(qa);
     free(ob);
     free(pre);
@@ -388,21 +397,12 @@ static void mutualn_as_one(const double *prm, const double *tx, const double *ty
     g_mutn(prm, tx, ty, tz, qa, nt, sx, sy, sz, qb, ns, g_nrhs, qld, scale, oa, ob, old);
     for (i = 0; i < (size_t)nt * g_mtd; i++) out[i] = oa[g_slot * old + i];
     for (r = 0; r < g_nrhs; r++) {
-        long double num = 0, den = 0;
         for (i = (size_t)nt * g_mtd; i < old; i++)
             if (oa[r * old + i] != SENTINEL) g_mut_guards = 0;
         for (i = (size_t)ns * g_mtd; i < old; i++)
             if (ob[r * old + i] != SENTINEL) g_mut_guards = 0;
         ref_sum(g_mtd, ns, sx, sy, sz, nt, tx, ty, tz, qa + r * qld, scale, inc, mag);
-        for (i = 0; i < (size_t)ns * g_mtd; i++) {
-            long double d = fabsl((long double)ob[r * old + i] - (pre[r * old + i] + inc[i]));
-            long double m = fabsl((long double)pre[r * old + i]) + mag[i];
-            if (d != d) num = INFINITY;
-            if (d > num) num = d;
-            if (m > den) den = m;
-        }
-        if (den > 0 && (double)(num / den) > g_mut_err) g_mut_err = (double)(num / den);
-        if (den == 0 && num > 0) g_mut_err = 1.0;
+        b_side_err(ns * g_mtd, ob + r * old, pre + r * old, inc, mag);
     }
     free(qa);
     free(qb);
