@@ -445,11 +445,129 @@ static void test_mutual_many(void)
     printf("mutual many-vector hooks: not compiled for this target (%s)\n", BODY);
 }
 #endif
+
 #else
 static void test_mutual(void)
 {
     printf("mutual hooks: not compiled for this target (%s), each leaf pair is computed twice\n",
            BODY);
+}
+static void test_mutual_many(void) {}
+#endif
+
+/* The float mutual many-vector hooks (_p2psnf): both sides of every vector
+ * against long double sums over the same float points (ref_sum on their
+ * exact double values), each output's error relative to the max over the
+ * block of |prefill| + sum of |terms|. Blocks of 1 to 70 points (vector
+ * tails), some B points on A points (those pairs skipped), 1 to 11 vectors
+ * with gaps between them that must stay untouched. */
+#if kifmm_kernel_laplace_P2PSNF && kifmm_kernel_laplace_grad_P2PSNF
+typedef void (*hooksnf_fn)(const double *, const float *, const float *, const float *,
+                           const float *, int64_t, const float *, const float *, const float *,
+                           const float *, int64_t, int, size_t, float, float *, float *, size_t);
+
+/* The worst error of n float outputs o against pre + inc (see above). */
+static double f_side_err(int64_t n, const float *o, const float *pre, const long double *inc,
+                         const long double *mag)
+{
+    long double num = 0, den = 0;
+    int64_t i;
+    for (i = 0; i < n; i++) {
+        long double d = fabsl((long double)o[i] - ((long double)pre[i] + inc[i]));
+        long double m = fabsl((long double)pre[i]) + mag[i];
+        if (d != d) return INFINITY;
+        if (d > num) num = d;
+        if (m > den) den = m;
+    }
+    return den > 0 ? (double)(num / den) : (num > 0 ? 1.0 : 0.0);
+}
+
+static void test_mutual_many_float(void)
+{
+    static const int sizes[] = {1, 7, 8, 9, 33, 70}, vecs[] = {1, 2, 3, 8, 11};
+    static const char *names[2] = {"laplace_p2psnf", "laplace_grad_p2psnf"};
+    const hooksnf_fn fn[2] = {kifmm_kernel_laplace_p2psnf, kifmm_kernel_laplace_grad_p2psnf};
+    t_rng r = t_rng_seed(97);
+    int h;
+    t_group("float mutual many-vector hooks (_p2psnf)");
+    for (h = 0; h < 2; h++) {
+        const int td = h ? 4 : 1;
+        double worst = 0.0;
+        int ia, ib, iv, guards = 1;
+        for (ia = 0; ia < 6; ia++)
+            for (ib = 0; ib < 6; ib++)
+                for (iv = 0; iv < 5; iv++) {
+                    const int64_t na = sizes[ia], nb = sizes[ib], big = na > nb ? na : nb;
+                    const int nv = vecs[iv];
+                    const size_t qld = (size_t)big + 3, old = (size_t)big * td + 5;
+                    const size_t tot = (size_t)nv * old;
+                    float *f = (float *)t_malloc_or_die(sizeof(float) * (6 * big + 2 * nv * qld + 3 * tot));
+                    float *ax = f, *ay = ax + big, *az = ay + big, *bx = az + big, *by = bx + big;
+                    float *bz = by + big, *qa = bz + big, *qb = qa + nv * qld, *oa = qb + nv * qld;
+                    float *ob = oa + tot, *pre = ob + tot;
+                    double *d = t_doubles(6 * big + 2 * big);
+                    size_t lb = (size_t)(big * td + 1) * sizeof(long double);
+                    long double *inc = (long double *)t_malloc_or_die(lb);
+                    long double *mag = (long double *)t_malloc_or_die(lb);
+                    int64_t i;
+                    int v;
+                    for (i = 0; i < na; i++) {
+                        ax[i] = (float)t_rand01(&r);
+                        ay[i] = (float)t_rand01(&r);
+                        az[i] = (float)t_rand01(&r);
+                    }
+                    for (i = 0; i < nb; i++) {
+                        const int on = i % 4 == 1 && i / 4 < na; /* B point on an A point */
+                        bx[i] = on ? ax[i / 4] : (float)t_rand01(&r);
+                        by[i] = on ? ay[i / 4] : (float)t_rand01(&r);
+                        bz[i] = on ? az[i / 4] : (float)t_rand01(&r);
+                    }
+                    for (i = 0; i < (int64_t)(nv * qld); i++) {
+                        qa[i] = (float)t_uniform(&r, -1.0, 1.0);
+                        qb[i] = (float)t_uniform(&r, -1.0, 1.0);
+                    }
+                    for (i = 0; i < (int64_t)tot; i++) {
+                        oa[i] = ob[i] = pre[i] = (float)SENTINEL;
+                        if ((size_t)i % old < (size_t)big * td) /* the widest side's prefill */
+                            pre[i] = (float)t_uniform(&r, -0.01, 0.01);
+                        if ((size_t)i % old < (size_t)na * td) oa[i] = pre[i];
+                        if ((size_t)i % old < (size_t)nb * td) ob[i] = pre[i];
+                    }
+                    fn[h](NULL, ax, ay, az, qa, na, bx, by, bz, qb, nb, nv, qld, 0.5f, oa, ob, old);
+                    for (i = 0; i < big; i++) {
+                        d[i] = ax[i]; d[big + i] = ay[i]; d[2 * big + i] = az[i];
+                        d[3 * big + i] = bx[i]; d[4 * big + i] = by[i]; d[5 * big + i] = bz[i];
+                    }
+                    for (v = 0; v < nv; v++) {
+                        double e;
+                        for (i = 0; i < nb; i++) d[6 * big + i] = qb[v * qld + i];
+                        ref_sum(td, na, d, d + big, d + 2 * big, nb, d + 3 * big, d + 4 * big,
+                                d + 5 * big, d + 6 * big, 0.5, inc, mag);
+                        e = f_side_err(na * td, oa + v * old, pre + v * old, inc, mag);
+                        if (!(e <= worst)) worst = e;
+                        for (i = 0; i < na; i++) d[7 * big + i] = qa[v * qld + i];
+                        ref_sum(td, nb, d + 3 * big, d + 4 * big, d + 5 * big, na, d, d + big,
+                                d + 2 * big, d + 7 * big, 0.5, inc, mag);
+                        e = f_side_err(nb * td, ob + v * old, pre + v * old, inc, mag);
+                        if (!(e <= worst)) worst = e;
+                        for (i = (int64_t)na * td; i < (int64_t)old; i++)
+                            if (oa[v * old + i] != (float)SENTINEL) guards = 0;
+                        for (i = (int64_t)nb * td; i < (int64_t)old; i++)
+                            if (ob[v * old + i] != (float)SENTINEL) guards = 0;
+                    }
+                    free(f);
+                    free(d);
+                    free(inc);
+                    free(mag);
+                }
+        CHECK_ERR(worst, 2e-6, "%s, both sides, 1 to 11 vectors: vs sum|terms|", names[h]);
+        CHECK(guards, "%s wrote outside its outputs or between vectors", names[h]);
+    }
+}
+#else
+static void test_mutual_many_float(void)
+{
+    printf("float mutual many-vector hooks: not compiled for this target (%s)\n", BODY);
 }
 #endif
 
@@ -747,6 +865,7 @@ int main(void)
     test_many();
     test_mutual();
     test_mutual_many();
+    test_mutual_many_float();
     test_fmm();
     return t_finish();
 }
