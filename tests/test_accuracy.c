@@ -47,7 +47,7 @@ static void test_orders(void)
     for (io = 0; io < sizeof orders / sizeof orders[0]; io++) {
         int p = orders[io];
         double bound = bounds[io], tc = 0, te = 0;
-        kifmm_opts o = t_opts(p, 0, 0), used;
+        kifmm_opts o = t_opts(p, 0, 0), used = t_opts(0, 0, 0);
         void *h = NULL;
         int rc;
         t_err e;
