@@ -95,8 +95,11 @@
 #define KIFMM_SVD_CUTOFF 1e-14
 #endif
 
-#ifndef KIFMM_CHECK_ORDER_DIFF
-#define KIFMM_CHECK_ORDER_DIFF 1
+/* KIFMM_CHECK_ORDER_DIFF: check surfaces use order p + this. Left undefined,
+ * it is 0 up to order KIFMM_SQUARE_MAX_ORDER for kernels with the FFT M2L,
+ * and 1 above and for the others (see kifmm__check_diff). */
+#ifndef KIFMM_SQUARE_MAX_ORDER
+#define KIFMM_SQUARE_MAX_ORDER 7
 #endif
 
 /* Orders up to this one keep the FFT M2L's spectra and products in float
@@ -508,7 +511,38 @@ KIFMM__FN void kifmm__surf_place(const double *unit, int n, const double *c, dou
 
 /* Surface radii in units of the box half-width. */
 #define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
-#define KIFMM__ALPHA_OUTER 2.95 /* upward check, downward equivalent */
+/* upward check, downward equivalent: 2.95 with check surfaces of order p + 1,
+ * 4.5 with order p (see kifmm__check_diff) */
+#define KIFMM__ALPHA_OUTER_LSQ 2.95
+#define KIFMM__ALPHA_OUTER_SQUARE 4.5
+
+/* The check surfaces' order minus the equivalent surfaces' order p, for an
+ * instance with the FFT M2L (fft) or not. With the FFT M2L up to order
+ * KIFMM_SQUARE_MAX_ORDER: 0, with the outer surfaces at 4.5 box half-widths
+ * (check and equivalent surfaces of the same order, square systems), whose
+ * M2L runs on a (2p - 1)^3 grid instead of (2p + 1)^3: half the frequencies
+ * at p = 4, 0.6 times at p = 6. Measured against order p + 1 at 2.95 on
+ * uniform, sphere, clustered and separate point sets at p = 2 to 7, the
+ * errors are the same or smaller (docs/algorithm.md). From order 8 on the
+ * square systems lose digits, and Stokes (dense M2L) loses them at every
+ * order: 1 there. A definition of KIFMM_CHECK_ORDER_DIFF before the include
+ * applies to every order and kernel (the outer radius 4.5 when it is 0, 2.95
+ * otherwise). */
+KIFMM__FN int kifmm__check_diff(int p, int fft)
+{
+#ifdef KIFMM_CHECK_ORDER_DIFF
+    (void)p;
+    (void)fft;
+    return KIFMM_CHECK_ORDER_DIFF;
+#else
+    return fft && p <= KIFMM_SQUARE_MAX_ORDER ? 0 : 1;
+#endif
+}
+
+KIFMM__FN double kifmm__alpha_outer(int diff)
+{
+    return diff == 0 ? KIFMM__ALPHA_OUTER_SQUARE : KIFMM__ALPHA_OUTER_LSQ;
+}
 
 /* ---- Morton keys ------------------------------------------------------- */
 
@@ -1350,7 +1384,7 @@ KIFMM__FN int32_t *kifmm__active(const kifmm__tree *t)
 
 /* ---- FFT M2L (kernels with one density component) ----------------------- */
 
-/* The downward check surface (order q = p + KIFMM_CHECK_ORDER_DIFF, radius
+/* The downward check surface (order q = p + kifmm__check_diff(p, 1), radius
  * 1.05 r) is the boundary of a q^3 lattice of spacing h = 2.1 r / (q - 1).
  * Each source multipole is first moved to a density on the same lattice
  * around its own box (conv, fitted on the upward check surface, so its field
@@ -1989,6 +2023,8 @@ struct KIFMM_NAME {
     kifmm__tree tree;
     KIFMM__R *src, *trg;     /* sorted points (SoA); the tree's own in double */
     int nse, nsc;            /* equivalent and check surface points */
+    int cdiff;               /* check order - equivalent order (kifmm__check_diff) */
+    double ao;               /* outer surfaces' radius, in box half-widths */
     int ne, nc;              /* vector lengths: points x SRC_DIM */
     double *surf_e, *surf_c; /* unit surfaces (SoA) */
     double degree;
@@ -2187,15 +2223,15 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
     o->l2l = (double *)kifmm__alloc((size_t)8 * nc * ne, sizeof(double));
     if (!a || !pe || !pc || !o->m2m || !o->l2l) { rc = KIFMM_ERR_NOMEM; goto done; }
 
-    /* upward: check at 2.95 r, equivalent at 1.05 r; downward the reverse.
-     * Float instances truncate at float resolution: factors that resolve
+    /* upward: check at c->ao r (2.95 or 4.5), equivalent at 1.05 r; downward
+     * the reverse. Float instances truncate at float resolution: factors that resolve
      * singular values below it would amplify the rounding of the passes. */
-    kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_OUTER * r, pc);
+    kifmm__surf_place(c->surf_c, nsc, zero, c->ao * r, pc);
     kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_INNER * r, pe);
     KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, a, (size_t)nc);
     if ((rc = kifmm__pinv(a, nc, ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku))) goto done;
     kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
-    kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_OUTER * r, pe);
+    kifmm__surf_place(c->surf_e, nse, zero, c->ao * r, pe);
     KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, a, (size_t)nc);
     if ((rc = kifmm__pinv(a, nc, ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd))) goto done;
 
@@ -2205,13 +2241,13 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
         int d;
         /* M2M: child (half r/2, centre +r/2 sgn) equiv -> parent (half r) check */
         for (d = 0; d < 3; d++) cc[d] = 0.5 * r * sgn[d];
-        kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_OUTER * r, pc);
+        kifmm__surf_place(c->surf_c, nsc, zero, c->ao * r, pc);
         kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_INNER * 0.5 * r, pe);
         KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->m2m + (size_t)oct * ne * nc, (size_t)nc);
         /* L2L: parent (half 2r, centre -r sgn) equiv -> child (half r) check */
         for (d = 0; d < 3; d++) cc[d] = -r * sgn[d];
         kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
-        kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_OUTER * 2.0 * r, pe);
+        kifmm__surf_place(c->surf_e, nse, cc, c->ao * 2.0 * r, pe);
         KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->l2l + (size_t)oct * nc, (size_t)8 * nc);
     }
 #if KIFMM__FFT
@@ -2225,7 +2261,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
         double *ut2 = NULL, *vs2 = NULL, *tmp2 = NULL;
         int k2 = 0;
         if (!kb2) { rc = KIFMM_ERR_NOMEM; goto done; }
-        kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_OUTER * r, pc);
+        kifmm__surf_place(c->surf_c, nsc, zero, c->ao * r, pc);
         kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_INNER * r, pe);
         KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, kb2, (size_t)nc);
         kifmm__free(a);
@@ -3055,7 +3091,7 @@ KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
         if (t->child[b] >= 0 || ns == 0) continue;
         pc = KIFMM__F(__scratch)(c);
         kifmm__box_center(t, b, ctr, &half);
-        KIFMM__F(__place)(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_OUTER * half, pc);
+        KIFMM__F(__place)(c->surf_c, c->nsc, ctr, c->ao * half, pc);
         KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc,
                               c->src + s0, c->src + t->ns + s0, c->src + 2 * t->ns + s0,
                               w->qs + s0 * KIFMM__SD, ns, nrhs, (size_t)t->ns * KIFMM__SD, scale,
@@ -3132,7 +3168,7 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
             /* L2L from an ancestor above the parent, by direct evaluation */
             double ac[3], ah;
             kifmm__box_center(t, a, ac, &ah);
-            KIFMM__F(__place)(c->surf_e, c->nse, ac, KIFMM__ALPHA_OUTER * ah, pe);
+            KIFMM__F(__place)(c->surf_e, c->nse, ac, c->ao * ah, pe);
             KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, pe,
                                   pe + c->nse, pe + 2 * c->nse, w->de + (size_t)a * c->ne,
                                   c->nse, nrhs, per, scale, chk, cst);
@@ -3202,7 +3238,7 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     KIFMM__R *out = ob + (t0 - base) * KIFMM__TD, *pe = KIFMM__F(__scratch)(c);
     double c0 = kifmm__now(), c1, c2;
     if (t->dsrc[b] >= 0)
-        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__ALPHA_OUTER,
+        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], c->ao,
                                  w->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe, out,
                                  old);
     c1 = kifmm__now();
@@ -3503,8 +3539,10 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
         *out = h;
         return KIFMM_SUCCESS;
     }
+    h->cdiff = kifmm__check_diff(o.order, KIFMM__FFT);
+    h->ao = kifmm__alpha_outer(h->cdiff);
     h->nse = kifmm__surf_count(o.order);
-    h->nsc = kifmm__surf_count(o.order + KIFMM_CHECK_ORDER_DIFF);
+    h->nsc = kifmm__surf_count(o.order + h->cdiff);
     h->ne = h->nse * KIFMM__SD;
     h->nc = h->nsc * KIFMM__SD;
     h->surf_e = (double *)kifmm__alloc((size_t)3 * h->nse, sizeof(double));
@@ -3515,13 +3553,13 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
         (size_t)(KIFMM__GC_FAST ? h->nthreads : 1) * KIFMM__F(__gbuf_per)(h), sizeof(KIFMM__R));
     if (!h->surf_e || !h->surf_c || !h->scratch || !h->gbuf) { rc = KIFMM_ERR_NOMEM; goto fail; }
     kifmm__surf_unit(o.order, h->surf_e);
-    kifmm__surf_unit(o.order + KIFMM_CHECK_ORDER_DIFF, h->surf_c);
+    kifmm__surf_unit(o.order + h->cdiff, h->surf_c);
     t0 = kifmm__now();
     if ((rc = KIFMM__F(__tree)(h, nsources, src_xyz, ntargets, trg_xyz))) goto fail;
     kifmm__tree_dsrc(&h->tree, h->nsc); /* X lists of boxes with few targets go direct */
     t1 = kifmm__now();
 #if KIFMM__FFT
-    if ((rc = kifmm__fft_init(&h->fft, o.order + KIFMM_CHECK_ORDER_DIFF))) goto fail;
+    if ((rc = kifmm__fft_init(&h->fft, o.order + h->cdiff))) goto fail;
     h->fft.single = KIFMM__FLOAT || o.order <= KIFMM_FFT_SINGLE_MAX_ORDER;
     if ((rc = kifmm__colleagues(&h->tree, h->nthreads, &h->co, &h->cj, &h->cc))) goto fail;
     {

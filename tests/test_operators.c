@@ -66,7 +66,7 @@ static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, con
                 const double *q, double *ue)
 {
     double *pc = t_doubles(3 * c->nsc), *chk = t_doubles(c->nc), *xs = t_doubles(3 * ns);
-    kifmm__surf_place(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_OUTER * r, pc);
+    kifmm__surf_place(c->surf_c, c->nsc, ctr, c->ao * r, pc);
     soa(ns, x, xs);
     t_fill(c->nc, chk, 0.0);
     kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
@@ -216,14 +216,15 @@ static void test_downward(int p)
         t_gen_charges(&g, ns, q, -1, 1);
         points_in_box(&g, ny, ctr, r, y);
         p2m(c, cs, r, ns, x, q, ue);
-        kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_OUTER * r, pe);
+        kifmm__surf_place(c->surf_e, c->nse, ctr, c->ao * r, pe);
         /* FFT path */
         m2l_fft(c, tv, ue, de);
         eval_equiv(c, c->nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
                   "M2L (FFT) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
         /* dense path: the stored matrices include the first factor of the
-         * solve */
+         * solve; its downward equivalent surface has its own radius (hd->ao:
+         * the dense instance checks on order p + 1) */
         {
             const kifmm_laplace_dense__ops *od = &hd->ops[0];
             kifmm__gemm(0, 0, od->kd, 1, c->ne, 1.0, od->m2l + (size_t)tv * c->ne * od->kd,
@@ -231,6 +232,7 @@ static void test_downward(int p)
             kifmm__gemm(0, 0, c->ne, 1, od->kd, 1.0, od->vs_dn, c->ne, chk, od->kd, 0.0, de,
                         c->ne);
         }
+        kifmm__surf_place(c->surf_e, c->nse, ctr, hd->ao * r, pe);
         eval_equiv(c, c->nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
                   "M2L (dense) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
@@ -248,7 +250,7 @@ static void test_downward(int p)
         kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
                                  xs + 2 * ns, q, ns, 1, 0, 2 * r, chk, 0);
         solve(c, 0, chk, de);
-        kifmm__surf_place(c->surf_e, c->nse, cp, KIFMM__ALPHA_OUTER * 2 * r, pe);
+        kifmm__surf_place(c->surf_e, c->nse, cp, c->ao * 2 * r, pe);
         points_in_box(&g, ny, cp, 2 * r, y);
         eval_equiv(c, c->nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2L p=%d, inside the box", p);
@@ -258,7 +260,7 @@ static void test_downward(int p)
             double cc[3] = {cp[0] + (o >> 2 & 1 ? r : -r), cp[1] + (o >> 1 & 1 ? r : -r),
                             cp[2] + (o & 1 ? r : -r)};
             solve(c, 0, chk + (size_t)o * c->nc, dec);
-            kifmm__surf_place(c->surf_e, c->nse, cc, KIFMM__ALPHA_OUTER * r, pe);
+            kifmm__surf_place(c->surf_e, c->nse, cc, c->ao * r, pe);
             points_in_box(&g, ny, cc, r, y);
             eval_equiv(c, c->nse, pe, dec, ny, y, pot);
             CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "L2L p=%d, child %d", p, o);
