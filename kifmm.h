@@ -525,9 +525,9 @@ KIFMM__FN void kifmm__surf_place(const double *unit, int n, const double *c, dou
  * uniform, sphere, clustered and separate point sets (p = 4, 6, 7; p = 2,
  * 3, 5 at radius 3.5), the errors are the same or smaller
  * (docs/algorithm.md). From order 8 on the square systems lose digits (at
- * radius 3.5), and Stokes (dense M2L) loses them at every order: 1 there. A definition of KIFMM_CHECK_ORDER_DIFF before the include
- * applies to every order and kernel (the outer radius 4.5 when it is 0, 2.95
- * otherwise). */
+ * radius 3.5), and Stokes (dense M2L) loses them at every order: 1 there.
+ * A definition of KIFMM_CHECK_ORDER_DIFF before the include applies to every
+ * order and kernel (the outer radius 4.5 when it is 0, 2.95 otherwise). */
 KIFMM__FN int kifmm__check_diff(int p, int fft)
 {
 #ifdef KIFMM_CHECK_ORDER_DIFF
