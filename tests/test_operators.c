@@ -169,7 +169,8 @@ static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de
     plan.single = 0;
     t_fill(16 * pl->nfp, spec, 0.0);
     t_fill(16 * pl->nfp, prod, 0.0);
-    kifmm__gemm(0, 0, c->nc, 1, c->ne, 1.0, o->conv, c->nc, ue, c->ne, 0.0, m, c->nc);
+    if (o->conv) kifmm__gemm(0, 0, c->nc, 1, c->ne, 1.0, o->conv, c->nc, ue, c->ne, 0.0, m, c->nc);
+    else memcpy(m, ue, (size_t)c->nc * sizeof(double)); /* lattice = equivalent surface */
     /* lane 3 of the batched transforms carries the density, the others 0 */
     t_fill(8 * c->nc, m8, 0.0);
     for (i = 0; i < c->nc; i++) m8[8 * i + 3] = m[i];
