@@ -702,6 +702,9 @@ typedef struct kifmm__tree {
     int32_t *m2lo, *m2l;          /* per level: boxes with targets and a V list */
     int32_t *leaves;              /* leaves with targets, in Morton order */
     int32_t nleaves;
+    int32_t *dix;                 /* while the lists are built: box of each key of the
+                                     levels with dixo[l] >= 0 (-1 where none), or NULL */
+    int64_t dixo[KIFMM__D + 2];
 } kifmm__tree;
 
 KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
@@ -726,6 +729,7 @@ KIFMM__FN int32_t kifmm__find(const kifmm__tree *t, int l, uint64_t key)
     int32_t lo = t->loff[l], n = t->loff[l + 1] - lo;
     int64_t i;
     if (l >= t->nlev) return -1;
+    if (t->dix && t->dixo[l] >= 0) return t->dix[t->dixo[l] + (int64_t)key];
     i = kifmm__lower_bound(t->key + lo, n, key);
     return (i < n && t->key[lo + i] == key) ? lo + (int32_t)i : -1;
 }
@@ -1038,6 +1042,27 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
         return KIFMM_ERR_NOMEM;
     }
     off[0] = t->uo; off[1] = t->vo; off[2] = t->wo; off[3] = t->xo;
+    {
+        /* a direct index (key -> box) for the levels where it costs at most
+         * 8 entries per box (all of them in a uniform tree): a neighbour
+         * found in one load instead of a binary search (lists 2x faster at 1M
+         * uniform points); the others, and all if it cannot be had, search */
+        int64_t tot = 0, e;
+        for (l = 0; l < t->nlev; l++) {
+            const int64_t full = (int64_t)1 << (3 * l), nl = t->loff[l + 1] - t->loff[l];
+            t->dixo[l] = l <= 10 && full <= 8 * nl + 4096 ? tot : -1;
+            if (t->dixo[l] >= 0) tot += full;
+        }
+        t->dix = tot > 0 ? (int32_t *)kifmm__alloc((size_t)tot, sizeof(int32_t)) : NULL;
+        if (t->dix) {
+            KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+            for (e = 0; e < tot; e++) t->dix[e] = -1;
+            for (l = 0; l < t->nlev; l++)
+                if (t->dixo[l] >= 0)
+                    for (b = t->loff[l]; b < t->loff[l + 1]; b++)
+                        t->dix[t->dixo[l] + (int64_t)t->key[b]] = b;
+        }
+    }
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) reduction(| : overflow))
     for (k = 0; k < nk; k++) {
         const int32_t b0 = (int32_t)((int64_t)nb * k / nk), b1 = (int32_t)((int64_t)nb * (k + 1) / nk);
@@ -1055,6 +1080,8 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
             kifmm__lbuf_put(&buf[k], 3, L.x, L.nx, NULL);
         }
     }
+    kifmm__free(t->dix);
+    t->dix = NULL;
     for (k = 0; k < nk; k++) fail |= buf[k].fail;
     if (!overflow && !fail) {
         for (j = 0; j < 4; j++)
