@@ -180,12 +180,18 @@ static void direct_sums(int64_t n, const double *xyz, const double *q, int64_t n
 /* ------------------------------------------------------------------------ */
 /* Settings report                                                          */
 /* ------------------------------------------------------------------------ */
-static const char *lib_of(void *sym)
+/* The library that holds function fn. ISO C has no conversion from a
+ * function pointer to void *, which dladdr takes; POSIX gives them the same
+ * representation, so the bytes are copied. */
+typedef void (*bench_fn)(void);
+static const char *lib_of(bench_fn fn)
 {
     static char buf[4][1024];
     static int k = 0;
     Dl_info info;
+    void *sym = NULL;
     char *r;
+    if (sizeof sym == sizeof fn) memcpy(&sym, &fn, sizeof sym);
     if (!sym || !dladdr(sym, &info) || !info.dli_fname) return "(not found)";
     k = (k + 1) % 4;
     r = realpath(info.dli_fname, buf[k]);
@@ -219,9 +225,9 @@ static void print_info(void)
     printf("compiler:    %s\n", __VERSION__);
     printf("kifmm.h:     %d.%d.%d, kernel laplace_grad\n", KIFMM_VERSION_MAJOR,
            KIFMM_VERSION_MINOR, KIFMM_VERSION_PATCH);
-    printf("BLAS:        cblas_dgemm from %s\n", lib_of((void *)&cblas_dgemm));
-    printf("LAPACK:      LAPACKE_dgesvd_work from %s\n", lib_of((void *)&LAPACKE_dgesvd_work));
-    printf("             dgesvd_ from %s\n", lib_of((void *)&dgesvd_));
+    printf("BLAS:        cblas_dgemm from %s\n", lib_of((bench_fn)&cblas_dgemm));
+    printf("LAPACK:      LAPACKE_dgesvd_work from %s\n", lib_of((bench_fn)&LAPACKE_dgesvd_work));
+    printf("             dgesvd_ from %s\n", lib_of((bench_fn)&dgesvd_));
     if (openblas_get_config) {
         int par = openblas_get_parallel ? openblas_get_parallel() : -1;
         printf("OpenBLAS:    %s\n", openblas_get_config());
