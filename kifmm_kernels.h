@@ -797,7 +797,8 @@ static inline void kifmm_kernel__tadd(__m256d c0, __m256d c1, __m256d c2, __m256
                                       double *o, int64_t n)
 {
     const __m256d t0 = _mm256_unpacklo_pd(c0, c1), t1 = _mm256_unpackhi_pd(c0, c1);
-    const __m256d t2 = _mm256_unpacklo_pd(c2, c3), t3 = _mm256_unpackhi_pd(c2, c3), sv = _mm256_set1_pd(s);
+    const __m256d t2 = _mm256_unpacklo_pd(c2, c3), t3 = _mm256_unpackhi_pd(c2, c3);
+    const __m256d sv = _mm256_set1_pd(s);
     __m256d row[4];
     int64_t l;
     row[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
@@ -1220,7 +1221,8 @@ KIFMM_KERNEL__P2PS_F(1)
                             }                                                                      \
                             t4[0] = t4[1] = t4[2] = t4[3] = 0;                                     \
                             RED4(a0, a1, a2, a3, s, s, t4);                                        \
-                            for (u = 0; u < nu; u++) outa[(size_t)(r + u) * old + i0 + i] += t4[u]; \
+                            for (u = 0; u < nu; u++)                                               \
+                                outa[(size_t)(r + u) * old + i0 + i] += t4[u];                     \
                         }                                                                          \
                     }                                                                              \
                     for (j = 0; j < jw; j += W) {                                                  \
@@ -1231,7 +1233,8 @@ KIFMM_KERNEL__P2PS_F(1)
                         if (GRAD) {                                                                \
                             for (i = 0; i < ib; i++, g += SB_) {                                   \
                                 const V g0 = LOADU(g), g1 = LOADU(g + IB_ * SB_);                  \
-                                const V g2 = LOADU(g + 2 * IB_ * SB_), g3 = LOADU(g + 3 * IB_ * SB_); \
+                                const V g2 = LOADU(g + 2 * IB_ * SB_);                             \
+                                const V g3 = LOADU(g + 3 * IB_ * SB_);                             \
                                 const V x = SET1(qk[0][i]), y = SET1(qk[1][i]);                    \
                                 a0 = FMADD(x, g0, a0); a1 = FMADD(x, g1, a1);                      \
                                 a2 = FMADD(x, g2, a2); a3 = FMADD(x, g3, a3);                      \
@@ -1240,8 +1243,8 @@ KIFMM_KERNEL__P2PS_F(1)
                             }                                                                      \
                             TADD(a0, a1, a2, a3, s, outb + (size_t)r * old + 4 * (j0 + j), nj);    \
                             if (nu > 1)                                                            \
-                                TADD(b0, b1, b2, b3, s, outb + (size_t)(r + 1) * old + 4 * (j0 + j), \
-                                     nj);                                                          \
+                                TADD(b0, b1, b2, b3, s,                                            \
+                                     outb + (size_t)(r + 1) * old + 4 * (j0 + j), nj);             \
                         } else {                                                                   \
                             for (i = 0; i < ib; i++, g += SB_) {                                   \
                                 const V g0 = LOADU(g);                                             \
