@@ -788,6 +788,33 @@ static inline void kifmm_kernel__red4f(__m256 a0, __m256 a1, __m256 a2, __m256 a
     _mm_storeu_ps(o, _mm_fmadd_ps(_mm_setr_ps(s, t, t, t), w, _mm_loadu_ps(o)));
 }
 
+/* Two points' sums: o[k] += s (sum of the lanes of ak), and if both,
+ * o[4 + k] += s (sum of ck), k = 0..3. */
+static inline void kifmm_kernel__red2(__m256d a0, __m256d a1, __m256d a2, __m256d a3,
+                                      __m256d c0, __m256d c1, __m256d c2, __m256d c3, double s,
+                                      double *o, int both)
+{
+    kifmm_kernel__red4(a0, a1, a2, a3, s, s, o);
+    if (both) kifmm_kernel__red4(c0, c1, c2, c3, s, s, o + 4);
+}
+static inline void kifmm_kernel__red2f(__m256 a0, __m256 a1, __m256 a2, __m256 a3, __m256 c0,
+                                       __m256 c1, __m256 c2, __m256 c3, float s, float *o,
+                                       int both)
+{
+    /* lanes 0..3: a0..a3 of the low halves, 4..7: c0..c3 of the low halves;
+     * the same of the high halves, added */
+    const __m256 a = _mm256_hadd_ps(_mm256_hadd_ps(a0, a1), _mm256_hadd_ps(a2, a3));
+    const __m256 c = _mm256_hadd_ps(_mm256_hadd_ps(c0, c1), _mm256_hadd_ps(c2, c3));
+    const __m256 v = _mm256_add_ps(_mm256_permute2f128_ps(a, c, 0x20),
+                                   _mm256_permute2f128_ps(a, c, 0x31));
+    const __m256 sv = _mm256_set1_ps(s);
+    if (both)
+        _mm256_storeu_ps(o, _mm256_fmadd_ps(sv, v, _mm256_loadu_ps(o)));
+    else
+        _mm_storeu_ps(o, _mm_fmadd_ps(_mm256_castps256_ps128(sv), _mm256_castps256_ps128(v),
+                                      _mm_loadu_ps(o)));
+}
+
 /* Lane l < n of c0..c3 belongs to point l: o[4 l + k] += s ck[l]. */
 static inline void kifmm_kernel__tadd(__m256d c0, __m256d c1, __m256d c2, __m256d c3, double s,
                                       double *o, int64_t n)
@@ -1019,7 +1046,7 @@ KIFMM_KERNEL__P2PN_F(1)
  * field at 1M points, p = 6, 0.57-0.59 -> 0.46-0.47 s). */
 #define KIFMM_KERNEL__SB 64
 #define KIFMM_KERNEL__P2PS_BODY(T, V, W, GEOMV, MASK, SET1, ZERO, LOADU, STOREU, ADD, MUL, \
-                                FMADD, FNMADD, HSUM, GRAD)                                     \
+                                FMADD, FNMADD, HSUM, RED2, GRAD)                               \
     {                                                                                          \
         const T s = (T)scale * (T)KIFMM_INV_4PI;                                               \
         T pb[(GRAD ? 4 : 1) * KIFMM_KERNEL__SB], qp[KIFMM_KERNEL__SB];                          \
@@ -1077,16 +1104,7 @@ KIFMM_KERNEL__P2PN_F(1)
                     }                                                                          \
                 }                                                                              \
                 if (GRAD) {                                                                    \
-                    outa[4 * i + 0] += s * HSUM(a0);                                           \
-                    outa[4 * i + 1] += s * HSUM(a1);                                           \
-                    outa[4 * i + 2] += s * HSUM(a2);                                           \
-                    outa[4 * i + 3] += s * HSUM(a3);                                           \
-                    if (i1 > i) {                                                              \
-                        outa[4 * i1 + 0] += s * HSUM(c0);                                      \
-                        outa[4 * i1 + 1] += s * HSUM(c1);                                      \
-                        outa[4 * i1 + 2] += s * HSUM(c2);                                      \
-                        outa[4 * i1 + 3] += s * HSUM(c3);                                      \
-                    }                                                                          \
+                    RED2(a0, a1, a2, a3, c0, c1, c2, c3, s, outa + 4 * i, i1 > i);             \
                 } else {                                                                       \
                     outa[i] += s * HSUM(a0);                                                   \
                     if (i1 > i) outa[i1] += s * HSUM(c0);                                      \
@@ -1106,12 +1124,12 @@ KIFMM_KERNEL__P2PN_F(1)
     KIFMM_KERNEL__P2PS_BODY(double, __m256d, 4, kifmm_kernel__geomv, kifmm_kernel__nmask,        \
                             _mm256_set1_pd, _mm256_setzero_pd(), _mm256_loadu_pd,                \
                             _mm256_storeu_pd, _mm256_add_pd, _mm256_mul_pd, _mm256_fmadd_pd,       \
-                            _mm256_fnmadd_pd, kifmm_kernel__hsumn, GRAD)
+                            _mm256_fnmadd_pd, kifmm_kernel__hsumn, kifmm_kernel__red2, GRAD)
 #define KIFMM_KERNEL__P2PS_F(GRAD)                                                                \
     KIFMM_KERNEL__P2PS_BODY(float, __m256, 8, kifmm_kernel__geomvf, kifmm_kernel__nmaskf,        \
                             _mm256_set1_ps, _mm256_setzero_ps(), _mm256_loadu_ps,                \
                             _mm256_storeu_ps, _mm256_add_ps, _mm256_mul_ps, _mm256_fmadd_ps,       \
-                            _mm256_fnmadd_ps, kifmm_kernel__hsumnf, GRAD)
+                            _mm256_fnmadd_ps, kifmm_kernel__hsumnf, kifmm_kernel__red2f, GRAD)
 
 #define KIFMM_KERNEL__P2PS_SIG(name, T)                                                        \
     static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
