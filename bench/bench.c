@@ -155,7 +155,11 @@ static void direct_sums(int64_t n, const double *xyz, const double *q, int64_t n
         const double tx = xyz[3 * idx[s]], ty = xyz[3 * idx[s] + 1], tz = xyz[3 * idx[s] + 2];
         double p = 0, gx = 0, gy = 0, gz = 0;
         int64_t j;
+        /* clang keeps sqrt's errno and cannot vectorise this loop (it warns
+         * when asked); gcc can */
+#if !defined(__clang__)
 #pragma omp simd reduction(+ : p, gx, gy, gz)
+#endif
         for (j = 0; j < n; j++) {
             double dx = tx - x[j], dy = ty - y[j], dz = tz - z[j];
             double r2 = dx * dx + dy * dy + dz * dz;
