@@ -3468,14 +3468,16 @@ KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h);
 }
 
-KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const KIFMM__R *xyz)
+KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const KIFMM__R *xyz, int nth)
 {
     int64_t i;
+    int bad = 0;
     if (n < 0) return KIFMM_ERR_COUNT;
     if (n > 0 && !xyz) return KIFMM_ERR_NULL;
-    for (i = 0; i < 3 * n; i++)
-        if (!isfinite(xyz[i])) return KIFMM_ERR_NONFINITE;
-    return KIFMM_SUCCESS;
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(| : bad) if (n > 65536))
+    for (i = 0; i < 3 * n; i++) bad |= !isfinite(xyz[i]);
+    (void)nth;
+    return bad ? KIFMM_ERR_NONFINITE : KIFMM_SUCCESS;
 }
 
 /* The kernel's parameters with defaults resolved, or KIFMM_ERR_PARAM. */
@@ -3509,9 +3511,12 @@ KIFMM__FN int KIFMM__F(__tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, i
         if (!same) kifmm__free(g);
         return KIFMM_ERR_NOMEM;
     }
+    KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
     for (i = 0; i < 3 * ns; i++) s[i] = src[i];
-    if (!same)
+    if (!same) {
+        KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
         for (i = 0; i < 3 * nt; i++) g[i] = trg[i];
+    }
     rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads,
                            !KIFMM__FFT);
     kifmm__free(s);
@@ -3557,8 +3562,8 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if ((rc = kifmm__resolve_opts(opts, &o))) return rc;
-    if ((rc = KIFMM__F(__check_points)(nsources, src_xyz))) return rc;
-    if ((rc = KIFMM__F(__check_points)(ntargets, trg_xyz))) return rc;
+    if ((rc = KIFMM__F(__check_points)(nsources, src_xyz, o.nthreads))) return rc;
+    if ((rc = KIFMM__F(__check_points)(ntargets, trg_xyz, o.nthreads))) return rc;
     if ((rc = KIFMM__F(__params)(o.kernel_param, param))) return rc;
     memcpy(o.kernel_param, param, sizeof param);
     h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h);
