@@ -604,8 +604,8 @@ KIFMM__FN int kifmm__thread_chunk(int64_t n, int64_t *lo, int64_t *hi)
  * in which every key has the same digit are skipped. */
 KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
 {
-    uint64_t *k2 = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t));
-    int64_t *i2 = (int64_t *)kifmm__alloc((size_t)n, sizeof(int64_t));
+    uint64_t *k2 = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t)), *ka = key, *kb = k2;
+    int64_t *i2 = (int64_t *)kifmm__alloc((size_t)n, sizeof(int64_t)), *ia = idx, *ib = i2;
     int64_t *cnt = (int64_t *)kifmm__alloc((size_t)nth * 256, sizeof(int64_t));
     int shift;
     if (!k2 || !i2 || !cnt) {
@@ -614,6 +614,7 @@ KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
         kifmm__free(cnt);
         return KIFMM_ERR_NOMEM;
     }
+    /* each pass scatters from (ka, ia) into (kb, ib), then the two swap */
     for (shift = 0; shift < 64 && n > 0; shift += 8) {
         int64_t sum = 0, total0 = 0;
         int th, b, same;
@@ -621,9 +622,9 @@ KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
         KIFMM__OMP(parallel num_threads(nth))
         {
             int64_t i, lo, hi, *c = cnt + (size_t)kifmm__thread_chunk(n, &lo, &hi) * 256;
-            for (i = lo; i < hi; i++) c[(key[i] >> shift) & 255]++;
+            for (i = lo; i < hi; i++) c[(ka[i] >> shift) & 255]++;
         }
-        for (th = 0; th < nth; th++) total0 += cnt[(size_t)th * 256 + ((key[0] >> shift) & 255)];
+        for (th = 0; th < nth; th++) total0 += cnt[(size_t)th * 256 + ((ka[0] >> shift) & 255)];
         same = total0 == n;
         if (same) continue;
         for (b = 0; b < 256; b++)
@@ -636,13 +637,25 @@ KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
         {
             int64_t i, lo, hi, *c = cnt + (size_t)kifmm__thread_chunk(n, &lo, &hi) * 256;
             for (i = lo; i < hi; i++) {
-                int64_t d = c[(key[i] >> shift) & 255]++;
-                k2[d] = key[i];
-                i2[d] = idx[i];
+                int64_t d = c[(ka[i] >> shift) & 255]++;
+                kb[d] = ka[i];
+                ib[d] = ia[i];
             }
         }
-        memcpy(key, k2, (size_t)n * sizeof *key);
-        memcpy(idx, i2, (size_t)n * sizeof *idx);
+        {
+            uint64_t *kt = ka;
+            int64_t *it = ia;
+            ka = kb; kb = kt;
+            ia = ib; ib = it;
+        }
+    }
+    if (ka != key) {
+        int64_t i;
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+        for (i = 0; i < n; i++) {
+            key[i] = ka[i];
+            idx[i] = ia[i];
+        }
     }
     kifmm__free(k2);
     kifmm__free(i2);
