@@ -1138,21 +1138,199 @@ KIFMM_KERNEL__P2PN_F(1)
                             const T *qa, int64_t na, const T *bx, const T *by, const T *bz,    \
                             const T *qb, int64_t nb, T scale, T *outa, T *outb)
 
-/* Double only where the single-vector hooks are the AVX2 ones (see above). */
-#if !defined(__AVX512F__)
+/* AVX-512 mutual hooks. The same contract and block structure as above,
+ * with 8 (double) or 16 (float) lanes and 1 / r without a division:
+ * rsqrt14 (relative error below 2^-14) and, in double, one correction of
+ * fourth order, y (1 + e/2 + 3e^2/8 + 5e^3/16) with e = 1 - r2 y^2, whose
+ * error is about 0.27 e^4 < 2^-57 before rounding (two Newton steps take two
+ * more operations for the same accuracy); in float one Newton step. Each
+ * target's sums take one FMA per component (the potential's q / r, the
+ * gradient's q d / r^3 from the one r^-3), and the two targets' eight sums
+ * are reduced across the lanes together. */
+#if defined(__AVX512F__)
+/* 1 / sqrt(r2) for 0 < r2 < inf (subnormal r2 included), 0 elsewhere: r2 = 0
+ * gives y = inf and r2 = inf gives y = 0, and then e is NaN in both, as it
+ * is for a NaN r2, so the lanes where e is NaN are the ones zeroed. */
+static inline __m512d kifmm_kernel__rinv8(__m512d r2)
+{
+    const __m512d y = _mm512_rsqrt14_pd(r2);
+    const __m512d e = _mm512_fnmadd_pd(_mm512_mul_pd(r2, y), y, _mm512_set1_pd(1.0));
+    const __mmask8 live = _mm512_cmp_pd_mask(e, e, _CMP_ORD_Q);
+    __m512d p = _mm512_fmadd_pd(_mm512_set1_pd(0.3125), e, _mm512_set1_pd(0.375));
+    p = _mm512_fmadd_pd(p, e, _mm512_set1_pd(0.5));
+    return _mm512_maskz_fmadd_pd(live, _mm512_mul_pd(y, e), p, y);
+}
+/* Float: FLT_MIN <= r2 <= FLT_MAX as in the AVX2 float loops (closer pairs
+ * count as coincident), rsqrt14 and one Newton step (about 2^-27). */
+static inline __m512 kifmm_kernel__rinv16(__m512 r2)
+{
+    const __mmask16 live = _mm512_mask_cmp_ps_mask(
+        _mm512_cmp_ps_mask(r2, _mm512_set1_ps(FLT_MIN), _CMP_GE_OQ), r2,
+        _mm512_set1_ps(FLT_MAX), _CMP_LE_OQ);
+    const __m512 y = _mm512_maskz_rsqrt14_ps(live, r2);
+    const __m512 e = _mm512_fnmadd_ps(_mm512_mul_ps(r2, y), y, _mm512_set1_ps(1.0f));
+    return _mm512_maskz_fmadd_ps(live, _mm512_mul_ps(_mm512_set1_ps(0.5f), y), e, y);
+}
+
+/* o[k] += s * (sum of the lanes of ak), o[4 + k] += s * (sum of ck), k = 0..3,
+ * the second four only if both: one transposing reduction of the 8 vectors. */
+static inline void kifmm_kernel__red8x8(__m512d a0, __m512d a1, __m512d a2, __m512d a3,
+                                        __m512d c0, __m512d c1, __m512d c2, __m512d c3,
+                                        double s, double *o, int both)
+{
+    /* per 128-bit block: pairs of lanes added, two vectors side by side */
+    const __m512d s0 = _mm512_add_pd(_mm512_unpacklo_pd(a0, a1), _mm512_unpackhi_pd(a0, a1));
+    const __m512d s1 = _mm512_add_pd(_mm512_unpacklo_pd(a2, a3), _mm512_unpackhi_pd(a2, a3));
+    const __m512d s2 = _mm512_add_pd(_mm512_unpacklo_pd(c0, c1), _mm512_unpackhi_pd(c0, c1));
+    const __m512d s3 = _mm512_add_pd(_mm512_unpacklo_pd(c2, c3), _mm512_unpackhi_pd(c2, c3));
+    /* blocks 0+1 and 2+3 of s0, s1 (and s2, s3) */
+    const __m512d v0 = _mm512_add_pd(_mm512_shuffle_f64x2(s0, s1, 0x88),
+                                     _mm512_shuffle_f64x2(s0, s1, 0xDD));
+    const __m512d v1 = _mm512_add_pd(_mm512_shuffle_f64x2(s2, s3, 0x88),
+                                     _mm512_shuffle_f64x2(s2, s3, 0xDD));
+    /* lanes: sums of a0, a1, a2, a3, c0, c1, c2, c3 */
+    const __m512d v = _mm512_add_pd(_mm512_shuffle_f64x2(v0, v1, 0x88),
+                                    _mm512_shuffle_f64x2(v0, v1, 0xDD));
+    const __mmask8 m = both ? 0xFF : 0x0F;
+    _mm512_mask_storeu_pd(o, m, _mm512_fmadd_pd(_mm512_set1_pd(s), v, _mm512_maskz_loadu_pd(m, o)));
+}
+/* The same in float: 16 lanes, the 8 sums in the low 8. */
+static inline void kifmm_kernel__red8x16(__m512 a0, __m512 a1, __m512 a2, __m512 a3, __m512 c0,
+                                         __m512 c1, __m512 c2, __m512 c3, float s, float *o,
+                                         int both)
+{
+    const __m512 s0 = _mm512_add_ps(_mm512_unpacklo_ps(a0, a1), _mm512_unpackhi_ps(a0, a1));
+    const __m512 s1 = _mm512_add_ps(_mm512_unpacklo_ps(a2, a3), _mm512_unpackhi_ps(a2, a3));
+    const __m512 s2 = _mm512_add_ps(_mm512_unpacklo_ps(c0, c1), _mm512_unpackhi_ps(c0, c1));
+    const __m512 s3 = _mm512_add_ps(_mm512_unpacklo_ps(c2, c3), _mm512_unpackhi_ps(c2, c3));
+    /* per 128-bit block, lanes (a0 a1 a0 a1) and (a2 a3 a2 a3): pairs added */
+    const __m512 t0 = _mm512_add_ps(_mm512_shuffle_ps(s0, s1, 0x44), _mm512_shuffle_ps(s0, s1, 0xEE));
+    const __m512 t1 = _mm512_add_ps(_mm512_shuffle_ps(s2, s3, 0x44), _mm512_shuffle_ps(s2, s3, 0xEE));
+    /* each 128-bit block holds a0..a3 (t0) or c0..c3 (t1): add the 4 blocks */
+    const __m512 u = _mm512_add_ps(_mm512_shuffle_f32x4(t0, t1, 0x88),
+                                   _mm512_shuffle_f32x4(t0, t1, 0xDD));
+    const __m512 v = _mm512_add_ps(_mm512_shuffle_f32x4(u, u, 0x08), _mm512_shuffle_f32x4(u, u, 0x0D));
+    const __mmask16 m = both ? 0xFF : 0x0F;
+    _mm512_mask_storeu_ps(o, m, _mm512_fmadd_ps(_mm512_set1_ps(s), v, _mm512_maskz_loadu_ps(m, o)));
+}
+static inline double kifmm_kernel__hsum8(__m512d v) { return _mm512_reduce_add_pd(v); }
+static inline float kifmm_kernel__hsum16(__m512 v) { return _mm512_reduce_add_ps(v); }
+
+#define KIFMM_KERNEL__SB5 64
+#define KIFMM_KERNEL__P2PS5_BODY(T, V, W, RINV, SET1, ZERO, LOAD, STORE, SUB, MUL, FMADD,       \
+                                 FNMADD, HSUM, RED8, GRAD)                                      \
+    {                                                                                          \
+        enum { SB_ = KIFMM_KERNEL__SB5, NB_ = KIFMM_KERNEL__SB5 / (W) };                       \
+        const T s = (T)scale * (T)KIFMM_INV_4PI;                                               \
+        /* B's block and its sums, in vectors for their alignment */                          \
+        V vb[((GRAD) ? 4 : 1) * NB_], vx[NB_], vy[NB_], vz[NB_], vq[NB_];                      \
+        T *pb = (T *)vb, *px = (T *)vx, *py = (T *)vy, *pz = (T *)vz, *qp = (T *)vq;           \
+        int64_t i, j, j0, jb, jw, k;                                                           \
+        (void)param;                                                                           \
+        for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
+            jb = nb - j0 < SB_ ? nb - j0 : SB_;                                                \
+            jw = (jb + (W) - 1) / (W) * (W); /* lanes touched */                               \
+            for (k = 0; k < ((GRAD) ? 4 : 1) * NB_; k++) vb[k] = ZERO;                         \
+            /* padded with points at 0 of density 0: they add nothing to A, and to   \
+             * B only in the padding of pb */                                       \
+            for (k = 0; k < jw; k++) {                                                         \
+                qp[k] = k < jb ? qb[j0 + k] : 0;                                               \
+                px[k] = k < jb ? bx[j0 + k] : 0;                                               \
+                py[k] = k < jb ? by[j0 + k] : 0;                                               \
+                pz[k] = k < jb ? bz[j0 + k] : 0;                                               \
+            }                                                                                  \
+            for (i = 0; i < na; i += 2) {                                                      \
+                /* targets i and i + 1 (a copy of i with no density if i is the last) */      \
+                const int64_t i1 = i + 1 < na ? i + 1 : i;                                     \
+                const V X0 = SET1(ax[i]), Y0 = SET1(ay[i]), Z0 = SET1(az[i]);                  \
+                const V X1 = SET1(ax[i1]), Y1 = SET1(ay[i1]), Z1 = SET1(az[i1]);               \
+                const V QA0 = SET1(qa[i]), QA1 = SET1(i1 > i ? qa[i1] : (T)0);                 \
+                V a0 = ZERO, a1 = ZERO, a2 = ZERO, a3 = ZERO;                                  \
+                V c0 = ZERO, c1 = ZERO, c2 = ZERO, c3 = ZERO;                                  \
+                for (j = 0; j < jw; j += (W)) {                                                \
+                    const V sx = LOAD(px + j), sy = LOAD(py + j), sz = LOAD(pz + j);           \
+                    const V q = LOAD(qp + j);                                                  \
+                    const V dx0 = SUB(X0, sx), dy0 = SUB(Y0, sy), dz0 = SUB(Z0, sz);        \
+                    const V dx1 = SUB(X1, sx), dy1 = SUB(Y1, sy), dz1 = SUB(Z1, sz);        \
+                    const V inv0 = RINV(FMADD(dz0, dz0, FMADD(dy0, dy0, MUL(dx0, dx0))));      \
+                    const V inv1 = RINV(FMADD(dz1, dz1, FMADD(dy1, dy1, MUL(dx1, dx1))));      \
+                    a0 = FMADD(q, inv0, a0);                                                   \
+                    c0 = FMADD(q, inv1, c0);                                                   \
+                    STORE(pb + j, FMADD(QA0, inv0, FMADD(QA1, inv1, LOAD(pb + j))));           \
+                    if (GRAD) {                                                                \
+                        const V w0 = MUL(MUL(inv0, inv0), inv0), w1 = MUL(MUL(inv1, inv1), inv1); \
+                        const V qb0 = MUL(q, w0), qb1 = MUL(q, w1);                            \
+                        const V qa0 = MUL(QA0, w0), qa1 = MUL(QA1, w1);                        \
+                        T *o = pb + SB_ + j;                                                   \
+                        a1 = FNMADD(qb0, dx0, a1);                                             \
+                        a2 = FNMADD(qb0, dy0, a2);                                             \
+                        a3 = FNMADD(qb0, dz0, a3);                                             \
+                        c1 = FNMADD(qb1, dx1, c1);                                             \
+                        c2 = FNMADD(qb1, dy1, c2);                                             \
+                        c3 = FNMADD(qb1, dz1, c3);                                             \
+                        STORE(o, FMADD(qa0, dx0, FMADD(qa1, dx1, LOAD(o))));                   \
+                        o += SB_;                                                              \
+                        STORE(o, FMADD(qa0, dy0, FMADD(qa1, dy1, LOAD(o))));                   \
+                        o += SB_;                                                              \
+                        STORE(o, FMADD(qa0, dz0, FMADD(qa1, dz1, LOAD(o))));                   \
+                    }                                                                          \
+                }                                                                              \
+                if (GRAD) {                                                                    \
+                    RED8(a0, a1, a2, a3, c0, c1, c2, c3, s, outa + 4 * i, i1 > i);             \
+                } else {                                                                       \
+                    outa[i] += s * HSUM(a0);                                                   \
+                    if (i1 > i) outa[i1] += s * HSUM(c0);                                      \
+                }                                                                              \
+            }                                                                                  \
+            for (j = 0; j < jb; j++) {                                                         \
+                if (GRAD)                                                                      \
+                    for (k = 0; k < 4; k++) outb[4 * (j0 + j) + k] += s * pb[k * SB_ + j];     \
+                else                                                                           \
+                    outb[j0 + j] += s * pb[j];                                                 \
+            }                                                                                  \
+        }                                                                                      \
+    }
+
+#define KIFMM_KERNEL__P2PS5_D(GRAD)                                                               \
+    KIFMM_KERNEL__P2PS5_BODY(double, __m512d, 8, kifmm_kernel__rinv8, _mm512_set1_pd,            \
+                             _mm512_setzero_pd(), _mm512_load_pd, _mm512_store_pd, _mm512_sub_pd, \
+                             _mm512_mul_pd, _mm512_fmadd_pd, _mm512_fnmadd_pd,                   \
+                             kifmm_kernel__hsum8, kifmm_kernel__red8x8, GRAD)
+#define KIFMM_KERNEL__P2PS5_F(GRAD)                                                               \
+    KIFMM_KERNEL__P2PS5_BODY(float, __m512, 16, kifmm_kernel__rinv16, _mm512_set1_ps,            \
+                             _mm512_setzero_ps(), _mm512_load_ps, _mm512_store_ps, _mm512_sub_ps, \
+                             _mm512_mul_ps, _mm512_fmadd_ps, _mm512_fnmadd_ps,                   \
+                             kifmm_kernel__hsum16, kifmm_kernel__red8x16, GRAD)
+#define kifmm_kernel_laplace_P2PS 1
+KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2ps, double)
+KIFMM_KERNEL__P2PS5_D(0)
+#define kifmm_kernel_laplace_grad_P2PS 1
+KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2ps, double)
+KIFMM_KERNEL__P2PS5_D(1)
+#define kifmm_kernel_laplace_P2PSF 1
+KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2psf, float)
+KIFMM_KERNEL__P2PS5_F(0)
+#define kifmm_kernel_laplace_grad_P2PSF 1
+KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2psf, float)
+KIFMM_KERNEL__P2PS5_F(1)
+#undef KIFMM_KERNEL__P2PS5_D
+#undef KIFMM_KERNEL__P2PS5_F
+#undef KIFMM_KERNEL__P2PS5_BODY
+#undef KIFMM_KERNEL__SB5
+#else
 #define kifmm_kernel_laplace_P2PS 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2ps, double)
 KIFMM_KERNEL__P2PS_D(0)
 #define kifmm_kernel_laplace_grad_P2PS 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2ps, double)
 KIFMM_KERNEL__P2PS_D(1)
-#endif
 #define kifmm_kernel_laplace_P2PSF 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2psf, float)
 KIFMM_KERNEL__P2PS_F(0)
 #define kifmm_kernel_laplace_grad_P2PSF 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2psf, float)
 KIFMM_KERNEL__P2PS_F(1)
+#endif
 
 /* ------------------------------------------------------------------------ */
 /* Mutual many-vector hooks (_P2PSN / _p2psn, _P2PSNF / _p2psnf)            */

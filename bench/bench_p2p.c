@@ -89,6 +89,22 @@ static void many8(const double *prm, const double *tx_, const double *ty_, const
 }
 #endif
 
+#if kifmm_kernel_laplace_P2PS && kifmm_kernel_laplace_grad_P2PS
+typedef void (*p2ps_fn)(const double *, const double *, const double *, const double *,
+                        const double *, int64_t, const double *, const double *, const double *,
+                        const double *, int64_t, double, double *, double *);
+static p2ps_fn g_mut;
+static int64_t g_mtd;
+/* both directions between the targets (A, charges q + NMAX) and the sources (B) */
+static void mutual(const double *prm, const double *tx_, const double *ty_, const double *tz_,
+                   int64_t nt, const double *sx_, const double *sy_, const double *sz_,
+                   const double *q_, int64_t ns, double scale, double *out_)
+{
+    g_mut(prm, tx_, ty_, tz_, q_ + NMAX, nt, sx_, sy_, sz_, q_, ns, scale, out_,
+          out_ + g_mtd * NMAX);
+}
+#endif
+
 /* Best pairs per second of `f` on an n x n block over 5 measurements. */
 static double rate(p2p_fn f, int td, int64_t n, double seconds)
 {
@@ -160,6 +176,24 @@ int main(int argc, char **argv)
         g_td = td;
         for (i = 0; i < (int)(sizeof sizes / sizeof sizes[0]); i++) {
             double rh = rate(h, td, sizes[i], seconds), rm = NV * rate(many8, td, sizes[i], seconds);
+            printf("%-13s %6ld %14.3e %14.3e %7.2fx\n", name, (long)sizes[i], rh, rm, rm / rh);
+            fflush(stdout);
+        }
+    }
+#endif
+#if kifmm_kernel_laplace_P2PS && kifmm_kernel_laplace_grad_P2PS
+    printf("\nmutual hooks (_p2ps): both directions of nt x ns pairs, against _p2p twice;\n"
+           "pairs per second, each pair counted once for both directions\n");
+    printf("%-13s %6s %14s %14s %8s\n", "kernel", "nt=ns", "2 x _p2p (1/s)", "_p2ps (1/s)",
+           "speedup");
+    for (k = 0; k < 2; k++) {
+        const char *name = k == 0 ? "laplace" : "laplace_grad";
+        p2p_fn h = k == 0 ? kifmm_kernel_laplace_p2p : kifmm_kernel_laplace_grad_p2p;
+        int td = k == 0 ? 1 : 4;
+        g_mut = k == 0 ? kifmm_kernel_laplace_p2ps : kifmm_kernel_laplace_grad_p2ps;
+        g_mtd = td;
+        for (i = 0; i < (int)(sizeof sizes / sizeof sizes[0]); i++) {
+            double rh = 0.5 * rate(h, td, sizes[i], seconds), rm = rate(mutual, td, sizes[i], seconds);
             printf("%-13s %6ld %14.3e %14.3e %7.2fx\n", name, (long)sizes[i], rh, rm, rm / rh);
             fflush(stdout);
         }

@@ -339,6 +339,57 @@ static void mutual_as_one(const double *prm, const double *tx, const double *ty,
     free(mag);
 }
 
+/* The mutual hooks pair by pair over the exponent range and at subnormal
+ * r^2 (A side per pair as in test_pairs, B side against long double sums),
+ * and pairs that must add exactly 0 on both sides: coincident points and
+ * r^2 = inf. */
+static void pair_errors(hook_fn hook, int td, int e_lo, int e_hi, t_rng *r, double *e_ld,
+                        double *e_d);
+static void test_mutual_pairs(void)
+{
+    t_rng r = t_rng_seed(78);
+    double e_ld, e_d, qa[5], q[9], oa[20], ob[36], pa[20], pb[36];
+    pts t = pts_new(5), s = pts_new(9);
+    int i, j, k, pass, same = 1;
+    g_mut = kifmm_kernel_laplace_p2ps;
+    g_mtd = 1;
+    g_mut_err = 0.0;
+    pair_errors(mutual_as_one, 1, -150, 153, &r, &e_ld, &e_d);
+    CHECK_ERR(e_ld, 2e-15, "laplace_p2ps      e in [-150, 153], vs long double");
+    pair_errors(mutual_as_one, 1, 20, 1, &r, &e_ld, &e_d);
+    CHECK_ERR(e_ld, 2e-15, "laplace_p2ps      subnormal r^2, vs long double");
+    CHECK_ERR(g_mut_err, 1e-14, "laplace_p2ps      single pairs, B side: vs sum|terms|");
+    g_mut = kifmm_kernel_laplace_grad_p2ps;
+    g_mtd = 4;
+    g_mut_err = 0.0;
+    pair_errors(mutual_as_one, 4, -90, 90, &r, &e_ld, &e_d);
+    CHECK_ERR(e_ld, 2e-15, "laplace_grad_p2ps e in [-90, 90], vs long double (pot, |grad|)");
+    CHECK_ERR(g_mut_err, 1e-14, "laplace_grad_p2ps single pairs, B side: vs sum|terms|");
+    for (pass = 0; pass < 2; pass++) {
+        for (j = 0; j < 9; j++) {
+            s.x[j] = pass ? 1e155 * (j + 1) : 0.25;
+            s.y[j] = pass ? -1e155 : -0.5;
+            s.z[j] = pass ? 0.0 : 1e-300;
+            q[j] = 1.0 + j;
+        }
+        for (i = 0; i < 5; i++) {
+            t.x[i] = pass ? -1e154 * i : 0.25;
+            t.y[i] = pass ? -1e154 * i : -0.5;
+            t.z[i] = pass ? -1e154 * i : 1e-300;
+            qa[i] = 2.0 - i;
+        }
+        for (k = 0; k < 36; k++) ob[k] = pb[k] = 0.1 * k - 1.0;
+        for (k = 0; k < 20; k++) oa[k] = pa[k] = 0.2 * k - 1.0;
+        kifmm_kernel_laplace_p2ps(NULL, t.x, t.y, t.z, qa, 5, s.x, s.y, s.z, q, 9, 2.0, oa, ob);
+        kifmm_kernel_laplace_grad_p2ps(NULL, t.x, t.y, t.z, qa, 5, s.x, s.y, s.z, q, 9, 2.0, oa,
+                                       ob);
+        if (memcmp(oa, pa, sizeof oa) || memcmp(ob, pb, sizeof ob)) same = 0;
+    }
+    CHECK(same, "p2ps: coincident pairs or r^2 = inf changed an output");
+    free(t.mem);
+    free(s.mem);
+}
+
 static void test_mutual(void)
 {
     g_mrng = t_rng_seed(91);
@@ -353,6 +404,7 @@ static void test_mutual(void)
     test_blocks("laplace_grad_p2ps, A side", mutual_as_one, 4, 302);
     CHECK_ERR(g_mut_err, 1e-14, "laplace_grad_p2ps, B side, all shapes: vs sum|terms|");
     CHECK(g_mut_guards, "p2ps wrote outside outb[0 .. nb*td-1]");
+    test_mutual_pairs();
 }
 
 /* Mutual many-vector hooks (_p2psn): vector g_slot through one_block, the
