@@ -169,24 +169,37 @@ static inline void kifmm_kernel__red4(__m256d a0, __m256d a1, __m256d a2, __m256
 #endif
 
 #if defined(__AVX512F__)
+#include <float.h>
 #include <immintrin.h>
 
-/* 1 / sqrt(r2) in the lanes of `valid` with 0 < r2 < inf, 0 elsewhere.
- * rsqrt14 (relative error < 2^-14, subnormal r2 included) and two Newton
- * steps y += (y / 2)(1 - r2 y^2), written with r2 itself (r2 / 2 would be
- * inexact for subnormal r2).  Lanes with r2 == 0 give NaN before the final
- * zero-masking move; r2 == inf is excluded by the mask. */
-static inline __m512d kifmm_kernel__avx512_rinv(__mmask8 valid, __m512d r2)
+/* 1 / r without a division: rsqrt14 (relative error below 2^-14) and, in
+ * double, one correction of fourth order, y (1 + e/2 + 3e^2/8 + 5e^3/16)
+ * with e = 1 - r2 y^2, whose error is about 0.27 e^4 < 2^-57 before
+ * rounding (two Newton steps take two more operations for the same
+ * accuracy); in float one Newton step (about 2^-27).
+ * Double: 1 / sqrt(r2) for 0 < r2 < inf (subnormal r2 included), 0
+ * elsewhere: r2 = 0 gives y = inf and r2 = inf gives y = 0, and then e is
+ * NaN in both, as it is for a NaN r2, so the lanes where e is NaN are the
+ * ones zeroed. */
+static inline __m512d kifmm_kernel__rinv8(__m512d r2)
 {
-    const __m512d one = _mm512_set1_pd(1.0), half = _mm512_set1_pd(0.5);
-    __mmask8 live = _mm512_mask_cmp_pd_mask(valid, r2, _mm512_setzero_pd(), _CMP_GT_OQ);
-    __m512d y = _mm512_rsqrt14_pd(r2), e;
-    live = _mm512_mask_cmp_pd_mask(live, r2, _mm512_set1_pd(HUGE_VAL), _CMP_LT_OQ);
-    e = _mm512_fnmadd_pd(_mm512_mul_pd(r2, y), y, one);
-    y = _mm512_fmadd_pd(_mm512_mul_pd(half, y), e, y);
-    e = _mm512_fnmadd_pd(_mm512_mul_pd(r2, y), y, one);
-    y = _mm512_fmadd_pd(_mm512_mul_pd(half, y), e, y);
-    return _mm512_maskz_mov_pd(live, y);
+    const __m512d y = _mm512_rsqrt14_pd(r2);
+    const __m512d e = _mm512_fnmadd_pd(_mm512_mul_pd(r2, y), y, _mm512_set1_pd(1.0));
+    const __mmask8 live = _mm512_cmp_pd_mask(e, e, _CMP_ORD_Q);
+    __m512d p = _mm512_fmadd_pd(_mm512_set1_pd(0.3125), e, _mm512_set1_pd(0.375));
+    p = _mm512_fmadd_pd(p, e, _mm512_set1_pd(0.5));
+    return _mm512_maskz_fmadd_pd(live, _mm512_mul_pd(y, e), p, y);
+}
+/* Float: FLT_MIN <= r2 <= FLT_MAX as in the AVX2 float loops (closer pairs
+ * count as coincident), rsqrt14 and one Newton step (about 2^-27). */
+static inline __m512 kifmm_kernel__rinv16(__m512 r2)
+{
+    const __mmask16 live = _mm512_mask_cmp_ps_mask(
+        _mm512_cmp_ps_mask(r2, _mm512_set1_ps(FLT_MIN), _CMP_GE_OQ), r2,
+        _mm512_set1_ps(FLT_MAX), _CMP_LE_OQ);
+    const __m512 y = _mm512_maskz_rsqrt14_ps(live, r2);
+    const __m512 e = _mm512_fnmadd_ps(_mm512_mul_ps(r2, y), y, _mm512_set1_ps(1.0f));
+    return _mm512_maskz_fmadd_ps(live, _mm512_mul_ps(_mm512_set1_ps(0.5f), y), e, y);
 }
 
 /* The first n lanes, 0 <= n <= 8. */
@@ -206,8 +219,7 @@ static inline __m512d kifmm_kernel__avx512_laplace(__m512d acc, __mmask8 valid, 
     __m512d dy = _mm512_sub_pd(Y, _mm512_maskz_loadu_pd(valid, sy));
     __m512d dz = _mm512_sub_pd(Z, _mm512_maskz_loadu_pd(valid, sz));
     __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-    return _mm512_fmadd_pd(kifmm_kernel__avx512_rinv(valid, r2),
-                           _mm512_maskz_loadu_pd(valid, q), acc);
+    return _mm512_fmadd_pd(kifmm_kernel__rinv8(r2), _mm512_maskz_loadu_pd(valid, q), acc);
 }
 
 static inline void kifmm_kernel__avx512_laplace_grad(__m512d *acc, __mmask8 valid, __m512d X,
@@ -219,7 +231,7 @@ static inline void kifmm_kernel__avx512_laplace_grad(__m512d *acc, __mmask8 vali
     __m512d dy = _mm512_sub_pd(Y, _mm512_maskz_loadu_pd(valid, sy));
     __m512d dz = _mm512_sub_pd(Z, _mm512_maskz_loadu_pd(valid, sz));
     __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-    __m512d inv = kifmm_kernel__avx512_rinv(valid, r2); /* 0 in dead lanes */
+    __m512d inv = kifmm_kernel__rinv8(r2); /* the densities are 0 in dead lanes */
     __m512d qi = _mm512_mul_pd(_mm512_maskz_loadu_pd(valid, q), inv);
     __m512d qi3 = _mm512_mul_pd(_mm512_mul_pd(qi, inv), inv);
     acc[0] = _mm512_add_pd(acc[0], qi);
@@ -1138,40 +1150,12 @@ KIFMM_KERNEL__P2PN_F(1)
                             const T *qa, int64_t na, const T *bx, const T *by, const T *bz,    \
                             const T *qb, int64_t nb, T scale, T *outa, T *outb)
 
-/* AVX-512 mutual hooks. The same contract and block structure as above,
- * with 8 (double) or 16 (float) lanes and 1 / r without a division:
- * rsqrt14 (relative error below 2^-14) and, in double, one correction of
- * fourth order, y (1 + e/2 + 3e^2/8 + 5e^3/16) with e = 1 - r2 y^2, whose
- * error is about 0.27 e^4 < 2^-57 before rounding (two Newton steps take two
- * more operations for the same accuracy); in float one Newton step. Each
- * target's sums take one FMA per component (the potential's q / r, the
- * gradient's q d / r^3 from the one r^-3), and the two targets' eight sums
- * are reduced across the lanes together. */
+/* AVX-512 mutual hooks: the same contract and block structure as above, with
+ * 8 (double) or 16 (float) lanes and 1 / r from kifmm_kernel__rinv8 / 16
+ * (no division). Each target's sums take one FMA per component (the
+ * potential's q / r, the gradient's q d / r^3 from the one r^-3), and the two
+ * targets' eight sums are reduced across the lanes together. */
 #if defined(__AVX512F__)
-/* 1 / sqrt(r2) for 0 < r2 < inf (subnormal r2 included), 0 elsewhere: r2 = 0
- * gives y = inf and r2 = inf gives y = 0, and then e is NaN in both, as it
- * is for a NaN r2, so the lanes where e is NaN are the ones zeroed. */
-static inline __m512d kifmm_kernel__rinv8(__m512d r2)
-{
-    const __m512d y = _mm512_rsqrt14_pd(r2);
-    const __m512d e = _mm512_fnmadd_pd(_mm512_mul_pd(r2, y), y, _mm512_set1_pd(1.0));
-    const __mmask8 live = _mm512_cmp_pd_mask(e, e, _CMP_ORD_Q);
-    __m512d p = _mm512_fmadd_pd(_mm512_set1_pd(0.3125), e, _mm512_set1_pd(0.375));
-    p = _mm512_fmadd_pd(p, e, _mm512_set1_pd(0.5));
-    return _mm512_maskz_fmadd_pd(live, _mm512_mul_pd(y, e), p, y);
-}
-/* Float: FLT_MIN <= r2 <= FLT_MAX as in the AVX2 float loops (closer pairs
- * count as coincident), rsqrt14 and one Newton step (about 2^-27). */
-static inline __m512 kifmm_kernel__rinv16(__m512 r2)
-{
-    const __mmask16 live = _mm512_mask_cmp_ps_mask(
-        _mm512_cmp_ps_mask(r2, _mm512_set1_ps(FLT_MIN), _CMP_GE_OQ), r2,
-        _mm512_set1_ps(FLT_MAX), _CMP_LE_OQ);
-    const __m512 y = _mm512_maskz_rsqrt14_ps(live, r2);
-    const __m512 e = _mm512_fnmadd_ps(_mm512_mul_ps(r2, y), y, _mm512_set1_ps(1.0f));
-    return _mm512_maskz_fmadd_ps(live, _mm512_mul_ps(_mm512_set1_ps(0.5f), y), e, y);
-}
-
 /* o[k] += s * (sum of the lanes of ak), o[4 + k] += s * (sum of ck), k = 0..3,
  * the second four only if both: one transposing reduction of the 8 vectors. */
 static inline void kifmm_kernel__red8x8(__m512d a0, __m512d a1, __m512d a2, __m512d a3,
