@@ -172,6 +172,15 @@ static inline void kifmm_kernel__red4(__m256d a0, __m256d a1, __m256d a2, __m256
 #include <float.h>
 #include <immintrin.h>
 
+/* Lanes [0, n) (all for n >= 8 or 16, none for n <= 0). */
+static inline __mmask8 kifmm_kernel__first8(int64_t n)
+{
+    return (__mmask8)(n <= 0 ? 0u : n >= 8 ? 0xFFu : (1u << n) - 1u);
+}
+static inline __mmask16 kifmm_kernel__first16(int64_t n)
+{
+    return (__mmask16)(n <= 0 ? 0u : n >= 16 ? 0xFFFFu : (1u << n) - 1u);
+}
 /* 1 / r without a division: rsqrt14 (relative error below 2^-14) and, in
  * double, one correction of fourth order, y (1 + e/2 + 3e^2/8 + 5e^3/16)
  * with e = 1 - r2 y^2, whose error is about 0.27 e^4 < 2^-57 before
@@ -208,6 +217,47 @@ static inline __mmask8 kifmm_kernel__avx512_first(int64_t n)
     return (__mmask8)((1u << n) - 1u);
 }
 
+/* o[k] += s * (sum of the lanes of ak), o[4 + k] += s * (sum of ck), k = 0..3,
+ * the second four only if both: one transposing reduction of the 8 vectors. */
+static inline void kifmm_kernel__red8x8(__m512d a0, __m512d a1, __m512d a2, __m512d a3,
+                                        __m512d c0, __m512d c1, __m512d c2, __m512d c3,
+                                        double s, double *o, int both)
+{
+    /* per 128-bit block: pairs of lanes added, two vectors side by side */
+    const __m512d s0 = _mm512_add_pd(_mm512_unpacklo_pd(a0, a1), _mm512_unpackhi_pd(a0, a1));
+    const __m512d s1 = _mm512_add_pd(_mm512_unpacklo_pd(a2, a3), _mm512_unpackhi_pd(a2, a3));
+    const __m512d s2 = _mm512_add_pd(_mm512_unpacklo_pd(c0, c1), _mm512_unpackhi_pd(c0, c1));
+    const __m512d s3 = _mm512_add_pd(_mm512_unpacklo_pd(c2, c3), _mm512_unpackhi_pd(c2, c3));
+    /* blocks 0+1 and 2+3 of s0, s1 (and s2, s3) */
+    const __m512d v0 = _mm512_add_pd(_mm512_shuffle_f64x2(s0, s1, 0x88),
+                                     _mm512_shuffle_f64x2(s0, s1, 0xDD));
+    const __m512d v1 = _mm512_add_pd(_mm512_shuffle_f64x2(s2, s3, 0x88),
+                                     _mm512_shuffle_f64x2(s2, s3, 0xDD));
+    /* lanes: sums of a0, a1, a2, a3, c0, c1, c2, c3 */
+    const __m512d v = _mm512_add_pd(_mm512_shuffle_f64x2(v0, v1, 0x88),
+                                    _mm512_shuffle_f64x2(v0, v1, 0xDD));
+    const __mmask8 m = both ? 0xFF : 0x0F;
+    _mm512_mask_storeu_pd(o, m, _mm512_fmadd_pd(_mm512_set1_pd(s), v, _mm512_maskz_loadu_pd(m, o)));
+}
+/* The same in float: 16 lanes, the 8 sums in the low 8. */
+static inline void kifmm_kernel__red8x16(__m512 a0, __m512 a1, __m512 a2, __m512 a3, __m512 c0,
+                                         __m512 c1, __m512 c2, __m512 c3, float s, float *o,
+                                         int both)
+{
+    const __m512 s0 = _mm512_add_ps(_mm512_unpacklo_ps(a0, a1), _mm512_unpackhi_ps(a0, a1));
+    const __m512 s1 = _mm512_add_ps(_mm512_unpacklo_ps(a2, a3), _mm512_unpackhi_ps(a2, a3));
+    const __m512 s2 = _mm512_add_ps(_mm512_unpacklo_ps(c0, c1), _mm512_unpackhi_ps(c0, c1));
+    const __m512 s3 = _mm512_add_ps(_mm512_unpacklo_ps(c2, c3), _mm512_unpackhi_ps(c2, c3));
+    /* per 128-bit block, lanes (a0 a1 a0 a1) and (a2 a3 a2 a3): pairs added */
+    const __m512 t0 = _mm512_add_ps(_mm512_shuffle_ps(s0, s1, 0x44), _mm512_shuffle_ps(s0, s1, 0xEE));
+    const __m512 t1 = _mm512_add_ps(_mm512_shuffle_ps(s2, s3, 0x44), _mm512_shuffle_ps(s2, s3, 0xEE));
+    /* each 128-bit block holds a0..a3 (t0) or c0..c3 (t1): add the 4 blocks */
+    const __m512 u = _mm512_add_ps(_mm512_shuffle_f32x4(t0, t1, 0x88),
+                                   _mm512_shuffle_f32x4(t0, t1, 0xDD));
+    const __m512 v = _mm512_add_ps(_mm512_shuffle_f32x4(u, u, 0x08), _mm512_shuffle_f32x4(u, u, 0x0D));
+    const __mmask16 m = both ? 0xFF : 0x0F;
+    _mm512_mask_storeu_ps(o, m, _mm512_fmadd_ps(_mm512_set1_ps(s), v, _mm512_maskz_loadu_ps(m, o)));
+}
 /* Adds the sources j..j+7 of `valid` to the sums of the target (X, Y, Z);
  * lanes outside `valid` are neither read nor counted. */
 static inline __m512d kifmm_kernel__avx512_laplace(__m512d acc, __mmask8 valid, __m512d X,
@@ -231,10 +281,9 @@ static inline void kifmm_kernel__avx512_laplace_grad(__m512d *acc, __mmask8 vali
     __m512d dy = _mm512_sub_pd(Y, _mm512_maskz_loadu_pd(valid, sy));
     __m512d dz = _mm512_sub_pd(Z, _mm512_maskz_loadu_pd(valid, sz));
     __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-    __m512d inv = kifmm_kernel__rinv8(r2); /* the densities are 0 in dead lanes */
-    __m512d qi = _mm512_mul_pd(_mm512_maskz_loadu_pd(valid, q), inv);
-    __m512d qi3 = _mm512_mul_pd(_mm512_mul_pd(qi, inv), inv);
-    acc[0] = _mm512_add_pd(acc[0], qi);
+    __m512d inv = kifmm_kernel__rinv8(r2), qv = _mm512_maskz_loadu_pd(valid, q);
+    __m512d qi3 = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(qv, inv), inv), inv);
+    acc[0] = _mm512_fmadd_pd(qv, inv, acc[0]); /* the densities are 0 in dead lanes */
     acc[1] = _mm512_fnmadd_pd(qi3, dx, acc[1]);
     acc[2] = _mm512_fnmadd_pd(qi3, dy, acc[2]);
     acc[3] = _mm512_fnmadd_pd(qi3, dz, acc[3]);
@@ -275,23 +324,25 @@ static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const doub
                                                  double *out)
 {
     const double s = scale * KIFMM_INV_4PI;
-    const __mmask8 tail = kifmm_kernel__avx512_first(ns & 7);
-    const int64_t nv = ns & ~(int64_t)7;
     int64_t i, j;
-    int k;
     (void)param;
-    for (i = 0; i < nt; i++) {
-        const __m512d X = _mm512_set1_pd(tx[i]), Y = _mm512_set1_pd(ty[i]),
-                      Z = _mm512_set1_pd(tz[i]);
-        __m512d acc[4];
-        for (k = 0; k < 4; k++) acc[k] = _mm512_setzero_pd();
-        for (j = 0; j < nv; j += 8)
-            kifmm_kernel__avx512_laplace_grad(acc, (__mmask8)0xFF, X, Y, Z, sx + j, sy + j,
-                                              sz + j, q + j);
-        if (nv < ns)
-            kifmm_kernel__avx512_laplace_grad(acc, tail, X, Y, Z, sx + nv, sy + nv, sz + nv,
-                                              q + nv);
-        for (k = 0; k < 4; k++) out[4 * i + k] += s * _mm512_reduce_add_pd(acc[k]);
+    /* two targets per pass (i1 = i for the last of an odd count, not stored),
+     * their 8 sums reduced together */
+    for (i = 0; i < nt; i += 2) {
+        const int64_t i1 = i + 1 < nt ? i + 1 : i;
+        const __m512d X0 = _mm512_set1_pd(tx[i]), Y0 = _mm512_set1_pd(ty[i]),
+                      Z0 = _mm512_set1_pd(tz[i]), X1 = _mm512_set1_pd(tx[i1]),
+                      Y1 = _mm512_set1_pd(ty[i1]), Z1 = _mm512_set1_pd(tz[i1]);
+        __m512d a[4], c[4];
+        int k;
+        for (k = 0; k < 4; k++) a[k] = c[k] = _mm512_setzero_pd();
+        for (j = 0; j < ns; j += 8) {
+            const __mmask8 m = kifmm_kernel__first8(ns - j);
+            kifmm_kernel__avx512_laplace_grad(a, m, X0, Y0, Z0, sx + j, sy + j, sz + j, q + j);
+            kifmm_kernel__avx512_laplace_grad(c, m, X1, Y1, Z1, sx + j, sy + j, sz + j, q + j);
+        }
+        kifmm_kernel__red8x8(a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3], s, out + 4 * i,
+                             i1 > i);
     }
 }
 
@@ -585,10 +636,11 @@ static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const doub
 /* Single-precision near-field hooks (kifmm_kernel_NAME_P2PF, _p2pf)         */
 /* ------------------------------------------------------------------------ */
 /* The same contract as _p2p with float coordinates, densities, scale and
- * outputs, used by instances built with KIFMM_REAL float. AVX2 + FMA (also
- * on AVX-512 machines): 8 lanes, rsqrt and one Newton step (relative error
- * about 3e-7, a few float ulp). Pairs closer than sqrt(FLT_MIN) (1.1e-19)
- * count as coincident and add 0. Without AVX2 the generic loop is used. */
+ * outputs, used by instances built with KIFMM_REAL float. AVX2 + FMA: 8
+ * lanes, rsqrt and one Newton step (relative error about 3e-7, a few float
+ * ulp); AVX-512: 16 lanes, rsqrt14 and one Newton step. Pairs closer than
+ * sqrt(FLT_MIN) (1.1e-19) count as coincident and add 0. Without AVX2 the
+ * generic loop is used. */
 #if defined(__AVX2__) && defined(__FMA__)
 #include <float.h>
 #include <immintrin.h>
@@ -638,6 +690,82 @@ static inline __m256 kifmm_kernel__avx2_pairf(__m256 X, __m256 Y, __m256 Z, cons
     return kifmm_kernel__avx2_rinvf(r2);
 }
 
+#if defined(__AVX512F__)
+/* AVX-512: 16 lanes, 1 / r from kifmm_kernel__rinv16 (rsqrt14 and one Newton
+ * step, about 2^-27), masked tails. */
+static inline __m512 kifmm_kernel__avx512_pairf(__m512 X, __m512 Y, __m512 Z, const float *sx,
+                                                const float *sy, const float *sz, __mmask16 m,
+                                                __m512 *dx, __m512 *dy, __m512 *dz)
+{
+    *dx = _mm512_sub_ps(X, _mm512_maskz_loadu_ps(m, sx));
+    *dy = _mm512_sub_ps(Y, _mm512_maskz_loadu_ps(m, sy));
+    *dz = _mm512_sub_ps(Z, _mm512_maskz_loadu_ps(m, sz));
+    return kifmm_kernel__rinv16(
+        _mm512_fmadd_ps(*dz, *dz, _mm512_fmadd_ps(*dy, *dy, _mm512_mul_ps(*dx, *dx))));
+}
+
+#define kifmm_kernel_laplace_P2PF 1
+static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *tx,
+                                             const float *ty, const float *tz, int64_t nt,
+                                             const float *sx, const float *sy, const float *sz,
+                                             const float *q, int64_t ns, float scale, float *out)
+{
+    const float s = scale * (float)KIFMM_INV_4PI;
+    int64_t i, j;
+    (void)param;
+    for (i = 0; i < nt; i++) {
+        const __m512 X = _mm512_set1_ps(tx[i]), Y = _mm512_set1_ps(ty[i]), Z = _mm512_set1_ps(tz[i]);
+        __m512 acc = _mm512_setzero_ps(), dx, dy, dz;
+        for (j = 0; j < ns; j += 16) {
+            const __mmask16 m = kifmm_kernel__first16(ns - j);
+            const __m512 inv =
+                kifmm_kernel__avx512_pairf(X, Y, Z, sx + j, sy + j, sz + j, m, &dx, &dy, &dz);
+            acc = _mm512_fmadd_ps(inv, _mm512_maskz_loadu_ps(m, q + j), acc);
+        }
+        out[i] += s * _mm512_reduce_add_ps(acc);
+    }
+}
+
+#define kifmm_kernel_laplace_grad_P2PF 1
+static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const float *tx,
+                                                  const float *ty, const float *tz, int64_t nt,
+                                                  const float *sx, const float *sy,
+                                                  const float *sz, const float *q, int64_t ns,
+                                                  float scale, float *out)
+{
+    const float s = scale * (float)KIFMM_INV_4PI;
+    int64_t i, j;
+    (void)param;
+    /* two targets per pass (i1 = i for the last of an odd count, not stored),
+     * their 8 sums reduced together */
+    for (i = 0; i < nt; i += 2) {
+        const int64_t i1 = i + 1 < nt ? i + 1 : i;
+        const __m512 X0 = _mm512_set1_ps(tx[i]), Y0 = _mm512_set1_ps(ty[i]),
+                     Z0 = _mm512_set1_ps(tz[i]), X1 = _mm512_set1_ps(tx[i1]),
+                     Y1 = _mm512_set1_ps(ty[i1]), Z1 = _mm512_set1_ps(tz[i1]);
+        __m512 a0 = _mm512_setzero_ps(), a1 = a0, a2 = a0, a3 = a0, c0 = a0, c1 = a0, c2 = a0,
+               c3 = a0, dx, dy, dz;
+        for (j = 0; j < ns; j += 16) {
+            const __mmask16 m = kifmm_kernel__first16(ns - j);
+            const __m512 qv = _mm512_maskz_loadu_ps(m, q + j);
+            __m512 inv = kifmm_kernel__avx512_pairf(X0, Y0, Z0, sx + j, sy + j, sz + j, m, &dx,
+                                                    &dy, &dz);
+            __m512 qi3 = _mm512_mul_ps(_mm512_mul_ps(_mm512_mul_ps(qv, inv), inv), inv);
+            a0 = _mm512_fmadd_ps(qv, inv, a0);
+            a1 = _mm512_fnmadd_ps(qi3, dx, a1);
+            a2 = _mm512_fnmadd_ps(qi3, dy, a2);
+            a3 = _mm512_fnmadd_ps(qi3, dz, a3);
+            inv = kifmm_kernel__avx512_pairf(X1, Y1, Z1, sx + j, sy + j, sz + j, m, &dx, &dy, &dz);
+            qi3 = _mm512_mul_ps(_mm512_mul_ps(_mm512_mul_ps(qv, inv), inv), inv);
+            c0 = _mm512_fmadd_ps(qv, inv, c0);
+            c1 = _mm512_fnmadd_ps(qi3, dx, c1);
+            c2 = _mm512_fnmadd_ps(qi3, dy, c2);
+            c3 = _mm512_fnmadd_ps(qi3, dz, c3);
+        }
+        kifmm_kernel__red8x16(a0, a1, a2, a3, c0, c1, c2, c3, s, out + 4 * i, i1 > i);
+    }
+}
+#else
 #define kifmm_kernel_laplace_P2PF 1
 static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *tx,
                                              const float *ty, const float *tz, int64_t nt,
@@ -697,6 +825,7 @@ static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const flo
         out[4 * i + 3] += s * kifmm_kernel__avx2_sumf(a3);
     }
 }
+#endif /* __AVX512F__ */
 #endif
 
 /* ------------------------------------------------------------------------ */
@@ -1156,53 +1285,49 @@ KIFMM_KERNEL__P2PN_F(1)
  * potential's q / r, the gradient's q d / r^3 from the one r^-3), and the two
  * targets' eight sums are reduced across the lanes together. */
 #if defined(__AVX512F__)
-/* o[k] += s * (sum of the lanes of ak), o[4 + k] += s * (sum of ck), k = 0..3,
- * the second four only if both: one transposing reduction of the 8 vectors. */
-static inline void kifmm_kernel__red8x8(__m512d a0, __m512d a1, __m512d a2, __m512d a3,
-                                        __m512d c0, __m512d c1, __m512d c2, __m512d c3,
-                                        double s, double *o, int both)
+/* B's sums back: o[4 l + k] += s pb[k sb + l] (grad: potential and gradient,
+ * sb apart, four points at a time through a 4 x 4 transpose) or o[l] += s
+ * pb[l], l < n; pb 64-byte aligned. */
+static inline void kifmm_kernel__addb8(const double *pb, int sb, double s, double *o, int64_t n,
+                                       int grad)
 {
-    /* per 128-bit block: pairs of lanes added, two vectors side by side */
-    const __m512d s0 = _mm512_add_pd(_mm512_unpacklo_pd(a0, a1), _mm512_unpackhi_pd(a0, a1));
-    const __m512d s1 = _mm512_add_pd(_mm512_unpacklo_pd(a2, a3), _mm512_unpackhi_pd(a2, a3));
-    const __m512d s2 = _mm512_add_pd(_mm512_unpacklo_pd(c0, c1), _mm512_unpackhi_pd(c0, c1));
-    const __m512d s3 = _mm512_add_pd(_mm512_unpacklo_pd(c2, c3), _mm512_unpackhi_pd(c2, c3));
-    /* blocks 0+1 and 2+3 of s0, s1 (and s2, s3) */
-    const __m512d v0 = _mm512_add_pd(_mm512_shuffle_f64x2(s0, s1, 0x88),
-                                     _mm512_shuffle_f64x2(s0, s1, 0xDD));
-    const __m512d v1 = _mm512_add_pd(_mm512_shuffle_f64x2(s2, s3, 0x88),
-                                     _mm512_shuffle_f64x2(s2, s3, 0xDD));
-    /* lanes: sums of a0, a1, a2, a3, c0, c1, c2, c3 */
-    const __m512d v = _mm512_add_pd(_mm512_shuffle_f64x2(v0, v1, 0x88),
-                                    _mm512_shuffle_f64x2(v0, v1, 0xDD));
-    const __mmask8 m = both ? 0xFF : 0x0F;
-    _mm512_mask_storeu_pd(o, m, _mm512_fmadd_pd(_mm512_set1_pd(s), v, _mm512_maskz_loadu_pd(m, o)));
+    int64_t j;
+    if (grad) {
+        for (j = 0; j < n; j += 4)
+            kifmm_kernel__tadd(_mm256_load_pd(pb + j), _mm256_load_pd(pb + sb + j),
+                               _mm256_load_pd(pb + 2 * sb + j), _mm256_load_pd(pb + 3 * sb + j),
+                               s, o + 4 * j, n - j < 4 ? n - j : 4);
+        return;
+    }
+    for (j = 0; j < n; j += 8) {
+        const __mmask8 m = kifmm_kernel__first8(n - j);
+        _mm512_mask_storeu_pd(o + j, m, _mm512_fmadd_pd(_mm512_set1_pd(s), _mm512_load_pd(pb + j),
+                                                         _mm512_maskz_loadu_pd(m, o + j)));
+    }
 }
-/* The same in float: 16 lanes, the 8 sums in the low 8. */
-static inline void kifmm_kernel__red8x16(__m512 a0, __m512 a1, __m512 a2, __m512 a3, __m512 c0,
-                                         __m512 c1, __m512 c2, __m512 c3, float s, float *o,
-                                         int both)
+static inline void kifmm_kernel__addb16(const float *pb, int sb, float s, float *o, int64_t n,
+                                        int grad)
 {
-    const __m512 s0 = _mm512_add_ps(_mm512_unpacklo_ps(a0, a1), _mm512_unpackhi_ps(a0, a1));
-    const __m512 s1 = _mm512_add_ps(_mm512_unpacklo_ps(a2, a3), _mm512_unpackhi_ps(a2, a3));
-    const __m512 s2 = _mm512_add_ps(_mm512_unpacklo_ps(c0, c1), _mm512_unpackhi_ps(c0, c1));
-    const __m512 s3 = _mm512_add_ps(_mm512_unpacklo_ps(c2, c3), _mm512_unpackhi_ps(c2, c3));
-    /* per 128-bit block, lanes (a0 a1 a0 a1) and (a2 a3 a2 a3): pairs added */
-    const __m512 t0 = _mm512_add_ps(_mm512_shuffle_ps(s0, s1, 0x44), _mm512_shuffle_ps(s0, s1, 0xEE));
-    const __m512 t1 = _mm512_add_ps(_mm512_shuffle_ps(s2, s3, 0x44), _mm512_shuffle_ps(s2, s3, 0xEE));
-    /* each 128-bit block holds a0..a3 (t0) or c0..c3 (t1): add the 4 blocks */
-    const __m512 u = _mm512_add_ps(_mm512_shuffle_f32x4(t0, t1, 0x88),
-                                   _mm512_shuffle_f32x4(t0, t1, 0xDD));
-    const __m512 v = _mm512_add_ps(_mm512_shuffle_f32x4(u, u, 0x08), _mm512_shuffle_f32x4(u, u, 0x0D));
-    const __mmask16 m = both ? 0xFF : 0x0F;
-    _mm512_mask_storeu_ps(o, m, _mm512_fmadd_ps(_mm512_set1_ps(s), v, _mm512_maskz_loadu_ps(m, o)));
+    int64_t j;
+    if (grad) {
+        for (j = 0; j < n; j += 8)
+            kifmm_kernel__taddf(_mm256_load_ps(pb + j), _mm256_load_ps(pb + sb + j),
+                                _mm256_load_ps(pb + 2 * sb + j), _mm256_load_ps(pb + 3 * sb + j),
+                                s, o + 4 * j, n - j < 8 ? n - j : 8);
+        return;
+    }
+    for (j = 0; j < n; j += 16) {
+        const __mmask16 m = kifmm_kernel__first16(n - j);
+        _mm512_mask_storeu_ps(o + j, m, _mm512_fmadd_ps(_mm512_set1_ps(s), _mm512_load_ps(pb + j),
+                                                         _mm512_maskz_loadu_ps(m, o + j)));
+    }
 }
 static inline double kifmm_kernel__hsum8(__m512d v) { return _mm512_reduce_add_pd(v); }
 static inline float kifmm_kernel__hsum16(__m512 v) { return _mm512_reduce_add_ps(v); }
 
 #define KIFMM_KERNEL__SB5 64
-#define KIFMM_KERNEL__P2PS5_BODY(T, V, W, RINV, SET1, ZERO, LOAD, STORE, SUB, MUL, FMADD,       \
-                                 FNMADD, HSUM, RED8, GRAD)                                      \
+#define KIFMM_KERNEL__P2PS5_BODY(T, V, W, M, MASKN, MLOADZ, RINV, SET1, ZERO, LOAD, STORE, SUB,  \
+                                 MUL, FMADD, FNMADD, HSUM, RED8, ADDB, GRAD)                    \
     {                                                                                          \
         enum { SB_ = KIFMM_KERNEL__SB5, NB_ = KIFMM_KERNEL__SB5 / (W) };                       \
         const T s = (T)scale * (T)KIFMM_INV_4PI;                                               \
@@ -1214,14 +1339,16 @@ static inline float kifmm_kernel__hsum16(__m512 v) { return _mm512_reduce_add_ps
         for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
             jb = nb - j0 < SB_ ? nb - j0 : SB_;                                                \
             jw = (jb + (W) - 1) / (W) * (W); /* lanes touched */                               \
-            for (k = 0; k < ((GRAD) ? 4 : 1) * NB_; k++) vb[k] = ZERO;                         \
             /* padded with points at 0 of density 0: they add nothing to A, and to   \
              * B only in the padding of pb */                                       \
-            for (k = 0; k < jw; k++) {                                                         \
-                qp[k] = k < jb ? qb[j0 + k] : 0;                                               \
-                px[k] = k < jb ? bx[j0 + k] : 0;                                               \
-                py[k] = k < jb ? by[j0 + k] : 0;                                               \
-                pz[k] = k < jb ? bz[j0 + k] : 0;                                               \
+            for (k = 0; k < jw / (W); k++) {                                                   \
+                const M m = MASKN(jb - k * (W));                                               \
+                vq[k] = MLOADZ(m, qb + j0 + k * (W));                                          \
+                vx[k] = MLOADZ(m, bx + j0 + k * (W));                                          \
+                vy[k] = MLOADZ(m, by + j0 + k * (W));                                          \
+                vz[k] = MLOADZ(m, bz + j0 + k * (W));                                          \
+                vb[k] = ZERO;                                                                  \
+                if (GRAD) vb[NB_ + k] = vb[2 * NB_ + k] = vb[3 * NB_ + k] = ZERO;              \
             }                                                                                  \
             for (i = 0; i < na; i += 2) {                                                      \
                 /* targets i and i + 1 (a copy of i with no density if i is the last) */      \
@@ -1266,25 +1393,23 @@ static inline float kifmm_kernel__hsum16(__m512 v) { return _mm512_reduce_add_ps
                     if (i1 > i) outa[i1] += s * HSUM(c0);                                      \
                 }                                                                              \
             }                                                                                  \
-            for (j = 0; j < jb; j++) {                                                         \
-                if (GRAD)                                                                      \
-                    for (k = 0; k < 4; k++) outb[4 * (j0 + j) + k] += s * pb[k * SB_ + j];     \
-                else                                                                           \
-                    outb[j0 + j] += s * pb[j];                                                 \
-            }                                                                                  \
+            ADDB(pb, SB_, s, outb + ((GRAD) ? 4 : 1) * j0, jb, GRAD);                         \
         }                                                                                      \
     }
 
 #define KIFMM_KERNEL__P2PS5_D(GRAD)                                                               \
-    KIFMM_KERNEL__P2PS5_BODY(double, __m512d, 8, kifmm_kernel__rinv8, _mm512_set1_pd,            \
+    KIFMM_KERNEL__P2PS5_BODY(double, __m512d, 8, __mmask8, kifmm_kernel__first8,                \
+                             _mm512_maskz_loadu_pd, kifmm_kernel__rinv8, _mm512_set1_pd,         \
                              _mm512_setzero_pd(), _mm512_load_pd, _mm512_store_pd, _mm512_sub_pd, \
                              _mm512_mul_pd, _mm512_fmadd_pd, _mm512_fnmadd_pd,                   \
-                             kifmm_kernel__hsum8, kifmm_kernel__red8x8, GRAD)
+                             kifmm_kernel__hsum8, kifmm_kernel__red8x8, kifmm_kernel__addb8, GRAD)
 #define KIFMM_KERNEL__P2PS5_F(GRAD)                                                               \
-    KIFMM_KERNEL__P2PS5_BODY(float, __m512, 16, kifmm_kernel__rinv16, _mm512_set1_ps,            \
+    KIFMM_KERNEL__P2PS5_BODY(float, __m512, 16, __mmask16, kifmm_kernel__first16,               \
+                             _mm512_maskz_loadu_ps, kifmm_kernel__rinv16, _mm512_set1_ps,        \
                              _mm512_setzero_ps(), _mm512_load_ps, _mm512_store_ps, _mm512_sub_ps, \
                              _mm512_mul_ps, _mm512_fmadd_ps, _mm512_fnmadd_ps,                   \
-                             kifmm_kernel__hsum16, kifmm_kernel__red8x16, GRAD)
+                             kifmm_kernel__hsum16, kifmm_kernel__red8x16, kifmm_kernel__addb16,  \
+                             GRAD)
 #define kifmm_kernel_laplace_P2PS 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2ps, double)
 KIFMM_KERNEL__P2PS5_D(0)
