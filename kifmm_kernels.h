@@ -1029,7 +1029,7 @@ static inline void kifmm_kernel__addnf(__m256 a, float s, float *o, int64_t n)
                                 FMADD, FNMADD, HSUM, GRAD)                                     \
     {                                                                                          \
         const int td = (GRAD) ? 4 : 1;                                                         \
-        const T s = (T)(scale * KIFMM_INV_4PI);                                                \
+        const T s = (T)scale * (T)KIFMM_INV_4PI;                                               \
         V acc[KIFMM_KERNEL__NV * 4];                                                           \
         T g[4][KIFMM_KERNEL__CH];                                                              \
         int r, r0, nr, k;                                                                      \
@@ -1377,7 +1377,21 @@ static inline void kifmm_kernel_laplace_p2pn(const double *param, const double *
                                              const double *sz, const double *q, int64_t ns,
                                              int nrhs, size_t qld, double scale, double *out,
                                              size_t old)
+#if defined(__AVX512F__)
+/* Double potential on AVX-512: per target, its sums in the order of the
+ * AVX-512 _p2p (8 lanes over the sources, reduced at the end), so that each
+ * vector's sums are bitwise those of _p2p. This hook is the P2M of evaluate_many,
+ * whose results the float FFT M2L spectra (orders <= 6) would otherwise turn
+ * from last-bit differences into differences of float rounding (1e-7) between
+ * evaluate_many and evaluate; it is 2.0-3.7 times _p2p against 5.1-5.5 with
+ * the lanes on the targets. */
+KIFMM_KERNEL__P2PN_BODY(double, __m512d, 8, kifmm_kernel__geom8, kifmm_kernel__nmask8,
+                        _mm512_set1_pd, _mm512_setzero_pd(), _mm512_loadu_pd, _mm512_storeu_pd,
+                        kifmm_kernel__mload8, _mm512_mul_pd, _mm512_fmadd_pd, _mm512_fnmadd_pd,
+                        kifmm_kernel__hsum8, 0)
+#else
 KIFMM_KERNEL__P2PN_D(0)
+#endif
 
 #define kifmm_kernel_laplace_grad_P2PN 1
 static inline void kifmm_kernel_laplace_grad_p2pn(const double *param, const double *tx,
@@ -1395,7 +1409,15 @@ static inline void kifmm_kernel_laplace_p2pnf(const double *param, const float *
                                               const float *sx, const float *sy, const float *sz,
                                               const float *q, int64_t ns, int nrhs, size_t qld,
                                               float scale, float *out, size_t old)
+#if defined(__AVX512F__)
+/* Float potential on AVX-512: bitwise the sums of _p2pf, as the double one. */
+KIFMM_KERNEL__P2PN_BODY(float, __m512, 16, kifmm_kernel__geom16, kifmm_kernel__nmask16,
+                        _mm512_set1_ps, _mm512_setzero_ps(), _mm512_loadu_ps, _mm512_storeu_ps,
+                        kifmm_kernel__mload16, _mm512_mul_ps, _mm512_fmadd_ps, _mm512_fnmadd_ps,
+                        kifmm_kernel__hsum16, 0)
+#else
 KIFMM_KERNEL__P2PN_F(0)
+#endif
 
 #define kifmm_kernel_laplace_grad_P2PNF 1
 static inline void kifmm_kernel_laplace_grad_p2pnf(const double *param, const float *tx,
