@@ -2,9 +2,9 @@
 #
 #   make run        build and run examples/laplace.c (1M points, order 6;
 #                   other sizes: make run ARGS="200000 8")
-#   make test       build and run the test suite (five configurations; CONFIGS=all for nine)
+#   make test       build and run the test suite (six configurations; CONFIGS=all for ten)
 #                   (tests/run.sh: gcc and clang, C99 and C11, with and
-#                   without OpenMP, and a sanitizer build)
+#                   without OpenMP, a sanitizer build and a build without -march)
 #   make custom     build and run examples/custom_kernel.c (a kernel written in
 #                   the example file, checked against direct summation)
 #   make examples   build the examples into build/

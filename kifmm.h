@@ -2817,21 +2817,25 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     const int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd;
     const int32_t *ai = c->act + (up ? 0 : t->nbox) + t->loff[l];
     const int na = c->act[2 * t->nbox + 2 * l + !up];
-    const int np = (na * nrhs + KIFMM__GC_NC - 1) / KIFMM__GC_NC;
+    const int ppv = (na + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
     const size_t per = (size_t)t->nbox * (size_t)c->ne;
     KIFMM__R *eq = up ? w->ue : w->de;
     int p;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) if (KIFMM__GC_FAST))
     for (p = 0; p < np; p++) {
+        /* pieces of one vector each, cut as for evaluate: without AVX2 each is a
+         * BLAS call, whose result for a column can depend on the call's other
+         * columns, and the float FFT spectra turn last-bit differences into
+         * float rounding ones between evaluate_many and evaluate */
         const KIFMM__R *bp[KIFMM__GC_NC], *tb[KIFMM__GC_NC];
         KIFMM__R *tp[KIFMM__GC_NC], *cp[KIFMM__GC_NC];
         KIFMM__R *buf = KIFMM__F(__gbuf)(c);
         const size_t per_t = (size_t)c->ne * KIFMM__GC_NC;
-        int q, nq = na * nrhs - p * KIFMM__GC_NC;
+        const int r = p / ppv, j0 = (p % ppv) * KIFMM__GC_NC;
+        int q, nq = na - j0;
         if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
         for (q = 0; q < nq; q++) {
-            const int j = p * KIFMM__GC_NC + q, r = j / na;
-            const size_t b = (size_t)ai[j % na]; /* within the level */
+            const size_t b = (size_t)ai[j0 + q]; /* within the level */
             bp[q] = w->chk + ((size_t)r * n + b) * c->nc;
             tb[q] = tp[q] = buf + (size_t)q * k;
             cp[q] = eq + (size_t)r * per + ((size_t)t->loff[l] + b) * c->ne;
@@ -2875,7 +2879,7 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
 {
     const kifmm__tree *t = &c->tree;
     const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
-    const int np = (ni * nrhs + KIFMM__GC_NC - 1) / KIFMM__GC_NC;
+    const int ppv = (ni + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
     const int m = down ? 8 * c->nc : c->nc, k = down ? c->ne : 8 * c->ne;
     const size_t per = (size_t)t->nbox * (size_t)c->ne;
     const KIFMM__R *op = down ? KIFMM__F(__ops_at)(c, lp + 1)->l2l : KIFMM__F(__ops_at)(c, lp)->m2m;
@@ -2885,10 +2889,11 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
     for (p = 0; p < np; p++) {
         const KIFMM__R *bp[KIFMM__GC_NC];
         KIFMM__R *cp[KIFMM__GC_NC];
-        int q, nq = ni * nrhs - p * KIFMM__GC_NC;
+        const int jr = p / ppv, j0 = (p % ppv) * KIFMM__GC_NC; /* as in __solve */
+        int q, nq = ni - j0;
         if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
         for (q = 0; q < nq; q++) {
-            const int j = p * KIFMM__GC_NC + q, jb = j % ni, jr = j / ni;
+            const int jb = j0 + q;
             const int32_t b = t->inner[t->ioff[lp] + jb];
             if (down) {
                 bp[q] = w->de + jr * per + (size_t)b * c->ne;
