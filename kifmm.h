@@ -1865,7 +1865,43 @@ KIFMM__FN void kifmm__fft_products(int nn, const int32_t *nb, const unsigned cha
                                    double *oc)
 {
     int fi, e, cs;
-#if defined(__AVX2__) && defined(__FMA__)
+#if defined(__AVX512F__)
+    /* the 4 frequencies of the chunk at once, the 8 target children in one
+     * register: 8 accumulators over all e, 4 FMAs per child and frequency
+     * with the child's spectrum broadcast from memory */
+    __m512d r0 = _mm512_setzero_pd(), i0 = r0, r1 = r0, i1 = r0, r2 = r0, i2 = r0, r3 = r0,
+            i3 = r0;
+    (void)fi;
+    for (e = 0; e < nn; e++) {
+        const double *x = sc + (size_t)nb[e] * KIFMM__FFT_F * 16;
+        const double *k = kb + (size_t)no[e] * KIFMM__FFT_F * 128;
+        const unsigned char *h = sch + 9 * (size_t)nb[e];
+        int q;
+#define KIFMM__FFT_STEP5(R, I, f)                                                              \
+    {                                                                                          \
+        const __m512d xr = _mm512_set1_pd(x[(f) * 16 + cs]);                                   \
+        const __m512d xi = _mm512_set1_pd(x[(f) * 16 + 8 + cs]);                               \
+        const __m512d kr = _mm512_load_pd(k + (f) * 128 + cs * 16);                            \
+        const __m512d ki = _mm512_load_pd(k + (f) * 128 + cs * 16 + 8);                        \
+        R = _mm512_fmadd_pd(kr, xr, R);                                                        \
+        R = _mm512_fnmadd_pd(ki, xi, R);                                                       \
+        I = _mm512_fmadd_pd(kr, xi, I);                                                        \
+        I = _mm512_fmadd_pd(ki, xr, I);                                                        \
+    }
+#define KIFMM__FFT_STEPS5                                                                      \
+    {                                                                                          \
+        KIFMM__FFT_STEP5(r0, i0, 0) KIFMM__FFT_STEP5(r1, i1, 1)                                \
+        KIFMM__FFT_STEP5(r2, i2, 2) KIFMM__FFT_STEP5(r3, i3, 3)                                \
+    }
+        KIFMM__FFT_CHILDREN(h, KIFMM__FFT_STEPS5)
+#undef KIFMM__FFT_STEPS5
+#undef KIFMM__FFT_STEP5
+    }
+    _mm512_store_pd(oc, r0); _mm512_store_pd(oc + 8, i0);
+    _mm512_store_pd(oc + 16, r1); _mm512_store_pd(oc + 24, i1);
+    _mm512_store_pd(oc + 32, r2); _mm512_store_pd(oc + 40, i2);
+    _mm512_store_pd(oc + 48, r3); _mm512_store_pd(oc + 56, i3);
+#elif defined(__AVX2__) && defined(__FMA__)
     /* two frequencies at a time: 8 accumulators in registers over all e */
     for (fi = 0; fi < KIFMM__FFT_F; fi += 2) {
         __m256d a0 = _mm256_setzero_pd(), a1 = a0, a2 = a0, a3 = a0;
