@@ -284,8 +284,9 @@ static inline void kifmm_kernel__avx512_laplace_grad(__m512d *acc, __mmask8 vali
     __m512d dz = _mm512_sub_pd(Z, _mm512_maskz_loadu_pd(valid, sz));
     __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
     __m512d inv = kifmm_kernel__rinv8(r2), qv = _mm512_maskz_loadu_pd(valid, q);
-    __m512d qi3 = _mm512_mul_pd(_mm512_mul_pd(_mm512_mul_pd(qv, inv), inv), inv);
-    acc[0] = _mm512_fmadd_pd(qv, inv, acc[0]); /* the densities are 0 in dead lanes */
+    /* q / r added on the adder pipes, then reused for q / r^3 */
+    __m512d qi = _mm512_mul_pd(qv, inv), qi3 = _mm512_mul_pd(qi, _mm512_mul_pd(inv, inv));
+    acc[0] = _mm512_add_pd(acc[0], qi); /* the densities are 0 in dead lanes */
     acc[1] = _mm512_fnmadd_pd(qi3, dx, acc[1]);
     acc[2] = _mm512_fnmadd_pd(qi3, dy, acc[2]);
     acc[3] = _mm512_fnmadd_pd(qi3, dz, acc[3]);
@@ -1583,7 +1584,7 @@ static inline void kifmm_kernel__addb16(const float *pb, int sb, float s, float 
 
 #define KIFMM_KERNEL__SB5 64
 #define KIFMM_KERNEL__P2PS5_BODY(T, V, W, M, MASKN, MLOADZ, RINV, SET1, ZERO, LOAD, STORE, SUB,  \
-                                 MUL, FMADD, FNMADD, HSUM, RED8, ADDB, GRAD)                    \
+                                 ADD, MUL, FMADD, FNMADD, HSUM, RED8, ADDB, GRAD)                    \
     {                                                                                          \
         enum { SB_ = KIFMM_KERNEL__SB5, NB_ = KIFMM_KERNEL__SB5 / (W) };                       \
         const T s = (T)scale * (T)KIFMM_INV_4PI;                                               \
@@ -1621,13 +1622,20 @@ static inline void kifmm_kernel__addb16(const float *pb, int sb, float s, float 
                     const V dx1 = SUB(X1, sx), dy1 = SUB(Y1, sy), dz1 = SUB(Z1, sz);        \
                     const V inv0 = RINV(FMADD(dz0, dz0, FMADD(dy0, dy0, MUL(dx0, dx0))));      \
                     const V inv1 = RINV(FMADD(dz1, dz1, FMADD(dy1, dy1, MUL(dx1, dx1))));      \
-                    a0 = FMADD(q, inv0, a0);                                                   \
-                    c0 = FMADD(q, inv1, c0);                                                   \
-                    STORE(pb + j, FMADD(QA0, inv0, FMADD(QA1, inv1, LOAD(pb + j))));           \
-                    if (GRAD) {                                                                \
-                        const V w0 = MUL(MUL(inv0, inv0), inv0), w1 = MUL(MUL(inv1, inv1), inv1); \
-                        const V qb0 = MUL(q, w0), qb1 = MUL(q, w1);                            \
-                        const V qa0 = MUL(QA0, w0), qa1 = MUL(QA1, w1);                        \
+                    if (!(GRAD)) {                                                             \
+                        a0 = FMADD(q, inv0, a0);                                               \
+                        c0 = FMADD(q, inv1, c0);                                               \
+                        STORE(pb + j, FMADD(QA0, inv0, FMADD(QA1, inv1, LOAD(pb + j))));       \
+                    } else {                                                                   \
+                        /* q / r added on the adder pipes, then times 1 / r^2 */              \
+                        const V ub0 = MUL(q, inv0), ub1 = MUL(q, inv1);                        \
+                        const V ua0 = MUL(QA0, inv0), ua1 = MUL(QA1, inv1);                    \
+                        const V e0 = MUL(inv0, inv0), e1 = MUL(inv1, inv1);                    \
+                        const V qb0 = MUL(ub0, e0), qb1 = MUL(ub1, e1);                        \
+                        const V qa0 = MUL(ua0, e0), qa1 = MUL(ua1, e1);                        \
+                        a0 = ADD(a0, ub0);                                                     \
+                        c0 = ADD(c0, ub1);                                                     \
+                        STORE(pb + j, ADD(LOAD(pb + j), ADD(ua0, ua1)));                       \
                         T *o = pb + SB_ + j;                                                   \
                         a1 = FNMADD(qb0, dx0, a1);                                             \
                         a2 = FNMADD(qb0, dy0, a2);                                             \
@@ -1657,13 +1665,13 @@ static inline void kifmm_kernel__addb16(const float *pb, int sb, float s, float 
     KIFMM_KERNEL__P2PS5_BODY(double, __m512d, 8, __mmask8, kifmm_kernel__first8,                \
                              _mm512_maskz_loadu_pd, kifmm_kernel__rinv8, _mm512_set1_pd,         \
                              _mm512_setzero_pd(), _mm512_load_pd, _mm512_store_pd, _mm512_sub_pd, \
-                             _mm512_mul_pd, _mm512_fmadd_pd, _mm512_fnmadd_pd,                   \
+                             _mm512_add_pd, _mm512_mul_pd, _mm512_fmadd_pd, _mm512_fnmadd_pd,                   \
                              kifmm_kernel__hsum8, kifmm_kernel__red8x8, kifmm_kernel__addb8, GRAD)
 #define KIFMM_KERNEL__P2PS5_F(GRAD)                                                               \
     KIFMM_KERNEL__P2PS5_BODY(float, __m512, 16, __mmask16, kifmm_kernel__first16,               \
                              _mm512_maskz_loadu_ps, kifmm_kernel__rinv16, _mm512_set1_ps,        \
                              _mm512_setzero_ps(), _mm512_load_ps, _mm512_store_ps, _mm512_sub_ps, \
-                             _mm512_mul_ps, _mm512_fmadd_ps, _mm512_fnmadd_ps,                   \
+                             _mm512_add_ps, _mm512_mul_ps, _mm512_fmadd_ps, _mm512_fnmadd_ps,                   \
                              kifmm_kernel__hsum16, kifmm_kernel__red8x16, kifmm_kernel__addb16,  \
                              GRAD)
 #define kifmm_kernel_laplace_P2PS 1
