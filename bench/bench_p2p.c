@@ -133,9 +133,50 @@ static double rate(p2p_fn f, int td, int64_t n, double seconds)
     return best;
 }
 
+#if kifmm_kernel_laplace_grad_P2PF && kifmm_kernel_laplace_grad_P2PSF
+/* The float hooks: one-way (_p2pf) and mutual (_p2psf), laplace_grad, on the
+ * same points rounded to float. */
+static float fx[NMAX], fy[NMAX], fz[NMAX], gx[NMAX], gy[NMAX], gz[NMAX], fq[2 * NMAX];
+static float fout[2 * 4 * NMAX];
+
+/* Best pairs per second over 5 measurements of the float hook on an n x n
+ * block: mutual = 0 for _p2pf, 1 for _p2psf (each pair counted once). */
+static double ratef(int mutual_, int64_t n, double seconds)
+{
+    double best = 0.0;
+    int64_t reps = 1, r;
+    int m, i;
+    for (m = -1; m < 5; m++) {
+        double t = now(), v;
+        for (r = 0; r < reps; r++) {
+            if (mutual_)
+                kifmm_kernel_laplace_grad_p2psf(NULL, fx, fy, fz, fq + NMAX, n, gx, gy, gz, fq, n,
+                                                1e-3f, fout, fout + 4 * NMAX);
+            else
+                kifmm_kernel_laplace_grad_p2pf(NULL, fx, fy, fz, n, gx, gy, gz, fq, n, 1e-3f,
+                                               fout);
+        }
+        t = now() - t;
+        if (m < 0) { /* calibrate: enough repetitions for about `seconds` */
+            if (t < 0.2 * seconds) {
+                reps *= 2;
+                m = -2;
+            } else {
+                reps = (int64_t)((double)reps * seconds / t) + 1;
+            }
+            continue;
+        }
+        v = (double)reps * (double)n * (double)n / t;
+        if (v > best) best = v;
+    }
+    for (i = 0; i < 8 * NMAX; i++) checksum += fout[i];
+    return best;
+}
+#endif
+
 int main(int argc, char **argv)
 {
-    static const int64_t sizes[] = {32, 64, 128, 512};
+    static const int64_t sizes[] = {30, 64, 128, 512};
     const double seconds = argc > 1 ? atof(argv[1]) : 0.2;
     uint64_t s = 42;
     int i, k;
@@ -197,6 +238,29 @@ int main(int argc, char **argv)
             printf("%-13s %6ld %14.3e %14.3e %7.2fx\n", name, (long)sizes[i], rh, rm, rm / rh);
             fflush(stdout);
         }
+    }
+#endif
+#if kifmm_kernel_laplace_grad_P2PF && kifmm_kernel_laplace_grad_P2PSF
+    for (i = 0; i < NMAX; i++) {
+        fx[i] = (float)tx[i]; fy[i] = (float)ty[i]; fz[i] = (float)tz[i];
+        gx[i] = (float)sx[i]; gy[i] = (float)sy[i]; gz[i] = (float)sz[i];
+        fq[i] = (float)q[i]; fq[NMAX + i] = (float)q[NMAX + i];
+    }
+    printf("\nfloat hooks, laplace_grad: _p2pf one way, _p2psf both directions (each pair\n"
+           "counted once); pairs per second, and the ratio to the double hooks above\n");
+    printf("%-13s %6s %14s %14s %8s %8s\n", "kernel", "nt=ns", "_p2pf (1/s)", "_p2psf (1/s)",
+           "vs _p2p", "vs _p2ps");
+    for (i = 0; i < (int)(sizeof sizes / sizeof sizes[0]); i++) {
+        double r1 = ratef(0, sizes[i], seconds), r2 = ratef(1, sizes[i], seconds);
+        double d1 = rate(kifmm_kernel_laplace_grad_p2p, 4, sizes[i], seconds), d2 = 0.0;
+#if kifmm_kernel_laplace_grad_P2PS
+        g_mut = kifmm_kernel_laplace_grad_p2ps;
+        g_mtd = 4;
+        d2 = rate(mutual, 4, sizes[i], seconds);
+#endif
+        printf("%-13s %6ld %14.3e %14.3e %7.2fx %7.2fx\n", "laplace_grad", (long)sizes[i], r1, r2,
+               r1 / d1, d2 > 0.0 ? r2 / d2 : 0.0);
+        fflush(stdout);
     }
 #endif
     printf("(checksum %.6e)\n", checksum);
