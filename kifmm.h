@@ -1855,6 +1855,46 @@ KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const
             STEP                                                                              \
         }
 
+/* One child cs and frequency fi of the products' accumulation for a vector
+ * of 8 lanes (the 8 target children): R + i I += (kr + i ki) (xr + i xi),
+ * with the block row k[fi 128 + cs 16] (re 8 | im 8) and the source
+ * child's spectrum x[fi 16 + cs] (re), 8 further (im). For element type T,
+ * vector V (double with AVX-512, float with AVX2). */
+#define KIFMM__FFT_STEP8(V, BCAST, LOAD, FMADD, FNMADD, R, I, fi)                              \
+    {                                                                                          \
+        const V xr = BCAST(x + (fi) * 16 + cs), xi = BCAST(x + (fi) * 16 + 8 + cs);            \
+        V kr = LOAD(k + (fi) * 128 + cs * 16), ki = LOAD(k + (fi) * 128 + cs * 16 + 8);        \
+        KIFMM__IN_REG(kr);                                                                     \
+        KIFMM__IN_REG(ki);                                                                     \
+        R = FMADD(kr, xr, R);                                                                  \
+        R = FNMADD(ki, xi, R);                                                                 \
+        I = FMADD(kr, xi, I);                                                                  \
+        I = FMADD(ki, xr, I);                                                                  \
+    }
+/* The products of one target parent and chunk with the 4 frequencies at
+ * once (8 accumulators over all e), then stored to oc; T, V as above. */
+#define KIFMM__FFT_PRODUCTS8(T, V, ZERO, BCAST, LOAD, STORE, FMADD, FNMADD)                    \
+    {                                                                                          \
+        V r0 = ZERO, i0 = r0, r1 = r0, i1 = r0, r2 = r0, i2 = r0, r3 = r0, i3 = r0;            \
+        for (e = 0; e < nn; e++) {                                                             \
+            const T *x = sc + (size_t)nb[e] * KIFMM__FFT_F * 16;                               \
+            const T *k = kb + (size_t)no[e] * KIFMM__FFT_F * 128;                              \
+            const unsigned char *h = sch + 9 * (size_t)nb[e];                                  \
+            int q;                                                                             \
+            KIFMM__FFT_CHILDREN(h, {                                                           \
+                KIFMM__FFT_STEP8(V, BCAST, LOAD, FMADD, FNMADD, r0, i0, 0)                     \
+                KIFMM__FFT_STEP8(V, BCAST, LOAD, FMADD, FNMADD, r1, i1, 1)                     \
+                KIFMM__FFT_STEP8(V, BCAST, LOAD, FMADD, FNMADD, r2, i2, 2)                     \
+                KIFMM__FFT_STEP8(V, BCAST, LOAD, FMADD, FNMADD, r3, i3, 3)                     \
+            })                                                                                 \
+        }                                                                                      \
+        STORE(oc, r0); STORE(oc + 8, i0); STORE(oc + 16, r1); STORE(oc + 24, i1);              \
+        STORE(oc + 32, r2); STORE(oc + 40, i2); STORE(oc + 48, r3); STORE(oc + 56, i3);        \
+    }
+#if defined(__AVX512F__)
+#define KIFMM__BCAST8D(p) _mm512_set1_pd(*(p))
+#endif
+
 /* One target parent, one chunk: oc[fi 16 ..] = sum over its nn source
  * parents e of K[no[e]][fi] (8 x 8 complex) times the 8 child spectra
  * sc[nb[e]] at fi (re 8 | im 8). Only the children listed in sch[9 nb[e]]
@@ -1869,38 +1909,9 @@ KIFMM__FN void kifmm__fft_products(int nn, const int32_t *nb, const unsigned cha
     /* the 4 frequencies of the chunk at once, the 8 target children in one
      * register: 8 accumulators over all e, 4 FMAs per child and frequency
      * with the child's spectrum broadcast from memory */
-    __m512d r0 = _mm512_setzero_pd(), i0 = r0, r1 = r0, i1 = r0, r2 = r0, i2 = r0, r3 = r0,
-            i3 = r0;
     (void)fi;
-    for (e = 0; e < nn; e++) {
-        const double *x = sc + (size_t)nb[e] * KIFMM__FFT_F * 16;
-        const double *k = kb + (size_t)no[e] * KIFMM__FFT_F * 128;
-        const unsigned char *h = sch + 9 * (size_t)nb[e];
-        int q;
-#define KIFMM__FFT_STEP5(R, I, f)                                                              \
-    {                                                                                          \
-        const __m512d xr = _mm512_set1_pd(x[(f) * 16 + cs]);                                   \
-        const __m512d xi = _mm512_set1_pd(x[(f) * 16 + 8 + cs]);                               \
-        const __m512d kr = _mm512_load_pd(k + (f) * 128 + cs * 16);                            \
-        const __m512d ki = _mm512_load_pd(k + (f) * 128 + cs * 16 + 8);                        \
-        R = _mm512_fmadd_pd(kr, xr, R);                                                        \
-        R = _mm512_fnmadd_pd(ki, xi, R);                                                       \
-        I = _mm512_fmadd_pd(kr, xi, I);                                                        \
-        I = _mm512_fmadd_pd(ki, xr, I);                                                        \
-    }
-#define KIFMM__FFT_STEPS5                                                                      \
-    {                                                                                          \
-        KIFMM__FFT_STEP5(r0, i0, 0) KIFMM__FFT_STEP5(r1, i1, 1)                                \
-        KIFMM__FFT_STEP5(r2, i2, 2) KIFMM__FFT_STEP5(r3, i3, 3)                                \
-    }
-        KIFMM__FFT_CHILDREN(h, KIFMM__FFT_STEPS5)
-#undef KIFMM__FFT_STEPS5
-#undef KIFMM__FFT_STEP5
-    }
-    _mm512_store_pd(oc, r0); _mm512_store_pd(oc + 8, i0);
-    _mm512_store_pd(oc + 16, r1); _mm512_store_pd(oc + 24, i1);
-    _mm512_store_pd(oc + 32, r2); _mm512_store_pd(oc + 40, i2);
-    _mm512_store_pd(oc + 48, r3); _mm512_store_pd(oc + 56, i3);
+    KIFMM__FFT_PRODUCTS8(double, __m512d, _mm512_setzero_pd(), KIFMM__BCAST8D, _mm512_load_pd,
+                         _mm512_store_pd, _mm512_fmadd_pd, _mm512_fnmadd_pd)
 #elif defined(__AVX2__) && defined(__FMA__)
     /* two frequencies at a time: 8 accumulators in registers over all e */
     for (fi = 0; fi < KIFMM__FFT_F; fi += 2) {
@@ -1989,38 +2000,8 @@ KIFMM__FN void kifmm__fft_products_f(int nn, const int32_t *nb, const unsigned c
     _mm512_storeu_ps(oc + 48, _mm512_fmadd_ps(sg, _mm512_shuffle_f32x4(b3, b3, 0x4E), a3));
 #elif defined(__AVX2__) && defined(__FMA__)
     /* the 4 frequencies of a chunk at once: 8 accumulators over all e */
-    __m256 r0 = _mm256_setzero_ps(), i0 = r0, r1 = r0, i1 = r0, r2 = r0, i2 = r0, r3 = r0, i3 = r0;
-    for (e = 0; e < nn; e++) {
-        const float *x = sc + (size_t)nb[e] * KIFMM__FFT_F * 16;
-        const float *k = kb + (size_t)no[e] * KIFMM__FFT_F * 128;
-        const unsigned char *h = sch + 9 * (size_t)nb[e];
-        int q;
-#define KIFMM__FFT_STEP(R, I, fi)                                                              \
-    {                                                                                          \
-        const __m256 xr = _mm256_broadcast_ss(x + (fi) * 16 + cs);                             \
-        const __m256 xi = _mm256_broadcast_ss(x + (fi) * 16 + 8 + cs);                         \
-        __m256 kr = _mm256_load_ps(k + (fi) * 128 + cs * 16);                                  \
-        __m256 ki = _mm256_load_ps(k + (fi) * 128 + cs * 16 + 8);                              \
-        KIFMM__IN_REG(kr);                                                                     \
-        KIFMM__IN_REG(ki);                                                                     \
-        R = _mm256_fmadd_ps(kr, xr, R);                                                        \
-        R = _mm256_fnmadd_ps(ki, xi, R);                                                       \
-        I = _mm256_fmadd_ps(kr, xi, I);                                                        \
-        I = _mm256_fmadd_ps(ki, xr, I);                                                        \
-    }
-#define KIFMM__FFT_STEPS                                                                       \
-    {                                                                                          \
-        KIFMM__FFT_STEP(r0, i0, 0) KIFMM__FFT_STEP(r1, i1, 1)                                  \
-        KIFMM__FFT_STEP(r2, i2, 2) KIFMM__FFT_STEP(r3, i3, 3)                                  \
-    }
-        KIFMM__FFT_CHILDREN(h, KIFMM__FFT_STEPS)
-#undef KIFMM__FFT_STEPS
-#undef KIFMM__FFT_STEP
-    }
-    _mm256_store_ps(oc, r0); _mm256_store_ps(oc + 8, i0);
-    _mm256_store_ps(oc + 16, r1); _mm256_store_ps(oc + 24, i1);
-    _mm256_store_ps(oc + 32, r2); _mm256_store_ps(oc + 40, i2);
-    _mm256_store_ps(oc + 48, r3); _mm256_store_ps(oc + 56, i3);
+    KIFMM__FFT_PRODUCTS8(float, __m256, _mm256_setzero_ps(), _mm256_broadcast_ss, _mm256_load_ps,
+                         _mm256_store_ps, _mm256_fmadd_ps, _mm256_fnmadd_ps)
 #else
     int fi;
     KIFMM__FFT_PRODUCTS_C(float);
