@@ -1858,8 +1858,8 @@ KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const
 /* One child cs and frequency fi of the products' accumulation for a vector
  * of 8 lanes (the 8 target children): R + i I += (kr + i ki) (xr + i xi),
  * with the block row k[fi 128 + cs 16] (re 8 | im 8) and the source
- * child's spectrum x[fi 16 + cs] (re), 8 further (im). For element type T,
- * vector V (double with AVX-512, float with AVX2). */
+ * child's spectrum x[fi 16 + cs] (re), 8 further (im), in vectors V of 8
+ * lanes (double with AVX-512, float with AVX2). */
 #define KIFMM__FFT_STEP8(V, BCAST, LOAD, FMADD, FNMADD, R, I, fi)                              \
     {                                                                                          \
         const V xr = BCAST(x + (fi) * 16 + cs), xi = BCAST(x + (fi) * 16 + 8 + cs);            \

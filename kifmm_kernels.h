@@ -1454,7 +1454,7 @@ KIFMM_KERNEL__P2PN_F(1)
  * j], k = 0..3. With the gradient, q / r is formed once, added, and
  * multiplied by 1 / r^2: on AMD Zen 4 that keeps the additions off the FMA
  * pipes; without it, one FMA per sum has fewer operations (potential, one
- * core: 2.0-2.1e9 pairs/s against 1.7-2.0e9 on AVX-512). */
+ * core: 1.8-2.1e9 pairs/s against 1.7-2.0e9 on AVX-512). */
 #define KIFMM_KERNEL__MUTUAL_STEP(T, V, LOAD, STORE, ADD, MUL, FMADD, FNMADD, SB, GRAD)         \
     if (!(GRAD)) {                                                                             \
         a0 = FMADD(q, inv0, a0);                                                               \
