@@ -139,38 +139,24 @@ static double rate(p2p_fn f, int td, int64_t n, double seconds)
 static float fx[NMAX], fy[NMAX], fz[NMAX], gx[NMAX], gy[NMAX], gz[NMAX], fq[2 * NMAX];
 static float fout[2 * 4 * NMAX];
 
-/* Best pairs per second over 5 measurements of the float hook on an n x n
- * block: mutual = 0 for _p2pf, 1 for _p2psf (each pair counted once). */
-static double ratef(int mutual_, int64_t n, double seconds)
+/* The float hooks in the signature of rate(): the block is the first nt
+ * points of the float copies (the double arguments are not used). */
+static void float_oneway(const double *prm, const double *tx_, const double *ty_,
+                         const double *tz_, int64_t nt, const double *sx_, const double *sy_,
+                         const double *sz_, const double *q_, int64_t ns, double scale,
+                         double *out_)
 {
-    double best = 0.0;
-    int64_t reps = 1, r;
-    int m, i;
-    for (m = -1; m < 5; m++) {
-        double t = now(), v;
-        for (r = 0; r < reps; r++) {
-            if (mutual_)
-                kifmm_kernel_laplace_grad_p2psf(NULL, fx, fy, fz, fq + NMAX, n, gx, gy, gz, fq, n,
-                                                1e-3f, fout, fout + 4 * NMAX);
-            else
-                kifmm_kernel_laplace_grad_p2pf(NULL, fx, fy, fz, n, gx, gy, gz, fq, n, 1e-3f,
-                                               fout);
-        }
-        t = now() - t;
-        if (m < 0) { /* calibrate: enough repetitions for about `seconds` */
-            if (t < 0.2 * seconds) {
-                reps *= 2;
-                m = -2;
-            } else {
-                reps = (int64_t)((double)reps * seconds / t) + 1;
-            }
-            continue;
-        }
-        v = (double)reps * (double)n * (double)n / t;
-        if (v > best) best = v;
-    }
-    for (i = 0; i < 8 * NMAX; i++) checksum += fout[i];
-    return best;
+    (void)tx_; (void)ty_; (void)tz_; (void)sx_; (void)sy_; (void)sz_; (void)q_; (void)out_;
+    kifmm_kernel_laplace_grad_p2pf(prm, fx, fy, fz, nt, gx, gy, gz, fq, ns, (float)scale, fout);
+}
+static void float_mutual(const double *prm, const double *tx_, const double *ty_,
+                         const double *tz_, int64_t nt, const double *sx_, const double *sy_,
+                         const double *sz_, const double *q_, int64_t ns, double scale,
+                         double *out_)
+{
+    (void)tx_; (void)ty_; (void)tz_; (void)sx_; (void)sy_; (void)sz_; (void)q_; (void)out_;
+    kifmm_kernel_laplace_grad_p2psf(prm, fx, fy, fz, fq + NMAX, nt, gx, gy, gz, fq, ns,
+                                    (float)scale, fout, fout + 4 * NMAX);
 }
 #endif
 
@@ -251,9 +237,10 @@ int main(int argc, char **argv)
     printf("%-13s %6s %14s %14s %8s %8s\n", "kernel", "nt=ns", "_p2pf (1/s)", "_p2psf (1/s)",
            "vs _p2p", "vs _p2ps");
     for (i = 0; i < (int)(sizeof sizes / sizeof sizes[0]); i++) {
-        double r1 = ratef(0, sizes[i], seconds), r2 = ratef(1, sizes[i], seconds);
+        double r1 = rate(float_oneway, 4, sizes[i], seconds);
+        double r2 = rate(float_mutual, 4, sizes[i], seconds);
         double d1 = rate(kifmm_kernel_laplace_grad_p2p, 4, sizes[i], seconds), d2 = 0.0;
-#if kifmm_kernel_laplace_grad_P2PS
+#if kifmm_kernel_laplace_P2PS && kifmm_kernel_laplace_grad_P2PS
         g_mut = kifmm_kernel_laplace_grad_p2ps;
         g_mtd = 4;
         d2 = rate(mutual, 4, sizes[i], seconds);
@@ -262,6 +249,7 @@ int main(int argc, char **argv)
                r1 / d1, d2 > 0.0 ? r2 / d2 : 0.0);
         fflush(stdout);
     }
+    for (i = 0; i < 8 * NMAX; i++) checksum += fout[i]; /* the float sums, as rate() does */
 #endif
     printf("(checksum %.6e)\n", checksum);
     return 0;
