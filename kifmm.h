@@ -129,6 +129,12 @@
 #define KIFMM__FN static
 #endif
 
+/* OpenMP regions follow one rule, so that a reviewer can check it at a
+ * glance: every variable a region writes is declared inside the region (the
+ * index of a parallel loop in its for statement) or named in a reduction
+ * clause; everything declared outside is only read. Shared arrays are
+ * written at indices that belong to one iteration or one thread (each region
+ * says which). */
 #define KIFMM__PRAGMA(x) _Pragma(#x)
 #ifdef _OPENMP
 #define KIFMM__OMP(x) KIFMM__PRAGMA(omp x)
@@ -728,9 +734,8 @@ KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
         }
     }
     if (ka != key) {
-        int64_t i;
         KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (i = 0; i < n; i++) {
+        for (int64_t i = 0; i < n; i++) {
             key[i] = ka[i];
             idx[i] = ia[i];
         }
@@ -926,14 +931,14 @@ KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *
                                  double **out, int64_t **perm, uint64_t **keys, int nth)
 {
     double scale = (double)((int64_t)1 << KIFMM__D) / t->width;
-    int64_t i, maxi = ((int64_t)1 << KIFMM__D) - 1;
+    int64_t maxi = ((int64_t)1 << KIFMM__D) - 1;
     int rc;
     *out = (double *)kifmm__alloc((size_t)(3 * n), sizeof(double));
     *perm = (int64_t *)kifmm__alloc((size_t)n, sizeof(int64_t));
     *keys = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t));
     if (!*out || !*perm || !*keys) return KIFMM_ERR_NOMEM;
     KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-    for (i = 0; i < n; i++) {
+    for (int64_t i = 0; i < n; i++) {
         int64_t a[3];
         int d;
         for (d = 0; d < 3; d++) {
@@ -946,7 +951,7 @@ KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *
     rc = kifmm__radix_sort(*keys, *perm, n, nth);
     if (rc) return rc;
     KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-    for (i = 0; i < n; i++) {
+    for (int64_t i = 0; i < n; i++) {
         int d;
         for (d = 0; d < 3; d++) (*out)[d * n + i] = xyz[3 * (*perm)[i] + d];
     }
@@ -1139,7 +1144,7 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
          * found in one load instead of a binary search (tree 0.19-0.21 s ->
          * 0.15-0.17 s at 1M uniform points); the other levels, and all of
          * them if the index cannot be allocated, search */
-        int64_t tot = 0, e;
+        int64_t tot = 0;
         for (l = 0; l < t->nlev; l++) {
             const int64_t full = (int64_t)1 << (3 * l), nl = t->loff[l + 1] - t->loff[l];
             t->dixo[l] = l <= 10 && full <= 8 * nl + 4096 ? tot : -1;
@@ -1148,7 +1153,7 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
         t->dix = tot > 0 ? (int32_t *)kifmm__alloc((size_t)tot, sizeof(int32_t)) : NULL;
         if (t->dix) {
             KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-            for (e = 0; e < tot; e++) t->dix[e] = -1;
+            for (int64_t e = 0; e < tot; e++) t->dix[e] = -1;
             for (l = 0; l < t->nlev; l++)
                 if (t->dixo[l] >= 0)
                     for (b = t->loff[l]; b < t->loff[l + 1]; b++)
@@ -1156,7 +1161,7 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
         }
     }
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) reduction(| : overflow))
-    for (k = 0; k < nk; k++) {
+    for (int32_t k = 0; k < nk; k++) {
         const int32_t b0 = (int32_t)((int64_t)nb * k / nk), b1 = (int32_t)((int64_t)nb * (k + 1) / nk);
         int32_t c;
         for (c = b0; c < b1; c++) {
@@ -1191,7 +1196,7 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
         int32_t *dst[4];
         dst[0] = t->u; dst[1] = t->v; dst[2] = t->w; dst[3] = t->x;
         KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (k = 0; k < nk; k++) {
+        for (int32_t k = 0; k < nk; k++) {
             const int32_t b0 = (int32_t)((int64_t)nb * k / nk);
             int m;
             for (m = 0; m < 4; m++)
@@ -1247,7 +1252,6 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     double lo[3], hi[3], half = 0.0;
     uint64_t *skey = NULL, *tkey = NULL;
     kifmm__keys in[KIFMM__D + 1];
-    int64_t i;
     int d, l, rc = KIFMM_SUCCESS, deepest = 0;
     int32_t nb, b;
     size_t nbz;
@@ -1258,7 +1262,7 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     for (d = 0; d < 3; d++) {
         double mn = HUGE_VAL, mx = -HUGE_VAL;
         KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
-        for (i = 0; i < ns + nt; i++) {
+        for (int64_t i = 0; i < ns + nt; i++) {
             double v = i < ns ? src[3 * i + d] : trg[3 * (i - ns) + d];
             mn = v < mn ? v : mn;
             mx = v > mx ? v : mx;
@@ -1297,7 +1301,7 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
             split = (unsigned char *)kifmm__alloc((size_t)cur.n, 1);
             if (!split) { rc = KIFMM_ERR_NOMEM; goto topdone; }
             KIFMM__OMP(parallel for schedule(dynamic, 256) num_threads(nth))
-            for (j = 0; j < cur.n; j++) {
+            for (int64_t j = 0; j < cur.n; j++) {
                 uint64_t k0 = cur.a[j] << sh, k1 = (cur.a[j] + 1) << sh;
                 int64_t fs = kifmm__lower_bound(skey, ns, k0), ft = kifmm__lower_bound(tkey, nt, k0);
                 int64_t cs = kifmm__lower_bound(skey, ns, k1) - fs;
@@ -1338,7 +1342,7 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
         uint64_t *need = (uint64_t *)kifmm__alloc((size_t)nb8 * 27 + 1, sizeof(uint64_t));
         if (!need) { rc = KIFMM_ERR_NOMEM; goto done; }
         KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (j = 0; j < nb8; j++) {
+        for (int64_t j = 0; j < nb8; j++) {
             int64_t a[3];
             int dx, dy, dz, m = 0;
             kifmm__decode(in[l - 1].a[j >> 3] << 3 | (uint64_t)(j & 7), a);
@@ -1420,7 +1424,7 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     for (l = 0; l < t->nlev; l++) {
         int sh = 3 * (KIFMM__D - l);
         KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+        for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
             int64_t a[3];
             kifmm__decode(t->key[b], a);
             t->anchor[3 * (size_t)b] = (int32_t)a[0];
@@ -2027,7 +2031,7 @@ KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, int32_t **co_out,
     (void)nth;
     for (pass = 0; pass < 2; pass++) {
         KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (i = 0; i < ni; i++) {
+        for (int32_t i = 0; i < ni; i++) {
             int32_t p = t->inner[i], m = 0;
             int l = t->lev[p], o;
             int64_t side = (int64_t)1 << l;
@@ -2383,7 +2387,7 @@ KIFMM__FN void KIFMM__F(__kmat)(const double *prm, const double *tp, int ntp, co
 KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     enum { CH = 16 };
-    int nse = c->nse, nsc = c->nsc, ne = c->ne, nc = c->nc, oct, tv, rc = KIFMM_SUCCESS;
+    int nse = c->nse, nsc = c->nsc, ne = c->ne, nc = c->nc, oct, rc = KIFMM_SUCCESS;
     double *a = NULL, *pe = NULL, *pc = NULL, *kall = NULL, *pall = NULL;
     double zero[3] = {0.0, 0.0, 0.0};
     const double *prm = c->param;
@@ -2475,7 +2479,6 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
         const size_t per = (size_t)n * n * n + kifmm__fft_work(pl);
         const double h = 2.0 * KIFMM__ALPHA_INNER * r / (p - 1);
         double *kt; /* spectra per transfer vector, transposed below */
-        int32_t f;
         o->khat = (double *)kifmm__calloc((size_t)KIFMM__NT * 2 * pl->nfp, sizeof(double));
         kall = (double *)kifmm__alloc((size_t)c->nthreads * per + (size_t)KIFMM__NT * 2 * pl->nfp,
                                       sizeof(double));
@@ -2483,7 +2486,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
         kt = kall + (size_t)c->nthreads * per;
         memset(kt, 0, sizeof(double) * KIFMM__NT * 2 * (size_t)pl->nfp); /* padding frequencies */
         KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
-        for (tv = 0; tv < KIFMM__NT; tv++) {
+        for (int tv = 0; tv < KIFMM__NT; tv++) {
 #ifdef _OPENMP
             double *g = kall + (size_t)omp_get_thread_num() * per;
 #else
@@ -2504,11 +2507,11 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
         }
         /* frequency-major, so that the blocks of a chunk read one contiguous piece */
         KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-        for (f = 0; f < pl->nfp; f++)
-            for (tv = 0; tv < KIFMM__NT; tv++) {
-                o->khat[((size_t)f * KIFMM__NT + tv) * 2] = kt[(size_t)tv * 2 * pl->nfp + 2 * f];
-                o->khat[((size_t)f * KIFMM__NT + tv) * 2 + 1] =
-                    kt[(size_t)tv * 2 * pl->nfp + 2 * f + 1];
+        for (int32_t f = 0; f < pl->nfp; f++)
+            for (int t = 0; t < KIFMM__NT; t++) {
+                o->khat[((size_t)f * KIFMM__NT + t) * 2] = kt[(size_t)t * 2 * pl->nfp + 2 * f];
+                o->khat[((size_t)f * KIFMM__NT + t) * 2 + 1] =
+                    kt[(size_t)t * 2 * pl->nfp + 2 * f + 1];
             }
     }
 #else
@@ -2518,10 +2521,10 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o
     kall = (double *)kifmm__alloc((size_t)nc * CH * ne, sizeof(double));
     pall = (double *)kifmm__alloc((size_t)CH * 3 * (nse + nsc), sizeof(double));
     if (!o->m2l || !kall || !pall) { rc = KIFMM_ERR_NOMEM; goto done; }
-    for (tv = 0; tv < KIFMM__NT; tv += CH) {
-        int nch = KIFMM__NT - tv < CH ? KIFMM__NT - tv : CH, k;
+    for (int tv = 0; tv < KIFMM__NT; tv += CH) {
+        int nch = KIFMM__NT - tv < CH ? KIFMM__NT - tv : CH;
         KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
-        for (k = 0; k < nch; k++) {
+        for (int k = 0; k < nch; k++) {
             int d[3] = {0, 0, 0};
             double cc[3], *tc = pall + (size_t)k * 3 * (nse + nsc), *te = tc + 3 * nsc;
             kifmm__transfer_vector(tv + k, d);
@@ -2615,7 +2618,7 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
         const kifmm__fft *pl = &c->fft;
         const size_t esz = pl->single ? sizeof(float) : sizeof(double);
         const size_t per = (size_t)27 * 128 * KIFMM__FFT_F * esz, all = per * (size_t)pl->nchunk;
-        int tvm[27 * 64], n = 0, ch;
+        int tvm[27 * 64], n = 0;
         const size_t one = (size_t)c->tree.nbox * (size_t)c->ne * sizeof(KIFMM__R);
         for (l = 0; l < c->nops; l++) n += c->ops[l].khat != NULL;
         if (n > 0 && (all * (size_t)n <= (size_t)KIFMM__FFT_KB_MB << 20 || all * (size_t)n <= one)) {
@@ -2626,7 +2629,7 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
                 o->kb = kifmm__alloc(all, 1);
                 if (!o->kb) return KIFMM_ERR_NOMEM;
                 KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-                for (ch = 0; ch < pl->nchunk; ch++)
+                for (int ch = 0; ch < pl->nchunk; ch++)
                     kifmm__fft_blocks(pl, o->khat, tvm, ch, (char *)o->kb + per * (size_t)ch);
             }
         }
@@ -2872,9 +2875,8 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     const int ppv = (na + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
     const size_t per = (size_t)t->nbox * (size_t)c->ne;
     KIFMM__R *eq = up ? w->ue : w->de;
-    int p;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) if (KIFMM__GC_FAST))
-    for (p = 0; p < np; p++) {
+    for (int p = 0; p < np; p++) {
         /* pieces of one vector each, cut as for evaluate: without AVX2 each is a
          * BLAS call, whose result for a column can depend on the call's other
          * columns, and the float FFT spectra turn last-bit differences into
@@ -2935,10 +2937,9 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
     const int m = down ? 8 * c->nc : c->nc, k = down ? c->ne : 8 * c->ne;
     const size_t per = (size_t)t->nbox * (size_t)c->ne;
     const KIFMM__R *op = down ? KIFMM__F(__ops_at)(c, lp + 1)->l2l : KIFMM__F(__ops_at)(c, lp)->m2m;
-    int p;
     if (ni == 0 || lp + 1 >= t->nlev) return;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) if (KIFMM__GC_FAST))
-    for (p = 0; p < np; p++) {
+    for (int p = 0; p < np; p++) {
         const KIFMM__R *bp[KIFMM__GC_NC];
         KIFMM__R *cp[KIFMM__GC_NC];
         const int jr = p / ppv, j0 = (p % ppv) * KIFMM__GC_NC; /* as in __solve */
@@ -2972,14 +2973,14 @@ KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
 {
     const kifmm__tree *t = &c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
-    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, j, blk = c->m2l_cols / nrhs;
+    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, blk = c->m2l_cols / nrhs;
     int nl = KIFMM__LVL(c, l);
     size_t col = (size_t)KIFMM__NT * c->ne, per = (size_t)t->nbox * (size_t)c->ne;
     if (blk < 1) blk = 1;
     for (b0 = 0; b0 < n; b0 += blk) {
         int32_t nb = n - b0 < blk ? n - b0 : blk;
         KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
-        for (j = 0; j < nb * nrhs; j++) {
+        for (int32_t j = 0; j < nb * nrhs; j++) {
             int32_t b = t->m2l[t->m2lo[l] + b0 + j / nrhs], e;
             const KIFMM__R *ue = w->ue + (size_t)(j % nrhs) * per;
             KIFMM__R *st = w->stack + (size_t)j * col;
@@ -2991,7 +2992,7 @@ KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
         KIFMM__F(__gemm)(o->kd, nb * nrhs, (int)col, o->m2l, o->kd, w->stack, (int)col, 0,
                          w->m2l_out, o->kd);
         KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-        for (j = 0; j < nb * nrhs; j++) {
+        for (int32_t j = 0; j < nb * nrhs; j++) {
             int32_t b = t->m2l[t->m2lo[l] + b0 + j / nrhs];
             KIFMM__R *dst = w->tmp + ((size_t)(j % nrhs) * nl + (size_t)(b - t->loff[l])) * o->kd;
             const KIFMM__R *s = w->m2l_out + (size_t)j * o->kd;
@@ -3144,7 +3145,7 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     kifmm__fft_tvmap(tv);
     for (s0 = 0; s0 < ni; s0 = s1) {
         /* a slab of target parents [s0, s1) whose source parents fit */
-        int32_t nneed = 0, nblk, b, blk;
+        int32_t nneed = 0, nblk;
         for (s1 = s0; s1 < ni; s1++) {
             int32_t g = base + s1, add = 0;
             if (!o->kb && s1 - s0 >= c->slots) break; /* the outputs fit in fout */
@@ -3168,7 +3169,7 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
             const KIFMM__R *ue = w->ue + r * per + (size_t)t->loff[l] * ne;
             KIFMM__R *chk = w->chk + (size_t)r * nl * nc;
             KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-            for (b = 0; b < nneed; b++) {
+            for (int32_t b = 0; b < nneed; b++) {
                 double *work = KIFMM__F(__fbuf)(c) + kbn + outn;
                 double *m = work + kifmm__fft_work8(pl);
                 const KIFMM__R *u = ue + (size_t)8 * need[b] * ne; /* the 8 children */
@@ -3189,9 +3190,8 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                 /* blocks not kept: tasks over chunks, all target parents of the
                  * slab in each, so that each chunk's blocks are built once */
                 const size_t fcs = (size_t)c->slots * KIFMM__FFT_F * 16; /* fout chunk */
-                int ch;
                 KIFMM__OMP(parallel for schedule(dynamic, 2) num_threads(c->nthreads))
-                for (ch = 0; ch < pl->nchunk; ch++) {
+                for (int ch = 0; ch < pl->nchunk; ch++) {
                     double *kb = KIFMM__F(__fbuf)(c);
                     int32_t P;
                     kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
@@ -3210,7 +3210,7 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                     }
                 }
                 KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
-                for (b = s0; b < s1; b++) {
+                for (int32_t b = s0; b < s1; b++) {
                     double *work = KIFMM__F(__fbuf)(c) + kbn + outn;
                     if (KIFMM__F(__fft_wanted)(t, l, b))
                         KIFMM__F(__fft_finish)(c, l, b,
@@ -3221,7 +3221,7 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                 continue;
             }
             KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
-            for (blk = 0; blk < nblk; blk++) {
+            for (int32_t blk = 0; blk < nblk; blk++) {
                 double *kb = KIFMM__F(__fbuf)(c), *out = kb + kbn, *work = out + outn;
                 int32_t p0 = s0 + blk * tb;
                 int32_t nb = s1 - p0 < tb ? s1 - p0 : tb, P;
@@ -3266,12 +3266,11 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
 KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
     const kifmm__tree *t = &c->tree;
-    int32_t b;
     int nl = KIFMM__LVL(c, l);
     double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1;
     memset(w->chk, 0, (size_t)nl * nrhs * c->nc * sizeof(KIFMM__R));
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
-    for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+    for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
         KIFMM__R *pc;
         double ctr[3], half;
         int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
@@ -3315,7 +3314,6 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
                                     int l)
 {
     const kifmm__tree *t = &c->tree;
-    int32_t b;
     int nl = KIFMM__LVL(c, l);
     size_t cst = (size_t)nl * c->nc, per = (size_t)t->nbox * (size_t)c->ne;
     double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1, t2, t3, t4;
@@ -3323,7 +3321,7 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
     t1 = kifmm__now();
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
-    for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+    for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
         KIFMM__R *pc, *pe;
         double ctr[3], half;
         KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * c->nc;
@@ -3484,11 +3482,10 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
 KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
 {
     const kifmm__tree *t = &c->tree;
-    int32_t i;
     double tl = 0.0, tw = 0.0, tu = 0.0;
     if (c->pchunk) {
         KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
-        for (i = 0; i < c->npchunk; i++) {
+        for (int32_t i = 0; i < c->npchunk; i++) {
             const int32_t i0 = c->pchunk[i], i1 = c->pchunk[i + 1];
             double tm[3] = {0.0, 0.0, 0.0};
             int32_t j;
@@ -3516,7 +3513,7 @@ KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
         }
     } else {
         KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
-        for (i = 0; i < t->nleaves; i++) {
+        for (int32_t i = 0; i < t->nleaves; i++) {
             double tm[3] = {0.0, 0.0, 0.0};
             const int64_t t0 = t->t0[t->leaves[i]], n = t->t1[t->leaves[i]] - t0;
             if (w->outs) {
@@ -3618,12 +3615,11 @@ KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
 
 KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const KIFMM__R *xyz, int nth)
 {
-    int64_t i;
     int bad = 0;
     if (n < 0) return KIFMM_ERR_COUNT;
     if (n > 0 && !xyz) return KIFMM_ERR_NULL;
     KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(| : bad) if (n > 65536))
-    for (i = 0; i < 3 * n; i++) bad |= !isfinite(xyz[i]);
+    for (int64_t i = 0; i < 3 * n; i++) bad |= !isfinite(xyz[i]);
     (void)nth;
     return bad ? KIFMM_ERR_NONFINITE : KIFMM_SUCCESS;
 }
@@ -3653,17 +3649,16 @@ KIFMM__FN int KIFMM__F(__tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, i
     const int same = src == trg && ns == nt; /* one copy, and the tree sorts once */
     double *s = (double *)kifmm__alloc((size_t)(3 * ns), sizeof(double));
     double *g = same ? s : (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
-    int64_t i;
     if (!s || !g) {
         kifmm__free(s);
         if (!same) kifmm__free(g);
         return KIFMM_ERR_NOMEM;
     }
     KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
-    for (i = 0; i < 3 * ns; i++) s[i] = src[i];
+    for (int64_t i = 0; i < 3 * ns; i++) s[i] = src[i];
     if (!same) {
         KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
-        for (i = 0; i < 3 * nt; i++) g[i] = trg[i];
+        for (int64_t i = 0; i < 3 * nt; i++) g[i] = trg[i];
     }
     rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads,
                            !KIFMM__FFT);
@@ -3861,7 +3856,6 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
 {
     const kifmm__tree *t;
     KIFMM__F(__work) *w;
-    int64_t i;
     int l, r0, nr, cap;
     double t0;
     size_t qper, oper;
@@ -3897,7 +3891,7 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
     for (r0 = 0; r0 < nrhs; r0 += nr) {
         nr = nrhs - r0 < cap ? nrhs - r0 : cap;
         KIFMM__OMP(parallel for schedule(static) num_threads(h->nthreads))
-        for (i = 0; i < t->ns; i++) {
+        for (int64_t i = 0; i < t->ns; i++) {
             int k, r;
             for (r = 0; r < nr; r++)
                 for (k = 0; k < KIFMM__SD; k++)
@@ -3914,7 +3908,7 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
         w->dst = NULL;
         if (w->outs) {
             KIFMM__OMP(parallel for schedule(static) num_threads(h->nthreads))
-            for (i = 0; i < t->nt; i++) {
+            for (int64_t i = 0; i < t->nt; i++) {
                 int k, r;
                 for (r = 0; r < nr; r++)
                     for (k = 0; k < KIFMM__TD; k++)

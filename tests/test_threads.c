@@ -1,0 +1,142 @@
+/* test_threads.c - the same problem gives the same answer whatever the thread
+ * count: for every shipped kernel with the FFT M2L (double and float) and one
+ * without (stokes, dense M2L), handles created with 2, 3 and 4 threads (more
+ * threads than this machine may have cores) are compared with a handle
+ * created with 1 thread on the same points, several times over. A data race
+ * in create or evaluate shows as handles that differ far beyond rounding
+ * (a shared loop index once made 4 to 6 of 8 handles wrong by 10 % to 60 %
+ * in builds at -O0), so the bound is a few hundred units of rounding of the
+ * instance's precision, not an accuracy bound. */
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL stokes
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace
+#define KIFMM_REAL float
+#define KIFMM_NAME kifmm_laplacef
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa_grad
+#define KIFMM_REAL float
+#define KIFMM_NAME kifmm_yukawa_gradf
+#include "kifmm.h"
+
+#include "test.h"
+
+#ifdef KIFMM_TEST_QUICK
+#define REPEATS 2
+#define NPOINTS 12000
+#else
+#define REPEATS 4
+#define NPOINTS 20000
+#endif
+
+/* ||a - b|| / ||b|| in double over n values of type T */
+#define REL_DIFF(T)                                                                         \
+    static double rel_diff_##T(int64_t n, const T *a, const T *b)                          \
+    {                                                                                       \
+        double num = 0, den = 0;                                                            \
+        int64_t i;                                                                          \
+        for (i = 0; i < n; i++) {                                                           \
+            double d = (double)a[i] - (double)b[i];                                         \
+            if (d != d) return NAN;                                                         \
+            num += d * d;                                                                   \
+            den += (double)b[i] * (double)b[i];                                             \
+        }                                                                                   \
+        return den > 0 ? sqrt(num / den) : sqrt(num);                                       \
+    }
+REL_DIFF(double)
+REL_DIFF(float)
+
+/* For instance P of real type T (SD, TD components): a 1-thread reference,
+ * then REPEATS handles for each of 2, 3 and 4 threads, each evaluated twice;
+ * the largest relative difference from the reference is checked against
+ * `bound`. */
+#define THREAD_CHECK(P, T, SD, TD)                                                          \
+    static void check_##P(const char *dist, int64_t n, const double *xd, int order,        \
+                          double bound)                                                     \
+    {                                                                                       \
+        T *x = (T *)t_malloc_or_die((size_t)(3 * n) * sizeof(T));                           \
+        T *q = (T *)t_malloc_or_die((size_t)(SD * n) * sizeof(T));                          \
+        T *ref = (T *)t_malloc_or_die((size_t)(TD * n) * sizeof(T));                        \
+        T *out = (T *)t_malloc_or_die((size_t)(TD * n) * sizeof(T));                        \
+        t_rng r = t_rng_seed(77);                                                           \
+        kifmm_opts o = t_opts(order, 0, 0);                                                 \
+        P *h = NULL;                                                                        \
+        double worst = 0.0;                                                                 \
+        int64_t i;                                                                          \
+        int th, rep, ev, rc, nbad = 0;                                                      \
+        for (i = 0; i < 3 * n; i++) x[i] = (T)xd[i];                                        \
+        for (i = 0; i < SD * n; i++) q[i] = (T)t_uniform(&r, -1.0, 1.0);                    \
+        o.kernel_param[0] = 3.0;                                                            \
+        o.nthreads = 1;                                                                     \
+        rc = P##_create(&h, &o, n, x, n, x);                                                \
+        if (!rc) rc = P##_evaluate(h, q, ref);                                              \
+        P##_destroy(h);                                                                     \
+        CHECK(rc == 0, "%s %s: 1-thread reference rc=%d", #P, dist, rc);                    \
+        for (th = 2; th <= 4 && rc == 0; th++)                                              \
+            for (rep = 0; rep < REPEATS; rep++) {                                           \
+                o.nthreads = th;                                                            \
+                h = NULL;                                                                   \
+                rc = P##_create(&h, &o, n, x, n, x);                                        \
+                for (ev = 0; ev < 2 && rc == 0; ev++) {                                     \
+                    double d;                                                               \
+                    for (i = 0; i < TD * n; i++) out[i] = (T)NAN;                           \
+                    rc = P##_evaluate(h, q, out);                                           \
+                    d = rel_diff_##T(TD * n, out, ref);                                     \
+                    if (!(d <= bound)) nbad++;                                              \
+                    if (!(d <= worst)) worst = d;                                           \
+                }                                                                           \
+                P##_destroy(h);                                                             \
+                CHECK(rc == 0, "%s %s: %d threads rc=%d", #P, dist, th, rc);                \
+            }                                                                               \
+        CHECK(nbad == 0, "%s %s: %d of %d evaluations differ from 1 thread by more than "   \
+                         "%.0e",                                                            \
+              #P, dist, nbad, 3 * REPEATS * 2, bound);                                      \
+        CHECK_ERR(worst, bound, "%s %s p=%d: 2-4 threads vs 1, max rel diff", #P, dist,     \
+                  order);                                                                   \
+        free(x);                                                                            \
+        free(q);                                                                            \
+        free(ref);                                                                          \
+        free(out);                                                                          \
+    }
+THREAD_CHECK(kifmm_laplace, double, 1, 1)
+THREAD_CHECK(kifmm_laplace_grad, double, 1, 4)
+THREAD_CHECK(kifmm_yukawa, double, 1, 1)
+THREAD_CHECK(kifmm_yukawa_grad, double, 1, 4)
+THREAD_CHECK(kifmm_stokes, double, 3, 3)
+THREAD_CHECK(kifmm_laplacef, float, 1, 1)
+THREAD_CHECK(kifmm_yukawa_gradf, float, 1, 4)
+
+int main(void)
+{
+    const int64_t n = NPOINTS, ns = 6000;
+    double *cube = t_doubles(3 * n), *sphere = t_doubles(3 * n);
+    t_rng r = t_rng_seed(5);
+    /* differences from summation order alone: a few units of rounding of
+     * the result's norm; the bound leaves room for a few hundred */
+    const double bd = 1e-13, bf = 3e-5;
+    t_gen_cube(&r, n, cube, 0.0, 1.0);
+    t_gen_sphere(&r, n, sphere);
+#ifndef _OPENMP
+    printf("  built without OpenMP: nthreads 2-4 run on one thread (still compared)\n");
+#endif
+    t_group("FFT M2L kernels, double: 2, 3, 4 threads against 1");
+    check_kifmm_laplace("cube", n, cube, 6, bd);
+    check_kifmm_laplace("sphere", n, sphere, 6, bd);
+    check_kifmm_laplace_grad("cube", n, cube, 8, bd);
+    check_kifmm_yukawa("cube", n, cube, 6, bd);
+    check_kifmm_yukawa_grad("sphere", n, sphere, 4, bd);
+    t_group("FFT M2L kernels, float");
+    check_kifmm_laplacef("cube", n, cube, 4, bf);
+    check_kifmm_yukawa_gradf("sphere", n, sphere, 4, bf);
+    t_group("dense M2L: stokes");
+    check_kifmm_stokes("cube", ns, cube, 4, bd);
+    free(cube);
+    free(sphere);
+    return t_finish();
+}
