@@ -31,8 +31,8 @@
  *   KIFMM_REAL    double (default) or float: coordinates, densities, outputs
  *                 and the arithmetic of the passes (operators are built in
  *                 double and rounded)
- *   KIFMM_NAME    prefix of the generated type and functions;
- *                 default kifmm_<KIFMM_KERNEL>
+ *   KIFMM_NAME    prefix of the generated type and functions; default
+ *                 kifmm_<KIFMM_KERNEL>, or kifmm_<KIFMM_KERNEL>f for float
  *
  *   e.g.  #define KIFMM_KERNEL stokes
  *         #define KIFMM_REAL float
@@ -53,6 +53,14 @@
  *   OpenBLAS misdetects the CPU, set OPENBLAS_CORETYPE (e.g. SkylakeX, Haswell).
  */
 
+/* g++ 12 false positives inside its AVX-512 intrinsics (see kifmm_kernels.h):
+ * silenced for this file's code, restored at its end. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#endif
+
 /* ======================================================================== */
 /* 3. Shared part                                                           */
 /* ======================================================================== */
@@ -63,8 +71,14 @@
 #define KIFMM_VERSION_MINOR 1
 #define KIFMM_VERSION_PATCH 0
 
+/* System headers with C++ linkage even inside a C++ host's extern "C". */
+#ifdef __cplusplus
+extern "C++" {
+#endif
+#include <float.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <math.h>
@@ -74,11 +88,14 @@
 #ifdef _OPENMP
 #include <omp.h>
 #endif
-
-#include "kifmm_kernels.h"
 #if defined(__AVX2__) && defined(__FMA__)
 #include <immintrin.h>
 #endif
+#ifdef __cplusplus
+}
+#endif
+
+#include "kifmm_kernels.h"
 
 #if defined(KIFMM_MALLOC) && !defined(KIFMM_FREE)
 #error "kifmm.h: KIFMM_MALLOC is defined but KIFMM_FREE is not; define both or neither"
@@ -102,11 +119,16 @@
 #define KIFMM_SQUARE_MAX_ORDER 7
 #endif
 
-/* Orders up to this one keep the FFT M2L's spectra and products in float
- * (relative error about 1e-7, far below these orders' truncation error;
- * half the memory and about twice the speed); float instances always do. */
+/* Double instances of orders up to this one keep the FFT M2L's spectra and
+ * products in float (float instances always do). Off by default: float
+ * spectra carry an error of about 1e-7 relative to each box's own field, not
+ * to the total, and where the fields of many boxes cancel (charges that sum
+ * to about zero, seen from far away) that error dominates: 3.4e-4 against
+ * 7.9e-6 in double at p = 6 for 20,000 neutral charges at a distance of 300
+ * box sizes, 2e-3 at p = 4. Define it (e.g. 6) for half the spectra's memory
+ * and faster products on inputs without such cancellation (docs/api.md). */
 #ifndef KIFMM_FFT_SINGLE_MAX_ORDER
-#define KIFMM_FFT_SINGLE_MAX_ORDER 6
+#define KIFMM_FFT_SINGLE_MAX_ORDER 0
 #endif
 
 /* Memory for the spectra of the FFT M2L, in MiB: a level whose source
@@ -122,6 +144,19 @@
 #define KIFMM_MAX_DEPTH 20   /* deepest tree level (Morton keys hold 3 x 20 bits) */
 #define KIFMM_DEFAULT_ORDER 6
 #define KIFMM_DEFAULT_DEPTH 16
+
+/* Most threads a handle accepts (opts.nthreads): each thread has buffers of
+ * its own (a few MiB at high orders), and starting thousands of threads
+ * takes seconds. Define it before the first include to change it. */
+#ifndef KIFMM_MAX_THREADS
+#define KIFMM_MAX_THREADS 1024
+#endif
+
+/* Most points of one set: beyond this, 3 coordinates and 8 vectors of up to
+ * 16 components of 8 bytes would not fit in any address space (far beyond
+ * any memory; the check exists so that counts such as INT64_MAX give
+ * KIFMM_ERR_COUNT instead of an overflow). */
+#define KIFMM_MAX_POINTS ((int64_t)(PTRDIFF_MAX / 1024))
 
 #if defined(__GNUC__) || defined(__clang__)
 #define KIFMM__FN static __attribute__((unused))
@@ -154,16 +189,17 @@
 enum {
     KIFMM_SUCCESS = 0,
     KIFMM_ERR_NULL = -1,      /* a required pointer is NULL */
-    KIFMM_ERR_COUNT = -2,     /* negative point count */
+    KIFMM_ERR_COUNT = -2,     /* a count is negative or too large for any array */
     KIFMM_ERR_NONFINITE = -3, /* NaN or infinite coordinate */
     KIFMM_ERR_ORDER = -4,     /* order out of range */
     KIFMM_ERR_LEAF_SIZE = -5, /* negative leaf size */
     KIFMM_ERR_DEPTH = -6,     /* max_depth out of range */
-    KIFMM_ERR_NTHREADS = -7,  /* negative nthreads */
+    KIFMM_ERR_NTHREADS = -7,  /* nthreads negative or above KIFMM_MAX_THREADS */
     KIFMM_ERR_PARAM = -8,     /* bad kernel parameter */
     KIFMM_ERR_NOMEM = -9,     /* allocation failed */
     KIFMM_ERR_LAPACK = -10,   /* an SVD did not converge */
-    KIFMM_ERR_INTERNAL = -11  /* an internal limit was exceeded */
+    KIFMM_ERR_INTERNAL = -11, /* an internal limit was exceeded */
+    KIFMM_ERR_KERNEL = -12    /* the kernel gave a value that is not finite */
 };
 
 /* kifmm_strerror: a one-line message for a result code; never NULL. */
@@ -172,16 +208,20 @@ KIFMM__FN const char *kifmm_strerror(int code)
     switch (code) {
     case KIFMM_SUCCESS: return "success";
     case KIFMM_ERR_NULL: return "a required pointer argument is NULL";
-    case KIFMM_ERR_COUNT: return "a point count is negative";
+    case KIFMM_ERR_COUNT:
+        return "a count is negative or too large for any array (see KIFMM_MAX_POINTS)";
     case KIFMM_ERR_NONFINITE: return "a coordinate is NaN or infinite";
     case KIFMM_ERR_ORDER: return "expansion order out of range (2 to KIFMM_MAX_ORDER)";
     case KIFMM_ERR_LEAF_SIZE: return "leaf size is negative";
     case KIFMM_ERR_DEPTH: return "maximum depth out of range (0 to KIFMM_MAX_DEPTH)";
-    case KIFMM_ERR_NTHREADS: return "number of threads is negative";
+    case KIFMM_ERR_NTHREADS: return "number of threads out of range (0 to KIFMM_MAX_THREADS)";
     case KIFMM_ERR_PARAM: return "a kernel parameter is out of range";
     case KIFMM_ERR_NOMEM: return "memory allocation failed";
     case KIFMM_ERR_LAPACK: return "a singular value decomposition did not converge";
     case KIFMM_ERR_INTERNAL: return "an internal limit was exceeded (please report)";
+    case KIFMM_ERR_KERNEL:
+        return "the kernel gave a NaN or infinite value on the expansion surfaces (check its "
+               "parameters)";
     default: return "unknown kifmm result code";
     }
 }
@@ -193,7 +233,8 @@ typedef struct kifmm_opts {
     int order;              /* expansion order p, 2..KIFMM_MAX_ORDER; 0 = 6 */
     int leaf_size;          /* max points per leaf; 0 = chosen per order */
     int max_depth;          /* deepest level, 1..KIFMM_MAX_DEPTH; 0 = 16 */
-    int nthreads;           /* OpenMP threads; 0 = omp_get_max_threads() */
+    int nthreads;           /* OpenMP threads, 1..KIFMM_MAX_THREADS; 0 =
+                               omp_get_max_threads(); always 1 without OpenMP */
     double kernel_param[4]; /* kernel parameters; 0 = the kernel's default */
 } kifmm_opts;
 
@@ -222,14 +263,13 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, kifmm_opts *out)
     if (o.leaf_size == 0) o.leaf_size = kifmm__default_leaf(o.order);
     if (o.max_depth < 0 || o.max_depth > KIFMM_MAX_DEPTH) return KIFMM_ERR_DEPTH;
     if (o.max_depth == 0) o.max_depth = KIFMM_DEFAULT_DEPTH;
-    if (o.nthreads < 0) return KIFMM_ERR_NTHREADS;
-    if (o.nthreads == 0) {
+    if (o.nthreads < 0 || o.nthreads > KIFMM_MAX_THREADS) return KIFMM_ERR_NTHREADS;
 #ifdef _OPENMP
-        o.nthreads = omp_get_max_threads();
+    if (o.nthreads == 0) o.nthreads = omp_get_max_threads();
+    if (o.nthreads > KIFMM_MAX_THREADS) o.nthreads = KIFMM_MAX_THREADS;
 #else
-        o.nthreads = 1;
+    o.nthreads = 1; /* what really runs: a build without OpenMP has one thread */
 #endif
-    }
     *out = o;
     return KIFMM_SUCCESS;
 }
@@ -244,7 +284,30 @@ typedef struct kifmm_stats {
     double t_p2m, t_m2m, t_m2l, t_l2l, t_p2l, t_l2p, t_m2p, t_p2p; /* last evaluate */
     double t_evaluate;          /* last evaluate, total */
     double bytes;               /* memory held by the handle */
+    int64_t max_leaf;           /* most sources or targets in one leaf */
+    int64_t crowded;            /* points in leaves holding more than leaf_size of
+                                   them: leaves at max_depth, or of points that
+                                   share one position at depth KIFMM_MAX_DEPTH;
+                                   their near field is a direct sum, O(n^2) in
+                                   such a leaf's n (docs/api.md, "Limits") */
+    int threads;                /* threads the handle's loops run on */
+    int simd;                   /* vector width the build's kernels use, in bits:
+                                   512 (AVX-512), 256 (AVX2 + FMA), 0 (none:
+                                   compiled without -march or -mavx2 -mfma) */
+    char build[256];            /* the code paths of this instance, in words */
 } kifmm_stats;
+
+/* The widest instruction set the build's own kernels use. */
+#if defined(__AVX512F__)
+#define KIFMM__SIMD_BITS 512
+#define KIFMM__SIMD_NAME "AVX-512"
+#elif defined(__AVX2__) && defined(__FMA__)
+#define KIFMM__SIMD_BITS 256
+#define KIFMM__SIMD_NAME "AVX2"
+#else
+#define KIFMM__SIMD_BITS 0
+#define KIFMM__SIMD_NAME "portable C"
+#endif
 
 /* Wall-clock seconds (CPU seconds in builds without OpenMP, which run on one
  * thread; C99 has no portable wall clock). */
@@ -280,6 +343,13 @@ KIFMM__FN void *kifmm__calloc(size_t count, size_t size)
     void *p = kifmm__alloc(count, size);
     if (p) memset(p, 0, count * size);
     return p;
+}
+
+/* Do the byte ranges [a, a + na) and [b, b + nb) overlap? */
+KIFMM__FN int kifmm__overlap(const void *a, size_t na, const void *b, size_t nb)
+{
+    const uintptr_t x = (uintptr_t)a, y = (uintptr_t)b;
+    return x < y + nb && y < x + na;
 }
 
 KIFMM__FN void kifmm__free(void *p)
@@ -336,8 +406,8 @@ KIFMM__FN int kifmm__pinv(double *a, int m, int n, double cutoff, double **ut_ou
     info = LAPACKE_dgesdd_work(LAPACK_COL_MAJOR, 'S', m, n, a, m, s, u, m, vt, mn, work,
                                (lapack_int)lwork, iwork);
     if (info != 0) { rc = KIFMM_ERR_LAPACK; goto done; }
+    /* rank 0 for a zero matrix (a level whose far field is dropped) */
     for (k = 0; k < mn && s[k] > cutoff * s[0]; k++) {}
-    if (k == 0) k = 1;
     ut = (double *)kifmm__alloc((size_t)k * m, sizeof(double));
     vs = (double *)kifmm__alloc((size_t)n * k, sizeof(double));
     if (!ut || !vs) { rc = KIFMM_ERR_NOMEM; goto done; }
@@ -667,6 +737,17 @@ KIFMM__FN void kifmm__decode(uint64_t key, int64_t *a)
     a[2] = (int64_t)kifmm__compact(key);
 }
 
+/* The calling thread's number in the innermost parallel region (0 outside
+ * one and without OpenMP): the index of its part of per-thread buffers. */
+KIFMM__FN int kifmm__thread_num(void)
+{
+#ifdef _OPENMP
+    return omp_get_thread_num();
+#else
+    return 0;
+#endif
+}
+
 /* The calling thread's contiguous share [lo, hi) of n items; returns its
  * thread number (0 outside a parallel region or without OpenMP). */
 KIFMM__FN int kifmm__thread_chunk(int64_t n, int64_t *lo, int64_t *hi)
@@ -779,7 +860,9 @@ typedef struct kifmm__tree {
     double *src, *trg;       /* sorted points, structure of arrays (x | y | z) */
     int64_t *sperm, *tperm;  /* sorted position -> caller's index */
     int same;                /* targets are the sources: trg = src, tperm = sperm */
-    double lo[3], width;     /* root cube: lower corner and edge */
+    double origin[3];        /* shift of each axis: the root's centre where that is
+                                exact, else 0 (see kifmm__tree_build) */
+    double lo[3], width;     /* root cube: lower corner relative to origin, and edge */
     int nlev;                /* levels 0 .. nlev - 1 */
     int32_t nbox;
     int32_t loff[KIFMM__D + 2];   /* boxes of level l: [loff[l], loff[l+1]) */
@@ -926,7 +1009,10 @@ KIFMM__FN void kifmm__keys_unique(kifmm__keys *k)
     k->n = m;
 }
 
-/* Sort one point set by key: sorted SoA coordinates, permutation, keys. */
+/* Sort one point set by key: sorted SoA coordinates relative to t->origin,
+ * permutation, keys. Every later step works in these coordinates: a cloud
+ * far from the caller's origin keeps the digits of its own size (surface
+ * points placed at c + r u would lose those of |c|). */
 KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *xyz,
                                  double **out, int64_t **perm, uint64_t **keys, int nth)
 {
@@ -942,7 +1028,7 @@ KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *
         int64_t a[3];
         int d;
         for (d = 0; d < 3; d++) {
-            double f = (xyz[3 * i + d] - t->lo[d]) * scale;
+            double f = ((xyz[3 * i + d] - t->origin[d]) - t->lo[d]) * scale;
             a[d] = f <= 0.0 ? 0 : (f >= (double)maxi ? maxi : (int64_t)f);
         }
         (*keys)[i] = kifmm__encode(a[0], a[1], a[2]);
@@ -953,7 +1039,7 @@ KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *
     KIFMM__OMP(parallel for schedule(static) num_threads(nth))
     for (int64_t i = 0; i < n; i++) {
         int d;
-        for (d = 0; d < 3; d++) (*out)[d * n + i] = xyz[3 * (*perm)[i] + d];
+        for (d = 0; d < 3; d++) (*out)[d * n + i] = xyz[3 * (*perm)[i] + d] - t->origin[d];
     }
     return KIFMM_SUCCESS;
 }
@@ -1274,7 +1360,17 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
         if (0.5 * (hi[d] - lo[d]) > half) half = 0.5 * (hi[d] - lo[d]);
     if (!(half > 0.0)) half = 0.5;
     half *= 1.0 + 1e-10;
-    for (d = 0; d < 3; d++) t->lo[d] = 0.5 * (lo[d] + hi[d]) - half;
+    for (d = 0; d < 3; d++) {
+        /* shift an axis only where the shift is exact: with |centre| >= the
+         * root's width, every coordinate lies within a factor 2 of the
+         * centre, so x - centre is exact (Sterbenz). Elsewhere the points
+         * keep their own coordinates, whose differences are exact for
+         * nearby points, and the cloud is within a width of the origin
+         * anyway, so surfaces lose at most a bit or two there. */
+        const double c = 0.5 * (lo[d] + hi[d]);
+        t->origin[d] = fabs(c) >= 2.0 * half ? c : 0.0;
+        t->lo[d] = (c - t->origin[d]) - half;
+    }
     t->width = 2.0 * half;
 
     rc = kifmm__sort_points(t, ns, src, &t->src, &t->sperm, &skey, nth);
@@ -1451,6 +1547,7 @@ done:
 /* Operators of one level, built with the target box's half-width. Check
  * vectors have nc entries, equivalent densities ne (points x components). */
 typedef struct kifmm__ops {
+    double sigma;           /* scale of the check potentials (see build_c2e) */
     int ku, kd;             /* ranks kept by the two pseudo-inverses */
     double *ut_up, *vs_up;  /* pinv K(up check <- up equiv) = vs_up ut_up */
     double *ut_dn, *vs_dn;  /* pinv K(down check <- down equiv) */
@@ -2077,13 +2174,6 @@ KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, int32_t **co_out,
 #ifndef KIFMM_REAL
 #define KIFMM_REAL double
 #endif
-#ifndef KIFMM_NAME
-#define KIFMM_NAME KIFMM__CAT(kifmm_, KIFMM_KERNEL)
-#endif
-
-#define KIFMM__K(suffix) KIFMM__CAT3(kifmm_kernel_, KIFMM_KERNEL, suffix)
-#define KIFMM__F(suffix) KIFMM__CAT(KIFMM_NAME, suffix)
-#define KIFMM__R KIFMM_REAL
 
 #if KIFMM__CAT(KIFMM__REAL_IS_, KIFMM_REAL) == 1
 #define KIFMM__FLOAT 0
@@ -2092,6 +2182,19 @@ KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, int32_t **co_out,
 #else
 #error "kifmm.h: KIFMM_REAL must be double or float"
 #endif
+
+/* default names: kifmm_<kernel>, and kifmm_<kernel>f for float instances */
+#ifndef KIFMM_NAME
+#if KIFMM__FLOAT
+#define KIFMM_NAME KIFMM__CAT3(kifmm_, KIFMM_KERNEL, f)
+#else
+#define KIFMM_NAME KIFMM__CAT(kifmm_, KIFMM_KERNEL)
+#endif
+#endif
+
+#define KIFMM__K(suffix) KIFMM__CAT3(kifmm_kernel_, KIFMM_KERNEL, suffix)
+#define KIFMM__F(suffix) KIFMM__CAT(KIFMM_NAME, suffix)
+#define KIFMM__R KIFMM_REAL
 
 #if !KIFMM__K(_SRC_DIM) || !KIFMM__K(_TRG_DIM)
 #error "kifmm.h: the kernel named by KIFMM_KERNEL must define kifmm_kernel_<name>_SRC_DIM and _TRG_DIM (see docs/kernels.md)"
@@ -2127,11 +2230,15 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #endif
 
 
-/* Singular value cutoff of the check-to-equivalent pseudo-inverses. */
+/* Singular value cutoff of the check-to-equivalent pseudo-inverses; the
+ * smallest kernel magnitude on the surfaces for which a level keeps its far
+ * field (see build_c2e). */
 #if KIFMM__FLOAT
 #define KIFMM__CUTOFF (KIFMM_SVD_CUTOFF > 1e-7 ? KIFMM_SVD_CUTOFF : 1e-7)
+#define KIFMM__TINY ((double)FLT_MIN)
 #else
 #define KIFMM__CUTOFF KIFMM_SVD_CUTOFF
+#define KIFMM__TINY DBL_MIN
 #endif
 
 /* The near-field hook of this precision, if the kernel has one. */
@@ -2163,10 +2270,23 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #define KIFMM__HOOKSN KIFMM__K(_p2psn)
 #endif
 
+/* The hooks resolved to 0 / 1, for use in C expressions. */
+#if KIFMM__HAS_HOOK
+#define KIFMM__NEAR_HOOK 1
+#else
+#define KIFMM__NEAR_HOOK 0
+#endif
+#if KIFMM__HAS_HOOKS
+#define KIFMM__MUTUAL 1
+#else
+#define KIFMM__MUTUAL 0
+#endif
+
 /* ---- the handle ---------------------------------------------------------- */
 
 /* Operators of one level in the instance's precision (see kifmm__ops). */
 typedef struct {
+    double sigma;
     int ku, kd;
     KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l, *conv;
     double *khat;
@@ -2366,196 +2486,290 @@ KIFMM__DEFINE_P2P(KIFMM__F(__p2p_equiv), KIFMM__EVALE, KIFMM__SD)
 /* ---- operators ------------------------------------------------------------ */
 
 /* Matrix of the surface kernel from sources s (SoA, nsp points) to targets tp
- * (SoA, ntp points): row i*SD + a, column j*SD + b, leading dimension ld. */
-KIFMM__FN void KIFMM__F(__kmat)(const double *prm, const double *tp, int ntp, const double *sp,
-                                int nsp, double *m, size_t ld)
+ * (SoA, ntp points), times sigma: row i*SD + a, column j*SD + b, leading
+ * dimension ld. Returns the largest |entry| before sigma, or NaN if the
+ * kernel gave a value that is not finite (nothing then reaches LAPACK). */
+KIFMM__FN double KIFMM__F(__kmat)(const double *prm, const double *tp, int ntp,
+                                  const double *sp, int nsp, double sigma, double *m, size_t ld)
 {
     int i, j, a, b;
-    double k[KIFMM__SD * KIFMM__SD];
+    double k[KIFMM__SD * KIFMM__SD], big = 0.0;
     for (j = 0; j < nsp; j++)
         for (i = 0; i < ntp; i++) {
             KIFMM__EVALE(prm, tp[i] - sp[j], tp[ntp + i] - sp[nsp + j],
                          tp[2 * ntp + i] - sp[2 * nsp + j], k);
             for (b = 0; b < KIFMM__SD; b++)
-                for (a = 0; a < KIFMM__SD; a++)
-                    m[(size_t)(i * KIFMM__SD + a) + (size_t)(j * KIFMM__SD + b) * ld] =
-                        k[a * KIFMM__SD + b];
+                for (a = 0; a < KIFMM__SD; a++) {
+                    const double v = k[a * KIFMM__SD + b];
+                    if (!(fabs(v) <= DBL_MAX)) return NAN;
+                    big = fabs(v) > big ? fabs(v) : big;
+                    m[(size_t)(i * KIFMM__SD + a) + (size_t)(j * KIFMM__SD + b) * ld] = sigma * v;
+                }
         }
+    return big;
 }
 
 /* The operators for target boxes of half-width r (see kifmm__ops), in double. */
-KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+/* K(check <- equivalent) times sigma into m (leading dimension ld): the
+ * check surface of order ordc... placed at centre cc with radius crad (unit
+ * surface uc, nc points), the equivalent one likewise. *big (if not NULL)
+ * gets the largest |entry| before sigma. KIFMM_ERR_KERNEL if the kernel gave
+ * a value that is not finite, KIFMM_ERR_NOMEM. */
+KIFMM__FN int KIFMM__F(__surf_kmat)(const KIFMM_NAME *c, const double *uc, int nc,
+                                    const double *cc, double crad, const double *ue, int ne,
+                                    const double *ec, double erad, double sigma, double *m,
+                                    size_t ld, double *big)
+{
+    double *pc = (double *)kifmm__alloc((size_t)3 * (nc + ne), sizeof(double)), b;
+    if (!pc) return KIFMM_ERR_NOMEM;
+    kifmm__surf_place(uc, nc, cc, crad, pc);
+    kifmm__surf_place(ue, ne, ec, erad, pc + 3 * nc);
+    b = KIFMM__F(__kmat)(c->param, pc, nc, pc + 3 * nc, ne, sigma, m, ld);
+    kifmm__free(pc);
+    if (big) *big = b;
+    return b == b ? KIFMM_SUCCESS : KIFMM_ERR_KERNEL;
+}
+
+/* UC2E and DC2E, the check-to-equivalent solves of boxes of half-width r:
+ * pseudo-inverses of K(up check at ao r <- up equiv at 1.05 r) and K(down
+ * check at 1.05 r <- down equiv at ao r). Float instances truncate at float
+ * resolution: factors that resolve singular values below it would amplify
+ * the rounding of the passes.
+ *
+ * Every operator that yields check potentials of boxes of this size is
+ * scaled by sigma = 1 / (the largest entry of the first matrix), and so are
+ * the check potentials the passes compute from points (kifmm__level_scale):
+ * the pseudo-inverses see matrices of norm about 1 whatever the kernel's
+ * magnitude (a Yukawa kernel at exp(-300), a Stokeslet with viscosity 1e100),
+ * and the densities they give are the true ones. Where that largest entry is
+ * below the smallest normal number of the instance's precision (a Yukawa
+ * kernel whose lambda times the box size is in the hundreds), sigma is 0:
+ * every operator of the level is zero (ranks 0) and its far field, smaller
+ * still, is dropped. */
+KIFMM__FN int KIFMM__F(__build_c2e)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+{
+    const double zero[3] = {0.0, 0.0, 0.0};
+    const size_t nn = (size_t)c->nc * (size_t)c->ne;
+    double *a = (double *)kifmm__alloc(nn, sizeof(double)), big = 0.0;
+    size_t i;
+    int rc;
+    if (!a) return KIFMM_ERR_NOMEM;
+    rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, c->ao * r, c->surf_e, c->nse, zero,
+                               KIFMM__ALPHA_INNER * r, 1.0, a, (size_t)c->nc, &big);
+    if (!rc) {
+        o->sigma = big >= KIFMM__TINY ? 1.0 / big : 0.0;
+        for (i = 0; i < nn; i++) a[i] *= o->sigma;
+        rc = kifmm__pinv(a, c->nc, c->ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku);
+    }
+    if (!rc)
+        rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, KIFMM__ALPHA_INNER * r,
+                                   c->surf_e, c->nse, zero, c->ao * r, o->sigma, a,
+                                   (size_t)c->nc, NULL);
+    if (!rc) rc = kifmm__pinv(a, c->nc, c->ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd);
+    kifmm__free(a);
+    return rc;
+}
+
+/* M2M and L2L, per child octant: a child's upward equivalent density (half
+ * r / 2, centre r / 2 sgn) -> the parent's upward check potential (half r);
+ * the parent's downward equivalent density (half 2 r, centre -r sgn) -> a
+ * child's downward check potential (half r). Times sigma. */
+KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+{
+    const double zero[3] = {0.0, 0.0, 0.0};
+    const size_t nc = (size_t)c->nc, ne = (size_t)c->ne;
+    int oct, d, rc = KIFMM_SUCCESS;
+    o->m2m = (double *)kifmm__alloc(nc * 8 * ne, sizeof(double));
+    o->l2l = (double *)kifmm__alloc(8 * nc * ne, sizeof(double));
+    if (!o->m2m || !o->l2l) return KIFMM_ERR_NOMEM;
+    for (oct = 0; oct < 8 && !rc; oct++) {
+        const double sgn[3] = {(oct >> 2 & 1) ? 1.0 : -1.0, (oct >> 1 & 1) ? 1.0 : -1.0,
+                               (oct & 1) ? 1.0 : -1.0};
+        double cm[3], cl[3];
+        for (d = 0; d < 3; d++) {
+            cm[d] = 0.5 * r * sgn[d];
+            cl[d] = -r * sgn[d];
+        }
+        rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, c->ao * r, c->surf_e, c->nse, cm,
+                                   KIFMM__ALPHA_INNER * 0.5 * r, o->sigma,
+                                   o->m2m + (size_t)oct * ne * nc, nc, NULL);
+        if (!rc)
+            rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, KIFMM__ALPHA_INNER * r,
+                                       c->surf_e, c->nse, cl, c->ao * 2.0 * r, o->sigma,
+                                       o->l2l + (size_t)oct * nc, 8 * nc, NULL);
+    }
+    return rc;
+}
+
+#if KIFMM__FFT
+/* The FFT M2L's lattice density: conv (nc x ne) maps the order-p upward
+ * equivalent density to a density on the check-order lattice at the same
+ * radius with the same field outside (fitted on the upward check surface).
+ * With check surfaces of order p the lattice is the equivalent surface
+ * itself and conv the identity, exactly: none is built (the fit gave it
+ * with max |conv - I| 7e-11 at p = 4, 8e-6 at p = 6, 3e-2 at p = 7). */
+KIFMM__FN int KIFMM__F(__build_conv)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+{
+    const double zero[3] = {0.0, 0.0, 0.0};
+    const int nc = c->nc, ne = c->ne;
+    double *kb, *a, *ut = NULL, *vs = NULL, *tmp = NULL;
+    int k = 0, rc = KIFMM_SUCCESS;
+    if (c->cdiff == 0) return KIFMM_SUCCESS;
+    kb = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    a = (double *)kifmm__alloc((size_t)nc * nc, sizeof(double));
+    if (!kb || !a) { rc = KIFMM_ERR_NOMEM; goto done; }
+    rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, c->ao * r, c->surf_e, c->nse, zero,
+                               KIFMM__ALPHA_INNER * r, 1.0, kb, (size_t)nc, NULL);
+    if (!rc)
+        rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, c->ao * r, c->surf_c, c->nsc,
+                                   zero, KIFMM__ALPHA_INNER * r, 1.0, a, (size_t)nc, NULL);
+    if (!rc) rc = kifmm__pinv(a, nc, nc, KIFMM__CUTOFF, &ut, &vs, &k);
+    if (rc) goto done;
+    tmp = (double *)kifmm__alloc((size_t)k * ne, sizeof(double));
+    o->conv = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    if (!tmp || !o->conv) { rc = KIFMM_ERR_NOMEM; goto done; }
+    kifmm__gemm(0, 0, k, ne, nc, 1.0, ut, k, kb, nc, 0.0, tmp, k);
+    kifmm__gemm(0, 0, nc, ne, k, 1.0, vs, nc, tmp, k, 0.0, o->conv, nc);
+done:
+    kifmm__free(kb);
+    kifmm__free(a);
+    kifmm__free(ut);
+    kifmm__free(vs);
+    kifmm__free(tmp);
+    return rc;
+}
+
+/* The FFT M2L's 316 kernel spectra for boxes of half-width r, times sigma:
+ * the kernel at the lattice offsets h (i - j) - 2 r t on the (2q - 1)^3
+ * grid, transformed (kifmm__fft_grid), then stored frequency-major
+ * (khat[(f 316 + t) 2], re and im) so that the blocks of a chunk of
+ * frequencies read one contiguous piece. */
+KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+{
+    const kifmm__fft *pl = &c->fft;
+    const int n = pl->n, p = pl->p;
+    const size_t per = (size_t)n * n * n + kifmm__fft_work(pl), nk = (size_t)KIFMM__NT * 2 * pl->nfp;
+    const double h = 2.0 * KIFMM__ALPHA_INNER * r / (p - 1), sigma = o->sigma;
+    double *kall, *kt; /* per thread grids and work; spectra per transfer vector */
+    double big = 0.0;
+    int bad = 0;
+    o->khat = (double *)kifmm__alloc(nk, sizeof(double));
+    kall = (double *)kifmm__alloc((size_t)c->nthreads * per + nk, sizeof(double));
+    if (!o->khat || !kall) {
+        kifmm__free(kall);
+        return KIFMM_ERR_NOMEM;
+    }
+    kt = kall + (size_t)c->nthreads * per;
+    memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
+    /* each transfer vector writes its own spectrum; g is the thread's grid */
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) reduction(| : bad) \
+               reduction(max : big))
+    for (int tv = 0; tv < KIFMM__NT; tv++) {
+        double *g = kall + (size_t)kifmm__thread_num() * per, kv[1];
+        int d[3] = {0, 0, 0}, i, j, k;
+        kifmm__transfer_vector(tv, d);
+        memset(g, 0, sizeof(double) * (size_t)n * n * n);
+        for (i = 1 - p; i < p; i++)
+            for (j = 1 - p; j < p; j++)
+                for (k = 1 - p; k < p; k++) {
+                    KIFMM__EVALE(c->param, h * i - 2.0 * r * d[0], h * j - 2.0 * r * d[1],
+                                 h * k - 2.0 * r * d[2], kv);
+                    bad |= !(fabs(kv[0]) <= DBL_MAX);
+                    big = fabs(sigma * kv[0]) > big ? fabs(sigma * kv[0]) : big;
+                    g[((i + n) % n * n + (j + n) % n) * n + (k + n) % n] = sigma * kv[0];
+                }
+        kifmm__fft_grid(pl, g, kt + (size_t)tv * 2 * pl->nfp, g + (size_t)n * n * n);
+    }
+    /* each frequency f writes its own row of khat */
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+    for (int32_t f = 0; f < pl->nfp; f++)
+        for (int t = 0; t < KIFMM__NT; t++) {
+            o->khat[((size_t)f * KIFMM__NT + t) * 2] = kt[(size_t)t * 2 * pl->nfp + 2 * f];
+            o->khat[((size_t)f * KIFMM__NT + t) * 2 + 1] = kt[(size_t)t * 2 * pl->nfp + 2 * f + 1];
+        }
+    kifmm__free(kall);
+    /* The M2L's kernel values reach those at the nearest lattice points of
+     * well separated boxes (1.9 r apart), sigma is scaled to those of the
+     * solves' surfaces (3.45 r): for a Yukawa kernel their ratio is
+     * exp(1.55 lambda r), which passes the range of float spectra (float
+     * instances) beyond lambda r = 45. The level's M2L is then left out: it
+     * carries interactions at 1.9 r and more, where that kernel is below
+     * exp(-85) / (4 pi r), under float's normal range for r >= 1e-2. Double
+     * spectra would need lambda r > 445, past the point where the level's
+     * surfaces already drop it (build_c2e). */
+    if (big > (pl->single ? 1e30 : 1e300)) memset(o->khat, 0, sizeof(double) * nk);
+    return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
+}
+#else
+/* The dense M2L for boxes of half-width r: per transfer vector t, the
+ * source box's upward equivalent density (centre 2 r t) -> the target box's
+ * downward check potential, times sigma and times ut_dn (the first factor
+ * of the downward solve): m2l = [ut_dn K_1 ... ut_dn K_316], kd x 316 ne.
+ * Assembled CH transfer vectors at a time (in parallel), then one GEMM. */
+KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     enum { CH = 16 };
-    int nse = c->nse, nsc = c->nsc, ne = c->ne, nc = c->nc, oct, rc = KIFMM_SUCCESS;
-    double *a = NULL, *pe = NULL, *pc = NULL, *kall = NULL, *pall = NULL;
-    double zero[3] = {0.0, 0.0, 0.0};
-    const double *prm = c->param;
-    a = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
-    pe = (double *)kifmm__alloc((size_t)3 * nse, sizeof(double));
-    pc = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
-    o->m2m = (double *)kifmm__alloc((size_t)nc * 8 * ne, sizeof(double));
-    o->l2l = (double *)kifmm__alloc((size_t)8 * nc * ne, sizeof(double));
-    if (!a || !pe || !pc || !o->m2m || !o->l2l) { rc = KIFMM_ERR_NOMEM; goto done; }
-
-    /* upward: check at c->ao r (2.95 or 4.5), equivalent at 1.05 r; downward
-     * the reverse. Float instances truncate at float resolution: factors that resolve
-     * singular values below it would amplify the rounding of the passes. */
-    kifmm__surf_place(c->surf_c, nsc, zero, c->ao * r, pc);
-    kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_INNER * r, pe);
-    KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, a, (size_t)nc);
-    if ((rc = kifmm__pinv(a, nc, ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku))) goto done;
-    kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
-    kifmm__surf_place(c->surf_e, nse, zero, c->ao * r, pe);
-    KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, a, (size_t)nc);
-    if ((rc = kifmm__pinv(a, nc, ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd))) goto done;
-
-    for (oct = 0; oct < 8; oct++) {
-        double sgn[3] = {(oct >> 2 & 1) ? 1.0 : -1.0, (oct >> 1 & 1) ? 1.0 : -1.0,
-                         (oct & 1) ? 1.0 : -1.0}, cc[3];
-        int d;
-        /* M2M: child (half r/2, centre +r/2 sgn) equiv -> parent (half r) check */
-        for (d = 0; d < 3; d++) cc[d] = 0.5 * r * sgn[d];
-        kifmm__surf_place(c->surf_c, nsc, zero, c->ao * r, pc);
-        kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_INNER * 0.5 * r, pe);
-        KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->m2m + (size_t)oct * ne * nc, (size_t)nc);
-        /* L2L: parent (half 2r, centre -r sgn) equiv -> child (half r) check */
-        for (d = 0; d < 3; d++) cc[d] = -r * sgn[d];
-        kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pc);
-        kifmm__surf_place(c->surf_e, nse, cc, c->ao * 2.0 * r, pe);
-        KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, o->l2l + (size_t)oct * nc, (size_t)8 * nc);
-    }
-#if KIFMM__FFT
-    /* M2L check: the order-p lattice at 1.05 r, with its own pseudo-inverse;
-     * the 316 kernel spectra on the (2p-1)^3 grid of lattice offsets */
-    if (c->cdiff != 0) {
-        /* conv (nc x ne): the order-p upward equivalent density -> a density
-         * on the check-order lattice at the same radius with the same field
-         * outside (fitted on the upward check surface). With check surfaces
-         * of order p the lattice is the equivalent surface itself and conv
-         * the identity, exactly: none (the fit gave it with max |conv - I|
-         * 7e-11 at p = 4, 8e-6 at p = 6, 3e-2 at p = 7) */
-        double *kb2 = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
-        double *ut2 = NULL, *vs2 = NULL, *tmp2 = NULL;
-        int k2 = 0;
-        if (!kb2) { rc = KIFMM_ERR_NOMEM; goto done; }
-        kifmm__surf_place(c->surf_c, nsc, zero, c->ao * r, pc);
-        kifmm__surf_place(c->surf_e, nse, zero, KIFMM__ALPHA_INNER * r, pe);
-        KIFMM__F(__kmat)(prm, pc, nsc, pe, nse, kb2, (size_t)nc);
-        kifmm__free(a);
-        a = (double *)kifmm__alloc((size_t)nc * nc, sizeof(double));
-        if (a) {
-            double *pe2 = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
-            if (pe2) {
-                kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, pe2);
-                KIFMM__F(__kmat)(prm, pc, nsc, pe2, nsc, a, (size_t)nc);
-                rc = kifmm__pinv(a, nc, nc, KIFMM__CUTOFF, &ut2, &vs2, &k2);
-                kifmm__free(pe2);
-            } else {
-                rc = KIFMM_ERR_NOMEM;
-            }
-        } else {
-            rc = KIFMM_ERR_NOMEM;
-        }
-        if (!rc) {
-            tmp2 = (double *)kifmm__alloc((size_t)k2 * ne, sizeof(double));
-            o->conv = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
-            if (tmp2 && o->conv) {
-                kifmm__gemm(0, 0, k2, ne, nc, 1.0, ut2, k2, kb2, nc, 0.0, tmp2, k2);
-                kifmm__gemm(0, 0, nc, ne, k2, 1.0, vs2, nc, tmp2, k2, 0.0, o->conv, nc);
-            } else {
-                rc = KIFMM_ERR_NOMEM;
-            }
-        }
-        kifmm__free(kb2);
-        kifmm__free(ut2);
-        kifmm__free(vs2);
-        kifmm__free(tmp2);
-        if (rc) goto done;
-    }
-    {
-        const kifmm__fft *pl = &c->fft;
-        const int n = pl->n, p = pl->p;
-        const size_t per = (size_t)n * n * n + kifmm__fft_work(pl);
-        const double h = 2.0 * KIFMM__ALPHA_INNER * r / (p - 1);
-        double *kt; /* spectra per transfer vector, transposed below */
-        o->khat = (double *)kifmm__calloc((size_t)KIFMM__NT * 2 * pl->nfp, sizeof(double));
-        kall = (double *)kifmm__alloc((size_t)c->nthreads * per + (size_t)KIFMM__NT * 2 * pl->nfp,
-                                      sizeof(double));
-        if (!o->khat || !kall) { rc = KIFMM_ERR_NOMEM; goto done; }
-        kt = kall + (size_t)c->nthreads * per;
-        memset(kt, 0, sizeof(double) * KIFMM__NT * 2 * (size_t)pl->nfp); /* padding frequencies */
-        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
-        for (int tv = 0; tv < KIFMM__NT; tv++) {
-#ifdef _OPENMP
-            double *g = kall + (size_t)omp_get_thread_num() * per;
-#else
-            double *g = kall;
-#endif
-            double kv[1];
-            int d[3] = {0, 0, 0}, i, j, k;
-            kifmm__transfer_vector(tv, d);
-            memset(g, 0, sizeof(double) * (size_t)n * n * n);
-            for (i = 1 - p; i < p; i++)
-                for (j = 1 - p; j < p; j++)
-                    for (k = 1 - p; k < p; k++) {
-                        KIFMM__EVALE(prm, h * i - 2.0 * r * d[0], h * j - 2.0 * r * d[1],
-                                     h * k - 2.0 * r * d[2], kv);
-                        g[((i + n) % n * n + (j + n) % n) * n + (k + n) % n] = kv[0];
-                    }
-            kifmm__fft_grid(pl, g, kt + (size_t)tv * 2 * pl->nfp, g + (size_t)n * n * n);
-        }
-        /* frequency-major, so that the blocks of a chunk read one contiguous piece */
-        KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-        for (int32_t f = 0; f < pl->nfp; f++)
-            for (int t = 0; t < KIFMM__NT; t++) {
-                o->khat[((size_t)f * KIFMM__NT + t) * 2] = kt[(size_t)t * 2 * pl->nfp + 2 * f];
-                o->khat[((size_t)f * KIFMM__NT + t) * 2 + 1] =
-                    kt[(size_t)t * 2 * pl->nfp + 2 * f + 1];
-            }
-    }
-#else
-    /* M2L: source equivalent (centre 2 r t) -> target check, times ut_dn;
-     * assembled CH transfer vectors at a time (in parallel), then one GEMM */
+    const double zero[3] = {0.0, 0.0, 0.0};
+    const int nc = c->nc, ne = c->ne;
+    double *kall = (double *)kifmm__alloc((size_t)nc * CH * ne, sizeof(double));
+    int bad = 0;
     o->m2l = (double *)kifmm__alloc((size_t)o->kd * KIFMM__NT * ne, sizeof(double));
-    kall = (double *)kifmm__alloc((size_t)nc * CH * ne, sizeof(double));
-    pall = (double *)kifmm__alloc((size_t)CH * 3 * (nse + nsc), sizeof(double));
-    if (!o->m2l || !kall || !pall) { rc = KIFMM_ERR_NOMEM; goto done; }
-    for (int tv = 0; tv < KIFMM__NT; tv += CH) {
-        int nch = KIFMM__NT - tv < CH ? KIFMM__NT - tv : CH;
-        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
+    if (!o->m2l || !kall) {
+        kifmm__free(kall);
+        return KIFMM_ERR_NOMEM;
+    }
+    for (int tv = 0; tv < KIFMM__NT && !bad; tv += CH) {
+        const int nch = KIFMM__NT - tv < (int)CH ? KIFMM__NT - tv : (int)CH;
+        /* each k fills its own block of kall */
+        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) reduction(| : bad))
         for (int k = 0; k < nch; k++) {
             int d[3] = {0, 0, 0};
-            double cc[3], *tc = pall + (size_t)k * 3 * (nse + nsc), *te = tc + 3 * nsc;
+            double cs[3];
             kifmm__transfer_vector(tv + k, d);
-            cc[0] = 2.0 * r * d[0]; cc[1] = 2.0 * r * d[1]; cc[2] = 2.0 * r * d[2];
-            kifmm__surf_place(c->surf_c, nsc, zero, KIFMM__ALPHA_INNER * r, tc);
-            kifmm__surf_place(c->surf_e, nse, cc, KIFMM__ALPHA_INNER * r, te);
-            KIFMM__F(__kmat)(prm, tc, nsc, te, nse, kall + (size_t)k * nc * ne, (size_t)nc);
+            cs[0] = 2.0 * r * d[0];
+            cs[1] = 2.0 * r * d[1];
+            cs[2] = 2.0 * r * d[2];
+            bad |= KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, KIFMM__ALPHA_INNER * r,
+                                         c->surf_e, c->nse, cs, KIFMM__ALPHA_INNER * r,
+                                         o->sigma, kall + (size_t)k * nc * ne, (size_t)nc,
+                                         NULL) != KIFMM_SUCCESS;
         }
         kifmm__gemm(0, 0, o->kd, nch * ne, nc, 1.0, o->ut_dn, o->kd, kall, nc, 0.0,
                     o->m2l + (size_t)tv * ne * o->kd, o->kd);
     }
-#endif
-done:
-    kifmm__free(a);
-    kifmm__free(pe);
-    kifmm__free(pc);
     kifmm__free(kall);
-    kifmm__free(pall);
+    return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
+}
+#endif
+
+/* The operators for target boxes of half-width r (see kifmm__ops), in
+ * double, in the order of the method; the M2L's only if m2l (a level that
+ * has boxes with V lists). */
+KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, int m2l, kifmm__ops *o)
+{
+    int rc = KIFMM__F(__build_c2e)(c, r, o);
+    if (!rc) rc = KIFMM__F(__build_m2m_l2l)(c, r, o);
+#if KIFMM__FFT
+    if (!rc && m2l) rc = KIFMM__F(__build_conv)(c, r, o);
+    if (!rc && m2l) rc = KIFMM__F(__build_m2l_fft)(c, r, o);
+#else
+    if (!rc && m2l) rc = KIFMM__F(__build_m2l_dense)(c, r, o);
+#endif
     return rc;
 }
 
 /* Build one level's operators in double and keep them in the instance's
  * precision. */
-KIFMM__FN int KIFMM__F(__ops_make)(const KIFMM_NAME *c, double r, KIFMM__F(__ops) *out)
+KIFMM__FN int KIFMM__F(__ops_make)(const KIFMM_NAME *c, double r, int m2l,
+                                   KIFMM__F(__ops) *out)
 {
     kifmm__ops o;
     size_t ne = (size_t)c->ne, nc = (size_t)c->nc;
     int rc;
     memset(&o, 0, sizeof o);
-    rc = KIFMM__F(__ops_build)(c, r, &o);
+    rc = KIFMM__F(__ops_build)(c, r, m2l, &o);
     if (!rc) {
+        out->sigma = o.sigma;
         out->ku = o.ku;
         out->kd = o.kd;
         out->ut_up = KIFMM__F(__own)(&o.ut_up, (size_t)o.ku * nc);
@@ -2565,15 +2779,17 @@ KIFMM__FN int KIFMM__F(__ops_make)(const KIFMM_NAME *c, double r, KIFMM__F(__ops
         out->m2m = KIFMM__F(__own)(&o.m2m, nc * 8 * ne);
         out->l2l = KIFMM__F(__own)(&o.l2l, 8 * nc * ne);
 #if KIFMM__FFT
-        if (c->cdiff != 0) {
+        if (o.conv) {
             out->conv = KIFMM__F(__own)(&o.conv, nc * ne);
             if (!out->conv) rc = KIFMM_ERR_NOMEM;
         }
         out->khat = o.khat;
         o.khat = NULL;
 #else
-        out->m2l = KIFMM__F(__own)(&o.m2l, (size_t)o.kd * KIFMM__NT * ne);
-        if (!out->m2l) rc = KIFMM_ERR_NOMEM;
+        if (o.m2l) {
+            out->m2l = KIFMM__F(__own)(&o.m2l, (size_t)o.kd * KIFMM__NT * ne);
+            if (!out->m2l) rc = KIFMM_ERR_NOMEM;
+        }
 #endif
         if (!out->ut_up || !out->vs_up || !out->ut_dn || !out->vs_dn || !out->m2m ||
             !out->l2l)
@@ -2593,19 +2809,24 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
 }
 
 /* Scale-invariant kernels: one set at half-width 1, rescaled per level.
- * Others: one set per level that uses operators (levels 2 and deeper). */
+ * Others: one set per level that uses operators (levels 2 and deeper).
+ * Only what the tree uses: none for a tree of fewer than 3 levels (a direct
+ * sum), and the M2L's only for levels with boxes that have V lists. */
 KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 {
-    int l, rc;
-    c->nops = KIFMM__K(_SCALE_INVARIANT) ? 1 : c->tree.nlev;
+    const kifmm__tree *t = &c->tree;
+    int l, rc, any = 0;
+    c->nops = KIFMM__K(_SCALE_INVARIANT) ? 1 : t->nlev;
     c->ops = (KIFMM__F(__ops) *)kifmm__calloc((size_t)c->nops, sizeof(KIFMM__F(__ops)));
     if (!c->ops) return KIFMM_ERR_NOMEM;
+    for (l = 2; l < t->nlev; l++) any |= t->m2lo[l + 1] > t->m2lo[l];
     if (KIFMM__K(_SCALE_INVARIANT)) {
-        if ((rc = KIFMM__F(__ops_make)(c, 1.0, &c->ops[0]))) return rc;
+        if (t->nlev > 2 && (rc = KIFMM__F(__ops_make)(c, 1.0, any, &c->ops[0]))) return rc;
     } else {
-        for (l = 2; l < c->tree.nlev; l++) {
-            double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-            if ((rc = KIFMM__F(__ops_make)(c, half, &c->ops[l]))) return rc;
+        for (l = 2; l < t->nlev; l++) {
+            double half = 0.5 * t->width / (double)((int64_t)1 << l);
+            if ((rc = KIFMM__F(__ops_make)(c, half, t->m2lo[l + 1] > t->m2lo[l], &c->ops[l])))
+                return rc;
         }
     }
 #if KIFMM__FFT
@@ -2644,12 +2865,14 @@ KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 }
 
 /* Factor multiplying check potentials computed directly from points at
- * level l, so that the level-0 operators of a scale-invariant kernel apply:
- * (half-width)^(-degree); 1 for other kernels. */
+ * level l: the level's sigma (see build_c2e), times (half-width)^(-degree)
+ * for a scale-invariant kernel, whose operators are built once at
+ * half-width 1. */
 KIFMM__FN double KIFMM__F(__level_scale)(const KIFMM_NAME *c, int l)
 {
     double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-    return KIFMM__K(_SCALE_INVARIANT) ? pow(half, -c->degree) : 1.0;
+    return KIFMM__K(_SCALE_INVARIANT) ? pow(half, -c->degree) * c->ops[0].sigma
+                                      : c->ops[l].sigma;
 }
 
 /* ---- workspace -------------------------------------------------------------- */
@@ -3370,7 +3593,7 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     t2 = kifmm__now();
 #if KIFMM__FFT
     /* FFT M2L: potentials on the check surface itself, added to chk */
-    KIFMM__F(__m2l_fft)(c, w, nrhs, l);
+    if (t->m2lo[l + 1] > t->m2lo[l]) KIFMM__F(__m2l_fft)(c, w, nrhs, l);
     t3 = kifmm__now();
     KIFMM__F(__solve)(c, w, nrhs, l, 0);
     t4 = kifmm__now();
@@ -3613,10 +3836,44 @@ KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h);
 }
 
+/* What the handle is made of, for <prefix>_stats: the largest leaf, the
+ * points of crowded leaves, and the code paths of this build. */
+KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
+{
+    const kifmm__tree *t = &h->tree;
+    kifmm_stats *st = h->stats;
+    const char *near =
+        KIFMM__NEAR_HOOK ? (KIFMM__MUTUAL && t->same ? "kernel hooks, each pair once"
+                                                     : "kernel hooks")
+                         : "generic loop over the kernel's eval";
+    int32_t b;
+    st->max_leaf = st->crowded = 0;
+    for (b = 0; b < t->nbox; b++) {
+        const int64_t ns = t->s1[b] - t->s0[b], nt = t->same ? 0 : t->t1[b] - t->t0[b];
+        if (t->child[b] >= 0) continue;
+        if (ns > st->max_leaf) st->max_leaf = ns;
+        if (nt > st->max_leaf) st->max_leaf = nt;
+        if (ns > h->opts.leaf_size || nt > h->opts.leaf_size) st->crowded += ns + nt;
+    }
+    st->threads = h->nthreads;
+    st->simd = KIFMM__SIMD_BITS;
+    snprintf(st->build, sizeof st->build,
+             "near field: %s, %s; level passes: %s; M2L: %s%s; %s %d thread%s", KIFMM__SIMD_NAME,
+             near, KIFMM__GC_FAST ? KIFMM__SIMD_NAME " column GEMM" : "BLAS",
+             KIFMM__FFT ? "FFT, " KIFMM__SIMD_NAME " products, " : "dense BLAS",
+             KIFMM__FFT ? (h->fft.single ? "float spectra" : "double spectra") : "",
+#ifdef _OPENMP
+             "OpenMP,",
+#else
+             "no OpenMP (built without -fopenmp):",
+#endif
+             h->nthreads, h->nthreads == 1 ? "" : "s");
+}
+
 KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const KIFMM__R *xyz, int nth)
 {
     int bad = 0;
-    if (n < 0) return KIFMM_ERR_COUNT;
+    if (n < 0 || n > KIFMM_MAX_POINTS) return KIFMM_ERR_COUNT;
     if (n > 0 && !xyz) return KIFMM_ERR_NULL;
     KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(| : bad) if (n > 65536))
     for (int64_t i = 0; i < 3 * n; i++) bad |= !isfinite(xyz[i]);
@@ -3723,6 +3980,7 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     h->tree.ns = nsources;
     h->tree.nt = ntargets;
     if (nsources == 0 || ntargets == 0) {
+        KIFMM__F(__describe)(h);
         *out = h;
         return KIFMM_SUCCESS;
     }
@@ -3747,7 +4005,11 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     t1 = kifmm__now();
 #if KIFMM__FFT
     if ((rc = kifmm__fft_init(&h->fft, o.order + h->cdiff))) goto fail;
-    h->fft.single = KIFMM__FLOAT || o.order <= KIFMM_FFT_SINGLE_MAX_ORDER;
+    /* float spectra: float instances, and on request double instances of
+     * scale-invariant kernels (whose spectra's range fits float at every
+     * level, unlike those of a Yukawa kernel at large lambda r) */
+    h->fft.single = KIFMM__FLOAT || (KIFMM__K(_SCALE_INVARIANT) &&
+                                     o.order <= KIFMM_FFT_SINGLE_MAX_ORDER);
     if ((rc = kifmm__colleagues(&h->tree, h->nthreads, &h->co, &h->cj, &h->cc))) goto fail;
     {
         const kifmm__tree *t = &h->tree;
@@ -3827,11 +4089,13 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
         size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->ne);
         if (cols < KIFMM__RHS_MAX) cols = KIFMM__RHS_MAX;
         if (cols > (size_t)h->mb * KIFMM__RHS_MAX) cols = (size_t)h->mb * KIFMM__RHS_MAX;
+        if (h->tree.m2lo[h->tree.nlev] == 0) cols = 0; /* no M2L in this tree */
         h->m2l_cols = (int)cols;
     }
     if (!(h->w = KIFMM__F(__work_new)(h, 1))) { rc = KIFMM_ERR_NOMEM; goto fail; }
     h->stats->t_tree = t1 - t0;
     h->stats->t_operators = kifmm__now() - t1;
+    KIFMM__F(__describe)(h);
     h->stats->levels = h->tree.nlev;
     h->stats->boxes = h->tree.nbox;
     h->stats->leaves = h->tree.nleaves;
@@ -3848,14 +4112,17 @@ fail:
  * of ntargets*TRG_DIM (each block laid out as in evaluate). The kernel is
  * evaluated once per point pair for up to 8 vectors (generic kernel loops)
  * and the translations run as GEMMs over boxes and vectors together. Outputs
- * are overwritten. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT
- * (nrhs < 0) or KIFMM_ERR_NOMEM (workspace for more vectors than before; then
- * out is untouched). nrhs == 0 does nothing. Not thread safe on one handle. */
+ * are overwritten; out may be the densities' own array (in place) or overlap
+ * it. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT (nrhs < 0, or
+ * more vectors than any array holds) or KIFMM_ERR_NOMEM (workspace for more
+ * vectors than before, or the copy of overlapping densities; then out is
+ * untouched). nrhs == 0 does nothing. Not thread safe on one handle. */
 KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
                                        KIFMM__R *out)
 {
     const kifmm__tree *t;
     KIFMM__F(__work) *w;
+    KIFMM__R *dcopy = NULL;
     int l, r0, nr, cap;
     double t0;
     size_t qper, oper;
@@ -3867,16 +4134,31 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
     if (t->nt == 0 || nrhs == 0) return KIFMM_SUCCESS;
     qper = (size_t)t->ns * KIFMM__SD;
     oper = (size_t)t->nt * KIFMM__TD;
+    if ((size_t)nrhs > (size_t)PTRDIFF_MAX / sizeof(KIFMM__R) / (qper > oper ? qper : oper))
+        return KIFMM_ERR_COUNT; /* no array holds that many vectors */
     if (t->ns == 0) {
         memset(out, 0, (size_t)nrhs * oper * sizeof(KIFMM__R));
         return KIFMM_SUCCESS;
     }
     cap = nrhs < KIFMM__RHS_MAX ? nrhs : KIFMM__RHS_MAX;
+    if (nrhs > cap && kifmm__overlap(densities, (size_t)nrhs * qper * sizeof(KIFMM__R), out,
+                                     (size_t)nrhs * oper * sizeof(KIFMM__R))) {
+        /* in place (out over densities): each group of up to RHS_MAX
+         * vectors reads its densities before it writes its outputs, so only
+         * a later group's densities could be overwritten; those are copied */
+        dcopy = (KIFMM__R *)kifmm__alloc((size_t)nrhs * qper, sizeof(KIFMM__R));
+        if (!dcopy) return KIFMM_ERR_NOMEM;
+        memcpy(dcopy, densities, (size_t)nrhs * qper * sizeof(KIFMM__R));
+        densities = dcopy;
+    }
     if (h->w->nrhs < cap) {
         /* more vectors than any call before: a larger workspace (the handle
          * is the caller's, allocated by create; only its workspace changes) */
         KIFMM__F(__work) *nw = KIFMM__F(__work_new)(h, cap);
-        if (!nw) return KIFMM_ERR_NOMEM;
+        if (!nw) {
+            kifmm__free(dcopy);
+            return KIFMM_ERR_NOMEM;
+        }
         KIFMM__F(__work_free)(h->w);
         ((KIFMM_NAME *)h)->w = nw;
         h->stats->bytes = KIFMM__F(__bytes)(h);
@@ -3918,6 +4200,7 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
         }
     }
     h->stats->t_evaluate = kifmm__now() - t0;
+    kifmm__free(dcopy);
     return KIFMM_SUCCESS;
 }
 
@@ -3952,9 +4235,12 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 /* 5. Epilogue: the next include starts clean                              */
 /* ======================================================================== */
 #undef KIFMM__LVL
+#undef KIFMM__NEAR_HOOK
+#undef KIFMM__MUTUAL
 #undef KIFMM__GEMM_COLS
 #undef KIFMM__FFT
 #undef KIFMM__CUTOFF
+#undef KIFMM__TINY
 #undef KIFMM_M2L_DENSE
 #undef KIFMM__DEFINE_P2P_HOOKN
 #undef KIFMM__P2P_SIG
@@ -3984,6 +4270,10 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM_NAME
 #undef KIFMM_REAL
 #undef KIFMM_KERNEL
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
+#pragma GCC diagnostic pop
+#endif
 
 /* License: MIT. Copyright (c) 2026 the kifmm.h authors. Permission is hereby
  * granted, free of charge, to any person obtaining a copy of this software, to

@@ -20,7 +20,29 @@
 #ifndef KIFMM_KERNELS_H
 #define KIFMM_KERNELS_H
 
+/* The system headers keep C++ linkage when a C++ host wraps the include of
+ * kifmm.h in extern "C" (they declare templates in C++ builds). */
+#ifdef __cplusplus
+extern "C++" {
+#endif
 #include <math.h>
+#include <stdint.h>
+#if defined(__AVX2__) && defined(__FMA__)
+#include <immintrin.h>
+#endif
+#ifdef __cplusplus
+}
+#endif
+
+/* g++ 12 reports the _mm*_undefined_* placeholders inside its own AVX-512
+ * intrinsics (shuffles, extracts, rsqrt14) as maybe uninitialized when they
+ * are inlined into C++ code (GCC bug 105593, fixed in GCC 13): silenced for
+ * the code of this file and kifmm.h only, restored at their ends. */
+#if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#endif
 
 #define KIFMM_INV_4PI 0.07957747154594766788444188168625718 /* 1 / (4 pi) */
 
@@ -58,12 +80,22 @@ static inline void kifmm_kernel_laplace_grad_eval(const double *param, double dx
 }
 
 /* Setup of a kernel whose param[0] must be positive, 0 meaning 1: lambda
- * of yukawa, mu of stokes. Nonzero (KIFMM_ERR_PARAM) for a bad value. */
+ * of yukawa. Nonzero (KIFMM_ERR_PARAM) for a bad value. */
 static inline int kifmm_kernel__positive_setup(const double *in, double *out)
 {
     out[0] = in[0] == 0.0 ? 1.0 : in[0];
     out[1] = out[2] = out[3] = 0.0;
     return out[0] > 0.0 && out[0] <= 1e300 ? 0 : -1;
+}
+
+/* The same for a viscosity (mu of the Stokes kernels), in [1e-150, 1e150]:
+ * 1 / (8 pi mu) and the velocities of any sensible forces stay far from
+ * overflow and from the subnormal range. */
+static inline int kifmm_kernel__viscosity_setup(const double *in, double *out)
+{
+    out[0] = in[0] == 0.0 ? 1.0 : in[0];
+    out[1] = out[2] = out[3] = 0.0;
+    return out[0] >= 1e-150 && out[0] <= 1e150 ? 0 : -1;
 }
 
 /* yukawa: the modified Helmholtz (screened Coulomb) potential
@@ -110,14 +142,14 @@ static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx,
 
 /* stokes: the Stokeslet, velocity u_i(y) = sum_j G_ij(y - x) f_j with
  * G_ij(d) = (delta_ij / r + d_i d_j / r^3) / (8 pi mu), viscosity
- * mu = param[0] > 0 (0 = the default, 1). Densities are forces (3 per
+ * mu = param[0] in [1e-150, 1e150] (0 = the default, 1). Densities are forces (3 per
  * source), outputs velocities (3 per target). */
 #define kifmm_kernel_stokes_SRC_DIM 3
 #define kifmm_kernel_stokes_TRG_DIM 3
 #define kifmm_kernel_stokes_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_DEGREE (-1)
 #define kifmm_kernel_stokes_SETUP 1
-#define kifmm_kernel_stokes_setup kifmm_kernel__positive_setup
+#define kifmm_kernel_stokes_setup kifmm_kernel__viscosity_setup
 static inline void kifmm_kernel_stokes_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
 {
@@ -151,10 +183,7 @@ static inline void kifmm_kernel_stokes_eval(const double *param, double dx, doub
  * scale are applied once per target.  The sums run in another order than in
  * the generic loop, so results agree to rounding, not bitwise. */
 
-#include <stdint.h>
-
 #if defined(__AVX2__) && defined(__FMA__)
-#include <immintrin.h>
 /* Shared by the AVX2 loops below (also on AVX-512 builds, whose float and
  * many-vector loops are the AVX2 ones). */
 /* o[0] += s (sum of the lanes of a0), o[k] += t (sum of ak) for k = 1..3. */
@@ -1307,9 +1336,9 @@ KIFMM_KERNEL__SUMS8P(kifmm_kernel__sums8p16, float, __m512, _mm512_set1_ps,
         int g, u, nu, r;                                                                        \
         (void)param;                                                                            \
         for (i0 = 0; i0 < nt; i0 += TB_) {                                                      \
-            ni = nt - i0 < TB_ ? nt - i0 : TB_;                                                 \
+            ni = nt - i0 < TB_ ? nt - i0 : (int64_t)TB_;                                        \
             for (j0 = 0; j0 < ns; j0 += SB_) {                                                  \
-                nj = ns - j0 < SB_ ? ns - j0 : SB_;                                             \
+                nj = ns - j0 < SB_ ? ns - j0 : (int64_t)SB_;                                    \
                 for (g = 0; g < 2 && g * (W) < ni; g++) {                                       \
                     const M m = MASKN(ni - g * (W));                                            \
                     const V X = MLOADZ(m, tx + i0 + g * (W));                                   \
@@ -1609,7 +1638,7 @@ static inline void kifmm_kernel__addb16(const float *pb, int sb, float s, float 
         int64_t i, j, j0, jb, jw, k;                                                           \
         (void)param;                                                                           \
         for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
-            jb = nb - j0 < SB_ ? nb - j0 : SB_;                                                \
+            jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;                                       \
             jw = (jb + (W) - 1) / (W) * (W); /* lanes touched */                               \
             /* padded with points at 0 of density 0: they add nothing to A, and to   \
              * B only in the padding of pb */                                       \
@@ -1722,10 +1751,10 @@ KIFMM_KERNEL__P2PS_F(1)
         int r, u, nu;                                                                              \
         (void)param;                                                                               \
         for (j0 = 0; j0 < nb; j0 += SB_) {                                                         \
-            jb = nb - j0 < SB_ ? nb - j0 : SB_;                                                    \
+            jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;                                           \
             jw = (jb + (W) - 1) / (W) * (W); /* lanes touched */                                   \
             for (i0 = 0; i0 < na; i0 += IB_) {                                                     \
-                ib = na - i0 < IB_ ? na - i0 : IB_;                                                \
+                ib = na - i0 < IB_ ? na - i0 : (int64_t)IB_;                                       \
                 for (i = 0; i < ib; i++) {                                                         \
                     const V X = SET1(ax[i0 + i]), Y = SET1(ay[i0 + i]), Z = SET1(az[i0 + i]);      \
                     T *g = G + i * SB_;                                                            \
@@ -1900,6 +1929,10 @@ KIFMM_KERNEL__P2PSN_F(1)
 #undef KIFMM_KERNEL__P2PN5_BODY
 #endif
 #undef KIFMM_KERNEL__CH
+#endif
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
+#pragma GCC diagnostic pop
 #endif
 
 #endif /* KIFMM_KERNELS_H */

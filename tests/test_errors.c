@@ -55,6 +55,18 @@ static void test_create_errors(const t_api *api)
     expect_create_fails(api, KIFMM_ERR_COUNT, NULL, -1, s, NP, t, "nsources -1");
     expect_create_fails(api, KIFMM_ERR_COUNT, NULL, NP, s, -1, t, "ntargets -1");
     expect_create_fails(api, KIFMM_ERR_COUNT, NULL, INT64_MIN, s, NP, t, "nsources INT64_MIN");
+    /* counts no array can hold: refused before anything is read (the arrays
+     * here hold NP points, so reading them would crash or fail the check) */
+    {
+        static const int64_t huge[] = {INT64_MAX, (int64_t)1 << 61, INT64_MAX / 3 + 1,
+                                       INT64_MAX / 24 + 1, KIFMM_MAX_POINTS + 1};
+        for (k = 0; k < (int)(sizeof huge / sizeof huge[0]); k++) {
+            sprintf(what, "nsources %lld", (long long)huge[k]);
+            expect_create_fails(api, KIFMM_ERR_COUNT, NULL, huge[k], s, NP, t, what);
+            sprintf(what, "ntargets %lld", (long long)huge[k]);
+            expect_create_fails(api, KIFMM_ERR_COUNT, NULL, NP, s, huge[k], t, what);
+        }
+    }
 
     /* non-finite coordinates: each component, first and last point, in
      * sources and in targets */
@@ -102,6 +114,16 @@ static void test_create_errors(const t_api *api)
     o = t_opts(0, 0, 0);
     o.nthreads = -1;
     expect_create_fails(api, KIFMM_ERR_NTHREADS, &o, NP, s, NP, t, "nthreads -1");
+    /* thread counts that would start thousands of threads are refused (they
+     * crashed the OpenMP runtime or spent tens of seconds starting threads) */
+    {
+        static const int many[] = {KIFMM_MAX_THREADS + 1, 10000, 100000, 2147483647};
+        for (k = 0; k < 4; k++) {
+            o.nthreads = many[k];
+            sprintf(what, "nthreads %d", many[k]);
+            expect_create_fails(api, KIFMM_ERR_NTHREADS, &o, NP, s, NP, t, what);
+        }
+    }
 
     /* kernel parameters must be finite, even for a kernel that ignores them */
     for (k = 0; k < 4; k++) {
@@ -193,15 +215,17 @@ static void test_strerror(void)
     static const int codes[] = {KIFMM_SUCCESS,     KIFMM_ERR_NULL,      KIFMM_ERR_COUNT,
                                 KIFMM_ERR_NONFINITE, KIFMM_ERR_ORDER,   KIFMM_ERR_LEAF_SIZE,
                                 KIFMM_ERR_DEPTH,   KIFMM_ERR_NTHREADS,  KIFMM_ERR_PARAM,
-                                KIFMM_ERR_NOMEM,   KIFMM_ERR_LAPACK};
-    static const int unknown[] = {1, -11, 42, -1000, 2147483647, -2147483647 - 1};
+                                KIFMM_ERR_NOMEM,   KIFMM_ERR_LAPACK,    KIFMM_ERR_INTERNAL,
+                                KIFMM_ERR_KERNEL};
+    static const int unknown[] = {1, -13, 42, -1000, 2147483647, -2147483647 - 1};
     const int nc = (int)(sizeof codes / sizeof codes[0]);
     int i, j;
     /* the documented values */
     CHECK(KIFMM_SUCCESS == 0 && KIFMM_ERR_NULL == -1 && KIFMM_ERR_COUNT == -2 &&
               KIFMM_ERR_NONFINITE == -3 && KIFMM_ERR_ORDER == -4 && KIFMM_ERR_LEAF_SIZE == -5 &&
               KIFMM_ERR_DEPTH == -6 && KIFMM_ERR_NTHREADS == -7 && KIFMM_ERR_PARAM == -8 &&
-              KIFMM_ERR_NOMEM == -9 && KIFMM_ERR_LAPACK == -10,
+              KIFMM_ERR_NOMEM == -9 && KIFMM_ERR_LAPACK == -10 && KIFMM_ERR_INTERNAL == -11 &&
+              KIFMM_ERR_KERNEL == -12,
           "error code values differ from the documented ones");
     CHECK(KIFMM_MAX_ORDER == 12 && KIFMM_MAX_DEPTH == 20, "KIFMM_MAX_ORDER %d KIFMM_MAX_DEPTH %d",
           (int)KIFMM_MAX_ORDER, (int)KIFMM_MAX_DEPTH);

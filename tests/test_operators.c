@@ -61,7 +61,8 @@ static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 }
 
 /* P2M: sources -> check potentials (scaled by the half-width, Laplace being
- * homogeneous of degree -1) -> upward equivalent density. */
+ * homogeneous of degree -1, and by the operators' sigma) -> upward
+ * equivalent density. */
 static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, const double *x,
                 const double *q, double *ue)
 {
@@ -70,7 +71,7 @@ static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, con
     soa(ns, x, xs);
     t_fill(c->nc, chk, 0.0);
     kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
-                             xs + 2 * ns, q, ns, 1, 0, r, chk, 0);
+                             xs + 2 * ns, q, ns, 1, 0, r * c->ops[0].sigma, chk, 0);
     solve(c, 1, chk, ue);
     free(pc);
     free(chk);
@@ -249,7 +250,7 @@ static void test_downward(int p)
         kifmm__surf_place(c->surf_c, c->nsc, cp, KIFMM__ALPHA_INNER * 2 * r, pc);
         t_fill(c->nc, chk, 0.0);
         kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
-                                 xs + 2 * ns, q, ns, 1, 0, 2 * r, chk, 0);
+                                 xs + 2 * ns, q, ns, 1, 0, 2 * r * c->ops[0].sigma, chk, 0);
         solve(c, 0, chk, de);
         kifmm__surf_place(c->surf_e, c->nse, cp, c->ao * 2 * r, pe);
         points_in_box(&g, ny, cp, 2 * r, y);

@@ -657,7 +657,7 @@ static void pair_errors(hook_fn hook, int td, int e_lo, int e_hi, t_rng *r, doub
             }
             for (j = 0; j < 9; j++) {
                 if (subnormal) {
-                    const double u = 0x1p-537;
+                    const double u = ldexp(1.0, -537);
                     s.x[j] = u * (double)(1 + (t_rng_next(r) >> 44));
                     s.y[j] = u * (double)(t_rng_next(r) >> 44);
                     s.z[j] = u * (double)(t_rng_next(r) >> 44);
