@@ -339,9 +339,11 @@ static void test_deep_cluster(void)
         t_err e = t_error_laplace(n + 1, x, q, n + 1, x, out, 4, 300);
         memset(&st, 0, sizeof st);
         kifmm_laplace_grad_stats(h, &st);
-        CHECK(st.crowded == n && st.max_leaf == n,
-              "stats: crowded %lld, max_leaf %lld, expected %lld both", (long long)st.crowded,
-              (long long)st.max_leaf, (long long)n);
+        /* the cluster may straddle a box boundary and lose a few points to
+         * a neighbouring leaf */
+        CHECK(st.max_leaf >= n - n / 100 && st.crowded >= st.max_leaf && st.crowded <= n,
+              "stats: crowded %lld, max_leaf %lld, expected about %lld both",
+              (long long)st.crowded, (long long)st.max_leaf, (long long)n);
         printf("       stats: %d levels, largest leaf %lld points, %lld points in crowded leaves\n",
                st.levels, (long long)st.max_leaf, (long long)st.crowded);
         CHECK_ERR(e.pot, 1e-10, "potential, rel L2 error (a direct sum)");

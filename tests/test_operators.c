@@ -100,12 +100,25 @@ static void points_far(t_rng *g, int n, const double *ctr, double r, double a, d
     }
 }
 
+/* A handle whose operators are built: a handle builds only what its tree
+ * uses, so the tree needs levels 2 and deeper, and V lists. */
+static double *ops_points(int *n)
+{
+    static double x[3 * 1000];
+    t_rng r = t_rng_seed(8);
+    t_gen_cube(&r, 1000, x, 0.0, 1.0);
+    *n = 1000;
+    return x;
+}
+
 static kifmm_laplace *handle(int order)
 {
     kifmm_laplace *h = NULL;
-    double two[6] = {0, 0, 0, 1, 1, 1};
-    kifmm_opts o = t_opts(order, 0, 0);
-    CHECK(kifmm_laplace_create(&h, &o, 2, two, 2, two) == 0, "create order %d", order);
+    int n;
+    double *x = ops_points(&n);
+    kifmm_opts o = t_opts(order, 8, 0);
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == 0 && h->ops[0].khat != NULL,
+          "create order %d, operators built", order);
     return h;
 }
 
@@ -203,9 +216,11 @@ static void test_downward(int p)
     chk = t_doubles(8 * c->nc); pe = t_doubles(3 * c->nse); pc = t_doubles(3 * c->nsc);
     xs = t_doubles(3 * ns);
     {
-        double two[6] = {0, 0, 0, 1, 1, 1};
-        kifmm_opts o = t_opts(p, 0, 0);
-        CHECK(kifmm_laplace_dense_create(&hd, &o, 2, two, 2, two) == 0, "dense create %d", p);
+        int n;
+        double *xo = ops_points(&n);
+        kifmm_opts o = t_opts(p, 8, 0);
+        CHECK(kifmm_laplace_dense_create(&hd, &o, n, xo, n, xo) == 0 && hd->ops[0].m2l != NULL,
+              "dense create %d, operators built", p);
     }
 
     /* M2L: source box at transfer vector d (in box widths), P2M there, M2L,
