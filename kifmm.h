@@ -2330,6 +2330,7 @@ struct KIFMM_NAME {
     int mb;                  /* most boxes on one level */
     KIFMM__R *scratch;       /* per thread: 3 surfaces of max(nsc, nse) points */
     KIFMM__R *gbuf;          /* column GEMM passes: see kifmm__gbuf_per */
+    size_t gbuf_n;           /* its values */
     int nthreads;
     KIFMM__F(__work) *w;     /* grows to the largest nrhs evaluated (<= RHS_MAX) */
     kifmm__fft fft;          /* FFT M2L: transforms of the order-p lattice */
@@ -3062,7 +3063,7 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
     }
 #endif
     b += R * c->nthreads * 9 * ns;
-    b += R * (KIFMM__GC_FAST ? c->nthreads : 1) * (double)KIFMM__F(__gbuf_per)(c);
+    b += R * (double)c->gbuf_n;
     return b;
 }
 
@@ -3994,15 +3995,21 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     h->surf_c = (double *)kifmm__alloc((size_t)3 * h->nsc, sizeof(double));
     h->scratch = (KIFMM__R *)kifmm__alloc(
         (size_t)h->nthreads * 9 * (size_t)(h->nsc > h->nse ? h->nsc : h->nse), sizeof(KIFMM__R));
-    h->gbuf = (KIFMM__R *)kifmm__alloc(
-        (size_t)(KIFMM__GC_FAST ? h->nthreads : 1) * KIFMM__F(__gbuf_per)(h), sizeof(KIFMM__R));
-    if (!h->surf_e || !h->surf_c || !h->scratch || !h->gbuf) { rc = KIFMM_ERR_NOMEM; goto fail; }
+    if (!h->surf_e || !h->surf_c || !h->scratch) { rc = KIFMM_ERR_NOMEM; goto fail; }
     kifmm__surf_unit(o.order, h->surf_e);
     kifmm__surf_unit(o.order + h->cdiff, h->surf_c);
     t0 = kifmm__now();
     if ((rc = KIFMM__F(__tree)(h, nsources, src_xyz, ntargets, trg_xyz))) goto fail;
     kifmm__tree_dsrc(&h->tree, h->nsc); /* X lists of boxes with few targets go direct */
     t1 = kifmm__now();
+    /* the level passes' buffers, for trees that have levels 2 and deeper */
+    h->gbuf_n = h->tree.nlev > 2 ? (size_t)(KIFMM__GC_FAST ? h->nthreads : 1) *
+                                       KIFMM__F(__gbuf_per)(h)
+                                 : 0;
+    if (!(h->gbuf = (KIFMM__R *)kifmm__alloc(h->gbuf_n, sizeof(KIFMM__R)))) {
+        rc = KIFMM_ERR_NOMEM;
+        goto fail;
+    }
 #if KIFMM__FFT
     if ((rc = kifmm__fft_init(&h->fft, o.order + h->cdiff))) goto fail;
     /* float spectra: float instances, and on request double instances of

@@ -9,7 +9,7 @@
  * then checks 1000 of the N targets against direct summation.
  *
  * Build and run (from the repository root):
- *     cc -O3 -march=native -fopenmp -I. examples/laplace.c -o laplace \
+ *     cc -O2 -march=native -fopenmp -I. examples/laplace.c -o laplace \
  *        -llapacke -lopenblas -lm
  *     ./laplace [N] [order]          N defaults to 1000000, order to 6
  * or simply `make run`.
@@ -70,6 +70,7 @@ int main(int argc, char **argv)
     double num_pot = 0, den_pot = 0, num_grad = 0, den_grad = 0;
     kifmm_opts opts = {0}; /* every field 0 means "default" */
     kifmm_opts used;
+    kifmm_stats stats;
     kifmm_laplace_grad *fmm = NULL;
     int64_t i, s;
     int rc;
@@ -106,8 +107,10 @@ int main(int argc, char **argv)
         return 1;
     }
     kifmm_laplace_grad_options(fmm, &used); /* the options actually used */
+    kifmm_laplace_grad_stats(fmm, &stats);  /* what the handle is made of */
     printf("create:   %.3f s  (order %d, leaf size %d, max depth %d)\n", t_create, used.order,
            used.leaf_size, used.max_depth);
+    printf("build:    %s\n", stats.build); /* shows a build without -march or -fopenmp */
 
     /* 2. Evaluate: may be called any number of times with new charges.
      *    out[4j] is the potential at target j, out[4j+1..4j+3] its gradient. */
