@@ -29,10 +29,12 @@
 
 #ifdef KIFMM_TEST_QUICK
 #define REPEATS 2
-#define NPOINTS 12000
+#define NPOINTS 8000
+#define NSTOKES 3000
 #else
 #define REPEATS 4
 #define NPOINTS 20000
+#define NSTOKES 6000
 #endif
 
 /* ||a - b|| / ||b|| in double over n values of type T */
@@ -114,7 +116,7 @@ THREAD_CHECK(kifmm_yukawa_gradf, float, 1, 4)
 
 int main(void)
 {
-    const int64_t n = NPOINTS, ns = 6000;
+    const int64_t n = NPOINTS, ns = NSTOKES;
     double *cube = t_doubles(3 * n), *sphere = t_doubles(3 * n);
     t_rng r = t_rng_seed(5);
     /* differences from summation order alone: a few units of rounding of
