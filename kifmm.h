@@ -186,45 +186,40 @@ extern "C++" {
 
 /* ---- results ------------------------------------------------------------ */
 
-enum {
-    KIFMM_SUCCESS = 0,
-    KIFMM_ERR_NULL = -1,      /* a required pointer is NULL */
-    KIFMM_ERR_COUNT = -2,     /* a count is negative or too large for any array */
-    KIFMM_ERR_NONFINITE = -3, /* NaN or infinite coordinate */
-    KIFMM_ERR_ORDER = -4,     /* order out of range */
-    KIFMM_ERR_LEAF_SIZE = -5, /* negative leaf size */
-    KIFMM_ERR_DEPTH = -6,     /* max_depth out of range */
-    KIFMM_ERR_NTHREADS = -7,  /* nthreads negative or above KIFMM_MAX_THREADS */
-    KIFMM_ERR_PARAM = -8,     /* bad kernel parameter */
-    KIFMM_ERR_NOMEM = -9,     /* allocation failed */
-    KIFMM_ERR_LAPACK = -10,   /* an SVD did not converge */
-    KIFMM_ERR_INTERNAL = -11, /* an internal limit was exceeded */
-    KIFMM_ERR_KERNEL = -12    /* the kernel gave a value that is not finite */
-};
+/* Every result code and its message, from one list: X(name, value, message). */
+#define KIFMM__RESULTS(X)                                                                     \
+    X(KIFMM_SUCCESS, 0, "success")                                                            \
+    X(KIFMM_ERR_NULL, -1, "a required pointer argument is NULL")                              \
+    X(KIFMM_ERR_COUNT, -2,                                                                    \
+      "a count is negative or too large for any array (see KIFMM_MAX_POINTS)")                \
+    X(KIFMM_ERR_NONFINITE, -3, "a coordinate is NaN or infinite")                            \
+    X(KIFMM_ERR_ORDER, -4, "expansion order out of range (2 to KIFMM_MAX_ORDER)")             \
+    X(KIFMM_ERR_LEAF_SIZE, -5, "leaf size is negative")                                       \
+    X(KIFMM_ERR_DEPTH, -6, "maximum depth out of range (0 to KIFMM_MAX_DEPTH)")               \
+    X(KIFMM_ERR_NTHREADS, -7, "number of threads out of range (0 to KIFMM_MAX_THREADS)")      \
+    X(KIFMM_ERR_PARAM, -8, "a kernel parameter is out of range")                              \
+    X(KIFMM_ERR_NOMEM, -9, "memory allocation failed")                                        \
+    X(KIFMM_ERR_LAPACK, -10, "a singular value decomposition did not converge")               \
+    X(KIFMM_ERR_INTERNAL, -11, "an internal limit was exceeded (please report)")              \
+    X(KIFMM_ERR_KERNEL, -12,                                                                  \
+      "the kernel gave a NaN or infinite value on the expansion surfaces (check its "         \
+      "parameters)")
+
+#define KIFMM__RESULT_ENUM(name, value, message) name = value,
+#define KIFMM__RESULT_CASE(name, value, message)                                              \
+    case value: return message;
+enum { KIFMM__RESULTS(KIFMM__RESULT_ENUM) };
 
 /* kifmm_strerror: a one-line message for a result code; never NULL. */
 KIFMM__FN const char *kifmm_strerror(int code)
 {
     switch (code) {
-    case KIFMM_SUCCESS: return "success";
-    case KIFMM_ERR_NULL: return "a required pointer argument is NULL";
-    case KIFMM_ERR_COUNT:
-        return "a count is negative or too large for any array (see KIFMM_MAX_POINTS)";
-    case KIFMM_ERR_NONFINITE: return "a coordinate is NaN or infinite";
-    case KIFMM_ERR_ORDER: return "expansion order out of range (2 to KIFMM_MAX_ORDER)";
-    case KIFMM_ERR_LEAF_SIZE: return "leaf size is negative";
-    case KIFMM_ERR_DEPTH: return "maximum depth out of range (0 to KIFMM_MAX_DEPTH)";
-    case KIFMM_ERR_NTHREADS: return "number of threads out of range (0 to KIFMM_MAX_THREADS)";
-    case KIFMM_ERR_PARAM: return "a kernel parameter is out of range";
-    case KIFMM_ERR_NOMEM: return "memory allocation failed";
-    case KIFMM_ERR_LAPACK: return "a singular value decomposition did not converge";
-    case KIFMM_ERR_INTERNAL: return "an internal limit was exceeded (please report)";
-    case KIFMM_ERR_KERNEL:
-        return "the kernel gave a NaN or infinite value on the expansion surfaces (check its "
-               "parameters)";
+        KIFMM__RESULTS(KIFMM__RESULT_CASE)
     default: return "unknown kifmm result code";
     }
 }
+#undef KIFMM__RESULT_ENUM
+#undef KIFMM__RESULT_CASE
 
 /* ---- options ------------------------------------------------------------ */
 
