@@ -3,7 +3,7 @@
 #
 #   bash tests/run.sh                 the default configurations (below)
 #   CONFIGS="gcc-c11-omp asan" bash tests/run.sh   a subset, by name
-#   CONFIGS=all bash tests/run.sh     all fifteen
+#   CONFIGS=all bash tests/run.sh     all fourteen
 #
 # Configurations: {gcc, clang} x {-std=c99, -std=c11} x {with, without -fopenmp},
 # all with -Wall -Wextra -Werror -pedantic -O2 -march=native; one
@@ -11,14 +11,16 @@
 # one without -march (gcc, OpenMP: the portable C loops and the BLAS level
 # passes that a plain `cc -O2` build gets); the builds users make when they
 # debug or forget the flags: gcc -O0 with OpenMP and without -march (the
-# README's minimal compile line) and clang -O0 with -march=native; the tests
+# README's minimal compile line) and clang -std=c99 -O0 with -march=native
+# and OpenMP; the tests
 # compiled as C++ (g++ -x c++, plus tests/test_extern_c.cpp, a C++ host that
 # wraps the includes in extern "C"); and a ThreadSanitizer build (clang with
 # its OpenMP runtime and Archer, see TSAN_OPTIONS below).
-# By default ten of them run, which still cover each compiler, each standard,
-# each of with and without OpenMP, -O0, C++, both sanitizers and the portable
-# build: gcc-c99, gcc-c11-omp, clang-c99-omp, clang-c11, asan,
-# gcc-c11-omp-portable, gcc-O0-omp, clang-O0-omp, gxx-omp and tsan.
+# By default nine of them run, which still cover each compiler with each
+# standard, with and without OpenMP, -O0 and -O2, C++, both sanitizers and
+# the portable build: gcc-c99, gcc-c11-omp, clang-c11, asan,
+# gcc-c11-omp-portable, gcc-O0-omp, clang-O0-omp (clang, C99, OpenMP),
+# gxx-omp and tsan.
 # The full tables run in gcc-c11-omp only; elsewhere the tests are built
 # with -DKIFMM_TEST_QUICK (test_accuracy at orders 4 and 6 only, fewer points
 # in test_accuracy, test_kernels, test_small, test_threads and test_offset,
@@ -86,12 +88,12 @@ clang-c11-omp|clang|-std=c11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 asan|gcc|-std=c11 -O1 -g -march=native -fopenmp -fsanitize=address,undefined -fno-sanitize-recover=all -DKIFMM_TEST_QUICK
 gcc-c11-omp-portable|gcc|-std=c11 -O2 -fopenmp -DKIFMM_TEST_QUICK
 gcc-O0-omp|gcc|-std=c99 -O0 -fopenmp -DKIFMM_TEST_QUICK
-clang-O0-omp|clang|-std=c11 -O0 -march=native -fopenmp -DKIFMM_TEST_QUICK
+clang-O0-omp|clang|-std=c99 -O0 -march=native -fopenmp -DKIFMM_TEST_QUICK
 gxx-omp|g++|-x c++ -std=c++11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 tsan|clang|-std=c11 -O1 -g -march=native -fopenmp -fsanitize=thread -DKIFMM_TEST_QUICK
 "
 
-DEFAULT_CONFIGS="gcc-c99 gcc-c11-omp clang-c99-omp clang-c11 asan gcc-c11-omp-portable gcc-O0-omp clang-O0-omp gxx-omp tsan"
+DEFAULT_CONFIGS="gcc-c99 gcc-c11-omp clang-c11 asan gcc-c11-omp-portable gcc-O0-omp clang-O0-omp gxx-omp tsan"
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
