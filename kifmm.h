@@ -119,16 +119,19 @@ extern "C++" {
 #define KIFMM_SQUARE_MAX_ORDER 7
 #endif
 
-/* Double instances of orders up to this one keep the FFT M2L's spectra and
- * products in float (float instances always do). Off by default: float
- * spectra carry an error of about 1e-7 relative to each box's own field, not
- * to the total, and where the fields of many boxes cancel (charges that sum
- * to about zero, seen from far away) that error dominates: 3.4e-4 against
- * 7.9e-6 in double at p = 6 for 20,000 neutral charges at a distance of 300
- * box sizes, 2e-3 at p = 4. Define it (e.g. 6) for half the spectra's memory
- * and faster products on inputs without such cancellation (docs/api.md). */
+/* Double instances of scale-invariant kernels keep the FFT M2L's spectra
+ * and products in float up to this order (float instances always do): half
+ * the spectra's memory and products about 1.4 times faster. Float spectra
+ * carry an error of about 1e-7 relative to each box's own field, not to the
+ * total, and where the fields of many boxes cancel (charges that sum to
+ * zero, seen from afar) that error can pass the truncation error: 20,000
+ * neutral charges with targets 30 cloud sizes away give 3.9e-5 with float
+ * spectra at p = 6 against 1.6e-6 in double; at p = 4 and 5 the truncation
+ * error still dominates (1.8e-4 against 1.7e-4, 2.3e-6 against 5.2e-6; at
+ * 300 sizes away 7.8e-4 both, 9.7e-6 against 8.7e-6). Hence 5; 0 for double
+ * spectra at every order, 6 or more for speed where nothing cancels. */
 #ifndef KIFMM_FFT_SINGLE_MAX_ORDER
-#define KIFMM_FFT_SINGLE_MAX_ORDER 0
+#define KIFMM_FFT_SINGLE_MAX_ORDER 5
 #endif
 
 /* Memory for the spectra of the FFT M2L, in MiB: a level whose source
