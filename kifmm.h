@@ -180,6 +180,13 @@ extern "C++" {
 #define KIFMM__OMP(x)
 #endif
 
+/* restrict in C99, its extension in C++ */
+#if defined(__cplusplus)
+#define KIFMM__RESTRICT __restrict
+#else
+#define KIFMM__RESTRICT restrict
+#endif
+
 #define KIFMM__CAT_(a, b) a##b
 #define KIFMM__CAT(a, b) KIFMM__CAT_(a, b)
 #define KIFMM__CAT3(a, b, c) KIFMM__CAT(KIFMM__CAT(a, b), c)
@@ -944,6 +951,14 @@ KIFMM__FN void kifmm__box_center(const kifmm__tree *t, int32_t b, double *c, dou
     *half = 0.5 * w;
 }
 
+/* c - fc into d, the centre of a surface in a frame */
+KIFMM__FN void kifmm__sub3(const double *c, const double *fc, double *d)
+{
+    d[0] = c[0] - fc[0];
+    d[1] = c[1] - fc[1];
+    d[2] = c[2] - fc[2];
+}
+
 /* Index of the transfer vector (dx, dy, dz), each in [-3, 3] and not all in
  * [-1, 1], among the 316 in lexicographic order. */
 KIFMM__FN int kifmm__transfer_index(int dx, int dy, int dz)
@@ -1568,6 +1583,19 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
     memset(o, 0, sizeof *o);
 }
 
+/* The most sources or targets in one leaf. */
+KIFMM__FN int64_t kifmm__max_leaf(const kifmm__tree *t)
+{
+    int64_t m = 0;
+    int32_t b;
+    for (b = 0; b < t->nbox; b++) {
+        if (t->child[b] >= 0) continue;
+        if (t->s1[b] - t->s0[b] > m) m = t->s1[b] - t->s0[b];
+        if (t->t1[b] - t->t0[b] > m) m = t->t1[b] - t->t0[b];
+    }
+    return m;
+}
+
 KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
 {
     int l, m = 1;
@@ -1741,14 +1769,16 @@ KIFMM__FN size_t kifmm__fft_work8(const kifmm__fft *pl)
  * kifmm__fft_inverse8: 8 half spectra addressed as above -> the values at
  * the ne lattice surface points, chk[s 8 + v]. */
 #define KIFMM__FFT_XFORMS(T, SFX)                                                              \
-    KIFMM__FN void kifmm__caxpy##SFX(int n, T w0, T w1, const T *xr, const T *xi, T *dr,       \
-                                     T *di)                                                    \
+    KIFMM__FN void kifmm__caxpy##SFX(int n, T w0, T w1, const T *KIFMM__RESTRICT xr,           \
+                                     const T *KIFMM__RESTRICT xi, T *KIFMM__RESTRICT dr,       \
+                                     T *KIFMM__RESTRICT di)                                    \
     {                                                                                          \
-        int q;                                                                                 \
-        for (q = 0; q < n; q++) {                                                              \
-            dr[q] += xr[q] * w0 - xi[q] * w1;                                                  \
-            di[q] += xr[q] * w1 + xi[q] * w0;                                                  \
-        }                                                                                      \
+        int q, v;                                                                              \
+        for (q = 0; q < n; q += KIFMM__FFT_L) /* n is a multiple of the 8 lanes */            \
+            for (v = q; v < q + KIFMM__FFT_L; v++) {                                           \
+                dr[v] += xr[v] * w0 - xi[v] * w1;                                              \
+                di[v] += xr[v] * w1 + xi[v] * w0;                                              \
+            }                                                                                  \
     }                                                                                          \
     /* d = sum_j x_j (wr + i sg wi)[j ws] over nin inputs x_j = x + j xs (len values) */      \
     KIFMM__FN void kifmm__dft_sum##SFX(int len, int nin, const double *wr, const double *wi,   \
@@ -2326,7 +2356,8 @@ struct KIFMM_NAME {
     double param[4];         /* kernel parameters, defaults resolved */
     int m2l_cols;            /* columns (box x vector) per M2L GEMM */
     int mb;                  /* most boxes on one level */
-    KIFMM__R *scratch;       /* per thread: 3 surfaces of max(nsc, nse) points */
+    KIFMM__R *scratch;       /* per thread: see __scratch_per */
+    size_t fpts;             /* points of the float instances' frame buffers */
     KIFMM__R *gbuf;          /* column GEMM passes: see kifmm__gbuf_per */
     size_t gbuf_n;           /* its values */
     int nthreads;
@@ -3020,6 +3051,53 @@ KIFMM__FN KIFMM__R *KIFMM__F(__gbuf)(const KIFMM_NAME *c)
 #endif
 }
 
+/* Values per thread of the scratch: three surfaces of max(nsc, nse)
+ * points, then (float instances) a frame of c->fpts points. */
+KIFMM__FN size_t KIFMM__F(__scratch_per)(const KIFMM_NAME *c)
+{
+    return 9 * (size_t)(c->nsc > c->nse ? c->nsc : c->nse) + 3 * c->fpts;
+}
+
+/* The calling thread's scratch (see __scratch_per). */
+KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
+{
+    return c->scratch + (size_t)kifmm__thread_num() * KIFMM__F(__scratch_per)(c);
+}
+
+/* The calling thread's frame buffer: after its three surfaces. */
+KIFMM__FN KIFMM__R *KIFMM__F(__framebuf)(const KIFMM_NAME *c)
+{
+    return KIFMM__F(__scratch)(c) + 9 * (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
+}
+
+/* The n points of a sorted set from position p0 on (structure of arrays,
+ * *ld values per coordinate) in a frame centred at fc. Float instances
+ * shift them in double and round them into buf (3 n values, *ld becomes n):
+ * coordinates relative to the root keep float's digits of the root's size,
+ * and a surface placed next to points of a box 1e-4 of the root wide would be
+ * off by 1e-4 of the box; in the box's own frame both keep the digits of its
+ * size. Double instances use the points in place, in the frame centred at
+ * the origin (fc is zeroed). Surfaces are then placed at (centre - fc). */
+KIFMM__FN const KIFMM__R *KIFMM__F(__frame)(const KIFMM__R *pts, size_t *ld, int64_t p0,
+                                           int64_t n, double *fc, KIFMM__R *buf)
+{
+#if KIFMM__FLOAT
+    int64_t i;
+    int d;
+    for (d = 0; d < 3; d++)
+        for (i = 0; i < n; i++)
+            buf[(size_t)d * n + i] = (KIFMM__R)((double)pts[(size_t)d * *ld + p0 + i] - fc[d]);
+    *ld = (size_t)n;
+    return buf;
+#else
+    (void)ld;
+    (void)n;
+    (void)buf;
+    fc[0] = fc[1] = fc[2] = 0.0;
+    return pts + p0;
+#endif
+}
+
 /* Bytes held by a handle, counted from the sizes it allocated. */
 KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
 {
@@ -3060,21 +3138,13 @@ KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
         b += 4.0 * (t->ioff[t->nlev] + 1) + 5.0 * (26.0 * t->ioff[t->nlev] + 1); /* co, cj, cc */
     }
 #endif
-    b += R * c->nthreads * 9 * ns;
+    b += R * c->nthreads * (double)KIFMM__F(__scratch_per)(c);
+    (void)ns;
     b += R * (double)c->gbuf_n;
     return b;
 }
 
-KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
-{
-    size_t ns = (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
-#ifdef _OPENMP
-    return c->scratch + (size_t)omp_get_thread_num() * 9 * ns;
-#else
-    (void)ns;
-    return c->scratch;
-#endif
-}
+
 
 /* ---- the level passes ------------------------------------------------------- */
 
@@ -3493,16 +3563,20 @@ KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
     memset(w->chk, 0, (size_t)nl * nrhs * c->nc * sizeof(KIFMM__R));
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
-        KIFMM__R *pc;
-        double ctr[3], half;
-        int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
+        const int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
+        KIFMM__R *pc = KIFMM__F(__scratch)(c);
+        const KIFMM__R *xs;
+        double ctr[3], fc[3], rc[3], half;
+        size_t ld = (size_t)t->ns;
         if (t->child[b] >= 0 || ns == 0) continue;
-        pc = KIFMM__F(__scratch)(c);
         kifmm__box_center(t, b, ctr, &half);
-        KIFMM__F(__place)(c->surf_c, c->nsc, ctr, c->ao * half, pc);
-        KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc,
-                              c->src + s0, c->src + t->ns + s0, c->src + 2 * t->ns + s0,
-                              w->qs + s0 * KIFMM__SD, ns, nrhs, (size_t)t->ns * KIFMM__SD, scale,
+        memcpy(fc, ctr, sizeof fc);
+        xs = KIFMM__F(__frame)(c->src, &ld, s0, ns, fc, KIFMM__F(__framebuf)(c));
+        kifmm__sub3(ctr, fc, rc);
+        KIFMM__F(__place)(c->surf_c, c->nsc, rc, c->ao * half, pc);
+        KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ld,
+                              xs + 2 * ld, w->qs + s0 * KIFMM__SD, ns, nrhs,
+                              (size_t)t->ns * KIFMM__SD, scale,
                               w->chk + (size_t)(b - t->loff[l]) * c->nc, (size_t)nl * c->nc);
     }
     t1 = kifmm__now();
@@ -3539,6 +3613,7 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     int nl = KIFMM__LVL(c, l);
     size_t cst = (size_t)nl * c->nc, per = (size_t)t->nbox * (size_t)c->ne;
     double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1, t2, t3, t4;
+    const double zero[3] = {0.0, 0.0, 0.0};
     if (l >= 3) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
     t1 = kifmm__now();
@@ -3570,22 +3645,29 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
         pc = KIFMM__F(__scratch)(c);
         pe = pc + 3 * (c->nsc > c->nse ? c->nsc : c->nse);
         kifmm__box_center(t, b, ctr, &half);
-        KIFMM__F(__place)(c->surf_c, c->nsc, ctr, KIFMM__ALPHA_INNER * half, pc);
+        /* in the frame of box b (float instances; see __frame) */
+        KIFMM__F(__place)(c->surf_c, c->nsc, KIFMM__FLOAT ? zero : ctr, KIFMM__ALPHA_INNER * half,
+                          pc);
         if (a >= 0 && a != t->parent[b]) {
             /* L2L from an ancestor above the parent, by direct evaluation */
             double ac[3], ah;
             kifmm__box_center(t, a, ac, &ah);
+            if (KIFMM__FLOAT) kifmm__sub3(ac, ctr, ac);
             KIFMM__F(__place)(c->surf_e, c->nse, ac, c->ao * ah, pe);
             KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, pe,
                                   pe + c->nse, pe + 2 * c->nse, w->de + (size_t)a * c->ne,
                                   c->nse, nrhs, per, scale, chk, cst);
         }
         for (e = t->xo[b]; e < t->xo[b + 1] && !xdirect; e++) {
-            int32_t xb = t->x[e];
-            int64_t s0 = t->s0[xb];
-            KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc,
-                                  c->src + s0, c->src + t->ns + s0, c->src + 2 * t->ns + s0,
-                                  w->qs + s0 * KIFMM__SD, t->s1[xb] - s0, nrhs,
+            const int32_t xb = t->x[e];
+            const int64_t s0 = t->s0[xb];
+            double fc[3];
+            size_t ld = (size_t)t->ns;
+            const KIFMM__R *xs;
+            memcpy(fc, ctr, sizeof fc);
+            xs = KIFMM__F(__frame)(c->src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
+            KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ld,
+                                  xs + 2 * ld, w->qs + s0 * KIFMM__SD, t->s1[xb] - s0, nrhs,
                                   (size_t)t->ns * KIFMM__SD, scale, chk, cst);
         }
     }
@@ -3610,17 +3692,19 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     c->stats->t_p2l += t2 - t1;
 }
 
-/* out += the field, at nt targets, of densities (vector stride nbox ne) on
- * the surface of box a (radius alpha half-widths); pe holds the placed
- * surface; vector r's outputs from out + r old on. */
+/* out += the field, at nt targets (coordinates in the frame centred at fc,
+ * see __frame), of densities (vector stride nbox ne) on the surface of box a
+ * (radius alpha half-widths); pe holds the placed surface; vector r's
+ * outputs from out + r old on. */
 KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                         int32_t a, double alpha, const KIFMM__R *dens,
-                                        const KIFMM__R *tx, const KIFMM__R *ty,
-                                        const KIFMM__R *tz, int64_t nt, KIFMM__R *pe,
-                                        KIFMM__R *out, size_t old)
+                                        const double *fc, const KIFMM__R *tx,
+                                        const KIFMM__R *ty, const KIFMM__R *tz, int64_t nt,
+                                        KIFMM__R *pe, KIFMM__R *out, size_t old)
 {
     double ctr[3], half;
     kifmm__box_center(&c->tree, a, ctr, &half);
+    kifmm__sub3(ctr, fc, ctr); /* in the targets' frame */
     KIFMM__F(__place)(c->surf_e, c->nse, ctr, alpha * half, pe);
     KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, pe, pe + c->nse, pe + 2 * c->nse, dens, c->nse,
                     nrhs, (size_t)c->tree.nbox * c->ne, 1.0, out, old);
@@ -3643,11 +3727,17 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
     const KIFMM__R *tx = c->trg + t0, *ty = c->trg + t->nt + t0, *tz = c->trg + 2 * t->nt + t0;
     KIFMM__R *out = ob + (t0 - base) * KIFMM__TD, *pe = KIFMM__F(__scratch)(c);
-    double c0 = kifmm__now(), c1, c2;
+    double c0 = kifmm__now(), c1, c2, fc[3], half;
+    const KIFMM__R *xf = NULL; /* the targets in the leaf's frame, for the surfaces */
+    size_t ld = (size_t)t->nt;
+    if (t->dsrc[b] >= 0 || t->wo[b + 1] > t->wo[b]) {
+        kifmm__box_center(t, b, fc, &half);
+        xf = KIFMM__F(__frame)(c->trg, &ld, t0, ntb, fc, KIFMM__F(__framebuf)(c));
+    }
     if (t->dsrc[b] >= 0)
         KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], c->ao,
-                                 w->de + (size_t)t->dsrc[b] * c->ne, tx, ty, tz, ntb, pe, out,
-                                 old);
+                                 w->de + (size_t)t->dsrc[b] * c->ne, fc, xf, xf + ld,
+                                 xf + 2 * ld, ntb, pe, out, old);
     c1 = kifmm__now();
     for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
         int32_t a = t->w[e];
@@ -3655,7 +3745,8 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
             KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
         else
             KIFMM__F(__from_surface)(c, w, nrhs, a, KIFMM__ALPHA_INNER,
-                                     w->ue + (size_t)a * c->ne, tx, ty, tz, ntb, pe, out, old);
+                                     w->ue + (size_t)a * c->ne, fc, xf, xf + ld, xf + 2 * ld,
+                                     ntb, pe, out, old);
     }
     c2 = kifmm__now();
     for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
@@ -3991,15 +4082,19 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     h->nc = h->nsc * KIFMM__SD;
     h->surf_e = (double *)kifmm__alloc((size_t)3 * h->nse, sizeof(double));
     h->surf_c = (double *)kifmm__alloc((size_t)3 * h->nsc, sizeof(double));
-    h->scratch = (KIFMM__R *)kifmm__alloc(
-        (size_t)h->nthreads * 9 * (size_t)(h->nsc > h->nse ? h->nsc : h->nse), sizeof(KIFMM__R));
-    if (!h->surf_e || !h->surf_c || !h->scratch) { rc = KIFMM_ERR_NOMEM; goto fail; }
+    if (!h->surf_e || !h->surf_c) { rc = KIFMM_ERR_NOMEM; goto fail; }
     kifmm__surf_unit(o.order, h->surf_e);
     kifmm__surf_unit(o.order + h->cdiff, h->surf_c);
     t0 = kifmm__now();
     if ((rc = KIFMM__F(__tree)(h, nsources, src_xyz, ntargets, trg_xyz))) goto fail;
     kifmm__tree_dsrc(&h->tree, h->nsc); /* X lists of boxes with few targets go direct */
     t1 = kifmm__now();
+    /* per thread: three surfaces, and for float instances the frame of the
+     * largest leaf (see __frame) */
+    h->fpts = KIFMM__FLOAT ? (size_t)kifmm__max_leaf(&h->tree) : 0;
+    h->scratch = (KIFMM__R *)kifmm__alloc((size_t)h->nthreads * KIFMM__F(__scratch_per)(h),
+                                          sizeof(KIFMM__R));
+    if (!h->scratch) { rc = KIFMM_ERR_NOMEM; goto fail; }
     /* the level passes' buffers, for trees that have levels 2 and deeper */
     h->gbuf_n = h->tree.nlev > 2 ? (size_t)(KIFMM__GC_FAST ? h->nthreads : 1) *
                                        KIFMM__F(__gbuf_per)(h)
