@@ -18,7 +18,7 @@
 CC ?= cc
 BUILD := build
 ARGS ?=
-EXAMPLE_CFLAGS := -std=c99 -O3 -march=native -fopenmp -Wall -Wextra -pedantic
+EXAMPLE_CFLAGS := -std=c99 -O2 -march=native -fopenmp -Wall -Wextra -pedantic
 LDLIBS := -llapacke -lopenblas -lm
 
 APT_INSTALL := apt-get update && apt-get install -y libopenblas-dev liblapacke-dev clang libomp-dev
