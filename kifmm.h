@@ -191,6 +191,21 @@ extern "C++" {
 #define KIFMM__CAT(a, b) KIFMM__CAT_(a, b)
 #define KIFMM__CAT3(a, b, c) KIFMM__CAT(KIFMM__CAT(a, b), c)
 
+/* Preprocessor tests on macros that may be undefined, without evaluating an
+ * undefined name in #if (-Wundef clean): KIFMM__IS_ONE(x) is the token 1 if
+ * x expands to 1, else 0; KIFMM__IS_PAREN(x) is 1 if x expands to something
+ * in parentheses, else 0; KIFMM__IF(c)(a, b) is a if c is 1, else b. */
+#define KIFMM__SECOND_(a, b, ...) b
+#define KIFMM__SECOND(...) KIFMM__SECOND_(__VA_ARGS__, 0, 0)
+#define KIFMM__PROBE ~, 1
+#define KIFMM__ONE_1 KIFMM__PROBE
+#define KIFMM__IS_ONE(x) KIFMM__SECOND(KIFMM__CAT(KIFMM__ONE_, x))
+#define KIFMM__PAREN_PROBE(...) KIFMM__PROBE
+#define KIFMM__IS_PAREN(x) KIFMM__SECOND(KIFMM__PAREN_PROBE x)
+#define KIFMM__IF(c) KIFMM__CAT(KIFMM__IF_, c)
+#define KIFMM__IF_1(a, b) a
+#define KIFMM__IF_0(a, b) b
+
 /* C99 static assert: a typedef'd array whose name is the message. */
 #define KIFMM__STATIC_ASSERT(cond, msg) typedef char KIFMM__CAT(kifmm__assert_, msg)[(cond) ? 1 : -1]
 
@@ -579,6 +594,9 @@ KIFMM__GC_MICRO(double, d, __m256d, 4, _mm256_loadu_pd, _mm256_maskload_pd, _mm2
 KIFMM__GC_MICRO(float, f, __m256, 8, _mm256_loadu_ps, _mm256_maskload_ps, _mm256_maskstore_ps,
                 _mm256_fmadd_ps, _mm256_broadcast_ss, _mm256_setzero_ps(), _mm256_add_ps)
 #endif
+#ifndef KIFMM__GC_FAST
+#define KIFMM__GC_FAST 0 /* no AVX2: the level passes call BLAS */
+#endif
 
 #if KIFMM__GC_FAST
 #define KIFMM__GC_COLS(T, SFX, MR)                                                             \
@@ -618,7 +636,6 @@ KIFMM__GC_COLS(float, f, KIFMM__GC_MR_F)
 #else
 #define KIFMM__GC_NR 6
 #define KIFMM__GC_KC 256
-#define KIFMM__GC_FAST 0
 #define KIFMM__GC_NC 512
 #define KIFMM__GC_COLS(T, SFX, GEMM, ONE, ZERO)                                                \
     KIFMM__FN void kifmm__gemm_cols##SFX(int m, int k, const T *a, int lda, int ncol,          \
@@ -2190,6 +2207,7 @@ KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, int32_t **co_out,
  * groups of this many, so the workspace stays bounded. */
 #define KIFMM__RHS_MAX 8
 
+
 #endif /* KIFMM_H_SHARED */
 
 /* ======================================================================== */
@@ -2228,20 +2246,104 @@ KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, int32_t **co_out,
 #error "kifmm.h: the kernel named by KIFMM_KERNEL must define kifmm_kernel_<name>_SRC_DIM and _TRG_DIM (see docs/kernels.md)"
 #endif
 
-#define KIFMM__SD KIFMM__K(_SRC_DIM)
+/* The kernel's traits, resolved once. QD: density components per source
+ * point; TD: outputs per target; SD: density components per point of the
+ * equivalent surfaces (the surface kernel's). */
+#define KIFMM__QD KIFMM__K(_SRC_DIM)
 #define KIFMM__TD KIFMM__K(_TRG_DIM)
-#define KIFMM__EVAL KIFMM__K(_eval)
+#define KIFMM__SI KIFMM__K(_SCALE_INVARIANT)
+#define KIFMM__DEGREE KIFMM__K(_DEGREE)
+
+/* The four kernel roles (docs/kernels.md), each a kernel name:
+ *   QT  points -> targets (TD x QD): the kernel itself;
+ *   SC  surface -> check surface (SD x SD): the surface kernel, _EQUIV, or
+ *       the kernel itself when TD == QD;
+ *   ST  surface -> targets (TD x SD): the kernel itself when QD == SD,
+ *       else _SURFACE;
+ *   QC  points -> check surface (SD x QD): SC when QD == SD, the kernel
+ *       itself when TD == SD, else _CHECK.
+ * Today's kernels (QD = SD) name at most _EQUIV, as before. */
+#define KIFMM__ROLE_QT KIFMM_KERNEL
 #if KIFMM__K(_TRG_DIM) == KIFMM__K(_SRC_DIM)
-#define KIFMM__KE(suffix) KIFMM__K(suffix)
-#define KIFMM__EVALE KIFMM__K(_eval)
+#define KIFMM__ROLE_SC KIFMM_KERNEL
 #else
-#define KIFMM__KE(suffix) KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), suffix)
-#define KIFMM__EVALE KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _eval)
-KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == KIFMM__SD &&
-                         KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _TRG_DIM) == KIFMM__SD,
-                     KIFMM__CAT(KIFMM_NAME, _equivalent_kernel_must_map_SRC_DIM_to_SRC_DIM));
+#define KIFMM__ROLE_SC KIFMM__K(_EQUIV)
+#endif
+/* kifmm_kernel_<the role's kernel><suffix>; a concatenation of its own, as
+ * the role's name may itself expand through KIFMM__CAT */
+#define KIFMM__RCAT_(a, b, c) a##b##c
+#define KIFMM__RCAT(a, b, c) KIFMM__RCAT_(a, b, c)
+#define KIFMM__R_(role, suffix) KIFMM__RCAT(kifmm_kernel_, KIFMM__ROLE_##role, suffix)
+#define KIFMM__SD KIFMM__R_(SC, _SRC_DIM)
+#if KIFMM__QD == KIFMM__SD
+#define KIFMM__ROLE_ST KIFMM_KERNEL
+#define KIFMM__ROLE_QC KIFMM__ROLE_SC
+#elif KIFMM__TD == KIFMM__SD
+#define KIFMM__ROLE_ST KIFMM__K(_SURFACE)
+#define KIFMM__ROLE_QC KIFMM_KERNEL
+#else
+#define KIFMM__ROLE_ST KIFMM__K(_SURFACE)
+#define KIFMM__ROLE_QC KIFMM__K(_CHECK)
+#endif
+KIFMM__STATIC_ASSERT(KIFMM__R_(SC, _TRG_DIM) == KIFMM__SD && KIFMM__R_(ST, _SRC_DIM) == KIFMM__SD &&
+                         KIFMM__R_(ST, _TRG_DIM) == KIFMM__TD &&
+                         KIFMM__R_(QC, _SRC_DIM) == KIFMM__QD &&
+                         KIFMM__R_(QC, _TRG_DIM) == KIFMM__SD,
+                     KIFMM__CAT(KIFMM_NAME, _kernel_roles_must_have_matching_dimensions));
+
+/* A role kernel's optional features: its _HAS mask (in parentheses, of
+ * KIFMM_HAS_* bits: a misspelt bit name stops the build, see below), or,
+ * for kernels written before the mask, the flags _SETUP, _P2P, _P2PF, ...
+ * each defined as 1. */
+#define KIFMM__LEGACY_HAS(k)                                                                \
+    (KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _SETUP)) * KIFMM_HAS_SETUP |               \
+     KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _P2P)) * KIFMM_HAS_P2P |                   \
+     KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _P2PF)) * KIFMM_HAS_P2PF |                 \
+     KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _P2PN)) * KIFMM_HAS_P2PN |                 \
+     KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _P2PNF)) * KIFMM_HAS_P2PNF |               \
+     KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _P2PS)) * KIFMM_HAS_P2PS |                 \
+     KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _P2PSF)) * KIFMM_HAS_P2PSF |               \
+     KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _P2PSN)) * KIFMM_HAS_P2PSN |               \
+     KIFMM__IS_ONE(KIFMM__CAT3(kifmm_kernel_, k, _P2PSNF)) * KIFMM_HAS_P2PSNF)
+#define KIFMM__HAS_OF(k)                                                                    \
+    KIFMM__IF(KIFMM__IS_PAREN(KIFMM__CAT3(kifmm_kernel_, k, _HAS)))(                        \
+        KIFMM__CAT3(kifmm_kernel_, k, _HAS), KIFMM__LEGACY_HAS(k))
+#define KIFMM__HAS_QT KIFMM__HAS_OF(KIFMM__ROLE_QT)
+#define KIFMM__HAS_ST KIFMM__HAS_OF(KIFMM__ROLE_ST)
+#define KIFMM__HAS_QC KIFMM__HAS_OF(KIFMM__ROLE_QC)
+#define KIFMM__HAS_SC KIFMM__HAS_OF(KIFMM__ROLE_SC)
+/* in C, where a misspelt KIFMM_HAS_ name is an undeclared identifier */
+KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HAS_SC) &
+                      ~KIFMM_HAS_ALL) == 0,
+                     KIFMM__CAT(KIFMM_NAME, _kernel_HAS_mask_has_unknown_bits));
+
+/* The hook bits of this precision: one-way, many-vector, mutual, mutual
+ * many-vector; and the suffix of the hooks' names. */
+#if KIFMM__FLOAT
+#define KIFMM__B_P2P KIFMM_HAS_P2PF
+#define KIFMM__B_P2PN KIFMM_HAS_P2PNF
+#define KIFMM__B_P2PS KIFMM_HAS_P2PSF
+#define KIFMM__B_P2PSN KIFMM_HAS_P2PSNF
+#define KIFMM__HOOK(role, h) KIFMM__R_(role, KIFMM__CAT3(_, h, f))
+#else
+#define KIFMM__B_P2P KIFMM_HAS_P2P
+#define KIFMM__B_P2PN KIFMM_HAS_P2PN
+#define KIFMM__B_P2PS KIFMM_HAS_P2PS
+#define KIFMM__B_P2PSN KIFMM_HAS_P2PSN
+#define KIFMM__HOOK(role, h) KIFMM__R_(role, KIFMM__CAT(_, h))
 #endif
 
+/* Resolved to 0 / 1 for use in C expressions. */
+#if KIFMM__HAS_QT & KIFMM__B_P2P
+#define KIFMM__NEAR_HOOK 1
+#else
+#define KIFMM__NEAR_HOOK 0
+#endif
+#if KIFMM__HAS_QT & KIFMM__B_P2PS
+#define KIFMM__MUTUAL 1
+#else
+#define KIFMM__MUTUAL 0
+#endif
 /* The single-thread column GEMM of this precision. */
 #if KIFMM__FLOAT
 #define KIFMM__GEMM_COLS kifmm__gemm_colsf
@@ -2249,14 +2351,13 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #define KIFMM__GEMM_COLS kifmm__gemm_colsd
 #endif
 
-/* M2L by FFT for kernels with one density component (unless
+/* M2L by FFT for kernels with one surface density component (unless
  * KIFMM_M2L_DENSE is defined); dense stacked GEMMs otherwise. */
 #if KIFMM__SD == 1 && !defined(KIFMM_M2L_DENSE)
 #define KIFMM__FFT 1
 #else
 #define KIFMM__FFT 0
 #endif
-
 
 /* Singular value cutoff of the check-to-equivalent pseudo-inverses; the
  * smallest kernel magnitude on the surfaces for which a level keeps its far
@@ -2267,47 +2368,6 @@ KIFMM__STATIC_ASSERT(KIFMM__CAT3(kifmm_kernel_, KIFMM__K(_EQUIV), _SRC_DIM) == K
 #else
 #define KIFMM__CUTOFF KIFMM_SVD_CUTOFF
 #define KIFMM__TINY DBL_MIN
-#endif
-
-/* The near-field hook of this precision, if the kernel has one. */
-#if KIFMM__FLOAT
-#define KIFMM__HAS_HOOK KIFMM__K(_P2PF)
-#define KIFMM__HOOK KIFMM__K(_p2pf)
-#define KIFMM__HAS_HOOKE KIFMM__KE(_P2PF)
-#define KIFMM__HOOKE KIFMM__KE(_p2pf)
-#define KIFMM__HAS_HOOKN KIFMM__K(_P2PNF)
-#define KIFMM__HOOKN KIFMM__K(_p2pnf)
-#define KIFMM__HAS_HOOKNE KIFMM__KE(_P2PNF)
-#define KIFMM__HOOKNE KIFMM__KE(_p2pnf)
-#define KIFMM__HAS_HOOKS KIFMM__K(_P2PSF)
-#define KIFMM__HOOKS KIFMM__K(_p2psf)
-#define KIFMM__HAS_HOOKSN KIFMM__K(_P2PSNF)
-#define KIFMM__HOOKSN KIFMM__K(_p2psnf)
-#else
-#define KIFMM__HAS_HOOK KIFMM__K(_P2P)
-#define KIFMM__HOOK KIFMM__K(_p2p)
-#define KIFMM__HAS_HOOKE KIFMM__KE(_P2P)
-#define KIFMM__HOOKE KIFMM__KE(_p2p)
-#define KIFMM__HAS_HOOKN KIFMM__K(_P2PN)
-#define KIFMM__HOOKN KIFMM__K(_p2pn)
-#define KIFMM__HAS_HOOKNE KIFMM__KE(_P2PN)
-#define KIFMM__HOOKNE KIFMM__KE(_p2pn)
-#define KIFMM__HAS_HOOKS KIFMM__K(_P2PS)
-#define KIFMM__HOOKS KIFMM__K(_p2ps)
-#define KIFMM__HAS_HOOKSN KIFMM__K(_P2PSN)
-#define KIFMM__HOOKSN KIFMM__K(_p2psn)
-#endif
-
-/* The hooks resolved to 0 / 1, for use in C expressions. */
-#if KIFMM__HAS_HOOK
-#define KIFMM__NEAR_HOOK 1
-#else
-#define KIFMM__NEAR_HOOK 0
-#endif
-#if KIFMM__HAS_HOOKS
-#define KIFMM__MUTUAL 1
-#else
-#define KIFMM__MUTUAL 0
 #endif
 
 /* ---- the handle ---------------------------------------------------------- */
@@ -2445,26 +2505,26 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
                          int64_t ns, int nrhs, size_t qld, double scale, KIFMM__R *out,      \
                          size_t old)
 
-/* out[r*old + i*dim + a] += scale * sum_j K(t_i - s_j) q[r*qld + j*SD + s] for
- * nrhs density vectors; targets and sources as structure-of-arrays
- * coordinates; `kfun` has `dim` output components. The kernel is evaluated
- * once per pair for all vectors. */
-#define KIFMM__DEFINE_P2P(fname, kfun, dim)                                                  \
+/* out[r*old + i*dim + a] += scale * sum_j K(t_i - s_j) q[r*qld + j*qdim + s]
+ * for nrhs density vectors; targets and sources as structure-of-arrays
+ * coordinates; `kfun` has `dim` output and `qdim` density components. The
+ * kernel is evaluated once per pair for all vectors. */
+#define KIFMM__DEFINE_P2P(fname, kfun, dim, qdim)                                            \
     KIFMM__P2P_SIG(fname)                                                                    \
     {                                                                                        \
         int64_t i, j;                                                                        \
         int a, s, r;                                                                         \
         for (i = 0; i < nt; i++) {                                                           \
-            double acc[KIFMM__RHS_MAX * (dim)], k[(dim) * KIFMM__SD];                        \
+            double acc[KIFMM__RHS_MAX * (dim)], k[(dim) * (qdim)];                           \
             for (a = 0; a < nrhs * (dim); a++) acc[a] = 0.0;                                 \
             for (j = 0; j < ns; j++) {                                                       \
                 kfun(prm, (double)tx[i] - (double)sx[j], (double)ty[i] - (double)sy[j],      \
                      (double)tz[i] - (double)sz[j], k);                                      \
                 for (r = 0; r < nrhs; r++) {                                                 \
-                    const KIFMM__R *qj = q + r * qld + j * KIFMM__SD;                        \
+                    const KIFMM__R *qj = q + r * qld + j * (qdim);                           \
                     for (a = 0; a < (dim); a++)                                              \
-                        for (s = 0; s < KIFMM__SD; s++)                                      \
-                            acc[r * (dim) + a] += k[a * KIFMM__SD + s] * (double)qj[s];      \
+                        for (s = 0; s < (qdim); s++)                                         \
+                            acc[r * (dim) + a] += k[a * (qdim) + s] * (double)qj[s];         \
                 }                                                                            \
             }                                                                                \
             for (r = 0; r < nrhs; r++)                                                       \
@@ -2494,23 +2554,40 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
             hook(prm, tx, ty, tz, nt, sx, sy, sz, q, ns, (KIFMM__R)scale, out);              \
     }
 
-/* A kernel may bring its own near-field loop (kifmm_kernel_<name>_P2P, or
- * _P2PF for float instances, e.g. vectorised by hand, and _P2PN / _P2PNF for
- * several density vectors at once); otherwise the generic loop above is
- * instantiated. */
-#if KIFMM__HAS_HOOK && KIFMM__HAS_HOOKN
-KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p), KIFMM__HOOK, KIFMM__HOOKN)
-#elif KIFMM__HAS_HOOK
-KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p), KIFMM__HOOK)
+/* One loop per kernel role (see the roles above): the role kernel's hooks
+ * where it has them (one-way, and many-vector for nrhs > 1), else the
+ * generic loop over its eval.
+ *   __p2p_qt  points -> targets: U lists, and W and X sources taken directly
+ *   __p2p_st  surface densities -> targets: L2P, M2P
+ *   __p2p_qc  points -> check surfaces: P2M, P2L
+ *   __p2p_sc  surface densities -> check surfaces: L2L from a far ancestor */
+#if (KIFMM__HAS_QT & KIFMM__B_P2P) && (KIFMM__HAS_QT & KIFMM__B_P2PN)
+KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p_qt), KIFMM__HOOK(QT, p2p), KIFMM__HOOK(QT, p2pn))
+#elif KIFMM__HAS_QT & KIFMM__B_P2P
+KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_qt), KIFMM__HOOK(QT, p2p))
 #else
-KIFMM__DEFINE_P2P(KIFMM__F(__p2p), KIFMM__EVAL, KIFMM__TD)
+KIFMM__DEFINE_P2P(KIFMM__F(__p2p_qt), KIFMM__R_(QT, _eval), KIFMM__TD, KIFMM__QD)
 #endif
-#if KIFMM__HAS_HOOKE && KIFMM__HAS_HOOKNE
-KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p_equiv), KIFMM__HOOKE, KIFMM__HOOKNE)
-#elif KIFMM__HAS_HOOKE
-KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_equiv), KIFMM__HOOKE)
+#if (KIFMM__HAS_ST & KIFMM__B_P2P) && (KIFMM__HAS_ST & KIFMM__B_P2PN)
+KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p_st), KIFMM__HOOK(ST, p2p), KIFMM__HOOK(ST, p2pn))
+#elif KIFMM__HAS_ST & KIFMM__B_P2P
+KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_st), KIFMM__HOOK(ST, p2p))
 #else
-KIFMM__DEFINE_P2P(KIFMM__F(__p2p_equiv), KIFMM__EVALE, KIFMM__SD)
+KIFMM__DEFINE_P2P(KIFMM__F(__p2p_st), KIFMM__R_(ST, _eval), KIFMM__TD, KIFMM__SD)
+#endif
+#if (KIFMM__HAS_QC & KIFMM__B_P2P) && (KIFMM__HAS_QC & KIFMM__B_P2PN)
+KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p_qc), KIFMM__HOOK(QC, p2p), KIFMM__HOOK(QC, p2pn))
+#elif KIFMM__HAS_QC & KIFMM__B_P2P
+KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_qc), KIFMM__HOOK(QC, p2p))
+#else
+KIFMM__DEFINE_P2P(KIFMM__F(__p2p_qc), KIFMM__R_(QC, _eval), KIFMM__SD, KIFMM__QD)
+#endif
+#if (KIFMM__HAS_SC & KIFMM__B_P2P) && (KIFMM__HAS_SC & KIFMM__B_P2PN)
+KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p_sc), KIFMM__HOOK(SC, p2p), KIFMM__HOOK(SC, p2pn))
+#elif KIFMM__HAS_SC & KIFMM__B_P2P
+KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_sc), KIFMM__HOOK(SC, p2p))
+#else
+KIFMM__DEFINE_P2P(KIFMM__F(__p2p_sc), KIFMM__R_(SC, _eval), KIFMM__SD, KIFMM__SD)
 #endif
 
 /* ---- operators ------------------------------------------------------------ */
@@ -2526,7 +2603,7 @@ KIFMM__FN double KIFMM__F(__kmat)(const double *prm, const double *tp, int ntp,
     double k[KIFMM__SD * KIFMM__SD], big = 0.0;
     for (j = 0; j < nsp; j++)
         for (i = 0; i < ntp; i++) {
-            KIFMM__EVALE(prm, tp[i] - sp[j], tp[ntp + i] - sp[nsp + j],
+            KIFMM__R_(SC, _eval)(prm, tp[i] - sp[j], tp[ntp + i] - sp[nsp + j],
                          tp[2 * ntp + i] - sp[2 * nsp + j], k);
             for (b = 0; b < KIFMM__SD; b++)
                 for (a = 0; a < KIFMM__SD; a++) {
@@ -2702,7 +2779,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__op
         for (i = 1 - p; i < p; i++)
             for (j = 1 - p; j < p; j++)
                 for (k = 1 - p; k < p; k++) {
-                    KIFMM__EVALE(c->param, h * i - 2.0 * r * d[0], h * j - 2.0 * r * d[1],
+                    KIFMM__R_(SC, _eval)(c->param, h * i - 2.0 * r * d[0], h * j - 2.0 * r * d[1],
                                  h * k - 2.0 * r * d[2], kv);
                     bad |= !(fabs(kv[0]) <= DBL_MAX);
                     big = fabs(sigma * kv[0]) > big ? fabs(sigma * kv[0]) : big;
@@ -2846,11 +2923,11 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 {
     const kifmm__tree *t = &c->tree;
     int l, rc, any = 0;
-    c->nops = KIFMM__K(_SCALE_INVARIANT) ? 1 : t->nlev;
+    c->nops = KIFMM__SI ? 1 : t->nlev;
     c->ops = (KIFMM__F(__ops) *)kifmm__calloc((size_t)c->nops, sizeof(KIFMM__F(__ops)));
     if (!c->ops) return KIFMM_ERR_NOMEM;
     for (l = 2; l < t->nlev; l++) any |= t->m2lo[l + 1] > t->m2lo[l];
-    if (KIFMM__K(_SCALE_INVARIANT)) {
+    if (KIFMM__SI) {
         if (t->nlev > 2 && (rc = KIFMM__F(__ops_make)(c, 1.0, any, &c->ops[0]))) return rc;
     } else {
         for (l = 2; l < t->nlev; l++) {
@@ -2891,7 +2968,7 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 
 KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 {
-    return KIFMM__K(_SCALE_INVARIANT) ? &c->ops[0] : &c->ops[l];
+    return KIFMM__SI ? &c->ops[0] : &c->ops[l];
 }
 
 /* Factor multiplying check potentials computed directly from points at
@@ -2901,7 +2978,7 @@ KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 KIFMM__FN double KIFMM__F(__level_scale)(const KIFMM_NAME *c, int l)
 {
     double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-    return KIFMM__K(_SCALE_INVARIANT) ? pow(half, -c->degree) * c->ops[0].sigma
+    return KIFMM__SI ? pow(half, -c->degree) * c->ops[0].sigma
                                       : c->ops[l].sigma;
 }
 
@@ -2928,7 +3005,7 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 #else
     sz[2] = (size_t)c->mb * big; /* tmp: the first solve step and the dense M2L, a level */
 #endif
-    sz[3] = (size_t)c->tree.ns * KIFMM__SD;                        /* qs */
+    sz[3] = (size_t)c->tree.ns * KIFMM__QD;                        /* qs */
     sz[4] = (size_t)c->tree.nt * KIFMM__TD;                        /* outs */
 }
 
@@ -3574,9 +3651,9 @@ KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
         xs = KIFMM__F(__frame)(c->src, &ld, s0, ns, fc, KIFMM__F(__framebuf)(c));
         kifmm__sub3(ctr, fc, rc);
         KIFMM__F(__place)(c->surf_c, c->nsc, rc, c->ao * half, pc);
-        KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ld,
-                              xs + 2 * ld, w->qs + s0 * KIFMM__SD, ns, nrhs,
-                              (size_t)t->ns * KIFMM__SD, scale,
+        KIFMM__F(__p2p_qc)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ld,
+                              xs + 2 * ld, w->qs + s0 * KIFMM__QD, ns, nrhs,
+                              (size_t)t->ns * KIFMM__QD, scale,
                               w->chk + (size_t)(b - t->loff[l]) * c->nc, (size_t)nl * c->nc);
     }
     t1 = kifmm__now();
@@ -3595,9 +3672,9 @@ KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__wo
 {
     const kifmm__tree *t = &c->tree;
     int64_t s0 = t->s0[a];
-    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, c->src + s0, c->src + t->ns + s0,
-                    c->src + 2 * t->ns + s0, w->qs + s0 * KIFMM__SD, t->s1[a] - s0, nrhs,
-                    (size_t)t->ns * KIFMM__SD, 1.0, out, old);
+    KIFMM__F(__p2p_qt)(c->param, tx, ty, tz, nt, c->src + s0, c->src + t->ns + s0,
+                    c->src + 2 * t->ns + s0, w->qs + s0 * KIFMM__QD, t->s1[a] - s0, nrhs,
+                    (size_t)t->ns * KIFMM__QD, 1.0, out, old);
 }
 
 /* Downward pass at level l: L2L from the parents, P2L over X lists (their
@@ -3654,7 +3731,7 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
             kifmm__box_center(t, a, ac, &ah);
             if (KIFMM__FLOAT) kifmm__sub3(ac, ctr, ac);
             KIFMM__F(__place)(c->surf_e, c->nse, ac, c->ao * ah, pe);
-            KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, pe,
+            KIFMM__F(__p2p_sc)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, pe,
                                   pe + c->nse, pe + 2 * c->nse, w->de + (size_t)a * c->ne,
                                   c->nse, nrhs, per, scale, chk, cst);
         }
@@ -3666,9 +3743,9 @@ KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) 
             const KIFMM__R *xs;
             memcpy(fc, ctr, sizeof fc);
             xs = KIFMM__F(__frame)(c->src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
-            KIFMM__F(__p2p_equiv)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ld,
-                                  xs + 2 * ld, w->qs + s0 * KIFMM__SD, t->s1[xb] - s0, nrhs,
-                                  (size_t)t->ns * KIFMM__SD, scale, chk, cst);
+            KIFMM__F(__p2p_qc)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ld,
+                                  xs + 2 * ld, w->qs + s0 * KIFMM__QD, t->s1[xb] - s0, nrhs,
+                                  (size_t)t->ns * KIFMM__QD, scale, chk, cst);
         }
     }
     t2 = kifmm__now();
@@ -3706,7 +3783,7 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
     kifmm__box_center(&c->tree, a, ctr, &half);
     kifmm__sub3(ctr, fc, ctr); /* in the targets' frame */
     KIFMM__F(__place)(c->surf_e, c->nse, ctr, alpha * half, pe);
-    KIFMM__F(__p2p)(c->param, tx, ty, tz, nt, pe, pe + c->nse, pe + 2 * c->nse, dens, c->nse,
+    KIFMM__F(__p2p_st)(c->param, tx, ty, tz, nt, pe, pe + c->nse, pe + 2 * c->nse, dens, c->nse,
                     nrhs, (size_t)c->tree.nbox * c->ne, 1.0, out, old);
     (void)w;
 }
@@ -3751,28 +3828,30 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     c2 = kifmm__now();
     for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
         int32_t a = t->u[e];
-#if KIFMM__HAS_HOOKS
+#if KIFMM__MUTUAL
         int64_t ta = t->t0[a];
         if (a != b && ta >= lo && ta < hi) {
             /* sources are the targets: s0 = t0, src = trg */
-            const KIFMM__R *qa = w->qs + t0 * KIFMM__SD, *qb = w->qs + ta * KIFMM__SD;
-            const size_t qld = (size_t)t->ns * KIFMM__SD;
+            const KIFMM__R *qa = w->qs + t0 * KIFMM__QD, *qb = w->qs + ta * KIFMM__QD;
+            const size_t qld = (size_t)t->ns * KIFMM__QD;
             KIFMM__R *oa = ob + (ta - base) * KIFMM__TD;
             if (ta > t0 && nrhs == 1)
-                KIFMM__HOOKS(c->param, tx, ty, tz, qa, ntb, c->src + ta, c->src + t->ns + ta,
-                             c->src + 2 * t->ns + ta, qb, t->t1[a] - ta, (KIFMM__R)1, out, oa);
+                KIFMM__HOOK(QT, p2ps)(c->param, tx, ty, tz, qa, ntb, c->src + ta,
+                                      c->src + t->ns + ta, c->src + 2 * t->ns + ta, qb,
+                                      t->t1[a] - ta, (KIFMM__R)1, out, oa);
             else if (ta > t0)
-#if KIFMM__HAS_HOOKSN
-                KIFMM__HOOKSN(c->param, tx, ty, tz, qa, ntb, c->src + ta, c->src + t->ns + ta,
-                              c->src + 2 * t->ns + ta, qb, t->t1[a] - ta, nrhs, qld,
-                              (KIFMM__R)1, out, oa, old);
+#if KIFMM__HAS_QT & KIFMM__B_P2PSN
+                KIFMM__HOOK(QT, p2psn)(c->param, tx, ty, tz, qa, ntb, c->src + ta,
+                                       c->src + t->ns + ta, c->src + 2 * t->ns + ta, qb,
+                                       t->t1[a] - ta, nrhs, qld, (KIFMM__R)1, out, oa, old);
 #else
             {
                 int r;
                 for (r = 0; r < nrhs; r++)
-                    KIFMM__HOOKS(c->param, tx, ty, tz, qa + r * qld, ntb, c->src + ta,
-                                 c->src + t->ns + ta, c->src + 2 * t->ns + ta, qb + r * qld,
-                                 t->t1[a] - ta, (KIFMM__R)1, out + r * old, oa + r * old);
+                    KIFMM__HOOK(QT, p2ps)(c->param, tx, ty, tz, qa + r * qld, ntb, c->src + ta,
+                                          c->src + t->ns + ta, c->src + 2 * t->ns + ta,
+                                          qb + r * qld, t->t1[a] - ta, (KIFMM__R)1,
+                                          out + r * old, oa + r * old);
             }
 #endif
             continue;
@@ -3979,7 +4058,7 @@ KIFMM__FN int KIFMM__F(__params)(const double *in, double *out)
         if (!isfinite(in[d])) return KIFMM_ERR_PARAM;
         out[d] = in[d];
     }
-#if KIFMM__K(_SETUP)
+#if KIFMM__HAS_QT & KIFMM_HAS_SETUP
     if (KIFMM__K(_setup)(in, out) != 0) return KIFMM_ERR_PARAM;
 #endif
     return KIFMM_SUCCESS;
@@ -4065,7 +4144,7 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     }
     h->opts = o;
     h->nthreads = o.nthreads;
-    h->degree = (double)(KIFMM__K(_DEGREE));
+    h->degree = (double)(KIFMM__DEGREE);
     memcpy(h->param, param, sizeof param);
     h->tree.ns = nsources;
     h->tree.nt = ntargets;
@@ -4108,7 +4187,7 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
     /* float spectra: float instances, and on request double instances of
      * scale-invariant kernels (whose spectra's range fits float at every
      * level, unlike those of a Yukawa kernel at large lambda r) */
-    h->fft.single = KIFMM__FLOAT || (KIFMM__K(_SCALE_INVARIANT) &&
+    h->fft.single = KIFMM__FLOAT || (KIFMM__SI &&
                                      o.order <= KIFMM_FFT_SINGLE_MAX_ORDER);
     if ((rc = kifmm__colleagues(&h->tree, h->nthreads, &h->co, &h->cj, &h->cc))) goto fail;
     {
@@ -4163,9 +4242,7 @@ KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_
         if (!h->spec || !h->fbuf) { rc = KIFMM_ERR_NOMEM; goto fail; }
     }
 #endif
-#if KIFMM__HAS_HOOKS
-    if (h->tree.same && (rc = KIFMM__F(__pair_plan)(h))) goto fail;
-#endif
+    if (KIFMM__MUTUAL && h->tree.same && (rc = KIFMM__F(__pair_plan)(h))) goto fail;
     if ((rc = KIFMM__F(__precompute)(h))) goto fail;
 #if KIFMM__FFT
     {
@@ -4232,7 +4309,7 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
     if ((t->ns > 0 && nrhs > 0 && !densities) || (t->nt > 0 && nrhs > 0 && !out))
         return KIFMM_ERR_NULL;
     if (t->nt == 0 || nrhs == 0) return KIFMM_SUCCESS;
-    qper = (size_t)t->ns * KIFMM__SD;
+    qper = (size_t)t->ns * KIFMM__QD;
     oper = (size_t)t->nt * KIFMM__TD;
     if ((size_t)nrhs > (size_t)PTRDIFF_MAX / sizeof(KIFMM__R) / (qper > oper ? qper : oper))
         return KIFMM_ERR_COUNT; /* no array holds that many vectors */
@@ -4276,9 +4353,9 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
         for (int64_t i = 0; i < t->ns; i++) {
             int k, r;
             for (r = 0; r < nr; r++)
-                for (k = 0; k < KIFMM__SD; k++)
-                    w->qs[r * qper + i * KIFMM__SD + k] =
-                        densities[(r0 + r) * qper + t->sperm[i] * KIFMM__SD + k];
+                for (k = 0; k < KIFMM__QD; k++)
+                    w->qs[r * qper + i * KIFMM__QD + k] =
+                        densities[(r0 + r) * qper + t->sperm[i] * KIFMM__QD + k];
         }
         /* outputs summed in sorted order (outs) and gathered at the end, or
          * added by each task to the caller's out (dst, see the workspace) */
@@ -4346,23 +4423,29 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__P2P_SIG
 #undef KIFMM__DEFINE_P2P_HOOK
 #undef KIFMM__DEFINE_P2P
-#undef KIFMM__HOOKNE
-#undef KIFMM__HAS_HOOKNE
-#undef KIFMM__HOOKN
-#undef KIFMM__HAS_HOOKN
-#undef KIFMM__HOOKS
-#undef KIFMM__HAS_HOOKS
-#undef KIFMM__HOOKSN
-#undef KIFMM__HAS_HOOKSN
-#undef KIFMM__HOOKE
-#undef KIFMM__HAS_HOOKE
+#undef KIFMM__QD
+#undef KIFMM__SI
+#undef KIFMM__DEGREE
+#undef KIFMM__ROLE_QT
+#undef KIFMM__ROLE_SC
+#undef KIFMM__ROLE_ST
+#undef KIFMM__ROLE_QC
+#undef KIFMM__R_
+#undef KIFMM__RCAT
+#undef KIFMM__RCAT_
+#undef KIFMM__LEGACY_HAS
+#undef KIFMM__HAS_OF
+#undef KIFMM__HAS_QT
+#undef KIFMM__HAS_ST
+#undef KIFMM__HAS_QC
+#undef KIFMM__HAS_SC
+#undef KIFMM__B_P2P
+#undef KIFMM__B_P2PN
+#undef KIFMM__B_P2PS
+#undef KIFMM__B_P2PSN
 #undef KIFMM__HOOK
-#undef KIFMM__HAS_HOOK
 #undef KIFMM__FLOAT
 #undef KIFMM__R
-#undef KIFMM__EVALE
-#undef KIFMM__KE
-#undef KIFMM__EVAL
 #undef KIFMM__TD
 #undef KIFMM__SD
 #undef KIFMM__F

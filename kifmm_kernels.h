@@ -46,6 +46,23 @@ extern "C++" {
 
 #define KIFMM_INV_4PI 0.07957747154594766788444188168625718 /* 1 / (4 pi) */
 
+/* A kernel's optional features, for its mask
+ *   #define kifmm_kernel_NAME_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | ...)
+ * (in parentheses; docs/kernels.md): a setup function for its parameters,
+ * and near-field hooks in double and float (F): one-way, for several density
+ * vectors (N), mutual (S: both directions between two sets of points), and
+ * mutual for several vectors (SN). A misspelt bit stops the build. */
+#define KIFMM_HAS_SETUP 1
+#define KIFMM_HAS_P2P 2
+#define KIFMM_HAS_P2PF 4
+#define KIFMM_HAS_P2PN 8
+#define KIFMM_HAS_P2PNF 16
+#define KIFMM_HAS_P2PS 32
+#define KIFMM_HAS_P2PSF 64
+#define KIFMM_HAS_P2PSN 128
+#define KIFMM_HAS_P2PSNF 256
+#define KIFMM_HAS_ALL 511
+
 /* laplace: phi(y) = q / (4 pi |y - x|). */
 #define kifmm_kernel_laplace_SRC_DIM 1
 #define kifmm_kernel_laplace_TRG_DIM 1
@@ -105,7 +122,7 @@ static inline int kifmm_kernel__viscosity_setup(const double *in, double *out)
 #define kifmm_kernel_yukawa_TRG_DIM 1
 #define kifmm_kernel_yukawa_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_DEGREE 0
-#define kifmm_kernel_yukawa_SETUP 1
+#define kifmm_kernel_yukawa_HAS (KIFMM_HAS_SETUP)
 #define kifmm_kernel_yukawa_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
@@ -121,7 +138,7 @@ static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, doub
 #define kifmm_kernel_yukawa_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_grad_DEGREE 0
 #define kifmm_kernel_yukawa_grad_EQUIV yukawa
-#define kifmm_kernel_yukawa_grad_SETUP 1
+#define kifmm_kernel_yukawa_grad_HAS (KIFMM_HAS_SETUP)
 #define kifmm_kernel_yukawa_grad_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx, double dy,
                                                  double dz, double *k)
@@ -148,7 +165,7 @@ static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx,
 #define kifmm_kernel_stokes_TRG_DIM 3
 #define kifmm_kernel_stokes_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_DEGREE (-1)
-#define kifmm_kernel_stokes_SETUP 1
+#define kifmm_kernel_stokes_HAS (KIFMM_HAS_SETUP)
 #define kifmm_kernel_stokes_setup kifmm_kernel__viscosity_setup
 static inline void kifmm_kernel_stokes_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
@@ -321,7 +338,6 @@ static inline void kifmm_kernel__avx512_laplace_grad(__m512d *acc, __mmask8 vali
     acc[3] = _mm512_fnmadd_pd(qi3, dz, acc[3]);
 }
 
-#define kifmm_kernel_laplace_P2P 1
 static inline void kifmm_kernel_laplace_p2p(const double *param, const double *tx,
                                             const double *ty, const double *tz, int64_t nt,
                                             const double *sx, const double *sy,
@@ -347,7 +363,6 @@ static inline void kifmm_kernel_laplace_p2p(const double *param, const double *t
     }
 }
 
-#define kifmm_kernel_laplace_grad_P2P 1
 static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const double *tx,
                                                  const double *ty, const double *tz,
                                                  int64_t nt, const double *sx,
@@ -422,7 +437,6 @@ static inline void kifmm_kernel__avx2_grad_add(__m256d *acc, __m256d dx, __m256d
     acc[3] = _mm256_fnmadd_pd(qi3, dz, acc[3]);
 }
 
-#define kifmm_kernel_laplace_P2P 1
 static inline void kifmm_kernel_laplace_p2p(const double *param, const double *tx,
                                             const double *ty, const double *tz, int64_t nt,
                                             const double *sx, const double *sy,
@@ -457,7 +471,6 @@ static inline void kifmm_kernel_laplace_p2p(const double *param, const double *t
     }
 }
 
-#define kifmm_kernel_laplace_grad_P2P 1
 static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const double *tx,
                                                  const double *ty, const double *tz,
                                                  int64_t nt, const double *sx,
@@ -559,7 +572,6 @@ static inline void kifmm_kernel__block(const double *tx, const double *ty, const
     }
 }
 
-#define kifmm_kernel_laplace_P2P 1
 static inline void kifmm_kernel_laplace_p2p(const double *param, const double *tx,
                                             const double *ty, const double *tz, int64_t nt,
                                             const double *sx, const double *sy,
@@ -602,7 +614,6 @@ static inline void kifmm_kernel_laplace_p2p(const double *param, const double *t
     }
 }
 
-#define kifmm_kernel_laplace_grad_P2P 1
 static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const double *tx,
                                                  const double *ty, const double *tz,
                                                  int64_t nt, const double *sx,
@@ -736,7 +747,6 @@ static inline __m512 kifmm_kernel__avx512_pairf(__m512 X, __m512 Y, __m512 Z, co
         _mm512_fmadd_ps(*dz, *dz, _mm512_fmadd_ps(*dy, *dy, _mm512_mul_ps(*dx, *dx))));
 }
 
-#define kifmm_kernel_laplace_P2PF 1
 static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *tx,
                                              const float *ty, const float *tz, int64_t nt,
                                              const float *sx, const float *sy, const float *sz,
@@ -758,7 +768,6 @@ static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *t
     }
 }
 
-#define kifmm_kernel_laplace_grad_P2PF 1
 static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const float *tx,
                                                   const float *ty, const float *tz, int64_t nt,
                                                   const float *sx, const float *sy,
@@ -798,7 +807,6 @@ static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const flo
     }
 }
 #else
-#define kifmm_kernel_laplace_P2PF 1
 static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *tx,
                                              const float *ty, const float *tz, int64_t nt,
                                              const float *sx, const float *sy, const float *sz,
@@ -826,7 +834,6 @@ static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *t
     }
 }
 
-#define kifmm_kernel_laplace_grad_P2PF 1
 static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const float *tx,
                                                   const float *ty, const float *tz, int64_t nt,
                                                   const float *sx, const float *sy,
@@ -1400,7 +1407,6 @@ KIFMM_KERNEL__SUMS8P(kifmm_kernel__sums8p16, float, __m512, _mm512_set1_ps,
                             _mm256_fmadd_ps, _mm256_fnmadd_ps, kifmm_kernel__hsumnf, GRAD)
 #endif
 
-#define kifmm_kernel_laplace_P2PN 1
 static inline void kifmm_kernel_laplace_p2pn(const double *param, const double *tx,
                                              const double *ty, const double *tz, int64_t nt,
                                              const double *sx, const double *sy,
@@ -1423,7 +1429,6 @@ KIFMM_KERNEL__P2PN_BODY(double, __m512d, 8, kifmm_kernel__geom8, kifmm_kernel__n
 KIFMM_KERNEL__P2PN_D(0)
 #endif
 
-#define kifmm_kernel_laplace_grad_P2PN 1
 static inline void kifmm_kernel_laplace_grad_p2pn(const double *param, const double *tx,
                                                   const double *ty, const double *tz,
                                                   int64_t nt, const double *sx,
@@ -1433,7 +1438,6 @@ static inline void kifmm_kernel_laplace_grad_p2pn(const double *param, const dou
                                                   size_t old)
 KIFMM_KERNEL__P2PN_D(1)
 
-#define kifmm_kernel_laplace_P2PNF 1
 static inline void kifmm_kernel_laplace_p2pnf(const double *param, const float *tx,
                                               const float *ty, const float *tz, int64_t nt,
                                               const float *sx, const float *sy, const float *sz,
@@ -1449,7 +1453,6 @@ KIFMM_KERNEL__P2PN_BODY(float, __m512, 16, kifmm_kernel__geom16, kifmm_kernel__n
 KIFMM_KERNEL__P2PN_F(0)
 #endif
 
-#define kifmm_kernel_laplace_grad_P2PNF 1
 static inline void kifmm_kernel_laplace_grad_p2pnf(const double *param, const float *tx,
                                                    const float *ty, const float *tz, int64_t nt,
                                                    const float *sx, const float *sy,
@@ -1693,16 +1696,12 @@ static inline void kifmm_kernel__addb16(const float *pb, int sb, float s, float 
                              _mm512_add_ps, _mm512_mul_ps, _mm512_fmadd_ps, _mm512_fnmadd_ps,                   \
                              kifmm_kernel__hsum16, kifmm_kernel__red8x16, kifmm_kernel__addb16,  \
                              GRAD)
-#define kifmm_kernel_laplace_P2PS 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2ps, double)
 KIFMM_KERNEL__P2PS5_D(0)
-#define kifmm_kernel_laplace_grad_P2PS 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2ps, double)
 KIFMM_KERNEL__P2PS5_D(1)
-#define kifmm_kernel_laplace_P2PSF 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2psf, float)
 KIFMM_KERNEL__P2PS5_F(0)
-#define kifmm_kernel_laplace_grad_P2PSF 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2psf, float)
 KIFMM_KERNEL__P2PS5_F(1)
 #undef KIFMM_KERNEL__P2PS5_D
@@ -1710,16 +1709,12 @@ KIFMM_KERNEL__P2PS5_F(1)
 #undef KIFMM_KERNEL__P2PS5_BODY
 #undef KIFMM_KERNEL__SB5
 #else
-#define kifmm_kernel_laplace_P2PS 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2ps, double)
 KIFMM_KERNEL__P2PS_D(0)
-#define kifmm_kernel_laplace_grad_P2PS 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2ps, double)
 KIFMM_KERNEL__P2PS_D(1)
-#define kifmm_kernel_laplace_P2PSF 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_p2psf, float)
 KIFMM_KERNEL__P2PS_F(0)
-#define kifmm_kernel_laplace_grad_P2PSF 1
 KIFMM_KERNEL__P2PS_SIG(kifmm_kernel_laplace_grad_p2psf, float)
 KIFMM_KERNEL__P2PS_F(1)
 #endif
@@ -1885,26 +1880,18 @@ KIFMM_KERNEL__P2PS_F(1)
         oneway(param, ax, ay, az, na, bx, by, bz, qb, nb, nrhs, qld, scale, outa, old);        \
         oneway(param, bx, by, bz, nb, ax, ay, az, qa, na, nrhs, qld, scale, outb, old);        \
     }
-#define kifmm_kernel_laplace_P2PSN 1
 KIFMM_KERNEL__P2PSN_TWO(kifmm_kernel_laplace_p2psn, double, kifmm_kernel_laplace_p2pn)
-#define kifmm_kernel_laplace_grad_P2PSN 1
 KIFMM_KERNEL__P2PSN_TWO(kifmm_kernel_laplace_grad_p2psn, double, kifmm_kernel_laplace_grad_p2pn)
-#define kifmm_kernel_laplace_P2PSNF 1
 KIFMM_KERNEL__P2PSN_TWO(kifmm_kernel_laplace_p2psnf, float, kifmm_kernel_laplace_p2pnf)
-#define kifmm_kernel_laplace_grad_P2PSNF 1
 KIFMM_KERNEL__P2PSN_TWO(kifmm_kernel_laplace_grad_p2psnf, float, kifmm_kernel_laplace_grad_p2pnf)
 #undef KIFMM_KERNEL__P2PSN_TWO
 #else
-#define kifmm_kernel_laplace_P2PSN 1
 KIFMM_KERNEL__P2PSN_SIG(kifmm_kernel_laplace_p2psn, double)
 KIFMM_KERNEL__P2PSN_D(0)
-#define kifmm_kernel_laplace_grad_P2PSN 1
 KIFMM_KERNEL__P2PSN_SIG(kifmm_kernel_laplace_grad_p2psn, double)
 KIFMM_KERNEL__P2PSN_D(1)
-#define kifmm_kernel_laplace_P2PSNF 1
 KIFMM_KERNEL__P2PSN_SIG(kifmm_kernel_laplace_p2psnf, float)
 KIFMM_KERNEL__P2PSN_F(0)
-#define kifmm_kernel_laplace_grad_P2PSNF 1
 KIFMM_KERNEL__P2PSN_SIG(kifmm_kernel_laplace_grad_p2psnf, float)
 KIFMM_KERNEL__P2PSN_F(1)
 #endif
@@ -1930,6 +1917,18 @@ KIFMM_KERNEL__P2PSN_F(1)
 #endif
 #undef KIFMM_KERNEL__CH
 #endif
+
+/* The Laplace kernels' hooks that this build compiled: all of them with
+ * AVX2 and FMA (or AVX-512), the one-way double loop otherwise. */
+#if defined(__AVX2__) && defined(__FMA__)
+#define KIFMM_KERNEL__LAPLACE_HAS                                                            \
+    (KIFMM_HAS_P2P | KIFMM_HAS_P2PF | KIFMM_HAS_P2PN | KIFMM_HAS_P2PNF | KIFMM_HAS_P2PS |     \
+     KIFMM_HAS_P2PSF | KIFMM_HAS_P2PSN | KIFMM_HAS_P2PSNF)
+#else
+#define KIFMM_KERNEL__LAPLACE_HAS (KIFMM_HAS_P2P)
+#endif
+#define kifmm_kernel_laplace_HAS KIFMM_KERNEL__LAPLACE_HAS
+#define kifmm_kernel_laplace_grad_HAS KIFMM_KERNEL__LAPLACE_HAS
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
 #pragma GCC diagnostic pop

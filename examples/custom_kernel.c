@@ -23,7 +23,7 @@
 #define kifmm_kernel_blob_TRG_DIM 1         /* one output value per target */
 #define kifmm_kernel_blob_SCALE_INVARIANT 0 /* delta sets a length scale */
 #define kifmm_kernel_blob_DEGREE 0          /* read only when invariant */
-#define kifmm_kernel_blob_SETUP 1           /* parameters checked at create */
+#define kifmm_kernel_blob_HAS (KIFMM_HAS_SETUP) /* a setup function checks the parameters */
 
 /* Resolve the defaults of the four run-time parameters and reject bad ones
  * (create then returns KIFMM_ERR_PARAM): delta = param[0] > 0, default 1e-3. */

@@ -70,7 +70,7 @@ static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, con
     kifmm__surf_place(c->surf_c, c->nsc, ctr, c->ao * r, pc);
     soa(ns, x, xs);
     t_fill(c->nc, chk, 0.0);
-    kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
+    kifmm_laplace__p2p_qc(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
                              xs + 2 * ns, q, ns, 1, 0, r * c->ops[0].sigma, chk, 0);
     solve(c, 1, chk, ue);
     free(pc);
@@ -264,7 +264,7 @@ static void test_downward(int p)
         soa(ns, x, xs);
         kifmm__surf_place(c->surf_c, c->nsc, cp, KIFMM__ALPHA_INNER * 2 * r, pc);
         t_fill(c->nc, chk, 0.0);
-        kifmm_laplace__p2p_equiv(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
+        kifmm_laplace__p2p_qc(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
                                  xs + 2 * ns, q, ns, 1, 0, 2 * r * c->ops[0].sigma, chk, 0);
         solve(c, 0, chk, de);
         kifmm__surf_place(c->surf_e, c->nse, cp, c->ao * 2 * r, pe);

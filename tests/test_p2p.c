@@ -11,7 +11,7 @@
 
 #include "test.h"
 
-#if !kifmm_kernel_laplace_P2P || !kifmm_kernel_laplace_grad_P2P
+#if !(kifmm_kernel_laplace_HAS & KIFMM_HAS_P2P) || !(kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2P)
 #error "test_p2p.c: kifmm_kernels.h defines no near-field hook"
 #endif
 
@@ -213,7 +213,7 @@ static void test_blocks(const char *name, hook_fn hook, int td, uint64_t seed)
 /* Many-vector hooks (_p2pn): each vector against the same long double sums  */
 /* ------------------------------------------------------------------------ */
 
-#if kifmm_kernel_laplace_P2PN && kifmm_kernel_laplace_grad_P2PN
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PN) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PN)
 typedef void (*hookn_fn)(const double *, const double *, const double *, const double *,
                          int64_t, const double *, const double *, const double *,
                          const double *, int64_t, int, size_t, double, double *, size_t);
@@ -282,7 +282,7 @@ static void test_many(void)
 /* Mutual hooks (_p2ps): both directions of a pair of point sets at once    */
 /* ------------------------------------------------------------------------ */
 
-#if kifmm_kernel_laplace_P2PS && kifmm_kernel_laplace_grad_P2PS
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PS) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PS)
 typedef void (*hooks_fn)(const double *, const double *, const double *, const double *,
                          const double *, int64_t, const double *, const double *, const double *,
                          const double *, int64_t, double, double *, double *);
@@ -409,7 +409,7 @@ static void test_mutual(void)
 
 /* Mutual many-vector hooks (_p2psn): vector g_slot through one_block, the
  * B side of every vector against long double sums. */
-#if kifmm_kernel_laplace_P2PSN && kifmm_kernel_laplace_grad_P2PSN
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PSN) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PSN)
 typedef void (*hooksn_fn)(const double *, const double *, const double *, const double *,
                           const double *, int64_t, const double *, const double *,
                           const double *, const double *, int64_t, int, size_t, double, double *,
@@ -513,7 +513,7 @@ static void test_mutual_many(void) {}
  * block of |prefill| + sum of |terms|. Blocks of 1 to 70 points (vector
  * tails), some B points on A points (those pairs skipped), 1 to 11 vectors
  * with gaps between them that must stay untouched. */
-#if kifmm_kernel_laplace_P2PSNF && kifmm_kernel_laplace_grad_P2PSNF
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PSNF) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PSNF)
 typedef void (*hooksnf_fn)(const double *, const float *, const float *, const float *,
                            const float *, int64_t, const float *, const float *, const float *,
                            const float *, int64_t, int, size_t, float, float *, float *, size_t);
@@ -790,27 +790,27 @@ static void test_wiring(void)
     }
     memset(a, 0, sizeof a);
     memset(b, 0, sizeof b);
-    kifmm_laplace__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
+    kifmm_laplace__p2p_qt(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
     kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
     CHECK(memcmp(a, b, (size_t)nt * sizeof(double)) == 0, "kifmm_laplace__p2p");
     memset(a, 0, sizeof a);
     memset(b, 0, sizeof b);
-    kifmm_laplace_grad__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
+    kifmm_laplace_grad__p2p_qt(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
     kifmm_kernel_laplace_grad_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
     CHECK(memcmp(a, b, sizeof a) == 0, "kifmm_laplace_grad__p2p");
     memset(a, 0, sizeof a);
     memset(b, 0, sizeof b);
-    kifmm_laplace_grad__p2p_equiv(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
+    kifmm_laplace_grad__p2p_qc(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 1, 0, 0.7, a, 0);
     kifmm_kernel_laplace_p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q, ns, 0.7, b);
     CHECK(memcmp(a, b, (size_t)nt * sizeof(double)) == 0,
-          "kifmm_laplace_grad__p2p_equiv (surface kernel laplace)");
-#if kifmm_kernel_laplace_grad_P2PN
+          "kifmm_laplace_grad__p2p_qc (surface kernel laplace)");
+#if kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PN
     { /* two vectors (the second = 0.5 q) go to the many-vector hook */
         double q2[2 * 29], a2[8 * 37], b2[8 * 37];
         for (i = 0; i < ns; i++) q2[i] = q[i], q2[ns + i] = 0.5 * q[i];
         memset(a2, 0, sizeof a2);
         memset(b2, 0, sizeof b2);
-        kifmm_laplace_grad__p2p(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q2, ns, 2, (size_t)ns,
+        kifmm_laplace_grad__p2p_qt(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q2, ns, 2, (size_t)ns,
                                 0.7, a2, (size_t)(4 * nt));
         kifmm_kernel_laplace_grad_p2pn(NULL, t.x, t.y, t.z, nt, s.x, s.y, s.z, q2, ns, 2,
                                        (size_t)ns, 0.7, b2, (size_t)(4 * nt));
