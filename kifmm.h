@@ -1,14 +1,34 @@
-/* kifmm.h - v0.1.0 - kernel-independent fast multipole method in 3-D, header-only C
+/* kifmm.h - v0.2.0 - kernel-independent fast multipole method in 3-D, header-only C
  *
- * CONTENTS
+ * CONTENTS (each section starts with a line "// >>name", so `grep -n '>>' kifmm.h`
+ * prints the map)
  *   1. Quick start
- *   2. Template parameters and compile-time options
- *   3. Shared part (once per translation unit): results, options, memory,
- *      Morton keys, the adaptive octree and its lists
- *   4. Kernel template (once per include, in the instance's precision):
- *      kernel loops, operators, the level passes, the evaluation passes in
- *      pipeline order, the public entry points
- *   5. Epilogue (#undef of the template parameters), license
+ *   2. Template parameters, compile-time options, linkage modes
+ *   3. Shared part, once per translation unit:
+ *        >>config    linkage, OpenMP, portability macros
+ *        >>results   result codes and messages, from one list
+ *        >>options   kifmm_opts, kifmm_stats, defaults
+ *        >>memory    the allocator, tallies of the bytes a handle holds
+ *        >>linalg    GEMM, the pseudo-inverse, the column-GEMM micro-kernels
+ *        >>tree      Morton keys, sort, then bounds / sort / refine / balance /
+ *                    layout
+ *        >>lists     U, V, W, X lists; what is derived from them
+ *        >>surfaces  surface points, radii, transfer vectors
+ *        >>fft       the FFT M2L's plan, kernel spectra and blocks
+ *        >>prec      transforms, products and the column-GEMM driver, for
+ *                    double and float (this file includes itself once for each)
+ *   4. Kernel template, once per include, in the instance's precision:
+ *        >>params    the instance's name, precision, kernel traits and roles
+ *        >>api       the public functions' declarations
+ *        >>handle    the handle, its state grouped by purpose
+ *        >>kernels   the direct-interaction loops of the four kernel roles
+ *        >>operators one builder per operator, called in order by ops_build
+ *        >>workspace expansions and per-thread buffers
+ *        >>upward    P2M, M2M, the upward solve
+ *        >>downward  L2L, P2L, M2L (FFT or dense), the downward solve
+ *        >>leaves    L2P, M2P, P2P
+ *        >>create    planning steps, create, evaluate, destroy, stats, options
+ *   5. >>epilogue: #undef of the template parameters; license
  *
  * 1. QUICK START
  *
@@ -22,36 +42,63 @@
  *   rc = kifmm_laplace_evaluate_many(fmm, 4, q4, pot4); // 4 density vectors at once
  *   kifmm_laplace_destroy(fmm);
  *
- *   Link with -llapacke -lopenblas -lm, and -fopenmp for threads.
+ *   cc -O2 -march=native -fopenmp app.c -llapacke -lopenblas -lm
  *
  * 2. TEMPLATE PARAMETERS (set before an include; the header #undefs them)
  *
- *   KIFMM_KERNEL  kernel name from kifmm_kernels.h or one of your own
- *                 (docs/kernels.md); default laplace
- *   KIFMM_REAL    double (default) or float: coordinates, densities, outputs
- *                 and the arithmetic of the passes (operators are built in
- *                 double and rounded)
- *   KIFMM_NAME    prefix of the generated type and functions; default
- *                 kifmm_<KIFMM_KERNEL>, or kifmm_<KIFMM_KERNEL>f for float
+ *   KIFMM_KERNEL     kernel name from kifmm_kernels.h or one of your own
+ *                    (docs/kernels.md); default laplace
+ *   KIFMM_REAL       double (default) or float: coordinates, densities,
+ *                    outputs and the arithmetic of the passes (operators are
+ *                    built in double and rounded)
+ *   KIFMM_NAME       prefix of the generated type and functions; default
+ *                    kifmm_<KIFMM_KERNEL>, or kifmm_<KIFMM_KERNEL>f for float
+ *   KIFMM_M2L_DENSE  dense M2L matrices instead of the FFT (for comparison)
  *
  *   e.g.  #define KIFMM_KERNEL stokes
  *         #define KIFMM_REAL float
- *         #define KIFMM_NAME kifmm_stokesf
  *         #include "kifmm.h"                 // kifmm_stokesf_create(..., const float *, ...)
  *
- *   COMPILE-TIME OPTIONS (set before the first include in a translation unit)
+ *   COMPILE-TIME OPTIONS (before the first include in a translation unit;
+ *   defaults and measurements in docs/api.md and docs/algorithm.md)
  *
- *   KIFMM_MALLOC(size) / KIFMM_FREE(ptr)   allocator pair; define both or none
- *   KIFMM_SVD_CUTOFF   relative singular value cutoff of the check-to-equivalent
- *                      pseudo-inverses (default 1e-14, see docs/algorithm.md)
+ *   KIFMM_MALLOC(size), KIFMM_FREE(ptr)  allocator pair; define both or none
+ *   KIFMM_SVD_CUTOFF            relative cutoff of the pseudo-inverses (1e-14)
+ *   KIFMM_CHECK_ORDER_DIFF      check surfaces of order p + this at every order
+ *                               (undefined: 0 up to KIFMM_SQUARE_MAX_ORDER for
+ *                               kernels with the FFT M2L, else 1)
+ *   KIFMM_SQUARE_MAX_ORDER      highest order with square systems (7)
+ *   KIFMM_FFT_SINGLE_MAX_ORDER  double instances of scale-invariant kernels keep
+ *                               the FFT spectra in float up to this order (5)
+ *   KIFMM_FFT_SPEC_MB           MiB for the FFT spectra of a slab (64)
+ *   KIFMM_MAX_THREADS           largest opts.nthreads accepted (1024)
  *
- *   Documentation: docs/api.md (functions, options, errors), docs/algorithm.md
- *   (how the method maps to this file), docs/kernels.md (writing a kernel).
+ *   LINKAGE MODES (per include, as in STC)
  *
- *   OpenBLAS: BLAS is only called outside OpenMP parallel regions, with large
- *   matrices; its own threads follow OPENBLAS_NUM_THREADS. On machines where
- *   OpenBLAS misdetects the CPU, set OPENBLAS_CORETYPE (e.g. SkylakeX, Haswell).
+ *   default            every function static: header-only use, any number of
+ *                      instances and translation units
+ *   KIFMM_DECLARE      the include emits only the instance's type and the
+ *                      declarations of its public functions (needs neither
+ *                      BLAS nor LAPACK headers)
+ *   KIFMM_IMPLEMENT    the include emits the public functions with external
+ *                      linkage (C linkage in C++), for a library that others
+ *                      link; its internals stay static
+ *
+ *   THE PREPROCESSOR, TO DEBUG
+ *
+ *   cc -E -P -I. app.c | clang-format > app.i   shows every instance expanded;
+ *   cc -dM -E -I. app.c | grep KIFMM            lists the macros in effect.
+ *   Functions are ordinary functions with real line numbers; only a few
+ *   SIMD micro-kernels are macros (each under 40 lines).
+ *
+ *   DOES NOT DO: complex kernels (Helmholtz), periodic boundaries, MPI.
+ *
+ *   Documentation: docs/api.md (functions, options, errors, limits),
+ *   docs/algorithm.md (how the method maps to this file), docs/kernels.md
+ *   (writing a kernel, the kernel roles).
  */
+
+#ifndef KIFMM__PREC_PASS /* the normal pass; see >>prec for the other one */
 
 /* g++ 12 false positives inside its AVX-512 intrinsics (see kifmm_kernels.h):
  * silenced for this file's code, restored at its end. */
@@ -62,26 +109,153 @@
 #endif
 
 /* ======================================================================== */
-/* 3. Shared part                                                           */
+/* 3. Shared part: types (every mode)                                       */
 /* ======================================================================== */
-#ifndef KIFMM_H_SHARED
-#define KIFMM_H_SHARED
+#ifndef KIFMM_H_TYPES
+#define KIFMM_H_TYPES
+
+// >>config
 
 #define KIFMM_VERSION_MAJOR 0
-#define KIFMM_VERSION_MINOR 1
+#define KIFMM_VERSION_MINOR 2
 #define KIFMM_VERSION_PATCH 0
 
 /* System headers with C++ linkage even inside a C++ host's extern "C". */
 #ifdef __cplusplus
 extern "C++" {
 #endif
-#include <float.h>
 #include <stddef.h>
 #include <stdint.h>
+#ifdef __cplusplus
+}
+#endif
+
+#define KIFMM_MAX_ORDER 12   /* largest expansion order accepted */
+#define KIFMM_MAX_DEPTH 20   /* deepest tree level (Morton keys hold 3 x 20 bits) */
+#define KIFMM_DEFAULT_ORDER 6
+#define KIFMM_DEFAULT_DEPTH 16
+
+/* Most threads a handle accepts (opts.nthreads): each thread has buffers of
+ * its own (a few MiB at high orders), and starting thousands of threads
+ * takes seconds. Define it before the first include to change it. */
+#ifndef KIFMM_MAX_THREADS
+#define KIFMM_MAX_THREADS 1024
+#endif
+
+/* Most points of one set: beyond this, 3 coordinates and 8 vectors of up to
+ * 16 components of 8 bytes would not fit in any address space (far beyond
+ * any memory; the check exists so that counts such as INT64_MAX give
+ * KIFMM_ERR_COUNT instead of an overflow). */
+#define KIFMM_MAX_POINTS ((int64_t)(PTRDIFF_MAX / 1024))
+
+/* Internal functions are static, and marked unused so that a translation
+ * unit may use only some of them. */
+#if defined(__GNUC__) || defined(__clang__)
+#define KIFMM__FN static __attribute__((unused))
+#else
+#define KIFMM__FN static
+#endif
+
+#define KIFMM__CAT_(a, b) a##b
+#define KIFMM__CAT(a, b) KIFMM__CAT_(a, b)
+#define KIFMM__CAT3(a, b, c) KIFMM__CAT(KIFMM__CAT(a, b), c)
+
+/* KIFMM_REAL must name one of these two types. */
+#define KIFMM__REAL_IS_double 1
+#define KIFMM__REAL_IS_float 2
+
+// >>results
+
+/* Every result code and its message, from one list: X(name, value, message). */
+#define KIFMM__RESULTS(X)                                                                     \
+    X(KIFMM_SUCCESS, 0, "success")                                                            \
+    X(KIFMM_ERR_NULL, -1, "a required pointer argument is NULL")                              \
+    X(KIFMM_ERR_COUNT, -2,                                                                    \
+      "a count is negative or too large for any array (see KIFMM_MAX_POINTS)")                \
+    X(KIFMM_ERR_NONFINITE, -3, "a coordinate is NaN or infinite")                            \
+    X(KIFMM_ERR_ORDER, -4, "expansion order out of range (2 to KIFMM_MAX_ORDER)")             \
+    X(KIFMM_ERR_LEAF_SIZE, -5, "leaf size is negative")                                       \
+    X(KIFMM_ERR_DEPTH, -6, "maximum depth out of range (0 to KIFMM_MAX_DEPTH)")               \
+    X(KIFMM_ERR_NTHREADS, -7, "number of threads out of range (0 to KIFMM_MAX_THREADS)")      \
+    X(KIFMM_ERR_PARAM, -8, "a kernel parameter is out of range")                              \
+    X(KIFMM_ERR_NOMEM, -9, "memory allocation failed")                                        \
+    X(KIFMM_ERR_LAPACK, -10, "a singular value decomposition did not converge")               \
+    X(KIFMM_ERR_INTERNAL, -11, "an internal limit was exceeded (please report)")              \
+    X(KIFMM_ERR_KERNEL, -12,                                                                  \
+      "the kernel gave a NaN or infinite value on the expansion surfaces (check its "         \
+      "parameters)")
+
+#define KIFMM__RESULT_ENUM(name, value, message) name = value,
+#define KIFMM__RESULT_CASE(name, value, message)                                              \
+    case value: return message;
+enum { KIFMM__RESULTS(KIFMM__RESULT_ENUM) };
+
+/* kifmm_strerror: a one-line message for a result code; never NULL. Static
+ * in every mode: each translation unit has its own copy. */
+KIFMM__FN const char *kifmm_strerror(int code)
+{
+    switch (code) {
+        KIFMM__RESULTS(KIFMM__RESULT_CASE)
+    default: return "unknown kifmm result code";
+    }
+}
+#undef KIFMM__RESULT_ENUM
+#undef KIFMM__RESULT_CASE
+
+// >>options
+
+/* Every field zero means its default, so {0} (or a NULL pointer) is valid. */
+typedef struct kifmm_opts {
+    int order;              /* expansion order p, 2..KIFMM_MAX_ORDER; 0 = 6 */
+    int leaf_size;          /* max points per leaf; 0 = chosen per order */
+    int max_depth;          /* deepest level, 1..KIFMM_MAX_DEPTH; 0 = 16 */
+    int nthreads;           /* OpenMP threads, 1..KIFMM_MAX_THREADS; 0 =
+                               omp_get_max_threads(); always 1 without OpenMP */
+    double kernel_param[4]; /* kernel parameters; 0 = the kernel's default */
+} kifmm_opts;
+
+/* What a handle is made of and where the last evaluation spent its time. */
+typedef struct kifmm_stats {
+    int levels;                 /* tree levels */
+    int64_t boxes, leaves;      /* boxes in the tree, leaves holding targets */
+    double t_tree, t_operators; /* create: tree and lists, operators (seconds) */
+    double t_p2m, t_m2m, t_m2l, t_l2l, t_p2l, t_l2p, t_m2p, t_p2p; /* last evaluate */
+    double t_evaluate;          /* last evaluate, total */
+    double bytes;               /* memory held by the handle */
+    int64_t max_leaf;           /* most sources or targets in one leaf */
+    int64_t crowded;            /* points in leaves holding more than leaf_size of
+                                   them: leaves at max_depth, or of points that
+                                   share one position at depth KIFMM_MAX_DEPTH;
+                                   their near field is a direct sum, O(n^2) in
+                                   such a leaf's n (docs/api.md, "Limits") */
+    int threads;                /* threads the handle's loops run on */
+    int simd;                   /* vector width the build's kernels use, in bits:
+                                   512 (AVX-512), 256 (AVX2 + FMA), 0 (none:
+                                   compiled without -march or -mavx2 -mfma) */
+    char build[256];            /* the code paths of this instance, in words */
+} kifmm_stats;
+
+#endif /* KIFMM_H_TYPES */
+
+/* ======================================================================== */
+/* 3. Shared part: implementation (once per translation unit, not in        */
+/*    KIFMM_DECLARE mode)                                                   */
+/* ======================================================================== */
+#if !defined(KIFMM_DECLARE) && !defined(KIFMM_H_IMPL)
+#define KIFMM_H_IMPL
+#define KIFMM__PREC_NOW 1 /* instantiate >>prec below, once */
+
+// >>config (implementation)
+
+/* System headers with C++ linkage even inside a C++ host's extern "C". */
+#ifdef __cplusplus
+extern "C++" {
+#endif
+#include <float.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <math.h>
 #include <time.h>
 #include <cblas.h>
 #include <lapacke.h>
@@ -143,30 +317,6 @@ extern "C++" {
 #define KIFMM_FFT_SPEC_MB 64
 #endif
 
-#define KIFMM_MAX_ORDER 12   /* largest expansion order accepted */
-#define KIFMM_MAX_DEPTH 20   /* deepest tree level (Morton keys hold 3 x 20 bits) */
-#define KIFMM_DEFAULT_ORDER 6
-#define KIFMM_DEFAULT_DEPTH 16
-
-/* Most threads a handle accepts (opts.nthreads): each thread has buffers of
- * its own (a few MiB at high orders), and starting thousands of threads
- * takes seconds. Define it before the first include to change it. */
-#ifndef KIFMM_MAX_THREADS
-#define KIFMM_MAX_THREADS 1024
-#endif
-
-/* Most points of one set: beyond this, 3 coordinates and 8 vectors of up to
- * 16 components of 8 bytes would not fit in any address space (far beyond
- * any memory; the check exists so that counts such as INT64_MAX give
- * KIFMM_ERR_COUNT instead of an overflow). */
-#define KIFMM_MAX_POINTS ((int64_t)(PTRDIFF_MAX / 1024))
-
-#if defined(__GNUC__) || defined(__clang__)
-#define KIFMM__FN static __attribute__((unused))
-#else
-#define KIFMM__FN static
-#endif
-
 /* OpenMP regions follow one rule, so that a reviewer can check it at a
  * glance: every variable a region writes is declared inside the region (the
  * index of a parallel loop in its for statement) or named in a reduction
@@ -187,10 +337,6 @@ extern "C++" {
 #define KIFMM__RESTRICT restrict
 #endif
 
-#define KIFMM__CAT_(a, b) a##b
-#define KIFMM__CAT(a, b) KIFMM__CAT_(a, b)
-#define KIFMM__CAT3(a, b, c) KIFMM__CAT(KIFMM__CAT(a, b), c)
-
 /* Preprocessor tests on macros that may be undefined, without evaluating an
  * undefined name in #if (-Wundef clean): KIFMM__IS_ONE(x) is the token 1 if
  * x expands to 1, else 0; KIFMM__IS_PAREN(x) is 1 if x expands to something
@@ -209,54 +355,72 @@ extern "C++" {
 /* C99 static assert: a typedef'd array whose name is the message. */
 #define KIFMM__STATIC_ASSERT(cond, msg) typedef char KIFMM__CAT(kifmm__assert_, msg)[(cond) ? 1 : -1]
 
-/* ---- results ------------------------------------------------------------ */
+/* The widest instruction set the build's own kernels use. */
+#if defined(__AVX512F__)
+#define KIFMM__SIMD_BITS 512
+#define KIFMM__SIMD_NAME "AVX-512"
+#elif defined(__AVX2__) && defined(__FMA__)
+#define KIFMM__SIMD_BITS 256
+#define KIFMM__SIMD_NAME "AVX2"
+#else
+#define KIFMM__SIMD_BITS 0
+#define KIFMM__SIMD_NAME "portable C"
+#endif
 
-/* Every result code and its message, from one list: X(name, value, message). */
-#define KIFMM__RESULTS(X)                                                                     \
-    X(KIFMM_SUCCESS, 0, "success")                                                            \
-    X(KIFMM_ERR_NULL, -1, "a required pointer argument is NULL")                              \
-    X(KIFMM_ERR_COUNT, -2,                                                                    \
-      "a count is negative or too large for any array (see KIFMM_MAX_POINTS)")                \
-    X(KIFMM_ERR_NONFINITE, -3, "a coordinate is NaN or infinite")                            \
-    X(KIFMM_ERR_ORDER, -4, "expansion order out of range (2 to KIFMM_MAX_ORDER)")             \
-    X(KIFMM_ERR_LEAF_SIZE, -5, "leaf size is negative")                                       \
-    X(KIFMM_ERR_DEPTH, -6, "maximum depth out of range (0 to KIFMM_MAX_DEPTH)")               \
-    X(KIFMM_ERR_NTHREADS, -7, "number of threads out of range (0 to KIFMM_MAX_THREADS)")      \
-    X(KIFMM_ERR_PARAM, -8, "a kernel parameter is out of range")                              \
-    X(KIFMM_ERR_NOMEM, -9, "memory allocation failed")                                        \
-    X(KIFMM_ERR_LAPACK, -10, "a singular value decomposition did not converge")               \
-    X(KIFMM_ERR_INTERNAL, -11, "an internal limit was exceeded (please report)")              \
-    X(KIFMM_ERR_KERNEL, -12,                                                                  \
-      "the kernel gave a NaN or infinite value on the expansion surfaces (check its "         \
-      "parameters)")
+/* Keeps a loaded vector in a register: each block vector of the FFT
+ * products is used by two FMAs, and compilers otherwise fold the load into
+ * both as a memory operand, which doubles the loads of a loop that is bound
+ * by them (float products 37 -> 45-55 Gflop/s on one core). KIFMM__PREFETCH:
+ * a read prefetch hint. */
+#if defined(__GNUC__) || defined(__clang__)
+#define KIFMM__IN_REG(v) __asm__("" : "+x"(v))
+#define KIFMM__PREFETCH(a) __builtin_prefetch((a), 0, 3)
+#else
+#define KIFMM__IN_REG(v) ((void)0)
+#define KIFMM__PREFETCH(a) ((void)0)
+#endif
 
-#define KIFMM__RESULT_ENUM(name, value, message) name = value,
-#define KIFMM__RESULT_CASE(name, value, message)                                              \
-    case value: return message;
-enum { KIFMM__RESULTS(KIFMM__RESULT_ENUM) };
+/* Density vectors processed together by evaluate_many; more are done in
+ * groups of this many, so the workspace stays bounded. */
+#define KIFMM__RHS_MAX 8
 
-/* kifmm_strerror: a one-line message for a result code; never NULL. */
-KIFMM__FN const char *kifmm_strerror(int code)
+/* The calling thread's number in the innermost parallel region (0 outside
+ * one and without OpenMP): the index of its part of per-thread buffers. */
+KIFMM__FN int kifmm__thread_num(void)
 {
-    switch (code) {
-        KIFMM__RESULTS(KIFMM__RESULT_CASE)
-    default: return "unknown kifmm result code";
-    }
+#ifdef _OPENMP
+    return omp_get_thread_num();
+#else
+    return 0;
+#endif
 }
-#undef KIFMM__RESULT_ENUM
-#undef KIFMM__RESULT_CASE
 
-/* ---- options ------------------------------------------------------------ */
+/* The calling thread's contiguous share [lo, hi) of n items; returns its
+ * thread number (0 outside a parallel region or without OpenMP). */
+KIFMM__FN int kifmm__thread_chunk(int64_t n, int64_t *lo, int64_t *hi)
+{
+    int me = 0, np = 1;
+#ifdef _OPENMP
+    me = omp_get_thread_num();
+    np = omp_get_num_threads();
+#endif
+    *lo = n * me / np;
+    *hi = n * (me + 1) / np;
+    return me;
+}
 
-/* Every field zero means its default, so {0} (or a NULL pointer) is valid. */
-typedef struct kifmm_opts {
-    int order;              /* expansion order p, 2..KIFMM_MAX_ORDER; 0 = 6 */
-    int leaf_size;          /* max points per leaf; 0 = chosen per order */
-    int max_depth;          /* deepest level, 1..KIFMM_MAX_DEPTH; 0 = 16 */
-    int nthreads;           /* OpenMP threads, 1..KIFMM_MAX_THREADS; 0 =
-                               omp_get_max_threads(); always 1 without OpenMP */
-    double kernel_param[4]; /* kernel parameters; 0 = the kernel's default */
-} kifmm_opts;
+/* Wall-clock seconds (CPU seconds in builds without OpenMP, which run on one
+ * thread; C99 has no portable wall clock). */
+KIFMM__FN double kifmm__now(void)
+{
+#ifdef _OPENMP
+    return omp_get_wtime();
+#else
+    return (double)clock() / (double)CLOCKS_PER_SEC;
+#endif
+}
+
+// >>options (implementation)
 
 KIFMM__FN int kifmm__default_leaf(int order)
 {
@@ -294,67 +458,27 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, kifmm_opts *out)
     return KIFMM_SUCCESS;
 }
 
-/* ---- statistics --------------------------------------------------------- */
+// >>memory
 
-/* What a handle is made of and where the last evaluation spent its time. */
-typedef struct kifmm_stats {
-    int levels;                 /* tree levels */
-    int64_t boxes, leaves;      /* boxes in the tree, leaves holding targets */
-    double t_tree, t_operators; /* create: tree and lists, operators (seconds) */
-    double t_p2m, t_m2m, t_m2l, t_l2l, t_p2l, t_l2p, t_m2p, t_p2p; /* last evaluate */
-    double t_evaluate;          /* last evaluate, total */
-    double bytes;               /* memory held by the handle */
-    int64_t max_leaf;           /* most sources or targets in one leaf */
-    int64_t crowded;            /* points in leaves holding more than leaf_size of
-                                   them: leaves at max_depth, or of points that
-                                   share one position at depth KIFMM_MAX_DEPTH;
-                                   their near field is a direct sum, O(n^2) in
-                                   such a leaf's n (docs/api.md, "Limits") */
-    int threads;                /* threads the handle's loops run on */
-    int simd;                   /* vector width the build's kernels use, in bits:
-                                   512 (AVX-512), 256 (AVX2 + FMA), 0 (none:
-                                   compiled without -march or -mavx2 -mfma) */
-    char build[256];            /* the code paths of this instance, in words */
-} kifmm_stats;
+/* 64-byte aligned blocks through the user's allocator. Below the block sit
+ * the raw pointer and the block's size in bytes (for the tallies below).
+ * Returns NULL on overflow or failure. */
+#define KIFMM__HEAD 16
+KIFMM__STATIC_ASSERT(sizeof(void *) <= 8 && sizeof(size_t) <= 8, header_holds_two_words);
 
-/* The widest instruction set the build's own kernels use. */
-#if defined(__AVX512F__)
-#define KIFMM__SIMD_BITS 512
-#define KIFMM__SIMD_NAME "AVX-512"
-#elif defined(__AVX2__) && defined(__FMA__)
-#define KIFMM__SIMD_BITS 256
-#define KIFMM__SIMD_NAME "AVX2"
-#else
-#define KIFMM__SIMD_BITS 0
-#define KIFMM__SIMD_NAME "portable C"
-#endif
-
-/* Wall-clock seconds (CPU seconds in builds without OpenMP, which run on one
- * thread; C99 has no portable wall clock). */
-KIFMM__FN double kifmm__now(void)
-{
-#ifdef _OPENMP
-    return omp_get_wtime();
-#else
-    return (double)clock() / (double)CLOCKS_PER_SEC;
-#endif
-}
-
-/* ---- memory ------------------------------------------------------------- */
-
-/* 64-byte aligned blocks through the user's allocator; the raw pointer sits
- * just below the aligned one. Returns NULL on overflow or failure. */
 KIFMM__FN void *kifmm__alloc(size_t count, size_t size)
 {
     size_t n;
     unsigned char *raw, *p;
-    if (size && count > (SIZE_MAX - 128) / size) return NULL;
-    n = count * size + 64 + sizeof(void *);
+    if (size && count > ((size_t)PTRDIFF_MAX - 128) / size) return NULL; /* no such object */
+    n = count * size + 64 + KIFMM__HEAD;
     raw = (unsigned char *)KIFMM_MALLOC(n);
     if (!raw) return NULL;
-    p = raw + sizeof(void *);
+    p = raw + KIFMM__HEAD;
     p += (64 - ((uintptr_t)p & 63)) & 63;
-    memcpy(p - sizeof(void *), &raw, sizeof(void *));
+    memcpy(p - 16, &raw, sizeof raw);
+    n = count * size;
+    memcpy(p - 8, &n, sizeof n);
     return p;
 }
 
@@ -365,6 +489,45 @@ KIFMM__FN void *kifmm__calloc(size_t count, size_t size)
     return p;
 }
 
+KIFMM__FN void kifmm__free(void *p)
+{
+    void *raw;
+    if (!p) return;
+    memcpy(&raw, (unsigned char *)p - 16, sizeof raw);
+    KIFMM_FREE(raw);
+}
+
+/* Bytes of a block from kifmm__alloc (0 for NULL). */
+KIFMM__FN size_t kifmm__size(const void *p)
+{
+    size_t n = 0;
+    if (p) memcpy(&n, (const unsigned char *)p - 8, sizeof n);
+    return n;
+}
+
+/* A block that stays with a handle: its bytes are added to *held, the tally
+ * that <prefix>_stats reports, so that memory is counted where it is
+ * allocated. kifmm__drop frees such a block and takes its bytes off. */
+KIFMM__FN void *kifmm__take(size_t *held, size_t count, size_t size)
+{
+    void *p = kifmm__alloc(count, size);
+    if (p) *held += count * size;
+    return p;
+}
+
+KIFMM__FN void *kifmm__takez(size_t *held, size_t count, size_t size)
+{
+    void *p = kifmm__take(held, count, size);
+    if (p) memset(p, 0, count * size);
+    return p;
+}
+
+KIFMM__FN void kifmm__drop(size_t *held, void *p)
+{
+    *held -= kifmm__size(p);
+    kifmm__free(p);
+}
+
 /* Do the byte ranges [a, a + na) and [b, b + nb) overlap? */
 KIFMM__FN int kifmm__overlap(const void *a, size_t na, const void *b, size_t nb)
 {
@@ -372,15 +535,7 @@ KIFMM__FN int kifmm__overlap(const void *a, size_t na, const void *b, size_t nb)
     return x < y + nb && y < x + na;
 }
 
-KIFMM__FN void kifmm__free(void *p)
-{
-    void *raw;
-    if (!p) return;
-    memcpy(&raw, (unsigned char *)p - sizeof(void *), sizeof(void *));
-    KIFMM_FREE(raw);
-}
-
-/* ---- dense linear algebra ---------------------------------------------- */
+// >>linalg
 
 /* C = alpha op(A) op(B) + beta C, column major. Called outside parallel
  * regions only, so a threaded BLAS uses its own threads on a large call. */
@@ -399,42 +554,48 @@ KIFMM__FN void kifmm__gemm(int ta, int tb, int m, int n, int k, double alpha,
                 m, n, k, alpha, a, lda, b, ldb, beta, c, ldc);
 }
 
-/* Pseudo-inverse of the m x n matrix A (destroyed) from its SVD, truncated at
- * s_i > cutoff * s_0, kept as two factors: pinv(A) = vs * ut with
- * ut = U_k^T (k x m) and vs = V_k S_k^-1 (n x k). Applying them one after the
- * other keeps the digits that forming the product would lose. */
-KIFMM__FN int kifmm__pinv(double *a, int m, int n, double cutoff, double **ut_out,
-                          double **vs_out, int *rank)
+/* The factors of pinv(A) from A = U S V^T (the SVD of kifmm__pinv): ut =
+ * U_k^T (k x m) and vs = V_k S_k^-1 (n x k). */
+KIFMM__FN void kifmm__pinv_factors(int m, int n, int k, const double *u, const double *s,
+                                   const double *vt, int mn, double *ut, double *vs)
 {
-    int mn = m < n ? m : n, i, j, k, rc = KIFMM_SUCCESS;
-    lapack_int info;
-    double query, *s, *u, *vt, *work = NULL, *ut = NULL, *vs = NULL;
-    lapack_int *iwork = NULL;
-    size_t lwork;
-    s = (double *)kifmm__alloc((size_t)mn, sizeof(double));
-    u = (double *)kifmm__alloc((size_t)m * mn, sizeof(double));
-    vt = (double *)kifmm__alloc((size_t)mn * n, sizeof(double));
-    if (!s || !u || !vt) { rc = KIFMM_ERR_NOMEM; goto done; }
-    iwork = (lapack_int *)kifmm__alloc((size_t)8 * mn, sizeof(lapack_int));
-    if (!iwork) { rc = KIFMM_ERR_NOMEM; goto done; }
-    info = LAPACKE_dgesdd_work(LAPACK_COL_MAJOR, 'S', m, n, a, m, s, u, m, vt, mn, &query, -1,
-                               iwork);
-    if (info != 0) { rc = KIFMM_ERR_LAPACK; goto done; }
-    lwork = (size_t)query + 1;
-    work = (double *)kifmm__alloc(lwork, sizeof(double));
-    if (!work) { rc = KIFMM_ERR_NOMEM; goto done; }
-    info = LAPACKE_dgesdd_work(LAPACK_COL_MAJOR, 'S', m, n, a, m, s, u, m, vt, mn, work,
-                               (lapack_int)lwork, iwork);
-    if (info != 0) { rc = KIFMM_ERR_LAPACK; goto done; }
-    /* rank 0 for a zero matrix (a level whose far field is dropped) */
-    for (k = 0; k < mn && s[k] > cutoff * s[0]; k++) {}
-    ut = (double *)kifmm__alloc((size_t)k * m, sizeof(double));
-    vs = (double *)kifmm__alloc((size_t)n * k, sizeof(double));
-    if (!ut || !vs) { rc = KIFMM_ERR_NOMEM; goto done; }
+    int i, j;
     for (i = 0; i < m; i++)
         for (j = 0; j < k; j++) ut[j + (size_t)i * k] = u[i + (size_t)j * m];
     for (j = 0; j < k; j++)
         for (i = 0; i < n; i++) vs[i + (size_t)j * n] = vt[j + (size_t)i * mn] / s[j];
+}
+
+/* Pseudo-inverse of the m x n matrix A (destroyed) from its SVD, truncated at
+ * s_i > cutoff * s_0, kept as two factors: pinv(A) = vs * ut with
+ * ut = U_k^T (k x m) and vs = V_k S_k^-1 (n x k). Applying them one after the
+ * other keeps the digits that forming the product would lose. A zero matrix
+ * has rank 0 (a level whose far field is dropped). */
+KIFMM__FN int kifmm__pinv(double *a, int m, int n, double cutoff, double **ut_out,
+                          double **vs_out, int *rank)
+{
+    int mn = m < n ? m : n, k, rc = KIFMM_SUCCESS;
+    lapack_int info;
+    double query, *s, *u, *vt, *work = NULL, *ut = NULL, *vs = NULL;
+    lapack_int *iwork = NULL;
+    s = (double *)kifmm__alloc((size_t)mn, sizeof(double));
+    u = (double *)kifmm__alloc((size_t)m * mn, sizeof(double));
+    vt = (double *)kifmm__alloc((size_t)mn * n, sizeof(double));
+    iwork = (lapack_int *)kifmm__alloc((size_t)8 * mn, sizeof(lapack_int));
+    if (!s || !u || !vt || !iwork) { rc = KIFMM_ERR_NOMEM; goto done; }
+    info = LAPACKE_dgesdd_work(LAPACK_COL_MAJOR, 'S', m, n, a, m, s, u, m, vt, mn, &query, -1,
+                               iwork);
+    if (info == 0) work = (double *)kifmm__alloc((size_t)query + 1, sizeof(double));
+    if (info == 0 && !work) { rc = KIFMM_ERR_NOMEM; goto done; }
+    if (info == 0)
+        info = LAPACKE_dgesdd_work(LAPACK_COL_MAJOR, 'S', m, n, a, m, s, u, m, vt, mn, work,
+                                   (lapack_int)query + 1, iwork);
+    if (info != 0) { rc = KIFMM_ERR_LAPACK; goto done; }
+    for (k = 0; k < mn && s[k] > cutoff * s[0]; k++) {}
+    ut = (double *)kifmm__alloc((size_t)k * m, sizeof(double));
+    vs = (double *)kifmm__alloc((size_t)n * k, sizeof(double));
+    if (!ut || !vs) { rc = KIFMM_ERR_NOMEM; goto done; }
+    kifmm__pinv_factors(m, n, k, u, s, vt, mn, ut, vs);
     *ut_out = ut;
     *vs_out = vs;
     *rank = k;
@@ -450,278 +611,52 @@ done:
     return rc;
 }
 
-/* ---- GEMM over columns given by pointers ------------------------------------ */
-
-/* C(:, j) = A B(:, j), or C(:, j) += A B(:, j) if acc, for ncol columns given
- * by pointers (column j of B at bp[j], k values; of C at cp[j], m values), A
- * m x k column major. The level passes (M2M, L2L, the solves) use it on
- * pieces of KIFMM__GC_NC columns, so their columns need not be contiguous (no
- * gather into a level-sized workspace, no scatter back).
+/* GEMM over columns given by pointers: C(:, j) = A B(:, j), or += if acc,
+ * for ncol columns (column j of B at bp[j], k values; of C at cp[j], m
+ * values), A m x k column major (kifmm__gemm_colsd and _colsf, in >>prec).
+ * The level passes (M2M, L2L, the solves) use it on pieces of KIFMM__GC_NC
+ * columns, so their columns need not be contiguous (no gather into a
+ * level-sized workspace, no scatter back).
  *
  * With AVX2 + FMA it runs on the calling thread alone and the passes split
  * their pieces over their own threads: no threaded BLAS runs beside or inside
  * their parallel regions, where it would nest, or contend with the waiting
  * OpenMP workers (measured at 1M points, p = 6: M2M 0.17 s -> 0.09..0.11 s,
  * L2L 0.16 s -> 0.10..0.11 s). Blocked for the caches: k in equal steps of
- * at most KC, a tile of 2 vectors x 6 columns of C in registers (AVX-512:
- * 3 x 8, below). Without AVX2 the
- * columns are gathered into `work` ((k + m) x ncol) for one BLAS call, made
- * by the passes outside parallel regions with pieces of 512 columns (plain C
- * tiles measured 3 to 5 times slower than OpenBLAS there). */
-#if defined(__AVX512F__)
-/* AVX-512: a tile of 3 vectors (24 doubles, 48 floats) x 8 columns of C in
+ * at most KC, a tile of MR rows x NR columns of C in registers. Without AVX2
+ * the columns are gathered into `work` ((k + m) x ncol) for one BLAS call,
+ * made by the passes outside parallel regions with pieces of 512 columns
+ * (plain C tiles measured 3 to 5 times slower than OpenBLAS there).
+ *
+ * AVX-512: a tile of 3 vectors (24 doubles, 48 floats) x 8 columns of C in
  * 24 of the 32 registers; masked loads and stores for the rows past m. One
  * core, 48 columns, double: 50-54 Gflop/s for the shapes of M2M, L2L and
  * the solves at p = 6 and 12 (152 x 1216, 1216 x 152, 866 x 728), against
- * 34-42 with the AVX2 tile and 46-56 for OpenBLAS's dgemm (SkylakeX) on
- * contiguous columns; k in blocks of 128 measured the same or slower. */
+ * 34-42 with the AVX2 tile (2 vectors x 6 columns) and 46-56 for OpenBLAS's
+ * dgemm (SkylakeX) on contiguous columns; k in blocks of 128 measured the
+ * same or slower. */
+#if defined(__AVX512F__)
 #define KIFMM__GC_FAST 1
 #define KIFMM__GC_NC 48
 #define KIFMM__GC_NR 8
 #define KIFMM__GC_KC 256
-KIFMM__FN __mmask8 kifmm__gc_maskd(int n)
-{
-    return (__mmask8)(n <= 0 ? 0u : n >= 8 ? 0xFFu : (1u << n) - 1u);
-}
-KIFMM__FN __mmask16 kifmm__gc_maskf(int n)
-{
-    return (__mmask16)(n <= 0 ? 0u : n >= 16 ? 0xFFFFu : (1u << n) - 1u);
-}
-#define KIFMM__GC_ROW5(j, FMA, BC)                                                              \
-    x = BC(b[j][kk]);                                                                          \
-    s##j##0 = FMA(a0, x, s##j##0);                                                             \
-    s##j##1 = FMA(a1, x, s##j##1);                                                             \
-    s##j##2 = FMA(a2, x, s##j##2);
-#define KIFMM__GC_MICRO5(T, SFX, V, VL, M, MLOAD, MSTORE, FMA, BC, ZERO, ADD)                    \
-    KIFMM__FN void kifmm__gc_micro##SFX(int mr, int nr, int kc, const T *a, int lda,            \
-                                        const T *const *b, int acc, T *const *c)                \
-    {                                                                                          \
-        const M m0 = kifmm__gc_mask##SFX(mr), m1 = kifmm__gc_mask##SFX(mr - VL),               \
-                m2 = kifmm__gc_mask##SFX(mr - 2 * VL);                                         \
-        V s00 = ZERO, s01 = ZERO, s02 = ZERO, s10 = ZERO, s11 = ZERO, s12 = ZERO;              \
-        V s20 = ZERO, s21 = ZERO, s22 = ZERO, s30 = ZERO, s31 = ZERO, s32 = ZERO;              \
-        V s40 = ZERO, s41 = ZERO, s42 = ZERO, s50 = ZERO, s51 = ZERO, s52 = ZERO;              \
-        V s60 = ZERO, s61 = ZERO, s62 = ZERO, s70 = ZERO, s71 = ZERO, s72 = ZERO;              \
-        V acc_[8][3];                                                                          \
-        M mh[3];                                                                               \
-        int kk, j, h;                                                                          \
-        for (kk = 0; kk < kc; kk++) {                                                          \
-            const T *ak = a + (size_t)kk * lda;                                                \
-            const V a0 = MLOAD(m0, ak), a1 = MLOAD(m1, ak + VL), a2 = MLOAD(m2, ak + 2 * VL);  \
-            V x;                                                                               \
-            KIFMM__GC_ROW5(0, FMA, BC) KIFMM__GC_ROW5(1, FMA, BC) KIFMM__GC_ROW5(2, FMA, BC)   \
-            KIFMM__GC_ROW5(3, FMA, BC) KIFMM__GC_ROW5(4, FMA, BC) KIFMM__GC_ROW5(5, FMA, BC)   \
-            KIFMM__GC_ROW5(6, FMA, BC) KIFMM__GC_ROW5(7, FMA, BC)                              \
-        }                                                                                      \
-        acc_[0][0] = s00; acc_[0][1] = s01; acc_[0][2] = s02;                                  \
-        acc_[1][0] = s10; acc_[1][1] = s11; acc_[1][2] = s12;                                  \
-        acc_[2][0] = s20; acc_[2][1] = s21; acc_[2][2] = s22;                                  \
-        acc_[3][0] = s30; acc_[3][1] = s31; acc_[3][2] = s32;                                  \
-        acc_[4][0] = s40; acc_[4][1] = s41; acc_[4][2] = s42;                                  \
-        acc_[5][0] = s50; acc_[5][1] = s51; acc_[5][2] = s52;                                  \
-        acc_[6][0] = s60; acc_[6][1] = s61; acc_[6][2] = s62;                                  \
-        acc_[7][0] = s70; acc_[7][1] = s71; acc_[7][2] = s72;                                  \
-        mh[0] = m0; mh[1] = m1; mh[2] = m2;                                                    \
-        for (j = 0; j < nr; j++)                                                               \
-            for (h = 0; h < 3 && h * VL < mr; h++) {                                           \
-                T *cj = c[j] + h * VL;                                                         \
-                V v = acc_[j][h];                                                              \
-                if (acc) v = ADD(MLOAD(mh[h], cj), v);                                         \
-                MSTORE(cj, mh[h], v);                                                          \
-            }                                                                                  \
-    }
-KIFMM__GC_MICRO5(double, d, __m512d, 8, __mmask8, _mm512_maskz_loadu_pd, _mm512_mask_storeu_pd,
-                 _mm512_fmadd_pd, _mm512_set1_pd, _mm512_setzero_pd(), _mm512_add_pd)
-KIFMM__GC_MICRO5(float, f, __m512, 16, __mmask16, _mm512_maskz_loadu_ps, _mm512_mask_storeu_ps,
-                 _mm512_fmadd_ps, _mm512_set1_ps, _mm512_setzero_ps(), _mm512_add_ps)
-#undef KIFMM__GC_MICRO5
-#undef KIFMM__GC_ROW5
 #define KIFMM__GC_MR_D 24
 #define KIFMM__GC_MR_F 48
 #elif defined(__AVX2__) && defined(__FMA__)
+#define KIFMM__GC_FAST 1
+#define KIFMM__GC_NC 48
 #define KIFMM__GC_NR 6
 #define KIFMM__GC_KC 256
 #define KIFMM__GC_MR_D 8
 #define KIFMM__GC_MR_F 16
-#define KIFMM__GC_FAST 1
-#define KIFMM__GC_NC 48
-KIFMM__FN __m256i kifmm__gc_maskd(int n)
-{
-    return _mm256_cmpgt_epi64(_mm256_set1_epi64x(n), _mm256_setr_epi64x(0, 1, 2, 3));
-}
-KIFMM__FN __m256i kifmm__gc_maskf(int n)
-{
-    return _mm256_cmpgt_epi32(_mm256_set1_epi32(n), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-}
-/* One tile: C[0:mr, 0:nr] (+)= A[0:mr, 0:kc] B[0:kc, 0:nr], mr <= 2 VL; the
- * columns past nr repeat the last one and are not stored. */
-#define KIFMM__GC_MICRO(T, SFX, V, VL, LOADU, MLOAD, MSTORE, FMA, BC, ZERO, ADD)                 \
-    KIFMM__FN void kifmm__gc_micro##SFX(int mr, int nr, int kc, const T *a, int lda,            \
-                                        const T *const *b, int acc, T *const *c)                \
-    {                                                                                          \
-        const __m256i m0 = kifmm__gc_mask##SFX(mr), m1 = kifmm__gc_mask##SFX(mr - VL);         \
-        V s00 = ZERO, s01 = ZERO, s10 = ZERO, s11 = ZERO, s20 = ZERO, s21 = ZERO;              \
-        V s30 = ZERO, s31 = ZERO, s40 = ZERO, s41 = ZERO, s50 = ZERO, s51 = ZERO;              \
-        V acc_[6][2];                                                                          \
-        const T *b0 = b[0], *b1 = b[1], *b2 = b[2], *b3 = b[3], *b4 = b[4], *b5 = b[5];        \
-        int kk, j, h;                                                                          \
-        for (kk = 0; kk < kc; kk++) {                                                          \
-            const T *ak = a + (size_t)kk * lda;                                                \
-            const V a0 = mr == 2 * VL ? LOADU(ak) : MLOAD(ak, m0);                             \
-            const V a1 = mr == 2 * VL ? LOADU(ak + VL) : MLOAD(ak + VL, m1);                   \
-            V x;                                                                               \
-            x = BC(b0 + kk); s00 = FMA(a0, x, s00); s01 = FMA(a1, x, s01);                     \
-            x = BC(b1 + kk); s10 = FMA(a0, x, s10); s11 = FMA(a1, x, s11);                     \
-            x = BC(b2 + kk); s20 = FMA(a0, x, s20); s21 = FMA(a1, x, s21);                     \
-            x = BC(b3 + kk); s30 = FMA(a0, x, s30); s31 = FMA(a1, x, s31);                     \
-            x = BC(b4 + kk); s40 = FMA(a0, x, s40); s41 = FMA(a1, x, s41);                     \
-            x = BC(b5 + kk); s50 = FMA(a0, x, s50); s51 = FMA(a1, x, s51);                     \
-        }                                                                                      \
-        acc_[0][0] = s00; acc_[0][1] = s01; acc_[1][0] = s10; acc_[1][1] = s11;                \
-        acc_[2][0] = s20; acc_[2][1] = s21; acc_[3][0] = s30; acc_[3][1] = s31;                \
-        acc_[4][0] = s40; acc_[4][1] = s41; acc_[5][0] = s50; acc_[5][1] = s51;                \
-        for (j = 0; j < nr; j++)                                                               \
-            for (h = 0; h < 2; h++) {                                                          \
-                T *cj = c[j] + h * VL;                                                         \
-                const __m256i mh = h ? m1 : m0;                                                \
-                V v = acc_[j][h];                                                              \
-                if (acc) v = ADD(MLOAD(cj, mh), v);                                            \
-                MSTORE(cj, mh, v);                                                             \
-            }                                                                                  \
-    }
-KIFMM__GC_MICRO(double, d, __m256d, 4, _mm256_loadu_pd, _mm256_maskload_pd, _mm256_maskstore_pd,
-                _mm256_fmadd_pd, _mm256_broadcast_sd, _mm256_setzero_pd(), _mm256_add_pd)
-KIFMM__GC_MICRO(float, f, __m256, 8, _mm256_loadu_ps, _mm256_maskload_ps, _mm256_maskstore_ps,
-                _mm256_fmadd_ps, _mm256_broadcast_ss, _mm256_setzero_ps(), _mm256_add_ps)
-#endif
-#ifndef KIFMM__GC_FAST
-#define KIFMM__GC_FAST 0 /* no AVX2: the level passes call BLAS */
-#endif
-
-#if KIFMM__GC_FAST
-#define KIFMM__GC_COLS(T, SFX, MR)                                                             \
-    KIFMM__FN void kifmm__gemm_cols##SFX(int m, int k, const T *a, int lda, int ncol,          \
-                                         const T *const *bp, T *const *cp, int acc, T *work)   \
-    {                                                                                          \
-        int k0, i0, j0, j, i;                                                                  \
-        (void)work;                                                                            \
-        if (k <= 0) {                                                                          \
-            if (!acc)                                                                          \
-                for (j = 0; j < ncol; j++)                                                     \
-                    for (i = 0; i < m; i++) cp[j][i] = 0;                                      \
-            return;                                                                            \
-        }                                                                                      \
-        /* k in equal blocks of at most KC (no short last block) */                           \
-        const int nkb = (k + KIFMM__GC_KC - 1) / KIFMM__GC_KC, kb = (k + nkb - 1) / nkb;       \
-        for (k0 = 0; k0 < k; k0 += kb) {                                                       \
-            const int kc = k - k0 < kb ? k - k0 : kb;                                          \
-            for (i0 = 0; i0 < m; i0 += MR)                                                     \
-                for (j0 = 0; j0 < ncol; j0 += KIFMM__GC_NR) {                                  \
-                    const T *b6[KIFMM__GC_NR];                                                 \
-                    T *c6[KIFMM__GC_NR];                                                       \
-                    const int nr = ncol - j0 < KIFMM__GC_NR ? ncol - j0 : KIFMM__GC_NR;        \
-                    for (j = 0; j < KIFMM__GC_NR; j++) {                                       \
-                        const int jj = j0 + (j < nr ? j : nr - 1);                             \
-                        b6[j] = bp[jj] + k0;                                                   \
-                        c6[j] = cp[jj] + i0;                                                   \
-                    }                                                                          \
-                    kifmm__gc_micro##SFX(m - i0 < MR ? m - i0 : MR, nr, kc,                    \
-                                         a + i0 + (size_t)k0 * lda, lda, b6, acc || k0 > 0,    \
-                                         c6);                                                  \
-                }                                                                              \
-        }                                                                                      \
-    }
-KIFMM__GC_COLS(double, d, KIFMM__GC_MR_D)
-KIFMM__GC_COLS(float, f, KIFMM__GC_MR_F)
 #else
-#define KIFMM__GC_NR 6
-#define KIFMM__GC_KC 256
+#define KIFMM__GC_FAST 0 /* the level passes call BLAS */
 #define KIFMM__GC_NC 512
-#define KIFMM__GC_COLS(T, SFX, GEMM, ONE, ZERO)                                                \
-    KIFMM__FN void kifmm__gemm_cols##SFX(int m, int k, const T *a, int lda, int ncol,          \
-                                         const T *const *bp, T *const *cp, int acc, T *work)   \
-    {                                                                                          \
-        T *bw = work, *cw = work + (size_t)k * ncol;                                           \
-        int i, j;                                                                              \
-        if (m <= 0 || ncol <= 0) return;                                                       \
-        for (j = 0; j < ncol; j++) memcpy(bw + (size_t)j * k, bp[j], (size_t)k * sizeof(T));   \
-        GEMM(CblasColMajor, CblasNoTrans, CblasNoTrans, m, ncol, k, ONE, a, lda, bw,           \
-             k > 0 ? k : 1, ZERO, cw, m);                                                      \
-        for (j = 0; j < ncol; j++)                                                             \
-            for (i = 0; i < m; i++)                                                            \
-                cp[j][i] = acc ? cp[j][i] + cw[(size_t)j * m + i] : cw[(size_t)j * m + i];     \
-    }
-KIFMM__GC_COLS(double, d, cblas_dgemm, 1.0, 0.0)
-KIFMM__GC_COLS(float, f, cblas_sgemm, 1.0f, 0.0f)
 #endif
 
-/* ---- surfaces ----------------------------------------------------------- */
-
-/* Number of points on the surface of a p x p x p grid: 6 (p-1)^2 + 2. */
-KIFMM__FN int kifmm__surf_count(int p) { return 6 * (p - 1) * (p - 1) + 2; }
-
-/* The surface grid points on [-1, 1]^3, structure of arrays (x[n], y[n], z[n]). */
-KIFMM__FN void kifmm__surf_unit(int p, double *s)
-{
-    int n = kifmm__surf_count(p), c = 0, i, j, k;
-    for (i = 0; i < p; i++)
-        for (j = 0; j < p; j++)
-            for (k = 0; k < p; k++) {
-                if (i != 0 && i != p - 1 && j != 0 && j != p - 1 && k != 0 && k != p - 1)
-                    continue;
-                s[c] = -1.0 + 2.0 * i / (p - 1);
-                s[n + c] = -1.0 + 2.0 * j / (p - 1);
-                s[2 * n + c] = -1.0 + 2.0 * k / (p - 1);
-                c++;
-            }
-}
-
-/* Unit surface scaled by `radius` and moved to `c`, into out (SoA, n points). */
-KIFMM__FN void kifmm__surf_place(const double *unit, int n, const double *c, double radius,
-                                 double *out)
-{
-    int i, d;
-    for (d = 0; d < 3; d++)
-        for (i = 0; i < n; i++) out[d * n + i] = c[d] + radius * unit[d * n + i];
-}
-
-/* Surface radii in units of the box half-width. */
-#define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
-/* upward check, downward equivalent: 2.95 with check surfaces of order p + 1,
- * 4.5 with order p (see kifmm__check_diff) */
-#define KIFMM__ALPHA_OUTER_LSQ 2.95
-#define KIFMM__ALPHA_OUTER_SQUARE 4.5
-
-/* The check surfaces' order minus the equivalent surfaces' order p, for an
- * instance with the FFT M2L (fft) or not. With the FFT M2L up to order
- * KIFMM_SQUARE_MAX_ORDER: 0, with the outer surfaces at 4.5 box half-widths
- * (check and equivalent surfaces of the same order, square systems), whose
- * M2L runs on a (2p - 1)^3 grid instead of (2p + 1)^3: half the frequencies
- * at p = 4, 0.6 times at p = 6. Measured against order p + 1 at 2.95 on
- * uniform, sphere, clustered and separate point sets (p = 4, 6, 7; p = 2,
- * 3, 5 at radius 3.5), the errors are the same or smaller
- * (docs/algorithm.md). From order 8 on the square systems lose digits (at
- * radius 3.5), and Stokes (dense M2L) loses them at every order: 1 there.
- * A definition of KIFMM_CHECK_ORDER_DIFF before the include applies to every
- * order and kernel (the outer radius 4.5 when it is 0, 2.95 otherwise). */
-KIFMM__FN int kifmm__check_diff(int p, int fft)
-{
-#ifdef KIFMM_CHECK_ORDER_DIFF
-    (void)p;
-    (void)fft;
-    return KIFMM_CHECK_ORDER_DIFF;
-#else
-    return fft && p <= KIFMM_SQUARE_MAX_ORDER ? 0 : 1;
-#endif
-}
-
-KIFMM__FN double kifmm__alpha_outer(int diff)
-{
-    return diff == 0 ? KIFMM__ALPHA_OUTER_SQUARE : KIFMM__ALPHA_OUTER_LSQ;
-}
+// >>tree
 
 /* ---- Morton keys ------------------------------------------------------- */
-
 /* A key at level l holds 3 l bits: bit 3i+2 is bit i of x, 3i+1 of y, 3i of z.
  * Children append three bits (octant c: x = c>>2 & 1, y = c>>1 & 1, z = c & 1). */
 KIFMM__FN uint64_t kifmm__spread(uint64_t v)
@@ -759,36 +694,59 @@ KIFMM__FN void kifmm__decode(uint64_t key, int64_t *a)
     a[2] = (int64_t)kifmm__compact(key);
 }
 
-/* The calling thread's number in the innermost parallel region (0 outside
- * one and without OpenMP): the index of its part of per-thread buffers. */
-KIFMM__FN int kifmm__thread_num(void)
-{
-#ifdef _OPENMP
-    return omp_get_thread_num();
-#else
-    return 0;
-#endif
-}
-
-/* The calling thread's contiguous share [lo, hi) of n items; returns its
- * thread number (0 outside a parallel region or without OpenMP). */
-KIFMM__FN int kifmm__thread_chunk(int64_t n, int64_t *lo, int64_t *hi)
-{
-    int me = 0, np = 1;
-#ifdef _OPENMP
-    me = omp_get_thread_num();
-    np = omp_get_num_threads();
-#endif
-    *lo = n * me / np;
-    *hi = n * (me + 1) / np;
-    return me;
-}
-
 /* Stable LSD radix sort of (key, idx) pairs by key, 8 bits a pass, in
  * parallel: each thread counts its own contiguous chunk, the counts are
  * summed digit by digit and thread by thread, and each thread scatters its
  * chunk in order, so the result does not depend on the thread count. Passes
  * in which every key has the same digit are skipped. */
+
+/* The digit counts of pass `shift`, per thread (cnt[th 256 + digit]); 1 if
+ * every key has the same digit (the pass can be skipped). */
+KIFMM__FN int kifmm__radix_count(const uint64_t *ka, int64_t n, int shift, int nth, int64_t *cnt)
+{
+    int64_t total0 = 0;
+    int th;
+    memset(cnt, 0, (size_t)nth * 256 * sizeof(int64_t));
+    /* each thread counts its own chunk into its own row of cnt */
+    KIFMM__OMP(parallel num_threads(nth))
+    {
+        int64_t i, lo, hi, *c = cnt + (size_t)kifmm__thread_chunk(n, &lo, &hi) * 256;
+        for (i = lo; i < hi; i++) c[(ka[i] >> shift) & 255]++;
+    }
+    for (th = 0; th < nth; th++) total0 += cnt[(size_t)th * 256 + ((ka[0] >> shift) & 255)];
+    return total0 == n;
+}
+
+/* Counts -> starting positions, digit by digit and thread by thread. */
+KIFMM__FN void kifmm__radix_scan(int nth, int64_t *cnt)
+{
+    int64_t sum = 0;
+    int b, th;
+    for (b = 0; b < 256; b++)
+        for (th = 0; th < nth; th++) {
+            const int64_t c = cnt[(size_t)th * 256 + b];
+            cnt[(size_t)th * 256 + b] = sum;
+            sum += c;
+        }
+}
+
+/* One pass: (ka, ia) scattered by digit into (kb, ib). */
+KIFMM__FN void kifmm__radix_scatter(const uint64_t *ka, const int64_t *ia, int64_t n, int shift,
+                                    int nth, int64_t *cnt, uint64_t *kb, int64_t *ib)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    /* each thread scatters its own chunk, from its own row of positions */
+    KIFMM__OMP(parallel num_threads(nth))
+    {
+        int64_t i, lo, hi, *c = cnt + (size_t)kifmm__thread_chunk(n, &lo, &hi) * 256;
+        for (i = lo; i < hi; i++) {
+            const int64_t d = c[(ka[i] >> shift) & 255]++;
+            kb[d] = ka[i];
+            ib[d] = ia[i];
+        }
+    }
+}
+
 KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
 {
     uint64_t *k2 = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t)), *ka = key, *kb = k2;
@@ -803,40 +761,18 @@ KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
     }
     /* each pass scatters from (ka, ia) into (kb, ib), then the two swap */
     for (shift = 0; shift < 64 && n > 0; shift += 8) {
-        int64_t sum = 0, total0 = 0;
-        int th, b, same;
-        memset(cnt, 0, (size_t)nth * 256 * sizeof(int64_t));
-        KIFMM__OMP(parallel num_threads(nth))
-        {
-            int64_t i, lo, hi, *c = cnt + (size_t)kifmm__thread_chunk(n, &lo, &hi) * 256;
-            for (i = lo; i < hi; i++) c[(ka[i] >> shift) & 255]++;
-        }
-        for (th = 0; th < nth; th++) total0 += cnt[(size_t)th * 256 + ((ka[0] >> shift) & 255)];
-        same = total0 == n;
-        if (same) continue;
-        for (b = 0; b < 256; b++)
-            for (th = 0; th < nth; th++) {
-                int64_t c = cnt[(size_t)th * 256 + b];
-                cnt[(size_t)th * 256 + b] = sum;
-                sum += c;
-            }
-        KIFMM__OMP(parallel num_threads(nth))
-        {
-            int64_t i, lo, hi, *c = cnt + (size_t)kifmm__thread_chunk(n, &lo, &hi) * 256;
-            for (i = lo; i < hi; i++) {
-                int64_t d = c[(ka[i] >> shift) & 255]++;
-                kb[d] = ka[i];
-                ib[d] = ia[i];
-            }
-        }
-        {
-            uint64_t *kt = ka;
-            int64_t *it = ia;
-            ka = kb; kb = kt;
-            ia = ib; ib = it;
-        }
+        uint64_t *kt = ka;
+        int64_t *it = ia;
+        if (kifmm__radix_count(ka, n, shift, nth, cnt)) continue;
+        kifmm__radix_scan(nth, cnt);
+        kifmm__radix_scatter(ka, ia, n, shift, nth, cnt, kb, ib);
+        ka = kb;
+        kb = kt;
+        ia = ib;
+        ib = it;
     }
     if (ka != key) {
+        /* each i copies its own element back */
         KIFMM__OMP(parallel for schedule(static) num_threads(nth))
         for (int64_t i = 0; i < n; i++) {
             key[i] = ka[i];
@@ -848,7 +784,6 @@ KIFMM__FN int kifmm__radix_sort(uint64_t *key, int64_t *idx, int64_t n, int nth)
     kifmm__free(cnt);
     return KIFMM_SUCCESS;
 }
-
 /* First position in the sorted array a[0..n) holding a value >= v. */
 KIFMM__FN int64_t kifmm__lower_bound(const uint64_t *a, int64_t n, uint64_t v)
 {
@@ -864,7 +799,6 @@ KIFMM__FN int64_t kifmm__lower_bound(const uint64_t *a, int64_t n, uint64_t v)
 /* ---- the adaptive octree ------------------------------------------------ */
 
 #define KIFMM__D KIFMM_MAX_DEPTH /* level of the point keys */
-#define KIFMM__NT 316            /* M2L transfer vectors: 7^3 - 3^3 */
 
 /* Caps on the interaction lists of one box. With 2:1 balance the published
  * bounds are |U| <= 60, |V| <= 189, |W| <= 148, |X| <= 19. */
@@ -878,12 +812,13 @@ KIFMM__FN int64_t kifmm__lower_bound(const uint64_t *a, int64_t n, uint64_t v)
  * the children of the internal boxes of level l, in order. Points are sorted
  * by key and each box owns a contiguous range of them. */
 typedef struct kifmm__tree {
+    size_t held;             /* bytes of the arrays below (see kifmm__take) */
     int64_t ns, nt;
     double *src, *trg;       /* sorted points, structure of arrays (x | y | z) */
     int64_t *sperm, *tperm;  /* sorted position -> caller's index */
     int same;                /* targets are the sources: trg = src, tperm = sperm */
     double origin[3];        /* shift of each axis: the root's centre where that is
-                                exact, else 0 (see kifmm__tree_build) */
+                                exact, else 0 (see kifmm__tree_bounds) */
     double lo[3], width;     /* root cube: lower corner relative to origin, and edge */
     int nlev;                /* levels 0 .. nlev - 1 */
     int32_t nbox;
@@ -976,34 +911,6 @@ KIFMM__FN void kifmm__sub3(const double *c, const double *fc, double *d)
     d[2] = c[2] - fc[2];
 }
 
-/* Index of the transfer vector (dx, dy, dz), each in [-3, 3] and not all in
- * [-1, 1], among the 316 in lexicographic order. */
-KIFMM__FN int kifmm__transfer_index(int dx, int dy, int dz)
-{
-    /* minus the near offsets (all |d| <= 1) lexicographically before it: 9 per
-     * near x-slab before dx, 3 per near row before dy in the same slab, then the
-     * near cells before dz in the same row */
-#define KIFMM__CL3(v) ((v) < -1 ? 0 : (v) > 1 ? 3 : (v) + 1)
-    int near = 9 * KIFMM__CL3(dx);
-    if (dx >= -1 && dx <= 1) {
-        near += 3 * KIFMM__CL3(dy);
-        if (dy >= -1 && dy <= 1) near += KIFMM__CL3(dz);
-    }
-#undef KIFMM__CL3
-    return (dx + 3) * 49 + (dy + 3) * 7 + (dz + 3) - near;
-}
-
-KIFMM__FN void kifmm__transfer_vector(int t, int *d)
-{
-    int c = 0, i, j, k;
-    for (i = -3; i <= 3; i++)
-        for (j = -3; j <= 3; j++)
-            for (k = -3; k <= 3; k++) {
-                if (i >= -1 && i <= 1 && j >= -1 && j <= 1 && k >= -1 && k <= 1) continue;
-                if (c++ == t) { d[0] = i; d[1] = j; d[2] = k; return; }
-            }
-}
-
 /* A growable array of keys. */
 typedef struct { uint64_t *a; int64_t n, cap; } kifmm__keys;
 
@@ -1043,14 +950,14 @@ KIFMM__FN void kifmm__keys_unique(kifmm__keys *k)
  * permutation, keys. Every later step works in these coordinates: a cloud
  * far from the caller's origin keeps the digits of its own size (surface
  * points placed at c + r u would lose those of |c|). */
-KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *xyz,
-                                 double **out, int64_t **perm, uint64_t **keys, int nth)
+KIFMM__FN int kifmm__sort_points(kifmm__tree *t, int64_t n, const double *xyz, double **out,
+                                 int64_t **perm, uint64_t **keys, int nth)
 {
     double scale = (double)((int64_t)1 << KIFMM__D) / t->width;
     int64_t maxi = ((int64_t)1 << KIFMM__D) - 1;
     int rc;
-    *out = (double *)kifmm__alloc((size_t)(3 * n), sizeof(double));
-    *perm = (int64_t *)kifmm__alloc((size_t)n, sizeof(int64_t));
+    *out = (double *)kifmm__take(&t->held, (size_t)(3 * n), sizeof(double));
+    *perm = (int64_t *)kifmm__take(&t->held, (size_t)n, sizeof(int64_t));
     *keys = (uint64_t *)kifmm__alloc((size_t)n, sizeof(uint64_t));
     if (!*out || !*perm || !*keys) return KIFMM_ERR_NOMEM;
     KIFMM__OMP(parallel for schedule(static) num_threads(nth))
@@ -1074,7 +981,321 @@ KIFMM__FN int kifmm__sort_points(const kifmm__tree *t, int64_t n, const double *
     return KIFMM_SUCCESS;
 }
 
-/* ---- interaction lists --------------------------------------------------- */
+/* ---- building the tree: bounds, sort, refine, balance, layout ------------ */
+
+/* Step 1, the root cube: the smallest cube around every source and target,
+ * padded so that no point sits on its outer faces. Each axis is shifted by
+ * the cube's centre where that shift is exact: with |centre| >= the root's
+ * width, every coordinate lies within a factor 2 of the centre, so x -
+ * centre is exact (Sterbenz). Elsewhere the points keep their own
+ * coordinates, whose differences are exact for nearby points, and the cloud
+ * is within a width of the origin anyway, so surfaces lose at most a bit or
+ * two there. */
+KIFMM__FN void kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
+                                  const double *trg, int nth)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    double lo[3], hi[3], half = 0.0;
+    int d;
+    for (d = 0; d < 3; d++) {
+        double mn = HUGE_VAL, mx = -HUGE_VAL;
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
+        for (int64_t i = 0; i < ns + nt; i++) {
+            const double v = i < ns ? src[3 * i + d] : trg[3 * (i - ns) + d];
+            mn = v < mn ? v : mn;
+            mx = v > mx ? v : mx;
+        }
+        lo[d] = mn;
+        hi[d] = mx;
+    }
+    for (d = 0; d < 3; d++)
+        if (0.5 * (hi[d] - lo[d]) > half) half = 0.5 * (hi[d] - lo[d]);
+    if (!(half > 0.0)) half = 0.5;
+    half *= 1.0 + 1e-10;
+    for (d = 0; d < 3; d++) {
+        const double c = 0.5 * (lo[d] + hi[d]);
+        t->origin[d] = fabs(c) >= 2.0 * half ? c : 0.0;
+        t->lo[d] = (c - t->origin[d]) - half;
+    }
+    t->width = 2.0 * half;
+}
+
+/* Step 2, the points sorted by key (kifmm__sort_points): when the targets
+ * are the sources (same array and count), one sorted copy serves as both. */
+KIFMM__FN int kifmm__tree_sort(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
+                               const double *trg, int nth, uint64_t **skey, uint64_t **tkey)
+{
+    int rc = kifmm__sort_points(t, ns, src, &t->src, &t->sperm, skey, nth);
+    if (rc) return rc;
+    if (trg == src && nt == ns) {
+        t->same = 1;
+        t->trg = t->src;
+        t->tperm = t->sperm;
+        *tkey = *skey;
+        return KIFMM_SUCCESS;
+    }
+    return kifmm__sort_points(t, nt, trg, &t->trg, &t->tperm, tkey, nth);
+}
+
+/* Does box `key` of the level with shift sh split? It holds more than leaf
+ * sources or targets, unless all of them share one finest key (coincident
+ * points never separate). */
+KIFMM__FN int kifmm__box_splits(const kifmm__tree *t, const uint64_t *skey, const uint64_t *tkey,
+                                uint64_t key, int sh, int leaf)
+{
+    const uint64_t k0 = key << sh, k1 = (key + 1) << sh;
+    const int64_t fs = kifmm__lower_bound(skey, t->ns, k0), ft = kifmm__lower_bound(tkey, t->nt, k0);
+    const int64_t cs = kifmm__lower_bound(skey, t->ns, k1) - fs;
+    const int64_t ct = kifmm__lower_bound(tkey, t->nt, k1) - ft;
+    if (cs <= leaf && ct <= leaf) return 0;
+    return !((cs == 0 || skey[fs] == skey[fs + cs - 1]) &&
+             (ct == 0 || tkey[ft] == tkey[ft + ct - 1]) &&
+             (cs == 0 || ct == 0 || skey[fs] == tkey[ft]));
+}
+
+/* Step 3, top-down refinement: in[l] gets the keys of the boxes of level l
+ * that split, level by level, down to maxdepth. */
+KIFMM__FN int kifmm__tree_refine(const kifmm__tree *t, const uint64_t *skey, const uint64_t *tkey,
+                                 int leaf, int maxdepth, int nth, kifmm__keys *in)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    kifmm__keys cur = {0, 0, 0}, next = {0, 0, 0};
+    unsigned char *split = NULL;
+    int l, rc = kifmm__keys_push(&cur, 0);
+    for (l = 0; l < maxdepth && cur.n > 0 && !rc; l++) {
+        const int sh = 3 * (KIFMM__D - l);
+        int64_t j;
+        kifmm__free(split);
+        split = (unsigned char *)kifmm__alloc((size_t)cur.n, 1);
+        if (!split) { rc = KIFMM_ERR_NOMEM; break; }
+        /* each j decides for its own box */
+        KIFMM__OMP(parallel for schedule(dynamic, 256) num_threads(nth))
+        for (int64_t jj = 0; jj < cur.n; jj++)
+            split[jj] = (unsigned char)kifmm__box_splits(t, skey, tkey, cur.a[jj], sh, leaf);
+        next.n = 0;
+        for (j = 0; j < cur.n && !rc; j++) {
+            int o;
+            if (!split[j]) continue;
+            rc = kifmm__keys_push(&in[l], cur.a[j]);
+            for (o = 0; o < 8 && !rc; o++) rc = kifmm__keys_push(&next, cur.a[j] << 3 | (uint64_t)o);
+        }
+        { kifmm__keys tmp = cur; cur = next; next = tmp; }
+    }
+    kifmm__free(split);
+    kifmm__free(cur.a);
+    kifmm__free(next.a);
+    return rc;
+}
+
+/* For the 27 neighbours of the child j of in[l - 1] (j in 0 .. 8 n), the key
+ * of the grandparent (level l - 2) it needs split, or UINT64_MAX where it is
+ * already split or outside the cube; into need[27 j ..]. */
+KIFMM__FN void kifmm__balance_needs(const kifmm__keys *in, int l, int64_t j, uint64_t *need)
+{
+    const int64_t side = (int64_t)1 << l, n0 = in[l - 2].n;
+    int64_t a[3];
+    int dx, dy, dz, m = 0;
+    kifmm__decode(in[l - 1].a[j >> 3] << 3 | (uint64_t)(j & 7), a);
+    for (dx = -1; dx <= 1; dx++)
+        for (dy = -1; dy <= 1; dy++)
+            for (dz = -1; dz <= 1; dz++) {
+                const int64_t x = a[0] + dx, y = a[1] + dy, z = a[2] + dz;
+                uint64_t g = UINT64_MAX;
+                if (x >= 0 && y >= 0 && z >= 0 && x < side && y < side && z < side) {
+                    int64_t pos;
+                    g = kifmm__encode(x, y, z) >> 6;
+                    pos = kifmm__lower_bound(in[l - 2].a, n0, g);
+                    if (pos < n0 && in[l - 2].a[pos] == g) g = UINT64_MAX;
+                }
+                need[27 * j + m++] = g;
+            }
+}
+
+/* Step 4, 2:1 balance, finest level first: every neighbour of a box of level
+ * l must lie in a box of level l - 1, i.e. its grandparent must split.
+ * Missing grandparents are marked in parallel (one flag per box of level l
+ * and neighbour), then appended in order. */
+KIFMM__FN int kifmm__tree_balance(kifmm__keys *in, int deepest, int nth)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    int l, rc = KIFMM_SUCCESS;
+    for (l = deepest; l >= 2 && !rc; l--) {
+        const int64_t n0 = in[l - 2].n, nb8 = 8 * in[l - 1].n;
+        uint64_t *need = (uint64_t *)kifmm__alloc((size_t)nb8 * 27 + 1, sizeof(uint64_t));
+        int64_t j;
+        if (!need) return KIFMM_ERR_NOMEM;
+        /* each j writes its own 27 entries of need */
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+        for (int64_t jj = 0; jj < nb8; jj++) kifmm__balance_needs(in, l, jj, need);
+        for (j = 0; j < 27 * nb8 && !rc; j++)
+            if (need[j] != UINT64_MAX) rc = kifmm__keys_push(&in[l - 2], need[j]);
+        kifmm__free(need);
+        if (!rc && in[l - 2].n > n0) kifmm__keys_unique(&in[l - 2]);
+    }
+    return rc;
+}
+
+/* The arrays of nbz boxes. */
+KIFMM__FN int kifmm__tree_alloc_boxes(kifmm__tree *t, size_t nbz)
+{
+    size_t *h = &t->held;
+    t->key = (uint64_t *)kifmm__take(h, nbz, sizeof(uint64_t));
+    t->child = (int32_t *)kifmm__take(h, nbz, sizeof(int32_t));
+    t->inner = (int32_t *)kifmm__take(h, nbz, sizeof(int32_t));
+    t->parent = (int32_t *)kifmm__take(h, nbz, sizeof(int32_t));
+    t->anchor = (int32_t *)kifmm__take(h, 3 * nbz, sizeof(int32_t));
+    t->lev = (unsigned char *)kifmm__take(h, nbz, 1);
+    t->s0 = (int64_t *)kifmm__take(h, nbz, sizeof(int64_t));
+    t->s1 = (int64_t *)kifmm__take(h, nbz, sizeof(int64_t));
+    t->t0 = (int64_t *)kifmm__take(h, nbz, sizeof(int64_t));
+    t->t1 = (int64_t *)kifmm__take(h, nbz, sizeof(int64_t));
+    return t->key && t->child && t->inner && t->parent && t->anchor && t->lev && t->s0 &&
+                   t->s1 && t->t0 && t->t1
+               ? KIFMM_SUCCESS
+               : KIFMM_ERR_NOMEM;
+}
+
+/* Keys, children, parents and the internal boxes, level by level: the boxes
+ * of level l + 1 are the 8 children of each key in in[l], in order. */
+KIFMM__FN void kifmm__tree_links(kifmm__tree *t, const kifmm__keys *in)
+{
+    int32_t b;
+    int l;
+    t->loff[0] = 0;
+    t->loff[1] = 1;
+    t->key[0] = 0;
+    t->parent[0] = -1;
+    for (l = 1; l < t->nlev; l++) {
+        int32_t c = t->loff[l];
+        int64_t j;
+        int o;
+        for (j = 0; j < in[l - 1].n; j++)
+            for (o = 0; o < 8; o++) t->key[c++] = in[l - 1].a[j] << 3 | (uint64_t)o;
+        t->loff[l + 1] = c;
+    }
+    for (l = t->nlev + 1; l <= KIFMM__D + 1; l++) t->loff[l] = t->loff[t->nlev];
+    t->ioff[0] = 0;
+    for (l = 0; l < t->nlev; l++) {
+        int64_t j = 0;
+        t->ioff[l + 1] = t->ioff[l];
+        for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+            int o;
+            while (j < in[l].n && in[l].a[j] < t->key[b]) j++;
+            t->child[b] = -1;
+            if (j >= in[l].n || in[l].a[j] != t->key[b]) continue;
+            t->child[b] = t->loff[l + 1] + (int32_t)(8 * j);
+            for (o = 0; o < 8; o++) t->parent[t->child[b] + o] = b;
+            t->inner[t->ioff[l + 1]++] = b;
+        }
+    }
+    for (l = t->nlev + 1; l <= KIFMM__D + 1; l++) t->ioff[l] = t->ioff[t->nlev];
+}
+
+/* Anchors, levels and point ranges of the boxes of level l. */
+KIFMM__FN void kifmm__tree_ranges(kifmm__tree *t, int l, const uint64_t *skey,
+                                  const uint64_t *tkey, int nth)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    const int sh = 3 * (KIFMM__D - l);
+    /* each b writes its own box's entries */
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+    for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
+        const uint64_t k0 = t->key[b] << sh, k1 = (t->key[b] + 1) << sh;
+        int64_t a[3];
+        kifmm__decode(t->key[b], a);
+        t->anchor[3 * (size_t)b] = (int32_t)a[0];
+        t->anchor[3 * (size_t)b + 1] = (int32_t)a[1];
+        t->anchor[3 * (size_t)b + 2] = (int32_t)a[2];
+        t->lev[b] = (unsigned char)l;
+        t->s0[b] = kifmm__lower_bound(skey, t->ns, k0);
+        t->s1[b] = kifmm__lower_bound(skey, t->ns, k1);
+        t->t0[b] = kifmm__lower_bound(tkey, t->nt, k0);
+        t->t1[b] = kifmm__lower_bound(tkey, t->nt, k1);
+    }
+}
+
+/* Step 5, the boxes laid out level by level from the keys of the boxes that
+ * split (in[0 .. deepest - 1]). */
+KIFMM__FN int kifmm__tree_layout(kifmm__tree *t, const kifmm__keys *in, int deepest,
+                                 const uint64_t *skey, const uint64_t *tkey, int nth)
+{
+    int64_t total = 1;
+    int l, rc;
+    for (l = 0; l < deepest; l++) total += 8 * in[l].n;
+    if (total > INT32_MAX / 8) return KIFMM_ERR_NOMEM;
+    t->nlev = deepest + 1;
+    t->nbox = (int32_t)total;
+    if ((rc = kifmm__tree_alloc_boxes(t, (size_t)total))) return rc;
+    kifmm__tree_links(t, in);
+    for (l = 0; l < t->nlev; l++) kifmm__tree_ranges(t, l, skey, tkey, nth);
+    return KIFMM_SUCCESS;
+}
+
+KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists); /* >>lists */
+
+/* The tree over these points: bounds, sorted points, refinement while a box
+ * holds more than `leaf` sources or targets, 2:1 balance, layout, then the
+ * interaction lists (kifmm__tree_lists, with V entries if vlists). */
+KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
+                                const double *trg, int leaf, int maxdepth, int nth, int vlists)
+{
+    uint64_t *skey = NULL, *tkey = NULL;
+    kifmm__keys in[KIFMM__D + 1];
+    int l, rc, deepest = 0;
+    memset(in, 0, sizeof in);
+    memset(t, 0, sizeof *t);
+    t->ns = ns;
+    t->nt = nt;
+    kifmm__tree_bounds(t, ns, src, nt, trg, nth);
+    rc = kifmm__tree_sort(t, ns, src, nt, trg, nth, &skey, &tkey);
+    if (!rc) rc = kifmm__tree_refine(t, skey, tkey, leaf, maxdepth, nth, in);
+    for (l = 0; l <= KIFMM__D; l++)
+        if (in[l].n > 0) deepest = l + 1;
+    if (!rc) rc = kifmm__tree_balance(in, deepest, nth);
+    if (!rc) rc = kifmm__tree_layout(t, in, deepest, skey, tkey, nth);
+    if (!rc) rc = kifmm__tree_lists(t, nth, vlists);
+    for (l = 0; l <= KIFMM__D; l++) kifmm__free(in[l].a);
+    kifmm__free(skey);
+    if (tkey != skey) kifmm__free(tkey);
+    return rc;
+}
+/* ---- transfer vectors ----------------------------------------------------- */
+
+#define KIFMM__NT 316 /* M2L transfer vectors: 7^3 - 3^3 */
+
+/* The near offsets (-1, 0 or 1: 3 of them) lexicographically before v in
+ * [-3, 3]. */
+#define KIFMM__CL3(v) ((v) < -1 ? 0 : (v) > 1 ? 3 : (v) + 1)
+
+/* Index of the transfer vector (dx, dy, dz), each in [-3, 3] and not all in
+ * [-1, 1], among the 316 in lexicographic order: minus the near offsets
+ * (all |d| <= 1) before it, 9 per near x-slab before dx, 3 per near row
+ * before dy in the same slab, then the near cells before dz in its row. */
+KIFMM__FN int kifmm__transfer_index(int dx, int dy, int dz)
+{
+    int near = 9 * KIFMM__CL3(dx);
+    if (dx >= -1 && dx <= 1) {
+        near += 3 * KIFMM__CL3(dy);
+        if (dy >= -1 && dy <= 1) near += KIFMM__CL3(dz);
+    }
+    return (dx + 3) * 49 + (dy + 3) * 7 + (dz + 3) - near;
+}
+
+KIFMM__FN void kifmm__transfer_vector(int t, int *d)
+{
+    int c = 0, i, j, k;
+    for (i = -3; i <= 3; i++)
+        for (j = -3; j <= 3; j++)
+            for (k = -3; k <= 3; k++) {
+                if (i >= -1 && i <= 1 && j >= -1 && j <= 1 && k >= -1 && k <= 1) continue;
+                if (c++ == t) { d[0] = i; d[1] = j; d[2] = k; return; }
+            }
+}
+
+
+// >>lists
+
+/* ---- the interaction lists of one box ----------------------------------- */
 
 typedef struct {
     int32_t u[KIFMM__MAXU], v[KIFMM__MAXV], w[KIFMM__MAXW], x[KIFMM__MAXX];
@@ -1110,70 +1331,84 @@ KIFMM__FN void kifmm__collect_uw(const kifmm__tree *t, int32_t b, int32_t c, kif
     }
 }
 
+/* The box of level l at anchor (x, y, z), or -1 outside the cube. */
+KIFMM__FN int32_t kifmm__box_at(const kifmm__tree *t, int l, int64_t x, int64_t y, int64_t z,
+                                uint64_t *k)
+{
+    const int64_t side = (int64_t)1 << l;
+    if (x < 0 || y < 0 || z < 0 || x >= side || y >= side || z >= side) return -2;
+    *k = kifmm__encode(x, y, z);
+    return kifmm__find(t, l, *k);
+}
+
+/* U and W of leaf b: its colleagues and their descendants (kifmm__collect_uw),
+ * and the coarser leaves that touch it. */
+KIFMM__FN void kifmm__near_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L)
+{
+    const int l = kifmm__level_of(t, b);
+    const int32_t *a = t->anchor + 3 * (size_t)b;
+    int dx, dy, dz;
+    for (dx = -1; dx <= 1; dx++)
+        for (dy = -1; dy <= 1; dy++)
+            for (dz = -1; dz <= 1; dz++) {
+                uint64_t k = 0;
+                int32_t c = kifmm__box_at(t, l, (int64_t)a[0] + dx, (int64_t)a[1] + dy,
+                                          (int64_t)a[2] + dz, &k);
+                if (c >= 0) {
+                    kifmm__collect_uw(t, b, c, L);
+                } else if (c == -1) {
+                    /* inside a coarser leaf, which touches b */
+                    c = kifmm__find_cover(t, l, k);
+                    if (c >= 0 && t->s1[c] > t->s0[c])
+                        kifmm__add(L->u, &L->nu, KIFMM__MAXU, c, &L->overflow, 1);
+                }
+            }
+}
+
+/* V and X of box b: the children of its parent's colleagues that are apart
+ * from b (V, with their transfer vectors), and leaves of the parent's level
+ * or coarser that are apart from b (X). */
+KIFMM__FN void kifmm__far_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L)
+{
+    const int l = kifmm__level_of(t, b);
+    const int32_t *a = t->anchor + 3 * (size_t)b;
+    int dx, dy, dz, o;
+    for (dx = -1; dx <= 1; dx++)
+        for (dy = -1; dy <= 1; dy++)
+            for (dz = -1; dz <= 1; dz++) {
+                uint64_t k = 0;
+                int32_t c = kifmm__box_at(t, l - 1, (int64_t)(a[0] >> 1) + dx,
+                                          (int64_t)(a[1] >> 1) + dy, (int64_t)(a[2] >> 1) + dz, &k);
+                if (c == -2) continue;
+                if (c >= 0 && t->child[c] >= 0) {
+                    for (o = 0; o < 8; o++) {
+                        const int32_t s = t->child[c] + o;
+                        const int32_t *sa = t->anchor + 3 * (size_t)s;
+                        if (t->s1[s] == t->s0[s] || kifmm__adjacent(t, b, s)) continue;
+                        if (L->nv >= KIFMM__MAXV) { L->overflow = 1; continue; }
+                        L->vt[L->nv] = (uint16_t)kifmm__transfer_index(sa[0] - a[0], sa[1] - a[1],
+                                                                       sa[2] - a[2]);
+                        L->v[L->nv++] = s;
+                    }
+                    continue;
+                }
+                /* a leaf of the parent's level or coarser: X if apart from b */
+                if (c < 0) c = kifmm__find_cover(t, l - 1, k);
+                if (c >= 0 && t->s1[c] > t->s0[c] && !kifmm__adjacent(t, b, c))
+                    kifmm__add(L->x, &L->nx, KIFMM__MAXX, c, &L->overflow, 1);
+            }
+}
+
 /* All four lists of box b (U and W only when b is a leaf). Only boxes that
  * hold sources enter a list. */
 KIFMM__FN void kifmm__box_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L)
 {
-    int l = kifmm__level_of(t, b), dx, dy, dz;
-    int64_t a[3] = {t->anchor[3 * (size_t)b], t->anchor[3 * (size_t)b + 1],
-                    t->anchor[3 * (size_t)b + 2]};
-    int64_t side = (int64_t)1 << l;
     L->nu = L->nv = L->nw = L->nx = L->overflow = 0;
-    if (t->child[b] < 0) {
-        for (dx = -1; dx <= 1; dx++)
-            for (dy = -1; dy <= 1; dy++)
-                for (dz = -1; dz <= 1; dz++) {
-                    int64_t n[3] = {a[0] + dx, a[1] + dy, a[2] + dz};
-                    uint64_t k;
-                    int32_t c;
-                    if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= side || n[1] >= side ||
-                        n[2] >= side)
-                        continue;
-                    k = kifmm__encode(n[0], n[1], n[2]);
-                    c = kifmm__find(t, l, k);
-                    if (c >= 0) {
-                        kifmm__collect_uw(t, b, c, L);
-                    } else {
-                        /* inside a coarser leaf, which touches b */
-                        c = kifmm__find_cover(t, l, k);
-                        if (c >= 0 && t->s1[c] > t->s0[c])
-                            kifmm__add(L->u, &L->nu, KIFMM__MAXU, c, &L->overflow, 1);
-                    }
-                }
-    }
-    if (l >= 1) {
-        int64_t p[3] = {a[0] >> 1, a[1] >> 1, a[2] >> 1}, pside = side >> 1;
-        for (dx = -1; dx <= 1; dx++)
-            for (dy = -1; dy <= 1; dy++)
-                for (dz = -1; dz <= 1; dz++) {
-                    int64_t n[3] = {p[0] + dx, p[1] + dy, p[2] + dz};
-                    uint64_t k;
-                    int32_t c;
-                    if (n[0] < 0 || n[1] < 0 || n[2] < 0 || n[0] >= pside ||
-                        n[1] >= pside || n[2] >= pside)
-                        continue;
-                    k = kifmm__encode(n[0], n[1], n[2]);
-                    c = kifmm__find(t, l - 1, k);
-                    if (c >= 0 && t->child[c] >= 0) {
-                        int o;
-                        for (o = 0; o < 8; o++) {
-                            int32_t s = t->child[c] + o;
-                            const int32_t *sa = t->anchor + 3 * (size_t)s;
-                            if (t->s1[s] == t->s0[s] || kifmm__adjacent(t, b, s)) continue;
-                            if (L->nv >= KIFMM__MAXV) { L->overflow = 1; continue; }
-                            L->vt[L->nv] = (uint16_t)kifmm__transfer_index(
-                                (int)(sa[0] - a[0]), (int)(sa[1] - a[1]), (int)(sa[2] - a[2]));
-                            L->v[L->nv++] = s;
-                        }
-                    } else {
-                        /* a leaf of the parent's level or coarser: X if apart from b */
-                        if (c < 0) c = kifmm__find_cover(t, l - 1, k);
-                        if (c >= 0 && t->s1[c] > t->s0[c] && !kifmm__adjacent(t, b, c))
-                            kifmm__add(L->x, &L->nx, KIFMM__MAXX, c, &L->overflow, 1);
-                    }
-                }
-    }
+    if (t->child[b] < 0) kifmm__near_lists(t, b, L);
+    if (kifmm__level_of(t, b) >= 1) kifmm__far_lists(t, b, L);
 }
+
+/* ---- the lists of all boxes ----------------------------------------------- */
 
 /* The lists of a range of boxes, appended in box order: U, V, W, X (and the
  * transfer vectors of V), growing by doubling. */
@@ -1213,11 +1448,100 @@ KIFMM__FN void kifmm__lbuf_put(kifmm__lbuf *B, int j, const int32_t *src, int cn
     B->n[j] += (size_t)cnt;
 }
 
-/* One pass over the boxes with targets, in chunks of consecutive boxes (many
- * more than threads, for balance), each collecting its lists in a buffer of
- * its own; then the offsets, and each chunk's lists copied into place. The
- * V entries themselves are kept only if `vlists` (the dense M2L reads them;
- * the FFT M2L works from the colleagues and needs only their counts). */
+
+/* A direct index (key -> box) for the levels where it costs at most 8
+ * entries per box (all of them in a uniform tree): a neighbour found in one
+ * load instead of a binary search (tree 0.19-0.21 s -> 0.15-0.17 s at 1M
+ * uniform points); the other levels, and all of them if the index cannot be
+ * allocated, search. Freed (t->dix = NULL) once the lists are built. */
+KIFMM__FN void kifmm__lists_index(kifmm__tree *t, int nth)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    int64_t tot = 0;
+    int32_t b;
+    int l;
+    for (l = 0; l < t->nlev; l++) {
+        const int64_t full = (int64_t)1 << (3 * l), nl = t->loff[l + 1] - t->loff[l];
+        t->dixo[l] = l <= 10 && full <= 8 * nl + 4096 ? tot : -1;
+        if (t->dixo[l] >= 0) tot += full;
+    }
+    t->dix = tot > 0 ? (int32_t *)kifmm__alloc((size_t)tot, sizeof(int32_t)) : NULL;
+    if (!t->dix) return;
+    /* each e sets its own entry */
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+    for (int64_t e = 0; e < tot; e++) t->dix[e] = -1;
+    for (l = 0; l < t->nlev; l++)
+        if (t->dixo[l] >= 0)
+            for (b = t->loff[l]; b < t->loff[l + 1]; b++) t->dix[t->dixo[l] + (int64_t)t->key[b]] = b;
+}
+
+/* Pass 1: the lists of every box with targets, in nk chunks of consecutive
+ * boxes (many more than threads, for balance), each collected in buffer
+ * buf[k]; the counts per box into t->uo .. t->xo[b + 1]. The V entries are
+ * kept only if vlists (the dense M2L reads them; the FFT M2L works from the
+ * colleagues and needs only their counts). Returns nonzero if a list
+ * overflowed its cap. */
+KIFMM__FN int kifmm__lists_collect(kifmm__tree *t, int nth, int vlists, int32_t nk,
+                                   kifmm__lbuf *buf)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    const int32_t nb = t->nbox;
+    int overflow = 0;
+    /* chunk k writes its own buffer and the counts of its own boxes */
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) reduction(| : overflow))
+    for (int32_t k = 0; k < nk; k++) {
+        const int32_t b0 = (int32_t)((int64_t)nb * k / nk), b1 = (int32_t)((int64_t)nb * (k + 1) / nk);
+        int32_t c;
+        for (c = b0; c < b1; c++) {
+            kifmm__lists L;
+            if (t->t1[c] == t->t0[c]) continue;
+            kifmm__box_lists(t, c, &L);
+            overflow |= L.overflow;
+            t->uo[c + 1] = L.nu;
+            t->vo[c + 1] = L.nv;
+            t->wo[c + 1] = L.nw;
+            t->xo[c + 1] = L.nx;
+            kifmm__lbuf_put(&buf[k], 0, L.u, L.nu, NULL);
+            if (vlists) kifmm__lbuf_put(&buf[k], 1, L.v, L.nv, L.vt);
+            kifmm__lbuf_put(&buf[k], 2, L.w, L.nw, NULL);
+            kifmm__lbuf_put(&buf[k], 3, L.x, L.nx, NULL);
+        }
+    }
+    return overflow;
+}
+
+/* Pass 2: counts -> offsets, and each chunk's lists copied into place. */
+KIFMM__FN int kifmm__lists_assemble(kifmm__tree *t, int nth, int vlists, int32_t nk,
+                                    const kifmm__lbuf *buf)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    const int32_t nb = t->nbox;
+    int32_t *off[4], *dst[4], b;
+    int j;
+    off[0] = t->uo; off[1] = t->vo; off[2] = t->wo; off[3] = t->xo;
+    for (j = 0; j < 4; j++)
+        for (b = 0; b < nb; b++) off[j][b + 1] += off[j][b];
+    t->u = (int32_t *)kifmm__take(&t->held, (size_t)t->uo[nb] + 1, sizeof(int32_t));
+    if (vlists) {
+        t->v = (int32_t *)kifmm__take(&t->held, (size_t)t->vo[nb] + 1, sizeof(int32_t));
+        t->vt = (uint16_t *)kifmm__take(&t->held, (size_t)t->vo[nb] + 1, sizeof(uint16_t));
+    }
+    t->w = (int32_t *)kifmm__take(&t->held, (size_t)t->wo[nb] + 1, sizeof(int32_t));
+    t->x = (int32_t *)kifmm__take(&t->held, (size_t)t->xo[nb] + 1, sizeof(int32_t));
+    if (!t->u || (vlists && (!t->v || !t->vt)) || !t->w || !t->x) return KIFMM_ERR_NOMEM;
+    dst[0] = t->u; dst[1] = t->v; dst[2] = t->w; dst[3] = t->x;
+    /* chunk k copies into its own boxes' ranges */
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+    for (int32_t k = 0; k < nk; k++) {
+        const int32_t b0 = (int32_t)((int64_t)nb * k / nk);
+        int m;
+        for (m = 0; m < 4; m++)
+            if (buf[k].n[m]) memcpy(dst[m] + off[m][b0], buf[k].a[m], buf[k].n[m] * sizeof(int32_t));
+        if (buf[k].n[1]) memcpy(t->vt + t->vo[b0], buf[k].vt, buf[k].n[1] * sizeof(uint16_t));
+    }
+    return KIFMM_SUCCESS;
+}
+
 /* t->dsrc: a box refits a local expansion only where its own level brings
  * new far-field content: a V list, or an X list when the box holds at least
  * `xdirect` targets (boxes with fewer take their X sources directly).
@@ -1237,367 +1561,115 @@ KIFMM__FN void kifmm__tree_dsrc(kifmm__tree *t, int64_t xdirect)
     }
 }
 
-KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
+/* What the passes derive from the lists: per level, the boxes that receive
+ * M2L (m2l, from m2lo[l]); the leaves with targets in Morton order (depth
+ * first, children in key order, which is the order of their points); which
+ * box's local expansion serves each box (dsrc; the handle redoes it with
+ * its X threshold). */
+KIFMM__FN int kifmm__lists_derived(kifmm__tree *t)
 {
-    int32_t nb = t->nbox, b, nk = 16 * (nth > 0 ? nth : 1), k;
-    int overflow = 0, fail = 0, l, j;
-    int32_t *off[4];
-    kifmm__lbuf *buf;
-    if (nk > nb) nk = nb;
-    t->uo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
-    t->vo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
-    t->wo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
-    t->xo = (int32_t *)kifmm__calloc((size_t)nb + 1, sizeof(int32_t));
-    buf = (kifmm__lbuf *)kifmm__calloc((size_t)nk, sizeof(kifmm__lbuf));
-    if (!t->uo || !t->vo || !t->wo || !t->xo || !buf) {
-        kifmm__free(buf);
-        return KIFMM_ERR_NOMEM;
-    }
-    off[0] = t->uo; off[1] = t->vo; off[2] = t->wo; off[3] = t->xo;
-    {
-        /* a direct index (key -> box) for the levels where it costs at most
-         * 8 entries per box (all of them in a uniform tree): a neighbour
-         * found in one load instead of a binary search (tree 0.19-0.21 s ->
-         * 0.15-0.17 s at 1M uniform points); the other levels, and all of
-         * them if the index cannot be allocated, search */
-        int64_t tot = 0;
-        for (l = 0; l < t->nlev; l++) {
-            const int64_t full = (int64_t)1 << (3 * l), nl = t->loff[l + 1] - t->loff[l];
-            t->dixo[l] = l <= 10 && full <= 8 * nl + 4096 ? tot : -1;
-            if (t->dixo[l] >= 0) tot += full;
-        }
-        t->dix = tot > 0 ? (int32_t *)kifmm__alloc((size_t)tot, sizeof(int32_t)) : NULL;
-        if (t->dix) {
-            KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-            for (int64_t e = 0; e < tot; e++) t->dix[e] = -1;
-            for (l = 0; l < t->nlev; l++)
-                if (t->dixo[l] >= 0)
-                    for (b = t->loff[l]; b < t->loff[l + 1]; b++)
-                        t->dix[t->dixo[l] + (int64_t)t->key[b]] = b;
-        }
-    }
-    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) reduction(| : overflow))
-    for (int32_t k = 0; k < nk; k++) {
-        const int32_t b0 = (int32_t)((int64_t)nb * k / nk), b1 = (int32_t)((int64_t)nb * (k + 1) / nk);
-        int32_t c;
-        for (c = b0; c < b1; c++) {
-            kifmm__lists L;
-            if (t->t1[c] == t->t0[c]) continue;
-            kifmm__box_lists(t, c, &L);
-            overflow |= L.overflow;
-            t->uo[c + 1] = L.nu; t->vo[c + 1] = L.nv;
-            t->wo[c + 1] = L.nw; t->xo[c + 1] = L.nx;
-            kifmm__lbuf_put(&buf[k], 0, L.u, L.nu, NULL);
-            if (vlists) kifmm__lbuf_put(&buf[k], 1, L.v, L.nv, L.vt);
-            kifmm__lbuf_put(&buf[k], 2, L.w, L.nw, NULL);
-            kifmm__lbuf_put(&buf[k], 3, L.x, L.nx, NULL);
-        }
-    }
-    kifmm__free(t->dix);
-    t->dix = NULL;
-    for (k = 0; k < nk; k++) fail |= buf[k].fail;
-    if (!overflow && !fail) {
-        for (j = 0; j < 4; j++)
-            for (b = 0; b < nb; b++) off[j][b + 1] += off[j][b];
-        t->u = (int32_t *)kifmm__alloc((size_t)t->uo[nb] + 1, sizeof(int32_t));
-        if (vlists) {
-            t->v = (int32_t *)kifmm__alloc((size_t)t->vo[nb] + 1, sizeof(int32_t));
-            t->vt = (uint16_t *)kifmm__alloc((size_t)t->vo[nb] + 1, sizeof(uint16_t));
-        }
-        t->w = (int32_t *)kifmm__alloc((size_t)t->wo[nb] + 1, sizeof(int32_t));
-        t->x = (int32_t *)kifmm__alloc((size_t)t->xo[nb] + 1, sizeof(int32_t));
-        fail = !t->u || (vlists && (!t->v || !t->vt)) || !t->w || !t->x;
-    }
-    if (!overflow && !fail) {
-        int32_t *dst[4];
-        dst[0] = t->u; dst[1] = t->v; dst[2] = t->w; dst[3] = t->x;
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (int32_t k = 0; k < nk; k++) {
-            const int32_t b0 = (int32_t)((int64_t)nb * k / nk);
-            int m;
-            for (m = 0; m < 4; m++)
-                if (buf[k].n[m]) memcpy(dst[m] + off[m][b0], buf[k].a[m], buf[k].n[m] * sizeof(int32_t));
-            if (buf[k].n[1]) memcpy(t->vt + t->vo[b0], buf[k].vt, buf[k].n[1] * sizeof(uint16_t));
-        }
-    }
-    for (k = 0; k < nk; k++) {
-        for (j = 0; j < 4; j++) kifmm__free(buf[k].a[j]);
-        kifmm__free(buf[k].vt);
-    }
-    kifmm__free(buf);
-    if (overflow) return KIFMM_ERR_INTERNAL;
-    if (fail) return KIFMM_ERR_NOMEM;
-    /* per level, the boxes that receive M2L; and the leaves with targets */
-    t->m2lo = (int32_t *)kifmm__calloc((size_t)t->nlev + 1, sizeof(int32_t));
-    t->m2l = (int32_t *)kifmm__alloc((size_t)nb + 1, sizeof(int32_t));
-    t->leaves = (int32_t *)kifmm__alloc((size_t)nb + 1, sizeof(int32_t));
-    if (!t->m2lo || !t->m2l || !t->leaves) return KIFMM_ERR_NOMEM;
+    const int32_t nb = t->nbox;
+    int32_t b, stk[8 * (KIFMM__D + 2)], sp = 0;
+    int l, o;
+    t->m2lo = (int32_t *)kifmm__takez(&t->held, (size_t)t->nlev + 1, sizeof(int32_t));
+    t->m2l = (int32_t *)kifmm__take(&t->held, (size_t)nb + 1, sizeof(int32_t));
+    t->leaves = (int32_t *)kifmm__take(&t->held, (size_t)nb + 1, sizeof(int32_t));
+    t->dsrc = (int32_t *)kifmm__take(&t->held, (size_t)nb + 1, sizeof(int32_t));
+    if (!t->m2lo || !t->m2l || !t->leaves || !t->dsrc) return KIFMM_ERR_NOMEM;
     for (l = 0; l < t->nlev; l++) {
         t->m2lo[l + 1] = t->m2lo[l];
         for (b = t->loff[l]; b < t->loff[l + 1]; b++)
             if (t->vo[b + 1] > t->vo[b]) t->m2l[t->m2lo[l + 1]++] = b;
     }
-    /* leaves in Morton order (depth first, children in key order), which is
-     * the order of their points */
     t->nleaves = 0;
-    if (nb > 0) {
-        int32_t stk[8 * (KIFMM__D + 2)], sp = 0;
-        stk[sp++] = 0;
-        while (sp > 0) {
-            int o;
-            b = stk[--sp];
-            if (t->t1[b] == t->t0[b]) continue;
-            if (t->child[b] < 0) t->leaves[t->nleaves++] = b;
-            else
-                for (o = 7; o >= 0; o--) stk[sp++] = t->child[b] + o;
-        }
+    if (nb > 0) stk[sp++] = 0;
+    while (sp > 0) {
+        b = stk[--sp];
+        if (t->t1[b] == t->t0[b]) continue;
+        if (t->child[b] < 0) t->leaves[t->nleaves++] = b;
+        else
+            for (o = 7; o >= 0; o--) stk[sp++] = t->child[b] + o;
     }
-    /* which box's local expansion serves each box (the handle redoes this
-     * with its X threshold) */
-    t->dsrc = (int32_t *)kifmm__alloc((size_t)nb, sizeof(int32_t));
-    if (!t->dsrc) return KIFMM_ERR_NOMEM;
     kifmm__tree_dsrc(t, 0);
     return KIFMM_SUCCESS;
 }
 
-/* Build the tree: bounding cube, sorted points, top-down refinement while a
- * box holds more than `leaf` sources or targets, 2:1 balance, lists. */
-KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
-                                const double *trg, int leaf, int maxdepth, int nth, int vlists)
+/* The lists of every box with targets (U, V, W, X as offsets and entries),
+ * then what the passes derive from them. */
+KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
 {
-    double lo[3], hi[3], half = 0.0;
-    uint64_t *skey = NULL, *tkey = NULL;
-    kifmm__keys in[KIFMM__D + 1];
-    int d, l, rc = KIFMM_SUCCESS, deepest = 0;
-    int32_t nb, b;
-    size_t nbz;
-    memset(in, 0, sizeof in);
-    memset(t, 0, sizeof *t);
-    t->ns = ns;
-    t->nt = nt;
-    for (d = 0; d < 3; d++) {
-        double mn = HUGE_VAL, mx = -HUGE_VAL;
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
-        for (int64_t i = 0; i < ns + nt; i++) {
-            double v = i < ns ? src[3 * i + d] : trg[3 * (i - ns) + d];
-            mn = v < mn ? v : mn;
-            mx = v > mx ? v : mx;
-        }
-        lo[d] = mn;
-        hi[d] = mx;
+    const int32_t nb = t->nbox;
+    int32_t nk = 16 * (nth > 0 ? nth : 1), k;
+    int rc = KIFMM_SUCCESS, j;
+    kifmm__lbuf *buf;
+    if (nk > nb) nk = nb;
+    t->uo = (int32_t *)kifmm__takez(&t->held, (size_t)nb + 1, sizeof(int32_t));
+    t->vo = (int32_t *)kifmm__takez(&t->held, (size_t)nb + 1, sizeof(int32_t));
+    t->wo = (int32_t *)kifmm__takez(&t->held, (size_t)nb + 1, sizeof(int32_t));
+    t->xo = (int32_t *)kifmm__takez(&t->held, (size_t)nb + 1, sizeof(int32_t));
+    buf = (kifmm__lbuf *)kifmm__calloc((size_t)nk, sizeof(kifmm__lbuf));
+    if (!t->uo || !t->vo || !t->wo || !t->xo || !buf) {
+        kifmm__free(buf);
+        return KIFMM_ERR_NOMEM;
     }
-    for (d = 0; d < 3; d++)
-        if (0.5 * (hi[d] - lo[d]) > half) half = 0.5 * (hi[d] - lo[d]);
-    if (!(half > 0.0)) half = 0.5;
-    half *= 1.0 + 1e-10;
-    for (d = 0; d < 3; d++) {
-        /* shift an axis only where the shift is exact: with |centre| >= the
-         * root's width, every coordinate lies within a factor 2 of the
-         * centre, so x - centre is exact (Sterbenz). Elsewhere the points
-         * keep their own coordinates, whose differences are exact for
-         * nearby points, and the cloud is within a width of the origin
-         * anyway, so surfaces lose at most a bit or two there. */
-        const double c = 0.5 * (lo[d] + hi[d]);
-        t->origin[d] = fabs(c) >= 2.0 * half ? c : 0.0;
-        t->lo[d] = (c - t->origin[d]) - half;
+    kifmm__lists_index(t, nth);
+    if (kifmm__lists_collect(t, nth, vlists, nk, buf)) rc = KIFMM_ERR_INTERNAL;
+    kifmm__free(t->dix);
+    t->dix = NULL;
+    for (k = 0; k < nk && !rc; k++)
+        if (buf[k].fail) rc = KIFMM_ERR_NOMEM;
+    if (!rc) rc = kifmm__lists_assemble(t, nth, vlists, nk, buf);
+    for (k = 0; k < nk; k++) {
+        for (j = 0; j < 4; j++) kifmm__free(buf[k].a[j]);
+        kifmm__free(buf[k].vt);
     }
-    t->width = 2.0 * half;
-
-    rc = kifmm__sort_points(t, ns, src, &t->src, &t->sperm, &skey, nth);
-    if (!rc && trg == src && nt == ns) {
-        /* targets = sources: the sorted sources serve as both */
-        t->same = 1;
-        t->trg = t->src;
-        t->tperm = t->sperm;
-        tkey = skey;
-    } else if (!rc) {
-        rc = kifmm__sort_points(t, nt, trg, &t->trg, &t->tperm, &tkey, nth);
-    }
-    if (rc) goto done;
-
-    /* top down: in[l] holds the keys of the boxes of level l that split */
-    {
-        kifmm__keys cur = {0, 0, 0}, next = {0, 0, 0};
-        unsigned char *split = NULL;
-        if ((rc = kifmm__keys_push(&cur, 0))) goto topdone;
-        for (l = 0; l < maxdepth && cur.n > 0; l++) {
-            int sh = 3 * (KIFMM__D - l);
-            int64_t j;
-            kifmm__free(split);
-            split = (unsigned char *)kifmm__alloc((size_t)cur.n, 1);
-            if (!split) { rc = KIFMM_ERR_NOMEM; goto topdone; }
-            KIFMM__OMP(parallel for schedule(dynamic, 256) num_threads(nth))
-            for (int64_t j = 0; j < cur.n; j++) {
-                uint64_t k0 = cur.a[j] << sh, k1 = (cur.a[j] + 1) << sh;
-                int64_t fs = kifmm__lower_bound(skey, ns, k0), ft = kifmm__lower_bound(tkey, nt, k0);
-                int64_t cs = kifmm__lower_bound(skey, ns, k1) - fs;
-                int64_t ct = kifmm__lower_bound(tkey, nt, k1) - ft;
-                split[j] = 1;
-                if (cs <= leaf && ct <= leaf) split[j] = 0;
-                /* points that share one finest key never separate: keep a leaf */
-                else if ((cs == 0 || skey[fs] == skey[fs + cs - 1]) &&
-                         (ct == 0 || tkey[ft] == tkey[ft + ct - 1]) &&
-                         (cs == 0 || ct == 0 || skey[fs] == tkey[ft]))
-                    split[j] = 0;
-            }
-            next.n = 0;
-            for (j = 0; j < cur.n; j++) {
-                int o;
-                if (!split[j]) continue;
-                if ((rc = kifmm__keys_push(&in[l], cur.a[j]))) goto topdone;
-                for (o = 0; o < 8; o++)
-                    if ((rc = kifmm__keys_push(&next, cur.a[j] << 3 | (uint64_t)o))) goto topdone;
-            }
-            { kifmm__keys tmp = cur; cur = next; next = tmp; }
-        }
-    topdone:
-        kifmm__free(split);
-        kifmm__free(cur.a);
-        kifmm__free(next.a);
-        if (rc) goto done;
-    }
-    for (l = 0; l <= KIFMM__D; l++)
-        if (in[l].n > 0) deepest = l + 1;
-
-    /* 2:1 balance, finest level first: every neighbour of a box of level l
-     * must lie in a box of level l - 1, i.e. its grandparent must split.
-     * Missing grandparents are marked in parallel (one flag per box of level
-     * l and neighbour), then appended in order. */
-    for (l = deepest; l >= 2; l--) {
-        int64_t j, side = (int64_t)1 << l, n0 = in[l - 2].n, nb8 = 8 * in[l - 1].n;
-        uint64_t *need = (uint64_t *)kifmm__alloc((size_t)nb8 * 27 + 1, sizeof(uint64_t));
-        if (!need) { rc = KIFMM_ERR_NOMEM; goto done; }
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (int64_t j = 0; j < nb8; j++) {
-            int64_t a[3];
-            int dx, dy, dz, m = 0;
-            kifmm__decode(in[l - 1].a[j >> 3] << 3 | (uint64_t)(j & 7), a);
-            for (dx = -1; dx <= 1; dx++)
-                for (dy = -1; dy <= 1; dy++)
-                    for (dz = -1; dz <= 1; dz++) {
-                        int64_t x = a[0] + dx, y = a[1] + dy, z = a[2] + dz, pos;
-                        uint64_t g = UINT64_MAX;
-                        if (x >= 0 && y >= 0 && z >= 0 && x < side && y < side && z < side) {
-                            g = kifmm__encode(x, y, z) >> 6;
-                            pos = kifmm__lower_bound(in[l - 2].a, n0, g);
-                            if (pos < n0 && in[l - 2].a[pos] == g) g = UINT64_MAX;
-                        }
-                        need[27 * j + m++] = g;
-                    }
-        }
-        for (j = 0; j < 27 * nb8; j++)
-            if (need[j] != UINT64_MAX && (rc = kifmm__keys_push(&in[l - 2], need[j]))) break;
-        kifmm__free(need);
-        if (rc) goto done;
-        if (in[l - 2].n > n0) kifmm__keys_unique(&in[l - 2]);
-    }
-
-    /* lay the boxes out level by level */
-    t->nlev = deepest + 1;
-    {
-        int64_t total = 1;
-        for (l = 0; l < deepest; l++) total += 8 * in[l].n;
-        if (total > INT32_MAX / 8) { rc = KIFMM_ERR_NOMEM; goto done; }
-        nb = (int32_t)total;
-        nbz = (size_t)total;
-    }
-    t->nbox = nb;
-    t->key = (uint64_t *)kifmm__alloc(nbz, sizeof(uint64_t));
-    t->child = (int32_t *)kifmm__alloc(nbz, sizeof(int32_t));
-    t->inner = (int32_t *)kifmm__alloc(nbz, sizeof(int32_t));
-    t->parent = (int32_t *)kifmm__alloc(nbz, sizeof(int32_t));
-    t->anchor = (int32_t *)kifmm__alloc(3 * nbz, sizeof(int32_t));
-    t->lev = (unsigned char *)kifmm__alloc(nbz, 1);
-    t->s0 = (int64_t *)kifmm__alloc(nbz, sizeof(int64_t));
-    t->s1 = (int64_t *)kifmm__alloc(nbz, sizeof(int64_t));
-    t->t0 = (int64_t *)kifmm__alloc(nbz, sizeof(int64_t));
-    t->t1 = (int64_t *)kifmm__alloc(nbz, sizeof(int64_t));
-    if (!t->key || !t->child || !t->inner || !t->parent || !t->anchor || !t->lev || !t->s0 || !t->s1 || !t->t0 || !t->t1) {
-        rc = KIFMM_ERR_NOMEM;
-        goto done;
-    }
-    t->loff[0] = 0;
-    t->loff[1] = 1;
-    t->key[0] = 0;
-    t->parent[0] = -1;
-    for (l = 1; l < t->nlev; l++) {
-        int32_t c = t->loff[l];
-        int64_t j;
-        for (j = 0; j < in[l - 1].n; j++) {
-            int o;
-            for (o = 0; o < 8; o++) t->key[c++] = in[l - 1].a[j] << 3 | (uint64_t)o;
-        }
-        t->loff[l + 1] = c;
-    }
-    for (l = t->nlev + 1; l <= KIFMM__D + 1; l++) t->loff[l] = t->loff[t->nlev];
-    t->ioff[0] = 0;
-    for (l = 0; l < t->nlev; l++) {
-        int64_t j = 0;
-        t->ioff[l + 1] = t->ioff[l];
-        for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
-            while (j < in[l].n && in[l].a[j] < t->key[b]) j++;
-            if (j < in[l].n && in[l].a[j] == t->key[b]) {
-                int o;
-                t->child[b] = t->loff[l + 1] + (int32_t)(8 * j);
-                for (o = 0; o < 8; o++) t->parent[t->child[b] + o] = b;
-                t->inner[t->ioff[l + 1]++] = b;
-            } else {
-                t->child[b] = -1;
-            }
-        }
-    }
-    for (l = t->nlev + 1; l <= KIFMM__D + 1; l++) t->ioff[l] = t->ioff[t->nlev];
-    for (l = 0; l < t->nlev; l++) {
-        int sh = 3 * (KIFMM__D - l);
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
-            int64_t a[3];
-            kifmm__decode(t->key[b], a);
-            t->anchor[3 * (size_t)b] = (int32_t)a[0];
-            t->anchor[3 * (size_t)b + 1] = (int32_t)a[1];
-            t->anchor[3 * (size_t)b + 2] = (int32_t)a[2];
-            t->lev[b] = (unsigned char)l;
-            uint64_t k0 = t->key[b] << sh, k1 = (t->key[b] + 1) << sh;
-            t->s0[b] = kifmm__lower_bound(skey, ns, k0);
-            t->s1[b] = kifmm__lower_bound(skey, ns, k1);
-            t->t0[b] = kifmm__lower_bound(tkey, nt, k0);
-            t->t1[b] = kifmm__lower_bound(tkey, nt, k1);
-        }
-    }
-    rc = kifmm__tree_lists(t, nth, vlists);
-done:
-    for (l = 0; l <= KIFMM__D; l++) kifmm__free(in[l].a);
-    kifmm__free(skey);
-    if (tkey != skey) kifmm__free(tkey);
-    return rc;
+    kifmm__free(buf);
+    return rc ? rc : kifmm__lists_derived(t);
 }
 
-/* ---- operators (built in double for every instance) --------------------- */
-
-/* Operators of one level, built with the target box's half-width. Check
- * vectors have nc entries, equivalent densities ne (points x components). */
-typedef struct kifmm__ops {
-    double sigma;           /* scale of the check potentials (see build_c2e) */
-    int ku, kd;             /* ranks kept by the two pseudo-inverses */
-    double *ut_up, *vs_up;  /* pinv K(up check <- up equiv) = vs_up ut_up */
-    double *ut_dn, *vs_dn;  /* pinv K(down check <- down equiv) */
-    double *m2m;            /* nc x 8 ne: children's equiv -> parent's check */
-    double *l2l;            /* 8 nc x ne: parent's equiv -> children's check */
-    double *m2l;            /* kd x 316 ne: source equiv -> ut_dn (target check) */
-    double *conv;           /* FFT M2L, nc x ne: upward equivalent density -> a density
-                               on the check surface's lattice (1.05 r) with the same
-                               field outside the upward check surface */
-    double *khat;           /* FFT M2L: the 316 kernel spectra on that lattice,
-                               frequency-major: khat[(f 316 + t) 2] (re, im) */
-} kifmm__ops;
-
-KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
+/* Internal neighbours ("colleagues") of every internal box of level l - 1,
+ * for the M2L into level l: for the j-th internal box of level l - 1, the
+ * internal indices (relative to the level) of its adjacent internal boxes
+ * at that level and their offset codes (not 13, the box itself). CSR over
+ * all internal boxes in the order of t->inner. */
+KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, size_t *held, int32_t **co_out,
+                                int32_t **cj_out, unsigned char **cc_out)
 {
-    kifmm__free(o->ut_up); kifmm__free(o->vs_up);
-    kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
-    kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
-    kifmm__free(o->conv); kifmm__free(o->khat);
-    memset(o, 0, sizeof *o);
+    int32_t ni = t->ioff[t->nlev], i, *co, *cj;
+    unsigned char *cc;
+    int pass;
+    co = (int32_t *)kifmm__takez(held, (size_t)ni + 1, sizeof(int32_t));
+    cj = (int32_t *)kifmm__take(held, (size_t)ni * 26 + 1, sizeof(int32_t));
+    cc = (unsigned char *)kifmm__take(held, (size_t)ni * 26 + 1, 1);
+    *co_out = co; *cj_out = cj; *cc_out = cc;
+    if (!co || !cj || !cc) return KIFMM_ERR_NOMEM;
+    (void)nth;
+    for (pass = 0; pass < 2; pass++) {
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
+        for (int32_t i = 0; i < ni; i++) {
+            int32_t p = t->inner[i], m = 0;
+            int l = t->lev[p], o;
+            int64_t side = (int64_t)1 << l;
+            const int32_t *a = t->anchor + 3 * (size_t)p;
+            for (o = 0; o < 27; o++) {
+                int64_t x = a[0] + o / 9 - 1, y = a[1] + o / 3 % 3 - 1, z = a[2] + o % 3 - 1;
+                int32_t q;
+                if (o == 13 || x < 0 || y < 0 || z < 0 || x >= side || y >= side || z >= side)
+                    continue;
+                q = kifmm__find(t, l, kifmm__encode(x, y, z));
+                if (q < 0 || t->child[q] < 0) continue;
+                if (pass == 1) {
+                    cj[co[i] + m] = (t->child[q] - t->loff[l + 1]) / 8;
+                    cc[co[i] + m] = (unsigned char)o;
+                }
+                m++;
+            }
+            if (pass == 0) co[i + 1] = m;
+        }
+        if (pass == 0)
+            for (i = 0; i < ni; i++) co[i + 1] += co[i];
+    }
+    return KIFMM_SUCCESS;
 }
 
 /* The most sources or targets in one leaf. */
@@ -1627,9 +1699,9 @@ KIFMM__FN int kifmm__max_level_boxes(const kifmm__tree *t)
  * downward solve: no target reads the others' local expansions), and
  * a[2 nbox + 2 l] and a[2 nbox + 2 l + 1] count them. On surfaces and in
  * clusters about half the boxes are empty. NULL if out of memory. */
-KIFMM__FN int32_t *kifmm__active(const kifmm__tree *t)
+KIFMM__FN int32_t *kifmm__active(const kifmm__tree *t, size_t *held)
 {
-    int32_t *a = (int32_t *)kifmm__alloc(2 * (size_t)t->nbox + 2 * (size_t)t->nlev,
+    int32_t *a = (int32_t *)kifmm__take(held, 2 * (size_t)t->nbox + 2 * (size_t)t->nlev,
                                          sizeof(int32_t));
     int l;
     if (!a) return NULL;
@@ -1645,7 +1717,102 @@ KIFMM__FN int32_t *kifmm__active(const kifmm__tree *t)
     return a;
 }
 
-/* ---- FFT M2L (kernels with one density component) ----------------------- */
+// >>surfaces
+
+/* Number of points on the surface of a p x p x p grid: 6 (p-1)^2 + 2. */
+KIFMM__FN int kifmm__surf_count(int p) { return 6 * (p - 1) * (p - 1) + 2; }
+
+/* The surface grid points on [-1, 1]^3, structure of arrays (x[n], y[n], z[n]). */
+KIFMM__FN void kifmm__surf_unit(int p, double *s)
+{
+    int n = kifmm__surf_count(p), c = 0, i, j, k;
+    for (i = 0; i < p; i++)
+        for (j = 0; j < p; j++)
+            for (k = 0; k < p; k++) {
+                if (i != 0 && i != p - 1 && j != 0 && j != p - 1 && k != 0 && k != p - 1)
+                    continue;
+                s[c] = -1.0 + 2.0 * i / (p - 1);
+                s[n + c] = -1.0 + 2.0 * j / (p - 1);
+                s[2 * n + c] = -1.0 + 2.0 * k / (p - 1);
+                c++;
+            }
+}
+
+/* Unit surface scaled by `radius` and moved to `c`, into out (SoA, n points). */
+KIFMM__FN void kifmm__surf_place(const double *unit, int n, const double *c, double radius,
+                                 double *out)
+{
+    int i, d;
+    for (d = 0; d < 3; d++)
+        for (i = 0; i < n; i++) out[d * n + i] = c[d] + radius * unit[d * n + i];
+}
+
+/* Surface radii in units of the box half-width. */
+#define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
+/* upward check, downward equivalent: 2.95 with check surfaces of order p + 1,
+ * 4.5 with order p (see kifmm__check_diff) */
+#define KIFMM__ALPHA_OUTER_LSQ 2.95
+#define KIFMM__ALPHA_OUTER_SQUARE 4.5
+
+/* The check surfaces' order minus the equivalent surfaces' order p, for an
+ * instance with the FFT M2L (fft) or not. With the FFT M2L up to order
+ * KIFMM_SQUARE_MAX_ORDER: 0, with the outer surfaces at 4.5 box half-widths
+ * (check and equivalent surfaces of the same order, square systems), whose
+ * M2L runs on a (2p - 1)^3 grid instead of (2p + 1)^3: half the frequencies
+ * at p = 4, 0.6 times at p = 6. Measured against order p + 1 at 2.95 on
+ * uniform, sphere, clustered and separate point sets (p = 4, 6, 7; p = 2,
+ * 3, 5 at radius 3.5), the errors are the same or smaller
+ * (docs/algorithm.md). From order 8 on the square systems lose digits (at
+ * radius 3.5), and Stokes (dense M2L) loses them at every order: 1 there.
+ * A definition of KIFMM_CHECK_ORDER_DIFF before the include applies to every
+ * order and kernel (the outer radius 4.5 when it is 0, 2.95 otherwise). */
+KIFMM__FN int kifmm__check_diff(int p, int fft)
+{
+#ifdef KIFMM_CHECK_ORDER_DIFF
+    (void)p;
+    (void)fft;
+    return KIFMM_CHECK_ORDER_DIFF;
+#else
+    return fft && p <= KIFMM_SQUARE_MAX_ORDER ? 0 : 1;
+#endif
+}
+
+KIFMM__FN double kifmm__alpha_outer(int diff)
+{
+    return diff == 0 ? KIFMM__ALPHA_OUTER_SQUARE : KIFMM__ALPHA_OUTER_LSQ;
+}
+
+
+/* ---- operators in double (every instance builds its own) ------------------ */
+
+/* Operators of one level, built with the target box's half-width. Check
+ * vectors have nc entries, equivalent densities ne (points x components). */
+typedef struct kifmm__ops {
+    double sigma;           /* scale of the check potentials (see build_c2e) */
+    int ku, kd;             /* ranks kept by the two pseudo-inverses */
+    double *ut_up, *vs_up;  /* pinv K(up check <- up equiv) = vs_up ut_up */
+    double *ut_dn, *vs_dn;  /* pinv K(down check <- down equiv) */
+    double *m2m;            /* nc x 8 ne: children's equiv -> parent's check */
+    double *l2l;            /* 8 nc x ne: parent's equiv -> children's check */
+    double *m2l;            /* kd x 316 ne: source equiv -> ut_dn (target check) */
+    double *conv;           /* FFT M2L, nc x ne: upward equivalent density -> a density
+                               on the check surface's lattice (1.05 r) with the same
+                               field outside the upward check surface */
+    double *khat;           /* FFT M2L: the 316 kernel spectra on that lattice,
+                               frequency-major: khat[(f 316 + t) 2] (re, im) */
+} kifmm__ops;
+
+KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
+{
+    kifmm__free(o->ut_up); kifmm__free(o->vs_up);
+    kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
+    kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
+    kifmm__free(o->conv); kifmm__free(o->khat);
+    memset(o, 0, sizeof *o);
+}
+
+
+// >>fft
 
 /* The downward check surface (order q = p + kifmm__check_diff(p, 1), radius
  * 1.05 r) is the boundary of a q^3 lattice of spacing h = 2.1 r / (q - 1).
@@ -1680,7 +1847,7 @@ KIFMM__FN void kifmm__fft_free(kifmm__fft *pl)
     memset(pl, 0, sizeof *pl);
 }
 
-KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p)
+KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p, size_t *held)
 {
     int n = 2 * p - 1, nh = n / 2 + 1, a, b, c = 0, i, j, k;
     memset(pl, 0, sizeof *pl);
@@ -1688,10 +1855,10 @@ KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p)
     pl->nchunk = (pl->nf + KIFMM__FFT_F - 1) / KIFMM__FFT_F;
     pl->nfp = pl->nchunk * KIFMM__FFT_F;
     pl->ne = kifmm__surf_count(p);
-    pl->ijk = (int *)kifmm__alloc((size_t)3 * pl->ne, sizeof(int));
-    pl->wr = (double *)kifmm__alloc((size_t)n * n, sizeof(double));
-    pl->wi = (double *)kifmm__alloc((size_t)n * n, sizeof(double));
-    pl->wz = (double *)kifmm__alloc((size_t)nh, sizeof(double));
+    pl->ijk = (int *)kifmm__take(held, (size_t)3 * pl->ne, sizeof(int));
+    pl->wr = (double *)kifmm__take(held, (size_t)n * n, sizeof(double));
+    pl->wi = (double *)kifmm__take(held, (size_t)n * n, sizeof(double));
+    pl->wz = (double *)kifmm__take(held, (size_t)nh, sizeof(double));
     if (!pl->ijk || !pl->wr || !pl->wi || !pl->wz) return KIFMM_ERR_NOMEM;
     /* the order of kifmm__surf_unit */
     for (i = 0; i < p; i++)
@@ -1771,145 +1938,6 @@ KIFMM__FN size_t kifmm__fft_work8(const kifmm__fft *pl)
                                                  (size_t)pl->p * pl->p);
 }
 
-/* The batched transforms, for work arrays of type T (suffix SFX): double,
- * and float where the spectra are float (the products' precision).
- *
- * kifmm__caxpy: d += x w over n complex values in split form (dr, di +=
- * (xr, xi) (w0 + i w1)), the one step of every separable DFT stage.
- *
- * kifmm__fft_forward8: spectra of 8 surface densities at once, m[s 8 + v]
- * (lane v = child v), into out: frequency f of lane v goes to out[(f / F)
- * cstride + (f % F) 16 + v] (re) and 8 further (im), the layout of the
- * products. Pruned: only the p^3 lattice is nonzero. Every stage is a loop
- * over the 8 lanes with the same twiddle, which compilers vectorise.
- *
- * kifmm__fft_inverse8: 8 half spectra addressed as above -> the values at
- * the ne lattice surface points, chk[s 8 + v]. */
-#define KIFMM__FFT_XFORMS(T, SFX)                                                              \
-    KIFMM__FN void kifmm__caxpy##SFX(int n, T w0, T w1, const T *KIFMM__RESTRICT xr,           \
-                                     const T *KIFMM__RESTRICT xi, T *KIFMM__RESTRICT dr,       \
-                                     T *KIFMM__RESTRICT di)                                    \
-    {                                                                                          \
-        int q, v;                                                                              \
-        for (q = 0; q < n; q += KIFMM__FFT_L) /* n is a multiple of the 8 lanes */            \
-            for (v = q; v < q + KIFMM__FFT_L; v++) {                                           \
-                dr[v] += xr[v] * w0 - xi[v] * w1;                                              \
-                di[v] += xr[v] * w1 + xi[v] * w0;                                              \
-            }                                                                                  \
-    }                                                                                          \
-    /* d = sum_j x_j (wr + i sg wi)[j ws] over nin inputs x_j = x + j xs (len values) */      \
-    KIFMM__FN void kifmm__dft_sum##SFX(int len, int nin, const double *wr, const double *wi,   \
-                                       int ws, double sg, const T *xr, const T *xi, size_t xs, \
-                                       T *dr, T *di)                                           \
-    {                                                                                          \
-        int j;                                                                                 \
-        memset(dr, 0, sizeof(T) * (size_t)len);                                                \
-        memset(di, 0, sizeof(T) * (size_t)len);                                                \
-        for (j = 0; j < nin; j++)                                                              \
-            kifmm__caxpy##SFX(len, (T)wr[j * ws], (T)(sg * wi[j * ws]), xr + j * xs,           \
-                              xi + j * xs, dr, di);                                            \
-    }                                                                                          \
-    KIFMM__FN void kifmm__fft_forward8##SFX(const kifmm__fft *pl, const double *m, void *out,  \
-                                            size_t cstride, T *work)                           \
-    {                                                                                          \
-        const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;                         \
-        int s, i, kx, ky, kz, q, v;                                                            \
-        T *s1r = work, *s1i = s1r + L * p * p * nh, *s2r = s1i + L * p * p * nh;               \
-        T *s2i = s2r + L * p * n * nh, *tr = s2i + L * p * n * nh, *ti = tr + L * n * nh;      \
-        memset(s1r, 0, sizeof(T) * 2 * L * p * p * nh);                                        \
-        for (s = 0; s < pl->ne; s++) {                                                         \
-            int a = pl->ijk[3 * s], b = pl->ijk[3 * s + 1], c = pl->ijk[3 * s + 2];            \
-            T mv[KIFMM__FFT_L], *r = s1r + L * (a * p + b) * nh, *im = s1i + L * (a * p + b) * nh; \
-            for (v = 0; v < L; v++) mv[v] = (T)m[L * s + v];                                   \
-            for (kz = 0; kz < nh; kz++) {                                                      \
-                const T w0 = (T)pl->wr[kz * n + c], w1 = (T)pl->wi[kz * n + c];                \
-                for (v = 0; v < L; v++) {                                                      \
-                    r[L * kz + v] += mv[v] * w0;                                               \
-                    im[L * kz + v] += mv[v] * w1;                                              \
-                }                                                                              \
-            }                                                                                  \
-        }                                                                                      \
-        for (i = 0; i < p; i++)                                                                \
-            for (ky = 0; ky < n; ky++)                                                         \
-                kifmm__dft_sum##SFX(L * nh, p, pl->wr + ky * n, pl->wi + ky * n, 1, 1.0,       \
-                                    s1r + L * i * p * nh, s1i + L * i * p * nh, (size_t)L * nh, \
-                                    s2r + L * (i * n + ky) * nh, s2i + L * (i * n + ky) * nh); \
-        for (kx = 0; kx < n; kx++) {                                                           \
-            const int f0 = kx * n * nh;                                                        \
-            kifmm__dft_sum##SFX(L * n * nh, p, pl->wr + kx * n, pl->wi + kx * n, 1, 1.0, s2r,  \
-                                s2i, (size_t)L * n * nh, tr, ti);                              \
-            for (q = 0; q < n * nh; q++) {                                                     \
-                const int f = f0 + q;                                                          \
-                const size_t a =                                                               \
-                    (size_t)(f / KIFMM__FFT_F) * cstride + (size_t)(f % KIFMM__FFT_F) * 16;    \
-                if (pl->single) {                                                              \
-                    float *o = (float *)out + a;                                               \
-                    for (v = 0; v < L; v++) {                                                  \
-                        o[v] = (float)tr[L * q + v];                                           \
-                        o[8 + v] = (float)ti[L * q + v];                                       \
-                    }                                                                          \
-                } else {                                                                       \
-                    double *o = (double *)out + a;                                             \
-                    for (v = 0; v < L; v++) {                                                  \
-                        o[v] = (double)tr[L * q + v];                                          \
-                        o[8 + v] = (double)ti[L * q + v];                                      \
-                    }                                                                          \
-                }                                                                              \
-            }                                                                                  \
-        }                                                                                      \
-    }                                                                                          \
-    KIFMM__FN void kifmm__fft_inverse8##SFX(const kifmm__fft *pl, const void *in, size_t cstride, \
-                                            double *chk, T *work)                              \
-    {                                                                                          \
-        const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;                         \
-        int i, j, k, kz, q, s, v;                                                              \
-        T *yr = work, *yi = yr + L * n * n * nh, *t1r = yi + L * n * n * nh;                   \
-        T *t1i = t1r + L * p * n * nh, *t2r = t1i + L * p * n * nh, *t2i = t2r + L * p * p * nh; \
-        for (q = 0; q < pl->nf; q++) {                                                         \
-            const size_t a =                                                                   \
-                (size_t)(q / KIFMM__FFT_F) * cstride + (size_t)(q % KIFMM__FFT_F) * 16;        \
-            if (pl->single) {                                                                  \
-                const float *x = (const float *)in + a;                                        \
-                for (v = 0; v < L; v++) {                                                      \
-                    yr[L * q + v] = (T)x[v];                                                   \
-                    yi[L * q + v] = (T)x[8 + v];                                               \
-                }                                                                              \
-            } else {                                                                           \
-                const double *x = (const double *)in + a;                                      \
-                for (v = 0; v < L; v++) {                                                      \
-                    yr[L * q + v] = (T)x[v];                                                   \
-                    yi[L * q + v] = (T)x[8 + v];                                               \
-                }                                                                              \
-            }                                                                                  \
-        }                                                                                      \
-        for (i = 0; i < p; i++)                                                                \
-            kifmm__dft_sum##SFX(L * n * nh, n, pl->wr + i, pl->wi + i, n, -1.0, yr, yi,        \
-                                (size_t)L * n * nh, t1r + L * i * n * nh, t1i + L * i * n * nh); \
-        for (i = 0; i < p; i++)                                                                \
-            for (j = 0; j < p; j++)                                                            \
-                kifmm__dft_sum##SFX(L * nh, n, pl->wr + j, pl->wi + j, n, -1.0,                \
-                                    t1r + L * i * n * nh, t1i + L * i * n * nh, (size_t)L * nh, \
-                                    t2r + L * (i * p + j) * nh, t2i + L * (i * p + j) * nh);   \
-        for (s = 0; s < pl->ne; s++) {                                                         \
-            T acc[KIFMM__FFT_L];                                                               \
-            const T *xr, *xi;                                                                  \
-            i = pl->ijk[3 * s]; j = pl->ijk[3 * s + 1]; k = pl->ijk[3 * s + 2];                \
-            xr = t2r + L * (i * p + j) * nh;                                                   \
-            xi = t2i + L * (i * p + j) * nh;                                                   \
-            for (v = 0; v < L; v++) acc[v] = 0;                                                \
-            for (kz = 0; kz < nh; kz++) {                                                      \
-                const T w0 = (T)(pl->wz[kz] * pl->wr[kz * n + k]);                             \
-                const T w1 = (T)(pl->wz[kz] * pl->wi[kz * n + k]);                             \
-                for (v = 0; v < L; v++) acc[v] += xr[L * kz + v] * w0 + xi[L * kz + v] * w1;   \
-            }                                                                                  \
-            for (v = 0; v < L; v++) chk[L * s + v] = (double)acc[v];                           \
-        }                                                                                      \
-    }
-
-KIFMM__FFT_XFORMS(double, )
-KIFMM__FFT_XFORMS(float, f)
-#undef KIFMM__FFT_XFORMS
-
 /* Transfer vector of each child pair of two parents at offset o (0..26,
  * (ox+1) 9 + (oy+1) 3 + (oz+1)): tv[(o 8 + cs) 8 + ct], -1 if adjacent. */
 KIFMM__FN void kifmm__fft_tvmap(int *tv)
@@ -1925,68 +1953,6 @@ KIFMM__FN void kifmm__fft_tvmap(int *tv)
                 tv[(o * 8 + cs) * 8 + ct] = near ? -1 : kifmm__transfer_index(dx, dy, dz);
             }
 }
-
-/* The 8 x 8 blocks of frequency chunk ch for the 27 parent offsets, from the
- * 316 spectra (khat[(f 316 + t) 2]): kb[(o F + fi) 128 + cs 16 + ct] (re),
- * + 8 (im). */
-KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const int *tv, int ch,
-                                 void *kbv)
-{
-    double *kb = (double *)kbv;
-    float *kf = (float *)kbv;
-    int o, fi, cs, ct;
-    for (o = 0; o < 27; o++)
-        for (cs = 0; cs < 8; cs++)
-            for (ct = 0; ct < 8; ct++) {
-                int t = tv[(o * 8 + cs) * 8 + ct];
-                for (fi = 0; fi < KIFMM__FFT_F; fi++) {
-                    size_t a = ((size_t)o * KIFMM__FFT_F + fi) * 128 + cs * 16 + ct;
-                    const double *s =
-                        khat + (((size_t)ch * KIFMM__FFT_F + fi) * KIFMM__NT + (t < 0 ? 0 : t)) * 2;
-                    double re = t < 0 ? 0.0 : s[0], im = t < 0 ? 0.0 : s[1];
-                    if (pl->single) {
-                        kf[a] = (float)re;
-                        kf[a + 8] = (float)im;
-                    } else {
-                        kb[a] = re;
-                        kb[a + 8] = im;
-                    }
-                }
-            }
-}
-
-/* Keeps a loaded vector in a register: each block vector is used by two
- * FMAs, and compilers otherwise fold the load into both as a memory operand,
- * which doubles the loads of a loop that is bound by them (float products
- * 37 -> 45-55 Gflop/s on one core). KIFMM__PREFETCH: a read prefetch hint. */
-#if defined(__GNUC__) || defined(__clang__)
-#define KIFMM__IN_REG(v) __asm__("" : "+x"(v))
-#define KIFMM__PREFETCH(a) __builtin_prefetch((a), 0, 3)
-#else
-#define KIFMM__IN_REG(v) ((void)0)
-#define KIFMM__PREFETCH(a) ((void)0)
-#endif
-
-/* The products of kifmm__fft_products in plain C, for element type T
- * (variables nn, nb, no, sch, sc, kb, oc, e, fi, cs of the caller). */
-#define KIFMM__FFT_PRODUCTS_C(T)                                                              \
-    do {                                                                                      \
-        int ct_, q_;                                                                          \
-        memset(oc, 0, sizeof(T) * 16 * KIFMM__FFT_F);                                         \
-        for (e = 0; e < nn; e++)                                                              \
-            for (fi = 0; fi < KIFMM__FFT_F; fi++) {                                           \
-                const T *x_ = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;                  \
-                const T *k_ = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;                 \
-                const unsigned char *h_ = sch + 9 * (size_t)nb[e];                            \
-                T *acc_ = oc + fi * 16;                                                       \
-                for (q_ = 0; q_ < h_[0]; q_++)                                                \
-                    for (cs = h_[1 + q_], ct_ = 0; ct_ < 8; ct_++) {                          \
-                        T kr_ = k_[cs * 16 + ct_], ki_ = k_[cs * 16 + 8 + ct_];               \
-                        acc_[ct_] += kr_ * x_[cs] - ki_ * x_[8 + cs];                         \
-                        acc_[8 + ct_] += kr_ * x_[8 + cs] + ki_ * x_[cs];                     \
-                    }                                                                         \
-            }                                                                                 \
-    } while (0)
 
 /* STEP (a braced block) for each source child cs listed in h (count, then
  * which; variables cs and q of the caller). With all 8 the loop keeps its
@@ -2037,38 +2003,11 @@ KIFMM__FN void kifmm__fft_blocks(const kifmm__fft *pl, const double *khat, const
         STORE(oc, r0); STORE(oc + 8, i0); STORE(oc + 16, r1); STORE(oc + 24, i1);              \
         STORE(oc + 32, r2); STORE(oc + 40, i2); STORE(oc + 48, r3); STORE(oc + 56, i3);        \
     }
-#if defined(__AVX512F__)
-#define KIFMM__BCAST8D(p) _mm512_set1_pd(*(p))
-#endif
-
-/* One target parent, one chunk: oc[fi 16 ..] = sum over its nn source
- * parents e of K[no[e]][fi] (8 x 8 complex) times the 8 child spectra
- * sc[nb[e]] at fi (re 8 | im 8). Only the children listed in sch[9 nb[e]]
- * (count, then which) have sources: the others' spectra are zero and are
- * skipped (on surfaces and clusters about half of them). */
-KIFMM__FN void kifmm__fft_products(int nn, const int32_t *nb, const unsigned char *no,
-                                   const unsigned char *sch, const double *sc, const double *kb,
-                                   double *oc)
-{
-    int fi, e, cs;
-#if defined(__AVX512F__)
-    /* the 4 frequencies of the chunk at once, the 8 target children in one
-     * register: 8 accumulators over all e, 4 FMAs per child and frequency
-     * with the child's spectrum broadcast from memory */
-    (void)fi;
-    KIFMM__FFT_PRODUCTS8(double, __m512d, _mm512_setzero_pd(), KIFMM__BCAST8D, _mm512_load_pd,
-                         _mm512_store_pd, _mm512_fmadd_pd, _mm512_fnmadd_pd)
-#elif defined(__AVX2__) && defined(__FMA__)
-    /* two frequencies at a time: 8 accumulators in registers over all e */
-    for (fi = 0; fi < KIFMM__FFT_F; fi += 2) {
-        __m256d a0 = _mm256_setzero_pd(), a1 = a0, a2 = a0, a3 = a0;
-        __m256d b0 = a0, b1 = a0, b2 = a0, b3 = a0;
-        for (e = 0; e < nn; e++) {
-            const double *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
-            const double *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
-            const unsigned char *h = sch + 9 * (size_t)nb[e];
-            int q;
-#define KIFMM__FFT_STEPD                                                                       \
+/* The AVX2 double products' step: child cs at two frequencies (fi and fi +
+ * 1: x and x + 16) into the 8 accumulators a0..a3 (fi) and b0..b3 (fi + 1),
+ * the 8 target children in two registers per part (variables of the
+ * caller). */
+#define KIFMM__FFT_STEP2D                                                                      \
     {                                                                                          \
         const __m256d xr = _mm256_broadcast_sd(x + cs), xi = _mm256_broadcast_sd(x + 8 + cs);  \
         const __m256d yr = _mm256_broadcast_sd(x + 16 + cs);                                   \
@@ -2089,40 +2028,10 @@ KIFMM__FN void kifmm__fft_products(int nn, const int32_t *nb, const unsigned cha
         b0 = _mm256_fnmadd_pd(i0, yi, b0); b1 = _mm256_fnmadd_pd(i1, yi, b1);                  \
         b2 = _mm256_fmadd_pd(i0, yr, b2); b3 = _mm256_fmadd_pd(i1, yr, b3);                    \
     }
-            KIFMM__FFT_CHILDREN(h, KIFMM__FFT_STEPD)
-#undef KIFMM__FFT_STEPD
-        }
-        _mm256_store_pd(oc + fi * 16, a0); _mm256_store_pd(oc + fi * 16 + 4, a1);
-        _mm256_store_pd(oc + fi * 16 + 8, a2); _mm256_store_pd(oc + fi * 16 + 12, a3);
-        _mm256_store_pd(oc + fi * 16 + 16, b0); _mm256_store_pd(oc + fi * 16 + 20, b1);
-        _mm256_store_pd(oc + fi * 16 + 24, b2); _mm256_store_pd(oc + fi * 16 + 28, b3);
-    }
-#else
-    KIFMM__FFT_PRODUCTS_C(double);
-#endif
-}
 
-/* kifmm__fft_products in float: spectra and blocks of 16 floats (re 8 |
- * im 8) per frequency, the 8 target children in one AVX register. */
-KIFMM__FN void kifmm__fft_products_f(int nn, const int32_t *nb, const unsigned char *no,
-                                     const unsigned char *sch, const float *sc, const float *kb,
-                                     float *oc)
-{
-    int e, cs;
-#if defined(__AVX512F__)
-    /* A block row, re 8 | im 8, in one register K: per child and frequency
-     * one load and two FMAs, A += K xr and B += K xi, and the complex product
-     * formed once at the end, re = A.lo - B.hi and im = A.hi + B.lo (the
-     * AVX2 kernel below needs two loads and two broadcasts for four FMAs of
-     * half the width, which kept it bound by the loads) */
-    __m512 a0 = _mm512_setzero_ps(), b0 = a0, a1 = a0, b1 = a0, a2 = a0, b2 = a0, a3 = a0, b3 = a0;
-    const __m512 sg = _mm512_setr_ps(-1.0f, -1.0f, -1.0f, -1.0f, -1.0f, -1.0f, -1.0f, -1.0f, 1.0f,
-                                     1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f);
-    for (e = 0; e < nn; e++) {
-        const float *x = sc + (size_t)nb[e] * KIFMM__FFT_F * 16;
-        const float *k = kb + (size_t)no[e] * KIFMM__FFT_F * 128;
-        const unsigned char *h = sch + 9 * (size_t)nb[e];
-        int q;
+/* The AVX-512 float products' step: a block row re|im in one register K
+ * with A += K xr and B += K xi, for chunk frequency fi (variables of the
+ * caller). */
 #define KIFMM__FFT_STEP16(A, B, fi)                                                            \
     {                                                                                          \
         __m512 kk = _mm512_loadu_ps(k + (fi) * 128 + cs * 16);                                 \
@@ -2135,84 +2044,501 @@ KIFMM__FN void kifmm__fft_products_f(int nn, const int32_t *nb, const unsigned c
         KIFMM__FFT_STEP16(a0, b0, 0) KIFMM__FFT_STEP16(a1, b1, 1)                              \
         KIFMM__FFT_STEP16(a2, b2, 2) KIFMM__FFT_STEP16(a3, b3, 3)                              \
     }
+#if defined(__AVX512F__)
+#define KIFMM__BCAST8D(p) _mm512_set1_pd(*(p))
+#endif
+
+#endif /* KIFMM_H_IMPL */
+#endif /* KIFMM__PREC_PASS, the normal pass's first part */
+
+#ifdef KIFMM__PREC_PASS
+// >>prec
+
+/* The code that double and float share, compiled once for each: the header
+ * includes itself with KIFMM__PREC_PASS 1 (double) and 2 (float), and only
+ * this section is read then. KIFMM__T is the type, KIFMM__P(name) appends
+ * the suffix (d or f). Functions here have real line numbers; the ISA's
+ * vector types and intrinsics for T are named KIFMM__V* below. */
+#if KIFMM__PREC_PASS == 1
+#define KIFMM__T double
+#define KIFMM__P(name) name##d
+#else
+#define KIFMM__T float
+#define KIFMM__P(name) name##f
+#endif
+
+/* ---- column GEMM ----------------------------------------------------------- */
+
+#if defined(__AVX512F__)
+/* AVX-512: 3 vectors x 8 columns of C in registers, masked rows. */
+#if KIFMM__PREC_PASS == 1
+#define KIFMM__V __m512d
+#define KIFMM__VL 8
+#define KIFMM__VM __mmask8
+#define KIFMM__VMLOAD(m, p) _mm512_maskz_loadu_pd(m, p)
+#define KIFMM__VMSTORE(p, m, v) _mm512_mask_storeu_pd(p, m, v)
+#define KIFMM__VFMA _mm512_fmadd_pd
+#define KIFMM__VSET1 _mm512_set1_pd
+#define KIFMM__VZERO _mm512_setzero_pd()
+#define KIFMM__VADD _mm512_add_pd
+#define KIFMM__GC_MR KIFMM__GC_MR_D
+#else
+#define KIFMM__V __m512
+#define KIFMM__VL 16
+#define KIFMM__VM __mmask16
+#define KIFMM__VMLOAD(m, p) _mm512_maskz_loadu_ps(m, p)
+#define KIFMM__VMSTORE(p, m, v) _mm512_mask_storeu_ps(p, m, v)
+#define KIFMM__VFMA _mm512_fmadd_ps
+#define KIFMM__VSET1 _mm512_set1_ps
+#define KIFMM__VZERO _mm512_setzero_ps()
+#define KIFMM__VADD _mm512_add_ps
+#define KIFMM__GC_MR KIFMM__GC_MR_F
+#endif
+
+/* The rows [0, n) of a vector (all for n >= VL, none for n <= 0). */
+KIFMM__FN KIFMM__VM KIFMM__P(kifmm__gc_mask)(int n)
+{
+    const unsigned all = (1u << KIFMM__VL) - 1u;
+    return (KIFMM__VM)(n <= 0 ? 0u : n >= KIFMM__VL ? all : (1u << n) - 1u);
+}
+
+/* One row kk of B's column j into the three accumulators of that column. */
+#define KIFMM__GC_ROW(j)                                                                       \
+    x = KIFMM__VSET1(b[j][kk]);                                                                \
+    s##j##0 = KIFMM__VFMA(a0, x, s##j##0);                                                     \
+    s##j##1 = KIFMM__VFMA(a1, x, s##j##1);                                                     \
+    s##j##2 = KIFMM__VFMA(a2, x, s##j##2);
+
+/* One tile: C[0:mr, 0:nr] (+)= A[0:mr, 0:kc] B[0:kc, 0:nr], mr <= 3 VL,
+ * nr <= 8 (the columns past nr repeat the last one and are not stored). */
+KIFMM__FN void KIFMM__P(kifmm__gc_micro)(int mr, int nr, int kc, const KIFMM__T *a, int lda,
+                                         const KIFMM__T *const *b, int acc, KIFMM__T *const *c)
+{
+    const KIFMM__VM m[3] = {KIFMM__P(kifmm__gc_mask)(mr), KIFMM__P(kifmm__gc_mask)(mr - KIFMM__VL),
+                            KIFMM__P(kifmm__gc_mask)(mr - 2 * KIFMM__VL)};
+    KIFMM__V s00 = KIFMM__VZERO, s01 = s00, s02 = s00, s10 = s00, s11 = s00, s12 = s00;
+    KIFMM__V s20 = s00, s21 = s00, s22 = s00, s30 = s00, s31 = s00, s32 = s00;
+    KIFMM__V s40 = s00, s41 = s00, s42 = s00, s50 = s00, s51 = s00, s52 = s00;
+    KIFMM__V s60 = s00, s61 = s00, s62 = s00, s70 = s00, s71 = s00, s72 = s00;
+    KIFMM__V all[8][3];
+    int kk, j, h;
+    for (kk = 0; kk < kc; kk++) {
+        const KIFMM__T *ak = a + (size_t)kk * lda;
+        const KIFMM__V a0 = KIFMM__VMLOAD(m[0], ak), a1 = KIFMM__VMLOAD(m[1], ak + KIFMM__VL);
+        const KIFMM__V a2 = KIFMM__VMLOAD(m[2], ak + 2 * KIFMM__VL);
+        KIFMM__V x;
+        KIFMM__GC_ROW(0) KIFMM__GC_ROW(1) KIFMM__GC_ROW(2) KIFMM__GC_ROW(3)
+        KIFMM__GC_ROW(4) KIFMM__GC_ROW(5) KIFMM__GC_ROW(6) KIFMM__GC_ROW(7)
+    }
+    all[0][0] = s00; all[0][1] = s01; all[0][2] = s02; all[1][0] = s10; all[1][1] = s11;
+    all[1][2] = s12; all[2][0] = s20; all[2][1] = s21; all[2][2] = s22; all[3][0] = s30;
+    all[3][1] = s31; all[3][2] = s32; all[4][0] = s40; all[4][1] = s41; all[4][2] = s42;
+    all[5][0] = s50; all[5][1] = s51; all[5][2] = s52; all[6][0] = s60; all[6][1] = s61;
+    all[6][2] = s62; all[7][0] = s70; all[7][1] = s71; all[7][2] = s72;
+    for (j = 0; j < nr; j++)
+        for (h = 0; h < 3 && h * KIFMM__VL < mr; h++) {
+            KIFMM__T *cj = c[j] + h * KIFMM__VL;
+            KIFMM__V v = all[j][h];
+            if (acc) v = KIFMM__VADD(KIFMM__VMLOAD(m[h], cj), v);
+            KIFMM__VMSTORE(cj, m[h], v);
+        }
+}
+#undef KIFMM__GC_ROW
+#elif defined(__AVX2__) && defined(__FMA__)
+/* AVX2: 2 vectors x 6 columns of C in registers, masked rows. */
+#if KIFMM__PREC_PASS == 1
+#define KIFMM__V __m256d
+#define KIFMM__VL 4
+#define KIFMM__VLOADU _mm256_loadu_pd
+#define KIFMM__VMLOAD(m, p) _mm256_maskload_pd(p, m)
+#define KIFMM__VMSTORE(p, m, v) _mm256_maskstore_pd(p, m, v)
+#define KIFMM__VFMA _mm256_fmadd_pd
+#define KIFMM__VBCAST _mm256_broadcast_sd
+#define KIFMM__VZERO _mm256_setzero_pd()
+#define KIFMM__VADD _mm256_add_pd
+#define KIFMM__GC_MR KIFMM__GC_MR_D
+KIFMM__FN __m256i kifmm__gc_maskd(int n)
+{
+    return _mm256_cmpgt_epi64(_mm256_set1_epi64x(n), _mm256_setr_epi64x(0, 1, 2, 3));
+}
+#else
+#define KIFMM__V __m256
+#define KIFMM__VL 8
+#define KIFMM__VLOADU _mm256_loadu_ps
+#define KIFMM__VMLOAD(m, p) _mm256_maskload_ps(p, m)
+#define KIFMM__VMSTORE(p, m, v) _mm256_maskstore_ps(p, m, v)
+#define KIFMM__VFMA _mm256_fmadd_ps
+#define KIFMM__VBCAST _mm256_broadcast_ss
+#define KIFMM__VZERO _mm256_setzero_ps()
+#define KIFMM__VADD _mm256_add_ps
+#define KIFMM__GC_MR KIFMM__GC_MR_F
+KIFMM__FN __m256i kifmm__gc_maskf(int n)
+{
+    return _mm256_cmpgt_epi32(_mm256_set1_epi32(n), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+}
+#endif
+
+/* One row kk of B's column j into the two accumulators of that column. */
+#define KIFMM__GC_ROW(j)                                                                       \
+    x = KIFMM__VBCAST(b##j + kk);                                                              \
+    s##j##0 = KIFMM__VFMA(a0, x, s##j##0);                                                     \
+    s##j##1 = KIFMM__VFMA(a1, x, s##j##1);
+
+/* One tile: C[0:mr, 0:nr] (+)= A[0:mr, 0:kc] B[0:kc, 0:nr], mr <= 2 VL,
+ * nr <= 6 (the columns past nr repeat the last one and are not stored). */
+KIFMM__FN void KIFMM__P(kifmm__gc_micro)(int mr, int nr, int kc, const KIFMM__T *a, int lda,
+                                         const KIFMM__T *const *b, int acc, KIFMM__T *const *c)
+{
+    const __m256i m0 = KIFMM__P(kifmm__gc_mask)(mr), m1 = KIFMM__P(kifmm__gc_mask)(mr - KIFMM__VL);
+    KIFMM__V s00 = KIFMM__VZERO, s01 = s00, s10 = s00, s11 = s00, s20 = s00, s21 = s00;
+    KIFMM__V s30 = s00, s31 = s00, s40 = s00, s41 = s00, s50 = s00, s51 = s00;
+    KIFMM__V all[6][2];
+    const KIFMM__T *b0 = b[0], *b1 = b[1], *b2 = b[2], *b3 = b[3], *b4 = b[4], *b5 = b[5];
+    int kk, j, h;
+    for (kk = 0; kk < kc; kk++) {
+        const KIFMM__T *ak = a + (size_t)kk * lda;
+        const int full = mr == 2 * KIFMM__VL;
+        const KIFMM__V a0 = full ? KIFMM__VLOADU(ak) : KIFMM__VMLOAD(m0, ak);
+        const KIFMM__V a1 = full ? KIFMM__VLOADU(ak + KIFMM__VL) : KIFMM__VMLOAD(m1, ak + KIFMM__VL);
+        KIFMM__V x;
+        KIFMM__GC_ROW(0) KIFMM__GC_ROW(1) KIFMM__GC_ROW(2)
+        KIFMM__GC_ROW(3) KIFMM__GC_ROW(4) KIFMM__GC_ROW(5)
+    }
+    all[0][0] = s00; all[0][1] = s01; all[1][0] = s10; all[1][1] = s11;
+    all[2][0] = s20; all[2][1] = s21; all[3][0] = s30; all[3][1] = s31;
+    all[4][0] = s40; all[4][1] = s41; all[5][0] = s50; all[5][1] = s51;
+    for (j = 0; j < nr; j++)
+        for (h = 0; h < 2; h++) {
+            KIFMM__T *cj = c[j] + h * KIFMM__VL;
+            const __m256i mh = h ? m1 : m0;
+            KIFMM__V v = all[j][h];
+            if (acc) v = KIFMM__VADD(KIFMM__VMLOAD(mh, cj), v);
+            KIFMM__VMSTORE(cj, mh, v);
+        }
+}
+#undef KIFMM__GC_ROW
+#undef KIFMM__VLOADU
+#undef KIFMM__VBCAST
+#endif
+
+#if KIFMM__GC_FAST
+/* C(:, j) (+)= A B(:, j) over ncol columns by pointers (see >>linalg): k in
+ * equal blocks of at most KC (no short last block), tiles of MR x NR. */
+KIFMM__FN void KIFMM__P(kifmm__gemm_cols)(int m, int k, const KIFMM__T *a, int lda, int ncol,
+                                          const KIFMM__T *const *bp, KIFMM__T *const *cp, int acc,
+                                          KIFMM__T *work)
+{
+    int k0, i0, j0, j, i, nkb, kb;
+    (void)work;
+    if (k <= 0) {
+        if (!acc)
+            for (j = 0; j < ncol; j++)
+                for (i = 0; i < m; i++) cp[j][i] = 0;
+        return;
+    }
+    nkb = (k + KIFMM__GC_KC - 1) / KIFMM__GC_KC;
+    kb = (k + nkb - 1) / nkb;
+    for (k0 = 0; k0 < k; k0 += kb) {
+        const int kc = k - k0 < kb ? k - k0 : kb;
+        for (i0 = 0; i0 < m; i0 += KIFMM__GC_MR)
+            for (j0 = 0; j0 < ncol; j0 += KIFMM__GC_NR) {
+                const KIFMM__T *bt[KIFMM__GC_NR];
+                KIFMM__T *ct[KIFMM__GC_NR];
+                const int nr = ncol - j0 < KIFMM__GC_NR ? ncol - j0 : KIFMM__GC_NR;
+                for (j = 0; j < KIFMM__GC_NR; j++) {
+                    const int jj = j0 + (j < nr ? j : nr - 1);
+                    bt[j] = bp[jj] + k0;
+                    ct[j] = cp[jj] + i0;
+                }
+                KIFMM__P(kifmm__gc_micro)(m - i0 < KIFMM__GC_MR ? m - i0 : KIFMM__GC_MR, nr, kc,
+                                          a + i0 + (size_t)k0 * lda, lda, bt, acc || k0 > 0, ct);
+            }
+    }
+}
+#else
+/* Without AVX2: the columns gathered into work ((k + m) x ncol) for one BLAS
+ * call, the results added or copied back (see >>linalg). */
+KIFMM__FN void KIFMM__P(kifmm__gemm_cols)(int m, int k, const KIFMM__T *a, int lda, int ncol,
+                                          const KIFMM__T *const *bp, KIFMM__T *const *cp, int acc,
+                                          KIFMM__T *work)
+{
+    KIFMM__T *bw = work, *cw = work + (size_t)k * ncol;
+    int i, j;
+    if (m <= 0 || ncol <= 0) return;
+    for (j = 0; j < ncol; j++) memcpy(bw + (size_t)j * k, bp[j], (size_t)k * sizeof(KIFMM__T));
+#if KIFMM__PREC_PASS == 1
+    cblas_dgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, ncol, k, 1.0, a, lda, bw,
+                k > 0 ? k : 1, 0.0, cw, m);
+#else
+    cblas_sgemm(CblasColMajor, CblasNoTrans, CblasNoTrans, m, ncol, k, 1.0f, a, lda, bw,
+                k > 0 ? k : 1, 0.0f, cw, m);
+#endif
+    for (j = 0; j < ncol; j++)
+        for (i = 0; i < m; i++)
+            cp[j][i] = acc ? cp[j][i] + cw[(size_t)j * m + i] : cw[(size_t)j * m + i];
+}
+#endif
+
+/* ---- FFT transforms (the spectra's precision) ------------------------------ */
+
+/* d += x w over n complex values in split form (dr, di += (xr, xi) (w0 +
+ * i w1)), the one step of every separable DFT stage; n is a multiple of the
+ * 8 lanes, in blocks of which compilers vectorise it at -O2. */
+KIFMM__FN void KIFMM__P(kifmm__caxpy)(int n, KIFMM__T w0, KIFMM__T w1,
+                                      const KIFMM__T *KIFMM__RESTRICT xr,
+                                      const KIFMM__T *KIFMM__RESTRICT xi,
+                                      KIFMM__T *KIFMM__RESTRICT dr, KIFMM__T *KIFMM__RESTRICT di)
+{
+    int q, v;
+    for (q = 0; q < n; q += KIFMM__FFT_L)
+        for (v = q; v < q + KIFMM__FFT_L; v++) {
+            dr[v] += xr[v] * w0 - xi[v] * w1;
+            di[v] += xr[v] * w1 + xi[v] * w0;
+        }
+}
+
+/* d = sum_j x_j (wr + i sg wi)[j ws] over nin inputs x_j = x + j xs (len values) */
+KIFMM__FN void KIFMM__P(kifmm__dft_sum)(int len, int nin, const double *wr, const double *wi,
+                                        int ws, double sg, const KIFMM__T *xr,
+                                        const KIFMM__T *xi, size_t xs, KIFMM__T *dr,
+                                        KIFMM__T *di)
+{
+    int j;
+    memset(dr, 0, sizeof(KIFMM__T) * (size_t)len);
+    memset(di, 0, sizeof(KIFMM__T) * (size_t)len);
+    for (j = 0; j < nin; j++)
+        KIFMM__P(kifmm__caxpy)(len, (KIFMM__T)wr[j * ws], (KIFMM__T)(sg * wi[j * ws]),
+                               xr + j * xs, xi + j * xs, dr, di);
+}
+
+/* The first stage of the forward transforms: along z, each lattice point's
+ * 8 lane values into the (x, y) row of its kx = a, ky = b (s1 re, im). */
+KIFMM__FN void KIFMM__P(kifmm__fft_zstage)(const kifmm__fft *pl, const double *m, KIFMM__T *s1r,
+                                           KIFMM__T *s1i)
+{
+    const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
+    int s, kz, v;
+    memset(s1r, 0, sizeof(KIFMM__T) * 2 * L * p * p * nh);
+    for (s = 0; s < pl->ne; s++) {
+        const int a = pl->ijk[3 * s], b = pl->ijk[3 * s + 1], c = pl->ijk[3 * s + 2];
+        KIFMM__T mv[KIFMM__FFT_L], *r = s1r + L * (a * p + b) * nh, *im = s1i + L * (a * p + b) * nh;
+        for (v = 0; v < L; v++) mv[v] = (KIFMM__T)m[L * s + v];
+        for (kz = 0; kz < nh; kz++) {
+            const KIFMM__T w0 = (KIFMM__T)pl->wr[kz * n + c], w1 = (KIFMM__T)pl->wi[kz * n + c];
+            for (v = 0; v < L; v++) {
+                r[L * kz + v] += mv[v] * w0;
+                im[L * kz + v] += mv[v] * w1;
+            }
+        }
+    }
+}
+
+/* Spectra of 8 surface densities at once, m[s 8 + v] (lane v = child v),
+ * into out: frequency f of lane v goes to out[(f / F) cstride + (f % F) 16 +
+ * v] (re) and 8 further (im), the layout of the products. Pruned: only the
+ * p^3 lattice is nonzero. Every stage is a loop over the 8 lanes with the
+ * same twiddle, which compilers vectorise. */
+KIFMM__FN void KIFMM__P(kifmm__fft_forward8)(const kifmm__fft *pl, const double *m, KIFMM__T *out,
+                                             size_t cstride, KIFMM__T *work)
+{
+    const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
+    int i, kx, ky, q, v;
+    KIFMM__T *s1r = work, *s1i = s1r + L * p * p * nh, *s2r = s1i + L * p * p * nh;
+    KIFMM__T *s2i = s2r + L * p * n * nh, *tr = s2i + L * p * n * nh, *ti = tr + L * n * nh;
+    KIFMM__P(kifmm__fft_zstage)(pl, m, s1r, s1i);
+    for (i = 0; i < p; i++)
+        for (ky = 0; ky < n; ky++)
+            KIFMM__P(kifmm__dft_sum)(L * nh, p, pl->wr + ky * n, pl->wi + ky * n, 1, 1.0,
+                                     s1r + L * i * p * nh, s1i + L * i * p * nh, (size_t)L * nh,
+                                     s2r + L * (i * n + ky) * nh, s2i + L * (i * n + ky) * nh);
+    for (kx = 0; kx < n; kx++) {
+        const int f0 = kx * n * nh;
+        KIFMM__P(kifmm__dft_sum)(L * n * nh, p, pl->wr + kx * n, pl->wi + kx * n, 1, 1.0, s2r, s2i,
+                                 (size_t)L * n * nh, tr, ti);
+        for (q = 0; q < n * nh; q++) {
+            const int f = f0 + q;
+            KIFMM__T *o = out + (size_t)(f / KIFMM__FFT_F) * cstride + (size_t)(f % KIFMM__FFT_F) * 16;
+            for (v = 0; v < L; v++) {
+                o[v] = tr[L * q + v];
+                o[8 + v] = ti[L * q + v];
+            }
+        }
+    }
+}
+
+/* 8 half spectra addressed as in forward8 -> the values at the ne lattice
+ * surface points, chk[s 8 + v]. */
+KIFMM__FN void KIFMM__P(kifmm__fft_inverse8)(const kifmm__fft *pl, const KIFMM__T *in,
+                                             size_t cstride, double *chk, KIFMM__T *work)
+{
+    const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
+    int i, j, k, kz, q, s, v;
+    KIFMM__T *yr = work, *yi = yr + L * n * n * nh, *t1r = yi + L * n * n * nh;
+    KIFMM__T *t1i = t1r + L * p * n * nh, *t2r = t1i + L * p * n * nh, *t2i = t2r + L * p * p * nh;
+    for (q = 0; q < pl->nf; q++) {
+        const KIFMM__T *x = in + (size_t)(q / KIFMM__FFT_F) * cstride + (size_t)(q % KIFMM__FFT_F) * 16;
+        for (v = 0; v < L; v++) {
+            yr[L * q + v] = x[v];
+            yi[L * q + v] = x[8 + v];
+        }
+    }
+    for (i = 0; i < p; i++)
+        KIFMM__P(kifmm__dft_sum)(L * n * nh, n, pl->wr + i, pl->wi + i, n, -1.0, yr, yi,
+                                 (size_t)L * n * nh, t1r + L * i * n * nh, t1i + L * i * n * nh);
+    for (i = 0; i < p; i++)
+        for (j = 0; j < p; j++)
+            KIFMM__P(kifmm__dft_sum)(L * nh, n, pl->wr + j, pl->wi + j, n, -1.0,
+                                     t1r + L * i * n * nh, t1i + L * i * n * nh, (size_t)L * nh,
+                                     t2r + L * (i * p + j) * nh, t2i + L * (i * p + j) * nh);
+    for (s = 0; s < pl->ne; s++) {
+        KIFMM__T acc[KIFMM__FFT_L];
+        const KIFMM__T *xr, *xi;
+        i = pl->ijk[3 * s];
+        j = pl->ijk[3 * s + 1];
+        k = pl->ijk[3 * s + 2];
+        xr = t2r + L * (i * p + j) * nh;
+        xi = t2i + L * (i * p + j) * nh;
+        for (v = 0; v < L; v++) acc[v] = 0;
+        for (kz = 0; kz < nh; kz++) {
+            const KIFMM__T w0 = (KIFMM__T)(pl->wz[kz] * pl->wr[kz * n + k]);
+            const KIFMM__T w1 = (KIFMM__T)(pl->wz[kz] * pl->wi[kz * n + k]);
+            for (v = 0; v < L; v++) acc[v] += xr[L * kz + v] * w0 + xi[L * kz + v] * w1;
+        }
+        for (v = 0; v < L; v++) chk[L * s + v] = (double)acc[v];
+    }
+}
+
+/* ---- FFT products ---------------------------------------------------------- */
+
+/* The 8 x 8 blocks of frequency chunk ch for the 27 parent offsets, from the
+ * 316 spectra (khat[(f 316 + t) 2]): kb[(o F + fi) 128 + cs 16 + ct] (re),
+ * + 8 (im); zero for adjacent child pairs (tv[...] < 0). */
+KIFMM__FN void KIFMM__P(kifmm__fft_blocks)(const double *khat, const int *tv, int ch,
+                                           KIFMM__T *kb)
+{
+    int o, fi, cs, ct;
+    for (o = 0; o < 27; o++)
+        for (cs = 0; cs < 8; cs++)
+            for (ct = 0; ct < 8; ct++) {
+                const int t = tv[(o * 8 + cs) * 8 + ct];
+                for (fi = 0; fi < KIFMM__FFT_F; fi++) {
+                    const size_t a = ((size_t)o * KIFMM__FFT_F + fi) * 128 + cs * 16 + ct;
+                    const double *s =
+                        khat + (((size_t)ch * KIFMM__FFT_F + fi) * KIFMM__NT + (t < 0 ? 0 : t)) * 2;
+                    kb[a] = (KIFMM__T)(t < 0 ? 0.0 : s[0]);
+                    kb[a + 8] = (KIFMM__T)(t < 0 ? 0.0 : s[1]);
+                }
+            }
+}
+
+/* One target parent, one chunk: oc[fi 16 ..] = sum over its nn source
+ * parents e of K[no[e]][fi] (8 x 8 complex) times the 8 child spectra
+ * sc[nb[e]] at fi (re 8 | im 8). Only the children listed in sch[9 nb[e]]
+ * (count, then which) have sources: the others' spectra are zero and are
+ * skipped (on surfaces and clusters about half of them). */
+KIFMM__FN void KIFMM__P(kifmm__fft_products)(int nn, const int32_t *nb, const unsigned char *no,
+                                             const unsigned char *sch, const KIFMM__T *sc,
+                                             const KIFMM__T *kb, KIFMM__T *oc)
+{
+    int e, cs;
+#if defined(__AVX512F__) && KIFMM__PREC_PASS == 1
+    /* the 4 frequencies of the chunk at once, the 8 target children in one
+     * register: 8 accumulators over all e, 4 FMAs per child and frequency
+     * with the child's spectrum broadcast from memory */
+    KIFMM__FFT_PRODUCTS8(double, __m512d, _mm512_setzero_pd(), KIFMM__BCAST8D, _mm512_load_pd,
+                         _mm512_store_pd, _mm512_fmadd_pd, _mm512_fnmadd_pd)
+#elif defined(__AVX512F__)
+    /* a block row, re 8 | im 8, in one register K: per child and frequency
+     * one load and two FMAs, A += K xr and B += K xi, and the complex product
+     * formed once at the end, re = A.lo - B.hi and im = A.hi + B.lo (the
+     * AVX2 kernel needs two loads and two broadcasts for four FMAs of half
+     * the width, which kept it bound by the loads) */
+    __m512 a0 = _mm512_setzero_ps(), b0 = a0, a1 = a0, b1 = a0, a2 = a0, b2 = a0, a3 = a0, b3 = a0;
+    const __m512 sg = _mm512_setr_ps(-1.0f, -1.0f, -1.0f, -1.0f, -1.0f, -1.0f, -1.0f, -1.0f, 1.0f,
+                                     1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f, 1.0f);
+    for (e = 0; e < nn; e++) {
+        const float *x = sc + (size_t)nb[e] * KIFMM__FFT_F * 16;
+        const float *k = kb + (size_t)no[e] * KIFMM__FFT_F * 128;
+        const unsigned char *h = sch + 9 * (size_t)nb[e];
+        int q;
         KIFMM__FFT_CHILDREN(h, KIFMM__FFT_STEPS16)
-#undef KIFMM__FFT_STEPS16
-#undef KIFMM__FFT_STEP16
     }
     /* B with its halves swapped is (ki xi | kr xi) */
     _mm512_storeu_ps(oc, _mm512_fmadd_ps(sg, _mm512_shuffle_f32x4(b0, b0, 0x4E), a0));
     _mm512_storeu_ps(oc + 16, _mm512_fmadd_ps(sg, _mm512_shuffle_f32x4(b1, b1, 0x4E), a1));
     _mm512_storeu_ps(oc + 32, _mm512_fmadd_ps(sg, _mm512_shuffle_f32x4(b2, b2, 0x4E), a2));
     _mm512_storeu_ps(oc + 48, _mm512_fmadd_ps(sg, _mm512_shuffle_f32x4(b3, b3, 0x4E), a3));
+#elif defined(__AVX2__) && defined(__FMA__) && KIFMM__PREC_PASS == 1
+    int fi;
+    /* two frequencies at a time: 8 accumulators in registers over all e */
+    for (fi = 0; fi < KIFMM__FFT_F; fi += 2) {
+        __m256d a0 = _mm256_setzero_pd(), a1 = a0, a2 = a0, a3 = a0, b0 = a0, b1 = a0, b2 = a0, b3 = a0;
+        for (e = 0; e < nn; e++) {
+            const double *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
+            const double *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
+            const unsigned char *h = sch + 9 * (size_t)nb[e];
+            int q;
+            KIFMM__FFT_CHILDREN(h, KIFMM__FFT_STEP2D)
+        }
+        _mm256_store_pd(oc + fi * 16, a0); _mm256_store_pd(oc + fi * 16 + 4, a1);
+        _mm256_store_pd(oc + fi * 16 + 8, a2); _mm256_store_pd(oc + fi * 16 + 12, a3);
+        _mm256_store_pd(oc + fi * 16 + 16, b0); _mm256_store_pd(oc + fi * 16 + 20, b1);
+        _mm256_store_pd(oc + fi * 16 + 24, b2); _mm256_store_pd(oc + fi * 16 + 28, b3);
+    }
 #elif defined(__AVX2__) && defined(__FMA__)
     /* the 4 frequencies of a chunk at once: 8 accumulators over all e */
     KIFMM__FFT_PRODUCTS8(float, __m256, _mm256_setzero_ps(), _mm256_broadcast_ss, _mm256_load_ps,
                          _mm256_store_ps, _mm256_fmadd_ps, _mm256_fnmadd_ps)
 #else
-    int fi;
-    KIFMM__FFT_PRODUCTS_C(float);
+    int fi, ct, q;
+    memset(oc, 0, sizeof(KIFMM__T) * 16 * KIFMM__FFT_F);
+    for (e = 0; e < nn; e++)
+        for (fi = 0; fi < KIFMM__FFT_F; fi++) {
+            const KIFMM__T *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
+            const KIFMM__T *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
+            const unsigned char *h = sch + 9 * (size_t)nb[e];
+            KIFMM__T *acc = oc + fi * 16;
+            for (q = 0; q < h[0]; q++)
+                for (cs = h[1 + q], ct = 0; ct < 8; ct++) {
+                    const KIFMM__T kr = k[cs * 16 + ct], ki = k[cs * 16 + 8 + ct];
+                    acc[ct] += kr * x[cs] - ki * x[8 + cs];
+                    acc[8 + ct] += kr * x[8 + cs] + ki * x[cs];
+                }
+        }
 #endif
 }
 
-/* Internal neighbours ("colleagues") of every internal box of level l - 1,
- * for the M2L into level l: for the j-th internal box of level l - 1, the
- * internal indices (relative to the level) of its adjacent internal boxes
- * at that level and their offset codes (not 13, the box itself). CSR over
- * all internal boxes in the order of t->inner. */
-KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, int32_t **co_out,
-                                int32_t **cj_out, unsigned char **cc_out)
-{
-    int32_t ni = t->ioff[t->nlev], i, *co, *cj;
-    unsigned char *cc;
-    int pass;
-    co = (int32_t *)kifmm__calloc((size_t)ni + 1, sizeof(int32_t));
-    cj = (int32_t *)kifmm__alloc((size_t)ni * 26 + 1, sizeof(int32_t));
-    cc = (unsigned char *)kifmm__alloc((size_t)ni * 26 + 1, 1);
-    *co_out = co; *cj_out = cj; *cc_out = cc;
-    if (!co || !cj || !cc) return KIFMM_ERR_NOMEM;
-    (void)nth;
-    for (pass = 0; pass < 2; pass++) {
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (int32_t i = 0; i < ni; i++) {
-            int32_t p = t->inner[i], m = 0;
-            int l = t->lev[p], o;
-            int64_t side = (int64_t)1 << l;
-            const int32_t *a = t->anchor + 3 * (size_t)p;
-            for (o = 0; o < 27; o++) {
-                int64_t x = a[0] + o / 9 - 1, y = a[1] + o / 3 % 3 - 1, z = a[2] + o % 3 - 1;
-                int32_t q;
-                if (o == 13 || x < 0 || y < 0 || z < 0 || x >= side || y >= side || z >= side)
-                    continue;
-                q = kifmm__find(t, l, kifmm__encode(x, y, z));
-                if (q < 0 || t->child[q] < 0) continue;
-                if (pass == 1) {
-                    cj[co[i] + m] = (t->child[q] - t->loff[l + 1]) / 8;
-                    cc[co[i] + m] = (unsigned char)o;
-                }
-                m++;
-            }
-            if (pass == 0) co[i + 1] = m;
-        }
-        if (pass == 0)
-            for (i = 0; i < ni; i++) co[i + 1] += co[i];
-    }
-    return KIFMM_SUCCESS;
-}
+#undef KIFMM__T
+#undef KIFMM__P
+#undef KIFMM__V
+#undef KIFMM__VL
+#undef KIFMM__VM
+#undef KIFMM__VMLOAD
+#undef KIFMM__VMSTORE
+#undef KIFMM__VFMA
+#undef KIFMM__VSET1
+#undef KIFMM__VZERO
+#undef KIFMM__VADD
+#undef KIFMM__GC_MR
+#endif /* KIFMM__PREC_PASS */
 
-/* KIFMM_REAL must name one of these two types. */
-#define KIFMM__REAL_IS_double 1
-#define KIFMM__REAL_IS_float 2
-
-/* Density vectors processed together by evaluate_many; more are done in
- * groups of this many, so the workspace stays bounded. */
-#define KIFMM__RHS_MAX 8
-
-
-#endif /* KIFMM_H_SHARED */
+#ifndef KIFMM__PREC_PASS /* the normal pass, continued */
+#ifdef KIFMM__PREC_NOW
+/* >>prec for double, then for float */
+#undef KIFMM__PREC_NOW
+#define KIFMM__PREC_PASS 1
+#include "kifmm.h"
+#undef KIFMM__PREC_PASS
+#define KIFMM__PREC_PASS 2
+#include "kifmm.h"
+#undef KIFMM__PREC_PASS
+#endif
 
 /* ======================================================================== */
-/* 4. Kernel template                                                       */
+/* 4. Kernel template (once per include)                                    */
 /* ======================================================================== */
+
+// >>params
 
 #ifndef KIFMM_KERNEL
 #define KIFMM_KERNEL laplace
@@ -2241,6 +2567,75 @@ KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, int32_t **co_out,
 #define KIFMM__K(suffix) KIFMM__CAT3(kifmm_kernel_, KIFMM_KERNEL, suffix)
 #define KIFMM__F(suffix) KIFMM__CAT(KIFMM_NAME, suffix)
 #define KIFMM__R KIFMM_REAL
+
+/* The linkage of this instance's public functions (see LINKAGE MODES). */
+#if defined(KIFMM_DECLARE) && defined(KIFMM_IMPLEMENT)
+#error "kifmm.h: define KIFMM_DECLARE or KIFMM_IMPLEMENT before an include, not both"
+#endif
+#if defined(KIFMM_DECLARE) || defined(KIFMM_IMPLEMENT)
+#ifdef __cplusplus
+#define KIFMM__API extern "C"
+#else
+#define KIFMM__API extern
+#endif
+#else
+#define KIFMM__API KIFMM__FN
+#endif
+
+// >>api
+
+/* The handle: opaque to the caller; defined in >>handle. */
+typedef struct KIFMM_NAME KIFMM_NAME;
+
+/* <prefix>_create: build the tree and the operators for these points.
+ *   out      (out) the new handle; NULL on failure
+ *   opts     (in)  options, NULL for all defaults (see kifmm_opts)
+ *   nsources, src_xyz  (in) source points, x[3*i+k]
+ *   ntargets, trg_xyz  (in) target points, x[3*j+k]
+ * Coordinates, densities and outputs are KIFMM_REAL (double unless the
+ * instance was made with KIFMM_REAL float). The handle keeps no pointer to the
+ * caller's arrays. Returns KIFMM_SUCCESS or a negative kifmm result; on
+ * failure nothing is leaked. Thread safe: distinct handles may be created
+ * concurrently. */
+KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
+                                 const KIFMM__R *src_xyz, int64_t ntargets,
+                                 const KIFMM__R *trg_xyz);
+
+/* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
+ * order, from densities[i*SRC_DIM + d]. Outputs are overwritten. Returns
+ * KIFMM_SUCCESS or KIFMM_ERR_NULL (then out is untouched). The handle holds
+ * the workspace and the timings: not thread safe on one handle (use one
+ * handle per thread). */
+KIFMM__API int KIFMM__F(_evaluate)(KIFMM_NAME *h, const KIFMM__R *densities, KIFMM__R *out);
+
+/* <prefix>_evaluate_many: nrhs density vectors at once, densities as nrhs
+ * consecutive blocks of nsources*SRC_DIM, outputs as nrhs consecutive blocks
+ * of ntargets*TRG_DIM (each block laid out as in evaluate). The kernel is
+ * evaluated once per point pair for up to 8 vectors (generic kernel loops)
+ * and the translations run as GEMMs over boxes and vectors together. Outputs
+ * are overwritten; out may be the densities' own array (in place) or overlap
+ * it. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT (nrhs < 0, or
+ * more vectors than any array holds) or KIFMM_ERR_NOMEM (workspace for more
+ * vectors than before, or the copy of overlapping densities; then out is
+ * untouched). nrhs == 0 does nothing. Not thread safe on one handle. */
+KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
+                                        KIFMM__R *out);
+
+/* <prefix>_destroy: free a handle and everything it owns. NULL is a no-op. */
+KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h);
+
+/* <prefix>_stats: tree size, memory held, the code paths of the build, and
+ * the time of create's stages and of the last evaluate's passes (see
+ * kifmm_stats). */
+KIFMM__API int KIFMM__F(_stats)(const KIFMM_NAME *h, kifmm_stats *out);
+
+/* <prefix>_options: the options the handle uses, defaults resolved (kernel
+ * parameters included). */
+KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used);
+
+#ifndef KIFMM_DECLARE /* the implementation, from here to >>epilogue */
+
+// >>params (the kernel)
 
 #if !KIFMM__K(_SRC_DIM) || !KIFMM__K(_TRG_DIM)
 #error "kifmm.h: the kernel named by KIFMM_KERNEL must define kifmm_kernel_<name>_SRC_DIM and _TRG_DIM (see docs/kernels.md)"
@@ -2370,21 +2765,24 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
 #define KIFMM__TINY DBL_MIN
 #endif
 
-/* ---- the handle ---------------------------------------------------------- */
+
+// >>handle
 
 /* Operators of one level in the instance's precision (see kifmm__ops). */
 typedef struct {
-    double sigma;
+    double sigma; /* scale of the level's check potentials (see build_c2e) */
     int ku, kd;
     KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l, *conv;
     double *khat;
-    void *kb; /* FFT M2L: the 8 x 8 blocks of every chunk (kifmm__fft_blocks), or NULL
-                 when they would take too much memory and are built per task */
+    float *kbf;   /* FFT M2L: the 8 x 8 blocks of every chunk (kifmm__fft_blocks), in */
+    double *kbd;  /* the spectra's precision, or NULL when they would take too much
+                     memory and are built per task */
 } KIFMM__F(__ops);
 
 /* Expansions and workspace for up to `nrhs` density vectors, rhs-major:
  * vector r of an array starts at r times the array's per-vector size. */
 typedef struct {
+    size_t held;             /* bytes of the arrays below */
     int nrhs;
     KIFMM__R *ue, *de;       /* nbox x ne per vector */
     KIFMM__R *chk;           /* check vectors of one level: nc x (boxes of the level) */
@@ -2400,52 +2798,67 @@ typedef struct {
     size_t lbuf_per;
 } KIFMM__F(__work);
 
-typedef struct KIFMM_NAME KIFMM_NAME;
+/* The handle, its state grouped by purpose. Every block it allocates is
+ * counted where it is allocated (kifmm__take): in held, tree.held, and the
+ * workspace's held. */
 struct KIFMM_NAME {
-    kifmm_opts opts;
-    kifmm__tree tree;
-    KIFMM__R *src, *trg;     /* sorted points (SoA); the tree's own in double */
-    int nse, nsc;            /* equivalent and check surface points */
-    int cdiff;               /* check order - equivalent order (kifmm__check_diff) */
-    double ao;               /* outer surfaces' radius, in box half-widths */
-    int ne, nc;              /* vector lengths: points x SRC_DIM */
-    double *surf_e, *surf_c; /* unit surfaces (SoA) */
-    double degree;
-    KIFMM__F(__ops) *ops;    /* ops[l] for the levels that use them */
-    int nops;
-    double param[4];         /* kernel parameters, defaults resolved */
-    int m2l_cols;            /* columns (box x vector) per M2L GEMM */
-    int mb;                  /* most boxes on one level */
-    KIFMM__R *scratch;       /* per thread: see __scratch_per */
-    size_t fpts;             /* points of the float instances' frame buffers */
-    KIFMM__R *gbuf;          /* column GEMM passes: see kifmm__gbuf_per */
-    size_t gbuf_n;           /* its values */
-    int nthreads;
-    KIFMM__F(__work) *w;     /* grows to the largest nrhs evaluated (<= RHS_MAX) */
-    kifmm__fft fft;          /* FFT M2L: transforms of the order-p lattice */
-    int32_t *co, *cj;        /* FFT M2L: internal colleagues of internal boxes */
-    unsigned char *cc;       /*          and their offset codes */
-    void *spec;              /* FFT M2L: child spectra of one slab (float or double) */
-    int32_t slots;           /*          parents whose spectra fit in spec */
-    int32_t *loc, *need, *cjl; /*        slab: slot of a parent, parents, local colleagues */
-    unsigned char *sch;      /*          per slot: number of children with sources, then
-                                which (9 bytes) */
-    double *fbuf;            /* FFT M2L: per-thread blocks, products, work */
-    size_t fbuf_per;         /* doubles of fbuf per thread */
-    int ftb;                 /* FFT M2L: target parents per task (products buffer) */
-    void *fout;              /* FFT M2L without kept blocks: products of a slab's target
-                                parents (slots of them), chunk-major; or NULL */
-    int32_t fft_m, fft_mc;   /*          sizes of loc/need and cjl */
-    int32_t *pchunk;         /* mutual near field: chunks of leaves (or NULL) */
-    int32_t *act;            /* boxes of each level the solves visit (see kifmm__active) */
-    int npchunk;
-    kifmm_stats *stats;      /* written by create and evaluate */
+    size_t held;               /* bytes of the blocks below, tree and workspace apart */
+    kifmm_opts opts;           /* options, defaults resolved (with the kernel's
+                                  parameters in opts.kernel_param) */
+    kifmm__tree tree;          /* boxes, lists, and the sorted points in double */
+    struct {                   /* the sorted points in the instance's precision */
+        KIFMM__R *src, *trg;   /* structure of arrays; the tree's own in double */
+    } pts;
+    struct {                   /* the equivalent and check surfaces */
+        int nse, nsc;          /* points */
+        int cdiff;             /* check order - equivalent order (kifmm__check_diff) */
+        double ao;             /* outer surfaces' radius, in box half-widths */
+        int ne, nc;            /* vector lengths: points x SD */
+        double *unit_e, *unit_c; /* unit surfaces (SoA) */
+    } surf;
+    struct {                   /* the operators */
+        KIFMM__F(__ops) *at;   /* at[l] for the levels that use them (at[0]: all
+                                  levels, for scale-invariant kernels) */
+        int n;
+        double degree;
+        int m2l_cols;          /* dense M2L: columns (box x vector) per GEMM */
+    } ops;
+    struct {                   /* the FFT M2L */
+        kifmm__fft plan;       /* transforms of the check-order lattice */
+        int32_t *co, *cj;      /* internal colleagues of internal boxes, and */
+        unsigned char *cc;     /* their offset codes */
+        float *specf;          /* child spectra of one slab, in the spectra's */
+        double *specd;         /* precision (one of the two) */
+        int32_t slots;         /* parents whose spectra fit in spec */
+        int32_t m, mc;         /* sizes of loc/need and cjl */
+        int32_t *loc, *need, *cjl; /* slab: slot of a parent, parents, local colleagues */
+        unsigned char *sch;    /* per slot: number of children with sources, then which */
+        float *bf;             /* per thread: blocks, products, transform work (fper */
+        double *bd;            /* values of the spectra's type) */
+        double *mbuf;          /* per thread: one lattice density of 8 lanes, 8 nc */
+        size_t per;
+        int ftb;               /* target parents per task (products buffer) */
+        float *foutf;          /* without kept blocks: products of a slab's target */
+        double *foutd;         /* parents (slots of them), chunk-major; or NULL */
+    } fft;
+    struct {                   /* the mutual near field (sources = targets) */
+        int32_t *chunk;        /* chunks of leaves, or NULL */
+        int nchunk;
+    } near;
+    struct {                   /* workspace */
+        KIFMM__F(__work) *w;   /* grows to the largest nrhs evaluated (<= RHS_MAX) */
+        KIFMM__R *scratch;     /* per thread: see __scratch_per */
+        size_t fpts;           /* points of the float instances' frame buffers */
+        KIFMM__R *gbuf;        /* column GEMM passes: see __gbuf_per */
+        size_t gbuf_n;
+        int32_t *act;          /* boxes of each level the solves visit (kifmm__active) */
+        int mb;                /* most boxes on one level */
+    } work;
+    kifmm_stats stats;         /* written by create and evaluate */
 };
 
-/* ---- dense linear algebra in the instance's precision ------------------ */
-
-/* C = A B (+ C if beta), column major, no transposes. Outside parallel
- * regions only. */
+/* C = A B (+ C if beta), column major, no transposes, in the instance's
+ * precision. Outside parallel regions only. */
 KIFMM__FN void KIFMM__F(__gemm)(int m, int n, int k, const KIFMM__R *a, int lda,
                                 const KIFMM__R *b, int ldb, int beta, KIFMM__R *c, int ldc)
 {
@@ -2466,12 +2879,13 @@ KIFMM__FN void KIFMM__F(__gemm)(int m, int n, int k, const KIFMM__R *a, int lda,
 #endif
 }
 
-/* A copy of n doubles in the instance's precision (the array itself for
- * double, which then changes owner). NULL on allocation failure. */
-KIFMM__FN KIFMM__R *KIFMM__F(__own)(double **d, size_t n)
+/* A copy of n doubles in the instance's precision, counted in *held (the
+ * array itself for double, which then changes owner). NULL on allocation
+ * failure. */
+KIFMM__FN KIFMM__R *KIFMM__F(__own)(size_t *held, double **d, size_t n)
 {
 #if KIFMM__FLOAT
-    KIFMM__R *f = (KIFMM__R *)kifmm__alloc(n, sizeof(KIFMM__R));
+    KIFMM__R *f = (KIFMM__R *)kifmm__take(held, n, sizeof(KIFMM__R));
     size_t i;
     if (f)
         for (i = 0; i < n; i++) f[i] = (KIFMM__R)(*d)[i];
@@ -2480,6 +2894,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__own)(double **d, size_t n)
     return f;
 #else
     KIFMM__R *f = *d;
+    if (f) *held += kifmm__size(f);
     (void)n;
     *d = NULL;
     return f;
@@ -2495,7 +2910,7 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
         for (i = 0; i < n; i++) out[d * n + i] = (KIFMM__R)(c[d] + radius * unit[d * n + i]);
 }
 
-/* ---- direct interactions ------------------------------------------------ */
+// >>kernels
 
 /* The signature of the instance's direct-interaction loops below. */
 #define KIFMM__P2P_SIG(fname)                                                                \
@@ -2590,7 +3005,8 @@ KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_sc), KIFMM__HOOK(SC, p2p))
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p_sc), KIFMM__R_(SC, _eval), KIFMM__SD, KIFMM__SD)
 #endif
 
-/* ---- operators ------------------------------------------------------------ */
+
+// >>operators
 
 /* Matrix of the surface kernel from sources s (SoA, nsp points) to targets tp
  * (SoA, ntp points), times sigma: row i*SD + a, column j*SD + b, leading
@@ -2616,7 +3032,6 @@ KIFMM__FN double KIFMM__F(__kmat)(const double *prm, const double *tp, int ntp,
     return big;
 }
 
-/* The operators for target boxes of half-width r (see kifmm__ops), in double. */
 /* K(check <- equivalent) times sigma into m (leading dimension ld): the
  * check surface of order ordc... placed at centre cc with radius crad (unit
  * surface uc, nc points), the equivalent one likewise. *big (if not NULL)
@@ -2631,7 +3046,7 @@ KIFMM__FN int KIFMM__F(__surf_kmat)(const KIFMM_NAME *c, const double *uc, int n
     if (!pc) return KIFMM_ERR_NOMEM;
     kifmm__surf_place(uc, nc, cc, crad, pc);
     kifmm__surf_place(ue, ne, ec, erad, pc + 3 * nc);
-    b = KIFMM__F(__kmat)(c->param, pc, nc, pc + 3 * nc, ne, sigma, m, ld);
+    b = KIFMM__F(__kmat)(c->opts.kernel_param, pc, nc, pc + 3 * nc, ne, sigma, m, ld);
     kifmm__free(pc);
     if (big) *big = b;
     return b == b ? KIFMM_SUCCESS : KIFMM_ERR_KERNEL;
@@ -2656,23 +3071,23 @@ KIFMM__FN int KIFMM__F(__surf_kmat)(const KIFMM_NAME *c, const double *uc, int n
 KIFMM__FN int KIFMM__F(__build_c2e)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const size_t nn = (size_t)c->nc * (size_t)c->ne;
+    const size_t nn = (size_t)c->surf.nc * (size_t)c->surf.ne;
     double *a = (double *)kifmm__alloc(nn, sizeof(double)), big = 0.0;
     size_t i;
     int rc;
     if (!a) return KIFMM_ERR_NOMEM;
-    rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, c->ao * r, c->surf_e, c->nse, zero,
-                               KIFMM__ALPHA_INNER * r, 1.0, a, (size_t)c->nc, &big);
+    rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, zero,
+                               KIFMM__ALPHA_INNER * r, 1.0, a, (size_t)c->surf.nc, &big);
     if (!rc) {
         o->sigma = big >= KIFMM__TINY ? 1.0 / big : 0.0;
         for (i = 0; i < nn; i++) a[i] *= o->sigma;
-        rc = kifmm__pinv(a, c->nc, c->ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku);
+        rc = kifmm__pinv(a, c->surf.nc, c->surf.ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku);
     }
     if (!rc)
-        rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, KIFMM__ALPHA_INNER * r,
-                                   c->surf_e, c->nse, zero, c->ao * r, o->sigma, a,
-                                   (size_t)c->nc, NULL);
-    if (!rc) rc = kifmm__pinv(a, c->nc, c->ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd);
+        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, KIFMM__ALPHA_INNER * r,
+                                   c->surf.unit_e, c->surf.nse, zero, c->surf.ao * r, o->sigma, a,
+                                   (size_t)c->surf.nc, NULL);
+    if (!rc) rc = kifmm__pinv(a, c->surf.nc, c->surf.ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd);
     kifmm__free(a);
     return rc;
 }
@@ -2684,7 +3099,7 @@ KIFMM__FN int KIFMM__F(__build_c2e)(const KIFMM_NAME *c, double r, kifmm__ops *o
 KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const size_t nc = (size_t)c->nc, ne = (size_t)c->ne;
+    const size_t nc = (size_t)c->surf.nc, ne = (size_t)c->surf.ne;
     int oct, d, rc = KIFMM_SUCCESS;
     o->m2m = (double *)kifmm__alloc(nc * 8 * ne, sizeof(double));
     o->l2l = (double *)kifmm__alloc(8 * nc * ne, sizeof(double));
@@ -2697,12 +3112,12 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
             cm[d] = 0.5 * r * sgn[d];
             cl[d] = -r * sgn[d];
         }
-        rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, c->ao * r, c->surf_e, c->nse, cm,
+        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, cm,
                                    KIFMM__ALPHA_INNER * 0.5 * r, o->sigma,
                                    o->m2m + (size_t)oct * ne * nc, nc, NULL);
         if (!rc)
-            rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, KIFMM__ALPHA_INNER * r,
-                                       c->surf_e, c->nse, cl, c->ao * 2.0 * r, o->sigma,
+            rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, KIFMM__ALPHA_INNER * r,
+                                       c->surf.unit_e, c->surf.nse, cl, c->surf.ao * 2.0 * r, o->sigma,
                                        o->l2l + (size_t)oct * nc, 8 * nc, NULL);
     }
     return rc;
@@ -2718,17 +3133,17 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
 KIFMM__FN int KIFMM__F(__build_conv)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const int nc = c->nc, ne = c->ne;
+    const int nc = c->surf.nc, ne = c->surf.ne;
     double *kb, *a, *ut = NULL, *vs = NULL, *tmp = NULL;
     int k = 0, rc = KIFMM_SUCCESS;
-    if (c->cdiff == 0) return KIFMM_SUCCESS;
+    if (c->surf.cdiff == 0) return KIFMM_SUCCESS;
     kb = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
     a = (double *)kifmm__alloc((size_t)nc * nc, sizeof(double));
     if (!kb || !a) { rc = KIFMM_ERR_NOMEM; goto done; }
-    rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, c->ao * r, c->surf_e, c->nse, zero,
+    rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, zero,
                                KIFMM__ALPHA_INNER * r, 1.0, kb, (size_t)nc, NULL);
     if (!rc)
-        rc = KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, c->ao * r, c->surf_c, c->nsc,
+        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_c, c->surf.nsc,
                                    zero, KIFMM__ALPHA_INNER * r, 1.0, a, (size_t)nc, NULL);
     if (!rc) rc = kifmm__pinv(a, nc, nc, KIFMM__CUTOFF, &ut, &vs, &k);
     if (rc) goto done;
@@ -2753,7 +3168,7 @@ done:
  * frequencies read one contiguous piece. */
 KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
-    const kifmm__fft *pl = &c->fft;
+    const kifmm__fft *pl = &c->fft.plan;
     const int n = pl->n, p = pl->p;
     const size_t per = (size_t)n * n * n + kifmm__fft_work(pl), nk = (size_t)KIFMM__NT * 2 * pl->nfp;
     const double h = 2.0 * KIFMM__ALPHA_INNER * r / (p - 1), sigma = o->sigma;
@@ -2761,15 +3176,15 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__op
     double big = 0.0;
     int bad = 0;
     o->khat = (double *)kifmm__alloc(nk, sizeof(double));
-    kall = (double *)kifmm__alloc((size_t)c->nthreads * per + nk, sizeof(double));
+    kall = (double *)kifmm__alloc((size_t)c->opts.nthreads * per + nk, sizeof(double));
     if (!o->khat || !kall) {
         kifmm__free(kall);
         return KIFMM_ERR_NOMEM;
     }
-    kt = kall + (size_t)c->nthreads * per;
+    kt = kall + (size_t)c->opts.nthreads * per;
     memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
     /* each transfer vector writes its own spectrum; g is the thread's grid */
-    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) reduction(| : bad) \
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) reduction(| : bad) \
                reduction(max : big))
     for (int tv = 0; tv < KIFMM__NT; tv++) {
         double *g = kall + (size_t)kifmm__thread_num() * per, kv[1];
@@ -2779,7 +3194,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__op
         for (i = 1 - p; i < p; i++)
             for (j = 1 - p; j < p; j++)
                 for (k = 1 - p; k < p; k++) {
-                    KIFMM__R_(SC, _eval)(c->param, h * i - 2.0 * r * d[0], h * j - 2.0 * r * d[1],
+                    KIFMM__R_(SC, _eval)(c->opts.kernel_param, h * i - 2.0 * r * d[0], h * j - 2.0 * r * d[1],
                                  h * k - 2.0 * r * d[2], kv);
                     bad |= !(fabs(kv[0]) <= DBL_MAX);
                     big = fabs(sigma * kv[0]) > big ? fabs(sigma * kv[0]) : big;
@@ -2788,7 +3203,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__op
         kifmm__fft_grid(pl, g, kt + (size_t)tv * 2 * pl->nfp, g + (size_t)n * n * n);
     }
     /* each frequency f writes its own row of khat */
-    KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
     for (int32_t f = 0; f < pl->nfp; f++)
         for (int t = 0; t < KIFMM__NT; t++) {
             o->khat[((size_t)f * KIFMM__NT + t) * 2] = kt[(size_t)t * 2 * pl->nfp + 2 * f];
@@ -2807,6 +3222,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__op
     if (big > (pl->single ? 1e30 : 1e300)) memset(o->khat, 0, sizeof(double) * nk);
     return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
 }
+
 #else
 /* The dense M2L for boxes of half-width r: per transfer vector t, the
  * source box's upward equivalent density (centre 2 r t) -> the target box's
@@ -2817,7 +3233,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
 {
     enum { CH = 16 };
     const double zero[3] = {0.0, 0.0, 0.0};
-    const int nc = c->nc, ne = c->ne;
+    const int nc = c->surf.nc, ne = c->surf.ne;
     double *kall = (double *)kifmm__alloc((size_t)nc * CH * ne, sizeof(double));
     int bad = 0;
     o->m2l = (double *)kifmm__alloc((size_t)o->kd * KIFMM__NT * ne, sizeof(double));
@@ -2828,7 +3244,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
     for (int tv = 0; tv < KIFMM__NT && !bad; tv += CH) {
         const int nch = KIFMM__NT - tv < (int)CH ? KIFMM__NT - tv : (int)CH;
         /* each k fills its own block of kall */
-        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) reduction(| : bad))
+        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) reduction(| : bad))
         for (int k = 0; k < nch; k++) {
             int d[3] = {0, 0, 0};
             double cs[3];
@@ -2836,8 +3252,8 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
             cs[0] = 2.0 * r * d[0];
             cs[1] = 2.0 * r * d[1];
             cs[2] = 2.0 * r * d[2];
-            bad |= KIFMM__F(__surf_kmat)(c, c->surf_c, c->nsc, zero, KIFMM__ALPHA_INNER * r,
-                                         c->surf_e, c->nse, cs, KIFMM__ALPHA_INNER * r,
+            bad |= KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, KIFMM__ALPHA_INNER * r,
+                                         c->surf.unit_e, c->surf.nse, cs, KIFMM__ALPHA_INNER * r,
                                          o->sigma, kall + (size_t)k * nc * ne, (size_t)nc,
                                          NULL) != KIFMM_SUCCESS;
         }
@@ -2866,12 +3282,12 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, int m2l, kifm
 }
 
 /* Build one level's operators in double and keep them in the instance's
- * precision. */
-KIFMM__FN int KIFMM__F(__ops_make)(const KIFMM_NAME *c, double r, int m2l,
-                                   KIFMM__F(__ops) *out)
+ * precision, counted in c->held. */
+KIFMM__FN int KIFMM__F(__ops_make)(KIFMM_NAME *c, double r, int m2l, KIFMM__F(__ops) *out)
 {
+    const size_t ne = (size_t)c->surf.ne, nc = (size_t)c->surf.nc;
+    size_t *held = &c->held;
     kifmm__ops o;
-    size_t ne = (size_t)c->ne, nc = (size_t)c->nc;
     int rc;
     memset(&o, 0, sizeof o);
     rc = KIFMM__F(__ops_build)(c, r, m2l, &o);
@@ -2879,27 +3295,19 @@ KIFMM__FN int KIFMM__F(__ops_make)(const KIFMM_NAME *c, double r, int m2l,
         out->sigma = o.sigma;
         out->ku = o.ku;
         out->kd = o.kd;
-        out->ut_up = KIFMM__F(__own)(&o.ut_up, (size_t)o.ku * nc);
-        out->vs_up = KIFMM__F(__own)(&o.vs_up, ne * (size_t)o.ku);
-        out->ut_dn = KIFMM__F(__own)(&o.ut_dn, (size_t)o.kd * nc);
-        out->vs_dn = KIFMM__F(__own)(&o.vs_dn, ne * (size_t)o.kd);
-        out->m2m = KIFMM__F(__own)(&o.m2m, nc * 8 * ne);
-        out->l2l = KIFMM__F(__own)(&o.l2l, 8 * nc * ne);
-#if KIFMM__FFT
-        if (o.conv) {
-            out->conv = KIFMM__F(__own)(&o.conv, nc * ne);
-            if (!out->conv) rc = KIFMM_ERR_NOMEM;
-        }
+        out->ut_up = KIFMM__F(__own)(held, &o.ut_up, (size_t)o.ku * nc);
+        out->vs_up = KIFMM__F(__own)(held, &o.vs_up, ne * (size_t)o.ku);
+        out->ut_dn = KIFMM__F(__own)(held, &o.ut_dn, (size_t)o.kd * nc);
+        out->vs_dn = KIFMM__F(__own)(held, &o.vs_dn, ne * (size_t)o.kd);
+        out->m2m = KIFMM__F(__own)(held, &o.m2m, nc * 8 * ne);
+        out->l2l = KIFMM__F(__own)(held, &o.l2l, 8 * nc * ne);
+        if (o.conv && !(out->conv = KIFMM__F(__own)(held, &o.conv, nc * ne))) rc = KIFMM_ERR_NOMEM;
+        if (o.m2l && !(out->m2l = KIFMM__F(__own)(held, &o.m2l, (size_t)o.kd * KIFMM__NT * ne)))
+            rc = KIFMM_ERR_NOMEM;
+        if (o.khat) *held += kifmm__size(o.khat);
         out->khat = o.khat;
         o.khat = NULL;
-#else
-        if (o.m2l) {
-            out->m2l = KIFMM__F(__own)(&o.m2l, (size_t)o.kd * KIFMM__NT * ne);
-            if (!out->m2l) rc = KIFMM_ERR_NOMEM;
-        }
-#endif
-        if (!out->ut_up || !out->vs_up || !out->ut_dn || !out->vs_dn || !out->m2m ||
-            !out->l2l)
+        if (!out->ut_up || !out->vs_up || !out->ut_dn || !out->vs_dn || !out->m2m || !out->l2l)
             rc = KIFMM_ERR_NOMEM;
     }
     kifmm__ops_free(&o);
@@ -2911,9 +3319,44 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
     kifmm__free(o->ut_up); kifmm__free(o->vs_up);
     kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
     kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
-    kifmm__free(o->conv); kifmm__free(o->khat); kifmm__free(o->kb);
+    kifmm__free(o->conv); kifmm__free(o->khat); kifmm__free(o->kbf); kifmm__free(o->kbd);
     memset(o, 0, sizeof *o);
 }
+
+#if KIFMM__FFT
+/* The products' blocks of every chunk (kifmm__fft_blocks), built once when
+ * all of them fit in KIFMM__FFT_KB_MB (float spectra, one set of operators:
+ * 5.6 MiB at p = 4, 16 MiB at p = 6) or take no more than one expansion
+ * array of the handle (double spectra at p = 8: 72 MiB, kept from about 1M
+ * points on); otherwise the products build each chunk's blocks once per
+ * slab. */
+KIFMM__FN int KIFMM__F(__keep_blocks)(KIFMM_NAME *c)
+{
+    const kifmm__fft *pl = &c->fft.plan;
+    const size_t per = (size_t)27 * 128 * KIFMM__FFT_F, all = per * (size_t)pl->nchunk;
+    const size_t bytes = all * (pl->single ? sizeof(float) : sizeof(double));
+    const size_t one = (size_t)c->tree.nbox * (size_t)c->surf.ne * sizeof(KIFMM__R);
+    int tvm[27 * 64], n = 0, l;
+    for (l = 0; l < c->ops.n; l++) n += c->ops.at[l].khat != NULL;
+    if (n == 0 || (bytes * (size_t)n > (size_t)KIFMM__FFT_KB_MB << 20 && bytes * (size_t)n > one))
+        return KIFMM_SUCCESS;
+    kifmm__fft_tvmap(tvm);
+    for (l = 0; l < c->ops.n; l++) {
+        KIFMM__F(__ops) *o = &c->ops.at[l];
+        if (!o->khat) continue;
+        if (pl->single) o->kbf = (float *)kifmm__take(&c->held, all, sizeof(float));
+        else o->kbd = (double *)kifmm__take(&c->held, all, sizeof(double));
+        if (!o->kbf && !o->kbd) return KIFMM_ERR_NOMEM;
+        /* each chunk writes its own blocks */
+        KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
+        for (int ch = 0; ch < pl->nchunk; ch++) {
+            if (o->kbf) kifmm__fft_blocksf(o->khat, tvm, ch, o->kbf + per * (size_t)ch);
+            else kifmm__fft_blocksd(o->khat, tvm, ch, o->kbd + per * (size_t)ch);
+        }
+    }
+    return KIFMM_SUCCESS;
+}
+#endif
 
 /* Scale-invariant kernels: one set at half-width 1, rescaled per level.
  * Others: one set per level that uses operators (levels 2 and deeper).
@@ -2922,53 +3365,24 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
 KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 {
     const kifmm__tree *t = &c->tree;
-    int l, rc, any = 0;
-    c->nops = KIFMM__SI ? 1 : t->nlev;
-    c->ops = (KIFMM__F(__ops) *)kifmm__calloc((size_t)c->nops, sizeof(KIFMM__F(__ops)));
-    if (!c->ops) return KIFMM_ERR_NOMEM;
+    int l, rc = KIFMM_SUCCESS, any = 0;
+    c->ops.n = KIFMM__SI ? 1 : t->nlev;
+    c->ops.at = (KIFMM__F(__ops) *)kifmm__takez(&c->held, (size_t)c->ops.n, sizeof(KIFMM__F(__ops)));
+    if (!c->ops.at) return KIFMM_ERR_NOMEM;
     for (l = 2; l < t->nlev; l++) any |= t->m2lo[l + 1] > t->m2lo[l];
-    if (KIFMM__SI) {
-        if (t->nlev > 2 && (rc = KIFMM__F(__ops_make)(c, 1.0, any, &c->ops[0]))) return rc;
-    } else {
-        for (l = 2; l < t->nlev; l++) {
-            double half = 0.5 * t->width / (double)((int64_t)1 << l);
-            if ((rc = KIFMM__F(__ops_make)(c, half, t->m2lo[l + 1] > t->m2lo[l], &c->ops[l])))
-                return rc;
-        }
-    }
+    if (KIFMM__SI && t->nlev > 2) rc = KIFMM__F(__ops_make)(c, 1.0, any, &c->ops.at[0]);
+    for (l = 2; l < t->nlev && !KIFMM__SI && !rc; l++)
+        rc = KIFMM__F(__ops_make)(c, 0.5 * t->width / (double)((int64_t)1 << l),
+                                  t->m2lo[l + 1] > t->m2lo[l], &c->ops.at[l]);
 #if KIFMM__FFT
-    {
-        /* the products' blocks of every chunk, built once when all of them fit in
-         * KIFMM__FFT_KB_MB (float spectra, one set of operators: 5.6 MiB at p = 4,
-         * 16 MiB at p = 6) or take no more than one expansion array of the handle
-         * (double spectra at p = 8: 72 MiB, kept from about 1M points on);
-         * otherwise the products build each chunk's blocks once per slab */
-        const kifmm__fft *pl = &c->fft;
-        const size_t esz = pl->single ? sizeof(float) : sizeof(double);
-        const size_t per = (size_t)27 * 128 * KIFMM__FFT_F * esz, all = per * (size_t)pl->nchunk;
-        int tvm[27 * 64], n = 0;
-        const size_t one = (size_t)c->tree.nbox * (size_t)c->ne * sizeof(KIFMM__R);
-        for (l = 0; l < c->nops; l++) n += c->ops[l].khat != NULL;
-        if (n > 0 && (all * (size_t)n <= (size_t)KIFMM__FFT_KB_MB << 20 || all * (size_t)n <= one)) {
-            kifmm__fft_tvmap(tvm);
-            for (l = 0; l < c->nops; l++) {
-                KIFMM__F(__ops) *o = &c->ops[l];
-                if (!o->khat) continue;
-                o->kb = kifmm__alloc(all, 1);
-                if (!o->kb) return KIFMM_ERR_NOMEM;
-                KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-                for (int ch = 0; ch < pl->nchunk; ch++)
-                    kifmm__fft_blocks(pl, o->khat, tvm, ch, (char *)o->kb + per * (size_t)ch);
-            }
-        }
-    }
+    if (!rc) rc = KIFMM__F(__keep_blocks)(c);
 #endif
-    return KIFMM_SUCCESS;
+    return rc;
 }
 
 KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 {
-    return KIFMM__SI ? &c->ops[0] : &c->ops[l];
+    return KIFMM__SI ? &c->ops.at[0] : &c->ops.at[l];
 }
 
 /* Factor multiplying check potentials computed directly from points at
@@ -2978,11 +3392,11 @@ KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 KIFMM__FN double KIFMM__F(__level_scale)(const KIFMM_NAME *c, int l)
 {
     double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-    return KIFMM__SI ? pow(half, -c->degree) * c->ops[0].sigma
-                                      : c->ops[l].sigma;
+    return KIFMM__SI ? pow(half, -c->ops.degree) * c->ops.at[0].sigma
+                                      : c->ops.at[l].sigma;
 }
 
-/* ---- workspace -------------------------------------------------------------- */
+// >>workspace
 
 KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
 {
@@ -2996,14 +3410,14 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
 /* Per-vector sizes of the workspace arrays, in elements. */
 KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 {
-    size_t big = (size_t)(c->nc > c->ne ? c->nc : c->ne);
-    sz[0] = (size_t)c->tree.nbox * (size_t)c->ne;                  /* ue, de */
-    sz[1] = (size_t)c->mb * (size_t)c->nc;                         /* chk */
+    size_t big = (size_t)(c->surf.nc > c->surf.ne ? c->surf.nc : c->surf.ne);
+    sz[0] = (size_t)c->tree.nbox * (size_t)c->surf.ne;                  /* ue, de */
+    sz[1] = (size_t)c->work.mb * (size_t)c->surf.nc;                         /* chk */
 #if KIFMM__FFT
     sz[2] = 0;
     (void)big;
 #else
-    sz[2] = (size_t)c->mb * big; /* tmp: the first solve step and the dense M2L, a level */
+    sz[2] = (size_t)c->work.mb * big; /* tmp: the first solve step and the dense M2L, a level */
 #endif
     sz[3] = (size_t)c->tree.ns * KIFMM__QD;                        /* qs */
     sz[4] = (size_t)c->tree.nt * KIFMM__TD;                        /* outs */
@@ -3017,19 +3431,19 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
 {
     const kifmm__tree *t = &c->tree;
-    int64_t m = c->nsc, all = t->nt * (int64_t)nrhs * KIFMM__TD;
+    int64_t m = c->surf.nsc, all = t->nt * (int64_t)nrhs * KIFMM__TD;
     int32_t i;
     for (i = 0; i < t->nleaves; i++)
         if (t->t1[t->leaves[i]] - t->t0[t->leaves[i]] > m)
             m = t->t1[t->leaves[i]] - t->t0[t->leaves[i]];
-    for (i = 0; c->pchunk && i < c->npchunk; i++) {
-        const int32_t i0 = c->pchunk[i], i1 = c->pchunk[i + 1];
+    for (i = 0; c->near.chunk && i < c->near.nchunk; i++) {
+        const int32_t i0 = c->near.chunk[i], i1 = c->near.chunk[i + 1];
         const int64_t lo = i0 < t->nleaves ? t->t0[t->leaves[i0]] : t->nt;
         const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
         if (hi - lo > m) m = hi - lo;
     }
     m = (m * (int64_t)nrhs * KIFMM__TD + 15) / 16 * 16;
-    return 2 * (int64_t)c->nthreads * m <= all ? (size_t)m : 0;
+    return 2 * (int64_t)c->opts.nthreads * m <= all ? (size_t)m : 0;
 }
 
 /* out[r dst + tperm[t0 + i] TD + k] += b[r ld + i TD + k]: a task's sums for
@@ -3061,50 +3475,53 @@ KIFMM__FN KIFMM__R *KIFMM__F(__lbuf)(const KIFMM__F(__work) *w, int nrhs, int64_
     return b;
 }
 
+/* The solves skip boxes without sources (ue) or targets (de): their
+ * expansions are zero once and for all. */
+KIFMM__FN void KIFMM__F(__work_zero)(const KIFMM_NAME *c, KIFMM__F(__work) *w, size_t per)
+{
+    const kifmm__tree *t = &c->tree;
+    const size_t ne = (size_t)c->surf.ne;
+    int32_t b;
+    int r;
+    for (r = 0; r < w->nrhs; r++)
+        for (b = 0; b < t->nbox; b++) {
+            const size_t at = (size_t)r * per + (size_t)b * ne;
+            if (t->s1[b] == t->s0[b]) memset(w->ue + at, 0, ne * sizeof(KIFMM__R));
+            if (t->t1[b] == t->t0[b]) memset(w->de + at, 0, ne * sizeof(KIFMM__R));
+        }
+}
+
+/* The expansions and buffers of the passes for up to nrhs vectors, counted
+ * in w->held; NULL if out of memory. */
 KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
 {
     KIFMM__F(__work) *w = (KIFMM__F(__work) *)kifmm__calloc(1, sizeof *w);
-    size_t sz[5], n = (size_t)nrhs, big = (size_t)(c->nc > c->ne ? c->nc : c->ne);
+    size_t sz[5], n = (size_t)nrhs, *held;
+    const size_t big = (size_t)(c->surf.nc > c->surf.ne ? c->surf.nc : c->surf.ne);
     if (!w) return NULL;
+    held = &w->held;
     KIFMM__F(__work_sizes)(c, sz);
     w->nrhs = nrhs;
-    w->ue = (KIFMM__R *)kifmm__alloc(n * sz[0], sizeof(KIFMM__R));
-    w->de = (KIFMM__R *)kifmm__alloc(n * sz[0], sizeof(KIFMM__R));
-    w->chk = (KIFMM__R *)kifmm__alloc(n * sz[1], sizeof(KIFMM__R));
-#if KIFMM__FFT
-    (void)big;
-#else
-    w->tmp = (KIFMM__R *)kifmm__alloc(n * sz[2], sizeof(KIFMM__R));
-    w->stack = (KIFMM__R *)kifmm__alloc((size_t)c->m2l_cols * KIFMM__NT * (size_t)c->ne,
-                                        sizeof(KIFMM__R));
-    w->m2l_out = (KIFMM__R *)kifmm__alloc((size_t)c->m2l_cols * big, sizeof(KIFMM__R));
-    if (!w->tmp || !w->stack || !w->m2l_out) {
-        KIFMM__F(__work_free)(w);
-        return NULL;
+    w->ue = (KIFMM__R *)kifmm__take(held, n * sz[0], sizeof(KIFMM__R));
+    w->de = (KIFMM__R *)kifmm__take(held, n * sz[0], sizeof(KIFMM__R));
+    w->chk = (KIFMM__R *)kifmm__take(held, n * sz[1], sizeof(KIFMM__R));
+    w->qs = (KIFMM__R *)kifmm__take(held, n * sz[3], sizeof(KIFMM__R));
+    if (!KIFMM__FFT) {
+        w->tmp = (KIFMM__R *)kifmm__take(held, n * sz[2], sizeof(KIFMM__R));
+        w->stack = (KIFMM__R *)kifmm__take(held, (size_t)c->ops.m2l_cols * KIFMM__NT * (size_t)c->surf.ne,
+                                           sizeof(KIFMM__R));
+        w->m2l_out = (KIFMM__R *)kifmm__take(held, (size_t)c->ops.m2l_cols * big, sizeof(KIFMM__R));
     }
-#endif
-    w->qs = (KIFMM__R *)kifmm__alloc(n * sz[3], sizeof(KIFMM__R));
     w->lbuf_per = KIFMM__F(__lbuf_per)(c, nrhs);
-    if (w->lbuf_per) w->lbuf = (KIFMM__R *)kifmm__alloc((size_t)c->nthreads * w->lbuf_per,
-                                                        sizeof(KIFMM__R));
-    else w->outs = (KIFMM__R *)kifmm__alloc(n * sz[4], sizeof(KIFMM__R));
-    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf)) {
+    if (w->lbuf_per)
+        w->lbuf = (KIFMM__R *)kifmm__take(held, (size_t)c->opts.nthreads * w->lbuf_per, sizeof(KIFMM__R));
+    else w->outs = (KIFMM__R *)kifmm__take(held, n * sz[4], sizeof(KIFMM__R));
+    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf) ||
+        (!KIFMM__FFT && (!w->tmp || !w->stack || !w->m2l_out))) {
         KIFMM__F(__work_free)(w);
         return NULL;
     }
-    {
-        /* the solves skip boxes without sources (ue) or targets (de): their
-         * expansions are zero once and for all */
-        const kifmm__tree *t = &c->tree;
-        int32_t b;
-        int r;
-        for (r = 0; r < nrhs; r++)
-            for (b = 0; b < t->nbox; b++) {
-                const size_t at = (size_t)r * sz[0] + (size_t)b * c->ne;
-                if (t->s1[b] == t->s0[b]) memset(w->ue + at, 0, (size_t)c->ne * sizeof(KIFMM__R));
-                if (t->t1[b] == t->t0[b]) memset(w->de + at, 0, (size_t)c->ne * sizeof(KIFMM__R));
-            }
-    }
+    KIFMM__F(__work_zero)(c, w, sz[0]);
     return w;
 }
 
@@ -3114,37 +3531,37 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
  * thread with AVX2 (the passes run in parallel), else one. */
 KIFMM__FN size_t KIFMM__F(__gbuf_per)(const KIFMM_NAME *c)
 {
-    const size_t big = (size_t)(c->nc > c->ne ? c->nc : c->ne);
-    return ((size_t)c->ne + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
+    const size_t big = (size_t)(c->surf.nc > c->surf.ne ? c->surf.nc : c->surf.ne);
+    return ((size_t)c->surf.ne + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
 }
 
 /* The calling thread's buffer (thread 0 outside parallel regions). */
 KIFMM__FN KIFMM__R *KIFMM__F(__gbuf)(const KIFMM_NAME *c)
 {
 #ifdef _OPENMP
-    return c->gbuf + (size_t)omp_get_thread_num() * KIFMM__F(__gbuf_per)(c);
+    return c->work.gbuf + (size_t)omp_get_thread_num() * KIFMM__F(__gbuf_per)(c);
 #else
-    return c->gbuf;
+    return c->work.gbuf;
 #endif
 }
 
 /* Values per thread of the scratch: three surfaces of max(nsc, nse)
- * points, then (float instances) a frame of c->fpts points. */
+ * points, then (float instances) a frame of c->work.fpts points. */
 KIFMM__FN size_t KIFMM__F(__scratch_per)(const KIFMM_NAME *c)
 {
-    return 9 * (size_t)(c->nsc > c->nse ? c->nsc : c->nse) + 3 * c->fpts;
+    return 9 * (size_t)(c->surf.nsc > c->surf.nse ? c->surf.nsc : c->surf.nse) + 3 * c->work.fpts;
 }
 
 /* The calling thread's scratch (see __scratch_per). */
 KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
 {
-    return c->scratch + (size_t)kifmm__thread_num() * KIFMM__F(__scratch_per)(c);
+    return c->work.scratch + (size_t)kifmm__thread_num() * KIFMM__F(__scratch_per)(c);
 }
 
 /* The calling thread's frame buffer: after its three surfaces. */
 KIFMM__FN KIFMM__R *KIFMM__F(__framebuf)(const KIFMM_NAME *c)
 {
-    return KIFMM__F(__scratch)(c) + 9 * (size_t)(c->nsc > c->nse ? c->nsc : c->nse);
+    return KIFMM__F(__scratch)(c) + 9 * (size_t)(c->surf.nsc > c->surf.nse ? c->surf.nsc : c->surf.nse);
 }
 
 /* The n points of a sorted set from position p0 on (structure of arrays,
@@ -3175,55 +3592,8 @@ KIFMM__FN const KIFMM__R *KIFMM__F(__frame)(const KIFMM__R *pts, size_t *ld, int
 #endif
 }
 
-/* Bytes held by a handle, counted from the sizes it allocated. */
-KIFMM__FN double KIFMM__F(__bytes)(const KIFMM_NAME *c)
-{
-    const kifmm__tree *t = &c->tree;
-    const double R = (double)sizeof(KIFMM__R), ne = c->ne, nc = c->nc;
-    double b = 0.0, big = nc > ne ? nc : ne, ns = c->nsc > c->nse ? c->nsc : c->nse;
-    size_t sz[5];
-    int i;
-    b += (double)t->ns * (3 * R + 8) + (t->same ? 0.0 : (double)t->nt * (3 * R + 8));
-    b += (double)t->nbox * (8 + 4 * 4 + 4 * 8 + 5 * 4 + 1);
-    b += 4.0 * (t->uo[t->nbox] + t->wo[t->nbox] + t->xo[t->nbox]);
-    b += 4.0 * (c->pchunk ? c->npchunk + 1 : 0);
-    b += 4.0 * (2.0 * t->nbox + 2.0 * t->nlev);
-    if (t->v) b += 6.0 * t->vo[t->nbox];
-    for (i = 0; i < c->nops; i++) {
-        const KIFMM__F(__ops) *o = &c->ops[i];
-        if (!o->ut_up) continue;
-        b += R * ((o->ku + o->kd) * (nc + ne) + 16 * nc * ne);
-        b += R * (double)o->kd * KIFMM__NT * ne * (o->m2l != NULL);
-        b += R * nc * ne * (o->conv != NULL) + 8.0 * KIFMM__NT * 2 * c->fft.nfp * (o->khat != NULL);
-        b += (o->kb != NULL) * 27.0 * 128 * KIFMM__FFT_F * (c->fft.single ? 4 : 8) * c->fft.nchunk;
-    }
-    if (c->w) {
-        KIFMM__F(__work_sizes)(c, sz);
-        b += R * c->w->nrhs * (2.0 * sz[0] + sz[1] + sz[2] + sz[3]);
-        b += R * (c->w->lbuf ? (double)c->nthreads * c->w->lbuf_per : (double)c->w->nrhs * sz[4]);
-#if KIFMM__FFT
-        (void)big;
-#else
-        b += R * (double)c->m2l_cols * (KIFMM__NT * ne + big);
-#endif
-    }
-#if KIFMM__FFT
-    if (c->spec) {
-        b += (c->fft.single ? 4.0 : 8.0) * 16 * c->fft.nfp * c->slots * (1 + (c->fout != NULL)) +
-             8.0 * c->nthreads * c->fbuf_per;
-        b += 8.0 * c->fft_m + 4.0 * c->fft_mc + 9.0 * c->slots;
-        b += 4.0 * (t->ioff[t->nlev] + 1) + 5.0 * (26.0 * t->ioff[t->nlev] + 1); /* co, cj, cc */
-    }
-#endif
-    b += R * c->nthreads * (double)KIFMM__F(__scratch_per)(c);
-    (void)ns;
-    b += R * (double)c->gbuf_n;
-    return b;
-}
 
-
-
-/* ---- the level passes ------------------------------------------------------- */
+// >>upward
 
 /* Layout of the per-level arrays chk and tmp: vector r, box b of level l, with
  * `rows` entries per box: [(r * n_l + (b - loff[l])) * rows]. */
@@ -3239,12 +3609,12 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     const kifmm__tree *t = &c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     const int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd;
-    const int32_t *ai = c->act + (up ? 0 : t->nbox) + t->loff[l];
-    const int na = c->act[2 * t->nbox + 2 * l + !up];
+    const int32_t *ai = c->work.act + (up ? 0 : t->nbox) + t->loff[l];
+    const int na = c->work.act[2 * t->nbox + 2 * l + !up];
     const int ppv = (na + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
-    const size_t per = (size_t)t->nbox * (size_t)c->ne;
+    const size_t per = (size_t)t->nbox * (size_t)c->surf.ne;
     KIFMM__R *eq = up ? w->ue : w->de;
-    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) if (KIFMM__GC_FAST))
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
     for (int p = 0; p < np; p++) {
         /* pieces of one vector each, cut as for evaluate: without AVX2 each is a
          * BLAS call, whose result for a column can depend on the call's other
@@ -3253,43 +3623,20 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
         const KIFMM__R *bp[KIFMM__GC_NC], *tb[KIFMM__GC_NC];
         KIFMM__R *tp[KIFMM__GC_NC], *cp[KIFMM__GC_NC];
         KIFMM__R *buf = KIFMM__F(__gbuf)(c);
-        const size_t per_t = (size_t)c->ne * KIFMM__GC_NC;
+        const size_t per_t = (size_t)c->surf.ne * KIFMM__GC_NC;
         const int r = p / ppv, j0 = (p % ppv) * KIFMM__GC_NC;
         int q, nq = na - j0;
         if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
         for (q = 0; q < nq; q++) {
             const size_t b = (size_t)ai[j0 + q]; /* within the level */
-            bp[q] = w->chk + ((size_t)r * n + b) * c->nc;
+            bp[q] = w->chk + ((size_t)r * n + b) * c->surf.nc;
             tb[q] = tp[q] = buf + (size_t)q * k;
-            cp[q] = eq + (size_t)r * per + ((size_t)t->loff[l] + b) * c->ne;
+            cp[q] = eq + (size_t)r * per + ((size_t)t->loff[l] + b) * c->surf.ne;
         }
-        KIFMM__GEMM_COLS(k, c->nc, up ? o->ut_up : o->ut_dn, k, nq, bp, tp, 0, buf + per_t);
-        KIFMM__GEMM_COLS(c->ne, k, up ? o->vs_up : o->vs_dn, c->ne, nq, tb, cp, 0, buf + per_t);
+        KIFMM__GEMM_COLS(k, c->surf.nc, up ? o->ut_up : o->ut_dn, k, nq, bp, tp, 0, buf + per_t);
+        KIFMM__GEMM_COLS(c->surf.ne, k, up ? o->vs_up : o->vs_dn, c->surf.ne, nq, tb, cp, 0, buf + per_t);
     }
 }
-
-#if !KIFMM__FFT
-/* The downward solve around the dense M2L, which adds its results between
- * the two factors (its matrices include ut_dn): step 0, tmp = ut chk (one GEMM
- * over boxes and vectors); step 1, equiv = vs tmp. */
-KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                      int l, int up, int step)
-{
-    const kifmm__tree *t = &c->tree;
-    const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
-    int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd, r;
-    size_t per = (size_t)t->nbox * (size_t)c->ne;
-    if (step == 0) {
-        KIFMM__F(__gemm)(k, n * nrhs, c->nc, up ? o->ut_up : o->ut_dn, k, w->chk, c->nc, 0, w->tmp,
-                         k);
-        return;
-    }
-    for (r = 0; r < nrhs; r++)
-        KIFMM__F(__gemm)(c->ne, n, k, up ? o->vs_up : o->vs_dn, c->ne,
-                         w->tmp + (size_t)r * n * k, k, 0,
-                         (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * c->ne, c->ne);
-}
-#endif
 
 /* Between the internal boxes of level lp and their children, whose boxes are
  * 8j..8j+7 of level lp + 1 for the j-th internal box: M2M (down = 0) adds
@@ -3303,11 +3650,11 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
     const kifmm__tree *t = &c->tree;
     const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
     const int ppv = (ni + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
-    const int m = down ? 8 * c->nc : c->nc, k = down ? c->ne : 8 * c->ne;
-    const size_t per = (size_t)t->nbox * (size_t)c->ne;
+    const int m = down ? 8 * c->surf.nc : c->surf.nc, k = down ? c->surf.ne : 8 * c->surf.ne;
+    const size_t per = (size_t)t->nbox * (size_t)c->surf.ne;
     const KIFMM__R *op = down ? KIFMM__F(__ops_at)(c, lp + 1)->l2l : KIFMM__F(__ops_at)(c, lp)->m2m;
     if (ni == 0 || lp + 1 >= t->nlev) return;
-    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) if (KIFMM__GC_FAST))
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
     for (int p = 0; p < np; p++) {
         const KIFMM__R *bp[KIFMM__GC_NC];
         KIFMM__R *cp[KIFMM__GC_NC];
@@ -3318,49 +3665,100 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
             const int jb = j0 + q;
             const int32_t b = t->inner[t->ioff[lp] + jb];
             if (down) {
-                bp[q] = w->de + jr * per + (size_t)b * c->ne;
-                cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * c->nc;
+                bp[q] = w->de + jr * per + (size_t)b * c->surf.ne;
+                cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * c->surf.nc;
             } else {
-                bp[q] = w->ue + jr * per + ((size_t)t->loff[lp + 1] + 8 * (size_t)jb) * c->ne;
-                cp[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[lp])) * c->nc;
+                bp[q] = w->ue + jr * per + ((size_t)t->loff[lp + 1] + 8 * (size_t)jb) * c->surf.ne;
+                cp[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[lp])) * c->surf.nc;
             }
         }
         KIFMM__GEMM_COLS(m, k, op, m, nq, bp, cp, !down,
-                         KIFMM__F(__gbuf)(c) + (size_t)c->ne * KIFMM__GC_NC);
+                         KIFMM__F(__gbuf)(c) + (size_t)c->surf.ne * KIFMM__GC_NC);
     }
 }
 
-/* M2L into level l: per block of (target box, vector) columns, stack the
- * multipoles of the target's V list by transfer vector (zeros elsewhere) and
- * multiply by the 316 matrices side by side in one GEMM. The matrices include
- * the first factor of the downward solve (ut_dn K_t), so the results are added
- * to the level's tmp (kd rows) between the two solve steps. No target is
- * written by two threads. */
+/* Upward pass at level l: P2M into the leaves' check vectors, M2M into the
+ * internal boxes', then the solve for the equivalent densities. */
+KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
+{
+    const kifmm__tree *t = &c->tree;
+    int nl = KIFMM__LVL(c, l);
+    double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1;
+    memset(w->chk, 0, (size_t)nl * nrhs * c->surf.nc * sizeof(KIFMM__R));
+    /* each leaf b writes its own check vector (its thread's scratch) */
+    KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
+    for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
+        const int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
+        KIFMM__R *pc = KIFMM__F(__scratch)(c);
+        const KIFMM__R *xs;
+        double ctr[3], fc[3], rc[3], half;
+        size_t ld = (size_t)t->ns;
+        if (t->child[b] >= 0 || ns == 0) continue;
+        kifmm__box_center(t, b, ctr, &half);
+        memcpy(fc, ctr, sizeof fc);
+        xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, ns, fc, KIFMM__F(__framebuf)(c));
+        kifmm__sub3(ctr, fc, rc);
+        KIFMM__F(__place)(c->surf.unit_c, c->surf.nsc, rc, c->surf.ao * half, pc);
+        KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc, c->surf.nsc, xs, xs + ld,
+                              xs + 2 * ld, w->qs + s0 * KIFMM__QD, ns, nrhs,
+                              (size_t)t->ns * KIFMM__QD, scale,
+                              w->chk + (size_t)(b - t->loff[l]) * c->surf.nc, (size_t)nl * c->surf.nc);
+    }
+    t1 = kifmm__now();
+    c->stats.t_p2m += t1 - t0;
+    KIFMM__F(__family_level)(c, w, nrhs, l, 0); /* M2M */
+    KIFMM__F(__solve)(c, w, nrhs, l, 1);
+    c->stats.t_m2m += kifmm__now() - t1;
+}
+
+// >>downward
+
 #if !KIFMM__FFT
+/* The downward solve around the dense M2L, which adds its results between
+ * the two factors (its matrices include ut_dn): step 0, tmp = ut chk (one GEMM
+ * over boxes and vectors); step 1, equiv = vs tmp. */
+KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                      int l, int up, int step)
+{
+    const kifmm__tree *t = &c->tree;
+    const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
+    int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd, r;
+    size_t per = (size_t)t->nbox * (size_t)c->surf.ne;
+    if (step == 0) {
+        KIFMM__F(__gemm)(k, n * nrhs, c->surf.nc, up ? o->ut_up : o->ut_dn, k, w->chk, c->surf.nc, 0, w->tmp,
+                         k);
+        return;
+    }
+    for (r = 0; r < nrhs; r++)
+        KIFMM__F(__gemm)(c->surf.ne, n, k, up ? o->vs_up : o->vs_dn, c->surf.ne,
+                         w->tmp + (size_t)r * n * k, k, 0,
+                         (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * c->surf.ne, c->surf.ne);
+}
+
 KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                      int l)
 {
     const kifmm__tree *t = &c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
-    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, blk = c->m2l_cols / nrhs;
+    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, blk = c->ops.m2l_cols / nrhs;
     int nl = KIFMM__LVL(c, l);
-    size_t col = (size_t)KIFMM__NT * c->ne, per = (size_t)t->nbox * (size_t)c->ne;
+    size_t col = (size_t)KIFMM__NT * c->surf.ne, per = (size_t)t->nbox * (size_t)c->surf.ne;
     if (blk < 1) blk = 1;
     for (b0 = 0; b0 < n; b0 += blk) {
         int32_t nb = n - b0 < blk ? n - b0 : blk;
-        KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
+        KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->opts.nthreads))
         for (int32_t j = 0; j < nb * nrhs; j++) {
             int32_t b = t->m2l[t->m2lo[l] + b0 + j / nrhs], e;
             const KIFMM__R *ue = w->ue + (size_t)(j % nrhs) * per;
             KIFMM__R *st = w->stack + (size_t)j * col;
             memset(st, 0, col * sizeof(KIFMM__R));
             for (e = t->vo[b]; e < t->vo[b + 1]; e++)
-                memcpy(st + (size_t)t->vt[e] * c->ne, ue + (size_t)t->v[e] * c->ne,
-                       (size_t)c->ne * sizeof(KIFMM__R));
+                memcpy(st + (size_t)t->vt[e] * c->surf.ne, ue + (size_t)t->v[e] * c->surf.ne,
+                       (size_t)c->surf.ne * sizeof(KIFMM__R));
         }
         KIFMM__F(__gemm)(o->kd, nb * nrhs, (int)col, o->m2l, o->kd, w->stack, (int)col, 0,
                          w->m2l_out, o->kd);
-        KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
+        KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
         for (int32_t j = 0; j < nb * nrhs; j++) {
             int32_t b = t->m2l[t->m2lo[l] + b0 + j / nrhs];
             KIFMM__R *dst = w->tmp + ((size_t)(j % nrhs) * nl + (size_t)(b - t->loff[l])) * o->kd;
@@ -3373,15 +3771,33 @@ KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
 #endif
 
 #if KIFMM__FFT
-/* The calling thread's FFT buffers: blocks, products, transform work, one
- * density in double. */
-KIFMM__FN double *KIFMM__F(__fbuf)(const KIFMM_NAME *c)
+/* A pair of typed pointers into a buffer of the FFT's spectra, whose values
+ * are float or double (plan.single): one of the two is set. Offsets are
+ * counted in values. */
+typedef struct {
+    float *f;
+    double *d;
+} KIFMM__F(__sp);
+
+KIFMM__FN KIFMM__F(__sp) KIFMM__F(__sp_at)(float *f, double *d, size_t off)
 {
-#ifdef _OPENMP
-    return c->fbuf + (size_t)omp_get_thread_num() * c->fbuf_per;
-#else
-    return c->fbuf;
-#endif
+    KIFMM__F(__sp) s;
+    s.f = f ? f + off : NULL;
+    s.d = d ? d + off : NULL;
+    return s;
+}
+
+/* The calling thread's FFT buffer (blocks, products, transform work: fft.per
+ * values of the spectra's type) from value off on, and its lattice density
+ * (8 nc doubles). */
+KIFMM__FN KIFMM__F(__sp) KIFMM__F(__fbuf)(const KIFMM_NAME *c, size_t off)
+{
+    return KIFMM__F(__sp_at)(c->fft.bf, c->fft.bd, (size_t)kifmm__thread_num() * c->fft.per + off);
+}
+
+KIFMM__FN double *KIFMM__F(__mbuf)(const KIFMM_NAME *c)
+{
+    return c->fft.mbuf + (size_t)kifmm__thread_num() * 8 * (size_t)c->surf.nc;
 }
 
 /* The densities of 8 multipoles u_v (ne values each, consecutive) on the
@@ -3442,47 +3858,211 @@ KIFMM__FN int KIFMM__F(__fft_wanted)(const kifmm__tree *t, int l, int32_t j)
     return 0;
 }
 
+/* The values of the thread's FFT buffer before the products and before the
+ * transform work: the blocks of a chunk, and the products of ftb parents. */
+#define KIFMM__FFT_KBN ((size_t)27 * 128 * KIFMM__FFT_F)
+#define KIFMM__FFT_OUTN(c) ((size_t)(c)->fft.plan.nfp * (size_t)(c)->fft.ftb * 16)
+
 /* The products of one target parent for frequency chunk ch (see
- * kifmm__fft_products): its nn source parents at slots nbr, offsets cc.
- * The spectra at chunk chx of the nx source parents at slots nxt (the next
- * target parent's) are prefetched meanwhile: they lie scattered over the
- * spectra buffer, out of reach of the hardware prefetchers. */
+ * kifmm__fft_products): its nn source parents at slots nbr, offsets cc,
+ * with the chunk's blocks kb, into out. The spectra at chunk chx of the nx
+ * source parents at slots nxt (the next target parent's) are prefetched
+ * meanwhile: they lie scattered over the spectra buffer, out of reach of
+ * the hardware prefetchers. */
 KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32_t *nbr, int nn,
-                                        const unsigned char *cc, const void *kb, void *out,
-                                        int chx, const int32_t *nxt, int nx)
+                                        const unsigned char *cc, KIFMM__F(__sp) kb,
+                                        KIFMM__F(__sp) out, int chx, const int32_t *nxt, int nx)
 {
-    const size_t at = (size_t)ch * (size_t)c->slots * KIFMM__FFT_F * 16;
-    const size_t ax = (size_t)chx * (size_t)c->slots * KIFMM__FFT_F * 16;
-    const size_t esz = c->fft.single ? sizeof(float) : sizeof(double);
+    const size_t cs = (size_t)c->fft.slots * KIFMM__FFT_F * 16, at = (size_t)ch * cs;
+    const size_t ax = (size_t)chx * cs, esz = c->fft.specf ? sizeof(float) : sizeof(double);
     int e, q;
     for (e = 0; e < nx; e++) {
-        const char *a = (const char *)c->spec + (ax + (size_t)nxt[e] * KIFMM__FFT_F * 16) * esz;
+        const size_t v = ax + (size_t)nxt[e] * KIFMM__FFT_F * 16;
+        const char *a = c->fft.specf ? (const char *)(c->fft.specf + v) : (const char *)(c->fft.specd + v);
         for (q = 0; q < (int)(KIFMM__FFT_F * 16 * esz); q += 64) KIFMM__PREFETCH(a + q);
     }
-    if (c->fft.single)
-        kifmm__fft_products_f(nn, nbr, cc, c->sch, (const float *)c->spec + at, (const float *)kb,
-                              (float *)out);
+    if (c->fft.specf)
+        kifmm__fft_productsf(nn, nbr, cc, c->fft.sch, c->fft.specf + at, kb.f, out.f);
     else
-        kifmm__fft_products(nn, nbr, cc, c->sch, (const double *)c->spec + at, (const double *)kb,
-                            (double *)out);
+        kifmm__fft_productsd(nn, nbr, cc, c->fft.sch, c->fft.specd + at, kb.d, out.d);
 }
 
 /* The inverse transforms of the products of the j-th target parent of level
- * l - 1 (op: its first chunk, chunks ocs elements apart), added to the check
+ * l - 1 (op: its first chunk, chunks ocs values apart), added to the check
  * vectors chk of its children that have a V list. */
-KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, const void *op,
-                                      size_t ocs, double *work, KIFMM__R *chk)
+KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, KIFMM__F(__sp) op,
+                                      size_t ocs, KIFMM__R *chk)
 {
     const kifmm__tree *t = &c->tree;
-    double *dchk = work + kifmm__fft_work8(&c->fft);
-    int q, i, nc = c->nc;
-    if (c->fft.single) kifmm__fft_inverse8f(&c->fft, op, ocs, dchk, (float *)work);
-    else kifmm__fft_inverse8(&c->fft, op, ocs, dchk, work);
+    const int nc = c->surf.nc;
+    const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
+    double *dchk = KIFMM__F(__mbuf)(c);
+    KIFMM__F(__sp) work = KIFMM__F(__fbuf)(c, woff);
+    int q, i;
+    if (op.f) kifmm__fft_inverse8f(&c->fft.plan, op.f, ocs, dchk, work.f);
+    else kifmm__fft_inverse8d(&c->fft.plan, op.d, ocs, dchk, work.d);
     for (q = 0; q < 8; q++) {
-        int32_t lb = 8 * j + q, box = t->loff[l] + lb;
+        const int32_t lb = 8 * j + q, box = t->loff[l] + lb;
         KIFMM__R *dst = chk + (size_t)lb * nc;
         if (t->vo[box + 1] == t->vo[box]) continue;
         for (i = 0; i < nc; i++) dst[i] += (KIFMM__R)dchk[8 * i + q];
+    }
+}
+
+/* A slab of target parents [s0, return) (internal boxes of level l - 1,
+ * numbered from the level's first) whose source parents fit in the spectra
+ * buffer's slots: those get slots loc[] in order (need[0 .. *nneed)), and
+ * cjl the slots of each target parent's colleagues. Without kept blocks the
+ * slab's outputs must also fit in fout (slots parents). */
+KIFMM__FN int32_t KIFMM__F(__fft_slab)(const KIFMM_NAME *c, int l, int kept, int32_t s0,
+                                       int32_t *nneed)
+{
+    const kifmm__tree *t = &c->tree;
+    const int32_t ni = t->ioff[l] - t->ioff[l - 1], base = t->ioff[l - 1];
+    const int32_t *co = c->fft.co, *cj = c->fft.cj;
+    int32_t *loc = c->fft.loc, s1, e;
+    *nneed = 0;
+    for (s1 = s0; s1 < ni; s1++) {
+        const int32_t g = base + s1;
+        int32_t add = 0;
+        if (!kept && s1 - s0 >= c->fft.slots) break;
+        if (!KIFMM__F(__fft_wanted)(t, l, s1)) continue; /* no child has a V list */
+        for (e = co[g]; e < co[g + 1]; e++) add += loc[cj[e]] < 0;
+        if (s1 > s0 && *nneed + add > c->fft.slots) break;
+        for (e = co[g]; e < co[g + 1]; e++) {
+            if (loc[cj[e]] < 0) {
+                loc[cj[e]] = *nneed;
+                c->fft.need[(*nneed)++] = cj[e];
+            }
+            c->fft.cjl[e - co[base + s0]] = loc[cj[e]];
+        }
+    }
+    return s1;
+}
+
+/* The spectra of the slab's nneed source parents (the 8 children of each,
+ * ue: the level's first upward density of vector r): their lattice
+ * densities (conv) transformed into the spectra buffer, slot b at value b F
+ * 16 of every chunk; sch[9 b] lists the children that have sources. */
+KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
+                                       const KIFMM__R *ue, int32_t nneed)
+{
+    const kifmm__tree *t = &c->tree;
+    const kifmm__fft *pl = &c->fft.plan;
+    const int ne = c->surf.ne, nc = c->surf.nc;
+    const size_t cstride = (size_t)c->fft.slots * KIFMM__FFT_F * 16;
+    const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
+    /* each b writes its own slot and its own sch entry */
+    KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
+    for (int32_t b = 0; b < nneed; b++) {
+        const int32_t ch0 = t->loff[l] + 8 * c->fft.need[b];
+        const KIFMM__F(__sp) s = KIFMM__F(__sp_at)(c->fft.specf, c->fft.specd, (size_t)b * KIFMM__FFT_F * 16);
+        const KIFMM__F(__sp) work = KIFMM__F(__fbuf)(c, woff);
+        double *m = KIFMM__F(__mbuf)(c);
+        unsigned char *h = c->fft.sch + 9 * (size_t)b;
+        int q;
+        for (h[0] = 0, q = 0; q < 8; q++)
+            if (t->s1[ch0 + q] > t->s0[ch0 + q]) h[1 + h[0]++] = (unsigned char)q;
+        KIFMM__F(__conv8)(o->conv, nc, ne, ue + (size_t)8 * c->fft.need[b] * ne, m);
+        if (s.f) kifmm__fft_forward8f(pl, m, s.f, cstride, work.f);
+        else kifmm__fft_forward8d(pl, m, s.d, cstride, work.d);
+    }
+}
+
+/* Products and inverses of the slab [s0, s1) when the blocks are not kept:
+ * tasks over chunks, all target parents of the slab in each, so that each
+ * chunk's blocks are built once, into fout; then one task per target parent
+ * for the inverse transforms. */
+KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
+                                         const int *tv, int32_t s0, int32_t s1, KIFMM__R *chk)
+{
+    const kifmm__tree *t = &c->tree;
+    const int32_t base = t->ioff[l - 1], *co = c->fft.co, *cjl = c->fft.cjl;
+    const size_t fcs = (size_t)c->fft.slots * KIFMM__FFT_F * 16; /* fout chunk */
+    /* chunk ch writes its own part of fout (its thread's blocks) */
+    KIFMM__OMP(parallel for schedule(dynamic, 2) num_threads(c->opts.nthreads))
+    for (int ch = 0; ch < c->fft.plan.nchunk; ch++) {
+        const KIFMM__F(__sp) kb = KIFMM__F(__fbuf)(c, 0);
+        int32_t P;
+        if (kb.f) kifmm__fft_blocksf(o->khat, tv, ch, kb.f);
+        else kifmm__fft_blocksd(o->khat, tv, ch, kb.d);
+        for (P = s0; P < s1; P++) {
+            /* (slots are set only for wanted target parents) */
+            const int32_t g = base + P;
+            const int32_t nx =
+                P + 1 < s1 && KIFMM__F(__fft_wanted)(t, l, P + 1) ? co[g + 2] - co[g + 1] : 0;
+            if (!KIFMM__F(__fft_wanted)(t, l, P)) continue;
+            KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]), co[g + 1] - co[g],
+                                     c->fft.cc + co[g], kb,
+                                     KIFMM__F(__sp_at)(c->fft.foutf, c->fft.foutd,
+                                                       ch * fcs + (size_t)(P - s0) * KIFMM__FFT_F * 16),
+                                     ch, cjl + (co[g + 1] - co[base + s0]), nx);
+        }
+    }
+    /* target parent b adds to the check vectors of its own children */
+    KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->opts.nthreads))
+    for (int32_t b = s0; b < s1; b++)
+        if (KIFMM__F(__fft_wanted)(t, l, b))
+            KIFMM__F(__fft_finish)(c, l, b,
+                                   KIFMM__F(__sp_at)(c->fft.foutf, c->fft.foutd,
+                                                     (size_t)(b - s0) * KIFMM__FFT_F * 16),
+                                   fcs, chk);
+}
+
+/* The products of the nb target parents from p0 on, at every chunk, with
+ * the blocks kept, into the thread's buffer (chunks ocs values apart). */
+KIFMM__FN void KIFMM__F(__fft_task)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
+                                    int32_t s0, int32_t p0, int32_t nb, size_t ocs)
+{
+    const kifmm__tree *t = &c->tree;
+    const int32_t base = t->ioff[l - 1], *co = c->fft.co, *cjl = c->fft.cjl;
+    const int nchunk = c->fft.plan.nchunk;
+    int ch;
+    int32_t P;
+    for (ch = 0; ch < nchunk; ch++) {
+        const KIFMM__F(__sp) kc = KIFMM__F(__sp_at)(o->kbf, o->kbd, KIFMM__FFT_KBN * (size_t)ch);
+        for (P = 0; P < nb; P++) {
+            /* prefetched: the next target parent's sources, or after the
+             * last the first's at the next chunk */
+            const int32_t g = base + p0 + P, last = P + 1 == nb;
+            const int32_t gx = last ? base + p0 : g + 1;
+            const int chx = last ? ch + 1 : ch;
+            const int nx = chx < nchunk && KIFMM__F(__fft_wanted)(t, l, gx - base)
+                               ? co[gx + 1] - co[gx]
+                               : 0;
+            if (!KIFMM__F(__fft_wanted)(t, l, p0 + P)) continue;
+            KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]), co[g + 1] - co[g],
+                                     c->fft.cc + co[g], kc,
+                                     KIFMM__F(__fbuf)(c, KIFMM__FFT_KBN + (size_t)ch * ocs +
+                                                             (size_t)P * KIFMM__FFT_F * 16),
+                                     chx, cjl + (co[gx] - co[base + s0]), nx);
+        }
+    }
+}
+
+/* Products and inverses of the slab [s0, s1) with the blocks kept: tasks of
+ * up to ftb target parents (but at least 4 tasks per thread), each with its
+ * products in its thread's buffer. */
+KIFMM__FN void KIFMM__F(__fft_by_parents)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
+                                          int32_t s0, int32_t s1, KIFMM__R *chk)
+{
+    const kifmm__tree *t = &c->tree;
+    int32_t tb = (s1 - s0) / (4 * c->opts.nthreads), nblk;
+    size_t ocs;
+    tb = tb < 1 ? 1 : tb > c->fft.ftb ? c->fft.ftb : tb;
+    ocs = (size_t)tb * KIFMM__FFT_F * 16;
+    nblk = (s1 - s0 + tb - 1) / tb;
+    /* task blk adds to the check vectors of its own target parents' children */
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
+    for (int32_t blk = 0; blk < nblk; blk++) {
+        const int32_t p0 = s0 + blk * tb, nb = s1 - p0 < tb ? s1 - p0 : tb;
+        int32_t P;
+        KIFMM__F(__fft_task)(c, l, o, s0, p0, nb, ocs);
+        for (P = 0; P < nb; P++)
+            if (KIFMM__F(__fft_wanted)(t, l, p0 + P))
+                KIFMM__F(__fft_finish)(c, l, p0 + P,
+                                       KIFMM__F(__fbuf)(c, KIFMM__FFT_KBN + (size_t)P * KIFMM__FFT_F * 16),
+                                       ocs, chk);
     }
 }
 
@@ -3498,170 +4078,25 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                                    int l)
 {
     const kifmm__tree *t = &c->tree;
-    const kifmm__fft *pl = &c->fft;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
-    const int32_t ni = t->ioff[l] - t->ioff[l - 1], base = t->ioff[l - 1];
-    const int nl = KIFMM__LVL(c, l), ne = c->ne, nc = c->nc;
-    const size_t cstride = (size_t)c->slots * KIFMM__FFT_F * 16, per = (size_t)t->nbox * ne;
-    const size_t esz = pl->single ? sizeof(float) : sizeof(double); /* spectra, blocks */
-    const size_t kbn = (size_t)27 * 128 * KIFMM__FFT_F * esz / sizeof(double); /* doubles */
-    const size_t outn =
-        ((size_t)pl->nfp * c->ftb * 16 * esz + sizeof(double) - 1) / sizeof(double);
-    const int32_t *co = c->co, *cj = c->cj;
-    int32_t *loc = c->loc, *need = c->need, *cjl = c->cjl, s0, s1, e, tb;
-    size_t ocs;
+    const int32_t ni = t->ioff[l] - t->ioff[l - 1];
+    const int kept = o->kbf || o->kbd;
+    const size_t per = (size_t)t->nbox * c->surf.ne;
+    int32_t s0, s1, e, nneed;
     int tv[27 * 64], r;
     kifmm__fft_tvmap(tv);
     for (s0 = 0; s0 < ni; s0 = s1) {
-        /* a slab of target parents [s0, s1) whose source parents fit */
-        int32_t nneed = 0, nblk;
-        for (s1 = s0; s1 < ni; s1++) {
-            int32_t g = base + s1, add = 0;
-            if (!o->kb && s1 - s0 >= c->slots) break; /* the outputs fit in fout */
-            if (!KIFMM__F(__fft_wanted)(t, l, s1)) continue; /* no child has a V list */
-            for (e = co[g]; e < co[g + 1]; e++) add += loc[cj[e]] < 0;
-            if (s1 > s0 && nneed + add > c->slots) break;
-            for (e = co[g]; e < co[g + 1]; e++) {
-                if (loc[cj[e]] < 0) {
-                    loc[cj[e]] = nneed;
-                    need[nneed++] = cj[e];
-                }
-                cjl[e - co[base + s0]] = loc[cj[e]];
-            }
-        }
-        /* target parents per task: up to ftb, but at least 4 tasks per thread */
-        tb = (s1 - s0) / (4 * c->nthreads);
-        tb = tb < 1 ? 1 : tb > c->ftb ? c->ftb : tb;
-        ocs = (size_t)tb * KIFMM__FFT_F * 16; /* elements of esz */
-        nblk = (s1 - s0 + tb - 1) / tb;
+        s1 = KIFMM__F(__fft_slab)(c, l, kept, s0, &nneed);
         for (r = 0; r < nrhs; r++) {
-            const KIFMM__R *ue = w->ue + r * per + (size_t)t->loff[l] * ne;
-            KIFMM__R *chk = w->chk + (size_t)r * nl * nc;
-            KIFMM__OMP(parallel for schedule(static) num_threads(c->nthreads))
-            for (int32_t b = 0; b < nneed; b++) {
-                double *work = KIFMM__F(__fbuf)(c) + kbn + outn;
-                double *m = work + kifmm__fft_work8(pl);
-                const KIFMM__R *u = ue + (size_t)8 * need[b] * ne; /* the 8 children */
-                const int32_t ch0 = t->loff[l] + 8 * need[b];
-                unsigned char *h = c->sch + 9 * (size_t)b;
-                int q;
-                for (h[0] = 0, q = 0; q < 8; q++)
-                    if (t->s1[ch0 + q] > t->s0[ch0 + q]) h[1 + h[0]++] = (unsigned char)q;
-                KIFMM__F(__conv8)(o->conv, nc, ne, u, m);
-                if (pl->single)
-                    kifmm__fft_forward8f(pl, m, (char *)c->spec + (size_t)b * KIFMM__FFT_F * 16 * esz,
-                                         cstride, (float *)work);
-                else
-                    kifmm__fft_forward8(pl, m, (char *)c->spec + (size_t)b * KIFMM__FFT_F * 16 * esz,
-                                        cstride, work);
-            }
-            if (!o->kb) {
-                /* blocks not kept: tasks over chunks, all target parents of the
-                 * slab in each, so that each chunk's blocks are built once */
-                const size_t fcs = (size_t)c->slots * KIFMM__FFT_F * 16; /* fout chunk */
-                KIFMM__OMP(parallel for schedule(dynamic, 2) num_threads(c->nthreads))
-                for (int ch = 0; ch < pl->nchunk; ch++) {
-                    double *kb = KIFMM__F(__fbuf)(c);
-                    int32_t P;
-                    kifmm__fft_blocks(pl, o->khat, tv, ch, kb);
-                    for (P = s0; P < s1; P++) {
-                        /* (slots are set only for wanted target parents) */
-                        const int32_t g = base + P;
-                        const int32_t nx = P + 1 < s1 && KIFMM__F(__fft_wanted)(t, l, P + 1)
-                                               ? co[g + 2] - co[g + 1]
-                                               : 0;
-                        if (KIFMM__F(__fft_wanted)(t, l, P))
-                            KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]),
-                                                     co[g + 1] - co[g], c->cc + co[g], kb,
-                                                     (char *)c->fout + (ch * fcs + (size_t)(P - s0) *
-                                                                        KIFMM__FFT_F * 16) * esz,
-                                                     ch, cjl + (co[g + 1] - co[base + s0]), nx);
-                    }
-                }
-                KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads))
-                for (int32_t b = s0; b < s1; b++) {
-                    double *work = KIFMM__F(__fbuf)(c) + kbn + outn;
-                    if (KIFMM__F(__fft_wanted)(t, l, b))
-                        KIFMM__F(__fft_finish)(c, l, b,
-                                               (const char *)c->fout +
-                                                   (size_t)(b - s0) * KIFMM__FFT_F * 16 * esz,
-                                               fcs, work, chk);
-                }
-                continue;
-            }
-            KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads))
-            for (int32_t blk = 0; blk < nblk; blk++) {
-                double *kb = KIFMM__F(__fbuf)(c), *out = kb + kbn, *work = out + outn;
-                int32_t p0 = s0 + blk * tb;
-                int32_t nb = s1 - p0 < tb ? s1 - p0 : tb, P;
-                int ch;
-                for (ch = 0; ch < pl->nchunk; ch++) {
-                    const double *kc = (const double *)o->kb + kbn * (size_t)ch;
-                    for (P = 0; P < nb; P++) {
-                        /* prefetched: the next target parent's sources, or
-                         * after the last the first's at the next chunk */
-                        const int32_t g = base + p0 + P, last = P + 1 == nb;
-                        const int32_t gx = last ? base + p0 : g + 1;
-                        const int chx = last ? ch + 1 : ch;
-                        if (KIFMM__F(__fft_wanted)(t, l, p0 + P))
-                            KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]),
-                                                     co[g + 1] - co[g], c->cc + co[g], kc,
-                                                     (char *)out + ((size_t)ch * ocs +
-                                                                    (size_t)P * KIFMM__FFT_F * 16) *
-                                                                       esz,
-                                                     chx, cjl + (co[gx] - co[base + s0]),
-                                                     chx < pl->nchunk &&
-                                                             KIFMM__F(__fft_wanted)(t, l, gx - base)
-                                                         ? co[gx + 1] - co[gx]
-                                                         : 0);
-                    }
-                }
-                for (P = 0; P < nb; P++)
-                    if (KIFMM__F(__fft_wanted)(t, l, p0 + P))
-                        KIFMM__F(__fft_finish)(c, l, p0 + P,
-                                               (const char *)out + (size_t)P * KIFMM__FFT_F * 16 * esz,
-                                               ocs, work, chk);
-            }
+            KIFMM__R *chk = w->chk + (size_t)r * KIFMM__LVL(c, l) * c->surf.nc;
+            KIFMM__F(__fft_forward)(c, l, o, w->ue + r * per + (size_t)t->loff[l] * c->surf.ne, nneed);
+            if (kept) KIFMM__F(__fft_by_parents)(c, l, o, s0, s1, chk);
+            else KIFMM__F(__fft_by_chunks)(c, l, o, tv, s0, s1, chk);
         }
-        for (e = 0; e < nneed; e++) loc[need[e]] = -1;
+        for (e = 0; e < nneed; e++) c->fft.loc[c->fft.need[e]] = -1;
     }
 }
 #endif
-
-/* ---- the evaluation passes, in pipeline order -------------------------- */
-
-/* Upward pass at level l: P2M into the leaves' check vectors, M2M into the
- * internal boxes', then the solve for the equivalent densities. */
-KIFMM__FN void KIFMM__F(__upward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
-{
-    const kifmm__tree *t = &c->tree;
-    int nl = KIFMM__LVL(c, l);
-    double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1;
-    memset(w->chk, 0, (size_t)nl * nrhs * c->nc * sizeof(KIFMM__R));
-    KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
-    for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
-        const int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
-        KIFMM__R *pc = KIFMM__F(__scratch)(c);
-        const KIFMM__R *xs;
-        double ctr[3], fc[3], rc[3], half;
-        size_t ld = (size_t)t->ns;
-        if (t->child[b] >= 0 || ns == 0) continue;
-        kifmm__box_center(t, b, ctr, &half);
-        memcpy(fc, ctr, sizeof fc);
-        xs = KIFMM__F(__frame)(c->src, &ld, s0, ns, fc, KIFMM__F(__framebuf)(c));
-        kifmm__sub3(ctr, fc, rc);
-        KIFMM__F(__place)(c->surf_c, c->nsc, rc, c->ao * half, pc);
-        KIFMM__F(__p2p_qc)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ld,
-                              xs + 2 * ld, w->qs + s0 * KIFMM__QD, ns, nrhs,
-                              (size_t)t->ns * KIFMM__QD, scale,
-                              w->chk + (size_t)(b - t->loff[l]) * c->nc, (size_t)nl * c->nc);
-    }
-    t1 = kifmm__now();
-    c->stats->t_p2m += t1 - t0;
-    KIFMM__F(__family_level)(c, w, nrhs, l, 0); /* M2M */
-    KIFMM__F(__solve)(c, w, nrhs, l, 1);
-    c->stats->t_m2m += kifmm__now() - t1;
-}
 
 /* out += the field, at nt targets, of the sources of box a (vector r's
  * outputs from out + r old on). */
@@ -3672,102 +4107,123 @@ KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__wo
 {
     const kifmm__tree *t = &c->tree;
     int64_t s0 = t->s0[a];
-    KIFMM__F(__p2p_qt)(c->param, tx, ty, tz, nt, c->src + s0, c->src + t->ns + s0,
-                    c->src + 2 * t->ns + s0, w->qs + s0 * KIFMM__QD, t->s1[a] - s0, nrhs,
+    KIFMM__F(__p2p_qt)(c->opts.kernel_param, tx, ty, tz, nt, c->pts.src + s0, c->pts.src + t->ns + s0,
+                    c->pts.src + 2 * t->ns + s0, w->qs + s0 * KIFMM__QD, t->s1[a] - s0, nrhs,
                     (size_t)t->ns * KIFMM__QD, 1.0, out, old);
 }
 
-/* Downward pass at level l: L2L from the parents, P2L over X lists (their
- * sources straight to the targets of a box with fewer targets than check
- * points), then
- * either the FFT M2L into the check vectors and the two solve steps, or the
- * first solve step, the dense M2L (already in the solve's space) and the
- * second. Timed as L2L (with the solve), P2L and M2L. */
-KIFMM__FN void KIFMM__F(__downward)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                    int l)
+/* Box b with fewer targets than check points: its X sources go straight to
+ * its targets (only this task writes them; the leaves' pass runs after the
+ * downward pass), and it does not refit for them (dsrc). */
+KIFMM__FN void KIFMM__F(__x_direct)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                    int32_t b)
 {
     const kifmm__tree *t = &c->tree;
-    int nl = KIFMM__LVL(c, l);
-    size_t cst = (size_t)nl * c->nc, per = (size_t)t->nbox * (size_t)c->ne;
-    double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1, t2, t3, t4;
+    const int64_t tb0 = t->t0[b], ntb = t->t1[b] - tb0;
+    KIFMM__R *o = w->outs ? w->outs + tb0 * KIFMM__TD : KIFMM__F(__lbuf)(w, nrhs, ntb);
+    const size_t old = w->outs ? (size_t)t->nt * KIFMM__TD : (size_t)ntb * KIFMM__TD;
+    int32_t e;
+    for (e = t->xo[b]; e < t->xo[b + 1]; e++)
+        KIFMM__F(__from_sources)(c, w, nrhs, t->x[e], c->pts.trg + tb0, c->pts.trg + t->nt + tb0,
+                                 c->pts.trg + 2 * t->nt + tb0, ntb, o, old);
+    if (!w->outs) KIFMM__F(__put)(c, w, nrhs, tb0, ntb, o, old);
+}
+
+/* The check potentials of box b (of level l) that come from points or far
+ * surfaces, added to chk (vector stride cst): L2L from an ancestor above
+ * the parent (a = dsrc of the parent), by direct evaluation of its
+ * equivalent density, and P2L from the sources of its X list. In the frame
+ * of box b (float instances; see __frame). */
+KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                   int l, int32_t b, double scale, KIFMM__R *chk, size_t cst)
+{
+    const kifmm__tree *t = &c->tree;
     const double zero[3] = {0.0, 0.0, 0.0};
+    const int32_t a = l >= 3 ? t->dsrc[t->parent[b]] : -1;
+    const int nsc = c->surf.nsc, nse = c->surf.nse;
+    KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (nsc > nse ? nsc : nse);
+    double ctr[3], half;
+    int32_t e;
+    kifmm__box_center(t, b, ctr, &half);
+    KIFMM__F(__place)(c->surf.unit_c, nsc, KIFMM__FLOAT ? zero : ctr, KIFMM__ALPHA_INNER * half, pc);
+    if (a >= 0 && a != t->parent[b]) {
+        double ac[3], ah;
+        kifmm__box_center(t, a, ac, &ah);
+        if (KIFMM__FLOAT) kifmm__sub3(ac, ctr, ac);
+        KIFMM__F(__place)(c->surf.unit_e, nse, ac, c->surf.ao * ah, pe);
+        KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, pe, pe + nse,
+                           pe + 2 * nse, w->de + (size_t)a * c->surf.ne, nse, nrhs,
+                           (size_t)t->nbox * c->surf.ne, scale, chk, cst);
+    }
+    for (e = t->xo[b]; e < t->xo[b + 1] && t->t1[b] - t->t0[b] >= nsc; e++) {
+        const int32_t xb = t->x[e];
+        const int64_t s0 = t->s0[xb];
+        double fc[3];
+        size_t ld = (size_t)t->ns;
+        const KIFMM__R *xs;
+        memcpy(fc, ctr, sizeof fc);
+        xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
+        KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, xs, xs + ld,
+                           xs + 2 * ld, w->qs + s0 * KIFMM__QD, t->s1[xb] - s0, nrhs,
+                           (size_t)t->ns * KIFMM__QD, scale, chk, cst);
+    }
+}
+
+/* The M2L into level l and the downward solve, after L2L and P2L: the FFT
+ * adds potentials on the check surface itself to chk before the two solve
+ * steps; the dense M2L adds its results between them (its matrices include
+ * the first step). Timed as M2L and L2L (the solve). */
+KIFMM__FN void KIFMM__F(__m2l_solve)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
+{
+    const double t0 = kifmm__now();
+    double t1, t2;
+#if KIFMM__FFT
+    if (c->tree.m2lo[l + 1] > c->tree.m2lo[l]) KIFMM__F(__m2l_fft)(c, w, nrhs, l);
+    t1 = t2 = kifmm__now();
+    KIFMM__F(__solve)(c, w, nrhs, l, 0);
+#else
+    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 0);
+    t1 = kifmm__now();
+    KIFMM__F(__m2l_level)(c, w, nrhs, l); /* into the first step's result */
+    t2 = kifmm__now();
+    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 1);
+#endif
+    c->stats.t_m2l += t2 - t1;
+    c->stats.t_l2l += (t1 - t0) + (kifmm__now() - t2);
+}
+
+/* Downward pass at level l: L2L from the parents, X sources and far
+ * ancestors per box (__x_direct, __p2l_box; a box served by an ancestor's
+ * expansion does not refit), then the M2L and the solve. Timed as L2L (with
+ * the solve), P2L and M2L. */
+KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
+{
+    const kifmm__tree *t = &c->tree;
+    const size_t cst = (size_t)KIFMM__LVL(c, l) * c->surf.nc;
+    const double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now();
+    double t1;
     if (l >= 3) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
     t1 = kifmm__now();
-    KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->nthreads))
+    /* box b writes its own check vectors and its own targets' outputs */
+    KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
-        KIFMM__R *pc, *pe;
-        double ctr[3], half;
-        KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * c->nc;
-        int32_t e, a = l >= 3 ? t->dsrc[t->parent[b]] : -1;
-        const int64_t tb0 = t->t0[b], ntb = t->t1[b] - tb0;
-        const int xdirect = ntb < c->nsc;
+        KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * c->surf.nc;
         int r;
-        if (xdirect && t->xo[b + 1] > t->xo[b]) {
-            /* fewer targets than check points: X sources straight to the
-             * targets (only this task writes them; the leaves' pass runs
-             * after the downward pass), and no refit for them (dsrc) */
-            KIFMM__R *o = w->outs ? w->outs + tb0 * KIFMM__TD : KIFMM__F(__lbuf)(w, nrhs, ntb);
-            const size_t old = w->outs ? (size_t)t->nt * KIFMM__TD : (size_t)ntb * KIFMM__TD;
-            for (e = t->xo[b]; e < t->xo[b + 1]; e++)
-                KIFMM__F(__from_sources)(c, w, nrhs, t->x[e], c->trg + tb0, c->trg + t->nt + tb0,
-                                         c->trg + 2 * t->nt + tb0, ntb, o, old);
-            if (!w->outs) KIFMM__F(__put)(c, w, nrhs, tb0, ntb, o, old);
-        }
-        if (t->dsrc[b] != b) {
-            /* no refit here: the box is served by an ancestor's expansion */
-            for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)c->nc * sizeof(KIFMM__R));
+        if (t->t1[b] - t->t0[b] < c->surf.nsc && t->xo[b + 1] > t->xo[b])
+            KIFMM__F(__x_direct)(c, w, nrhs, b);
+        if (t->dsrc[b] == b) {
+            KIFMM__F(__p2l_box)(c, w, nrhs, l, b, scale, chk, cst);
             continue;
         }
-        pc = KIFMM__F(__scratch)(c);
-        pe = pc + 3 * (c->nsc > c->nse ? c->nsc : c->nse);
-        kifmm__box_center(t, b, ctr, &half);
-        /* in the frame of box b (float instances; see __frame) */
-        KIFMM__F(__place)(c->surf_c, c->nsc, KIFMM__FLOAT ? zero : ctr, KIFMM__ALPHA_INNER * half,
-                          pc);
-        if (a >= 0 && a != t->parent[b]) {
-            /* L2L from an ancestor above the parent, by direct evaluation */
-            double ac[3], ah;
-            kifmm__box_center(t, a, ac, &ah);
-            if (KIFMM__FLOAT) kifmm__sub3(ac, ctr, ac);
-            KIFMM__F(__place)(c->surf_e, c->nse, ac, c->ao * ah, pe);
-            KIFMM__F(__p2p_sc)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, pe,
-                                  pe + c->nse, pe + 2 * c->nse, w->de + (size_t)a * c->ne,
-                                  c->nse, nrhs, per, scale, chk, cst);
-        }
-        for (e = t->xo[b]; e < t->xo[b + 1] && !xdirect; e++) {
-            const int32_t xb = t->x[e];
-            const int64_t s0 = t->s0[xb];
-            double fc[3];
-            size_t ld = (size_t)t->ns;
-            const KIFMM__R *xs;
-            memcpy(fc, ctr, sizeof fc);
-            xs = KIFMM__F(__frame)(c->src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
-            KIFMM__F(__p2p_qc)(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ld,
-                                  xs + 2 * ld, w->qs + s0 * KIFMM__QD, t->s1[xb] - s0, nrhs,
-                                  (size_t)t->ns * KIFMM__QD, scale, chk, cst);
-        }
+        for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)c->surf.nc * sizeof(KIFMM__R));
     }
-    t2 = kifmm__now();
-#if KIFMM__FFT
-    /* FFT M2L: potentials on the check surface itself, added to chk */
-    if (t->m2lo[l + 1] > t->m2lo[l]) KIFMM__F(__m2l_fft)(c, w, nrhs, l);
-    t3 = kifmm__now();
-    KIFMM__F(__solve)(c, w, nrhs, l, 0);
-    t4 = kifmm__now();
-    c->stats->t_m2l += t3 - t2;
-    c->stats->t_l2l += (t1 - t0) + (t4 - t3);
-#else
-    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 0);
-    t3 = kifmm__now();
-    KIFMM__F(__m2l_level)(c, w, nrhs, l); /* into the first step's result */
-    t4 = kifmm__now();
-    KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 1);
-    c->stats->t_m2l += t4 - t3;
-    c->stats->t_l2l += (t1 - t0) + (t3 - t2) + (kifmm__now() - t4);
-#endif
-    c->stats->t_p2l += t2 - t1;
+    c->stats.t_l2l += t1 - t0;
+    c->stats.t_p2l += kifmm__now() - t1;
+    KIFMM__F(__m2l_solve)(c, w, nrhs, l);
 }
+
+// >>leaves
 
 /* out += the field, at nt targets (coordinates in the frame centred at fc,
  * see __frame), of densities (vector stride nbox ne) on the surface of box a
@@ -3782,150 +4238,194 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
     double ctr[3], half;
     kifmm__box_center(&c->tree, a, ctr, &half);
     kifmm__sub3(ctr, fc, ctr); /* in the targets' frame */
-    KIFMM__F(__place)(c->surf_e, c->nse, ctr, alpha * half, pe);
-    KIFMM__F(__p2p_st)(c->param, tx, ty, tz, nt, pe, pe + c->nse, pe + 2 * c->nse, dens, c->nse,
-                    nrhs, (size_t)c->tree.nbox * c->ne, 1.0, out, old);
+    KIFMM__F(__place)(c->surf.unit_e, c->surf.nse, ctr, alpha * half, pe);
+    KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + c->surf.nse, pe + 2 * c->surf.nse, dens, c->surf.nse,
+                    nrhs, (size_t)c->tree.nbox * c->surf.ne, 1.0, out, old);
     (void)w;
 }
 
+#if KIFMM__MUTUAL
+/* Both directions between the sorted points [a0, a0 + na) and [b0, b0 +
+ * nb) (the sources are the targets), outputs at oa and ob (vector stride
+ * old), through the kernel's mutual hooks. */
+KIFMM__FN void KIFMM__F(__p2p_pair)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                    int64_t a0, int64_t na, int64_t b0, int64_t nb, KIFMM__R *oa,
+                                    KIFMM__R *ob, size_t old)
+{
+    const size_t n = (size_t)c->tree.ns, qld = n * KIFMM__QD;
+    const KIFMM__R *s = c->pts.src, *qa = w->qs + a0 * KIFMM__QD, *qb = w->qs + b0 * KIFMM__QD;
+    const double *prm = c->opts.kernel_param;
+    int r;
+    if (nrhs == 1) {
+        KIFMM__HOOK(QT, p2ps)(prm, s + a0, s + n + a0, s + 2 * n + a0, qa, na, s + b0, s + n + b0,
+                              s + 2 * n + b0, qb, nb, (KIFMM__R)1, oa, ob);
+        return;
+    }
+#if KIFMM__HAS_QT & KIFMM__B_P2PSN
+    (void)r;
+    KIFMM__HOOK(QT, p2psn)(prm, s + a0, s + n + a0, s + 2 * n + a0, qa, na, s + b0, s + n + b0,
+                           s + 2 * n + b0, qb, nb, nrhs, qld, (KIFMM__R)1, oa, ob, old);
+#else
+    for (r = 0; r < nrhs; r++)
+        KIFMM__HOOK(QT, p2ps)(prm, s + a0, s + n + a0, s + 2 * n + a0, qa + r * qld, na, s + b0,
+                              s + n + b0, s + 2 * n + b0, qb + r * qld, nb, (KIFMM__R)1,
+                              oa + r * old, ob + r * old);
+#endif
+}
+#endif
+
+/* The U list of leaf b (targets tx.. from sorted position t0, ntb of them,
+ * outputs at out, vector stride old): P2P from each U leaf. With the mutual
+ * near field (lo < hi: the points [lo, hi) of the leaf's chunk), a U leaf of
+ * the same chunk is computed once for both leaves, by the one first in
+ * Morton order, and skipped by the other; its outputs go to ob + (its first
+ * target - base) TD. */
+KIFMM__FN void KIFMM__F(__p2p_u)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                 int32_t b, int64_t lo, int64_t hi, KIFMM__R *ob, int64_t base,
+                                 size_t old)
+{
+    const kifmm__tree *t = &c->tree;
+    const int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
+    const KIFMM__R *tx = c->pts.trg + t0, *ty = c->pts.trg + t->nt + t0;
+    const KIFMM__R *tz = c->pts.trg + 2 * t->nt + t0;
+    KIFMM__R *out = ob + (t0 - base) * KIFMM__TD;
+    int32_t e;
+    for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
+        const int32_t a = t->u[e];
+#if KIFMM__MUTUAL
+        const int64_t ta = t->t0[a];
+        if (a != b && ta >= lo && ta < hi) {
+            /* sources are the targets: s0 = t0, src = trg */
+            if (ta > t0)
+                KIFMM__F(__p2p_pair)(c, w, nrhs, t0, ntb, ta, t->t1[a] - ta, out,
+                                     ob + (ta - base) * KIFMM__TD, old);
+            continue;
+        }
+#endif
+        KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
+    }
+    (void)lo;
+    (void)hi;
+}
+
 /* Leaf i of t->leaves: L2P, M2P over W (direct when the box holds fewer
- * sources than its surface has points), P2P over U. With the mutual near
- * field (lo < hi: the points [lo, hi) of the leaf's chunk), a U leaf of the
- * same chunk is computed once for both leaves by the one first in Morton
- * order, and skipped by the other. The outputs of sorted target j go to
- * ob + (j - base) TD, vector r's old further on. tm[0..2] += the time of the
- * three. */
+ * sources than its surface has points), P2P over U (__p2p_u). The outputs
+ * of sorted target j go to ob + (j - base) TD, vector r's old further on.
+ * tm[0..2] += the time of the three. */
 KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                 int32_t i, int64_t lo, int64_t hi, double *tm, KIFMM__R *ob,
                                 int64_t base, size_t old)
 {
     const kifmm__tree *t = &c->tree;
-    int32_t b = t->leaves[i], e;
-    int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
-    const KIFMM__R *tx = c->trg + t0, *ty = c->trg + t->nt + t0, *tz = c->trg + 2 * t->nt + t0;
+    const int32_t b = t->leaves[i];
+    const int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
+    const KIFMM__R *tx = c->pts.trg + t0, *ty = c->pts.trg + t->nt + t0;
+    const KIFMM__R *tz = c->pts.trg + 2 * t->nt + t0, *xf = NULL;
     KIFMM__R *out = ob + (t0 - base) * KIFMM__TD, *pe = KIFMM__F(__scratch)(c);
-    double c0 = kifmm__now(), c1, c2, fc[3], half;
-    const KIFMM__R *xf = NULL; /* the targets in the leaf's frame, for the surfaces */
+    double c0 = kifmm__now(), c1, c2, fc[3] = {0.0, 0.0, 0.0}, half;
     size_t ld = (size_t)t->nt;
+    int32_t e;
     if (t->dsrc[b] >= 0 || t->wo[b + 1] > t->wo[b]) {
+        /* the targets in the leaf's frame, for the surfaces */
         kifmm__box_center(t, b, fc, &half);
-        xf = KIFMM__F(__frame)(c->trg, &ld, t0, ntb, fc, KIFMM__F(__framebuf)(c));
+        xf = KIFMM__F(__frame)(c->pts.trg, &ld, t0, ntb, fc, KIFMM__F(__framebuf)(c));
     }
     if (t->dsrc[b] >= 0)
-        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], c->ao,
-                                 w->de + (size_t)t->dsrc[b] * c->ne, fc, xf, xf + ld,
+        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], c->surf.ao,
+                                 w->de + (size_t)t->dsrc[b] * c->surf.ne, fc, xf, xf + ld,
                                  xf + 2 * ld, ntb, pe, out, old);
     c1 = kifmm__now();
     for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
-        int32_t a = t->w[e];
-        if (t->s1[a] - t->s0[a] <= c->nse)
+        const int32_t a = t->w[e];
+        if (t->s1[a] - t->s0[a] <= c->surf.nse)
             KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
         else
             KIFMM__F(__from_surface)(c, w, nrhs, a, KIFMM__ALPHA_INNER,
-                                     w->ue + (size_t)a * c->ne, fc, xf, xf + ld, xf + 2 * ld,
+                                     w->ue + (size_t)a * c->surf.ne, fc, xf, xf + ld, xf + 2 * ld,
                                      ntb, pe, out, old);
     }
     c2 = kifmm__now();
-    for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
-        int32_t a = t->u[e];
-#if KIFMM__MUTUAL
-        int64_t ta = t->t0[a];
-        if (a != b && ta >= lo && ta < hi) {
-            /* sources are the targets: s0 = t0, src = trg */
-            const KIFMM__R *qa = w->qs + t0 * KIFMM__QD, *qb = w->qs + ta * KIFMM__QD;
-            const size_t qld = (size_t)t->ns * KIFMM__QD;
-            KIFMM__R *oa = ob + (ta - base) * KIFMM__TD;
-            if (ta > t0 && nrhs == 1)
-                KIFMM__HOOK(QT, p2ps)(c->param, tx, ty, tz, qa, ntb, c->src + ta,
-                                      c->src + t->ns + ta, c->src + 2 * t->ns + ta, qb,
-                                      t->t1[a] - ta, (KIFMM__R)1, out, oa);
-            else if (ta > t0)
-#if KIFMM__HAS_QT & KIFMM__B_P2PSN
-                KIFMM__HOOK(QT, p2psn)(c->param, tx, ty, tz, qa, ntb, c->src + ta,
-                                       c->src + t->ns + ta, c->src + 2 * t->ns + ta, qb,
-                                       t->t1[a] - ta, nrhs, qld, (KIFMM__R)1, out, oa, old);
-#else
-            {
-                int r;
-                for (r = 0; r < nrhs; r++)
-                    KIFMM__HOOK(QT, p2ps)(c->param, tx, ty, tz, qa + r * qld, ntb, c->src + ta,
-                                          c->src + t->ns + ta, c->src + 2 * t->ns + ta,
-                                          qb + r * qld, t->t1[a] - ta, (KIFMM__R)1,
-                                          out + r * old, oa + r * old);
-            }
-#endif
-            continue;
-        }
-#else
-        (void)lo;
-        (void)hi;
-#endif
-        KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
-    }
+    KIFMM__F(__p2p_u)(c, w, nrhs, b, lo, hi, ob, base, old);
     tm[0] += c1 - c0;
     tm[1] += c2 - c1;
     tm[2] += kifmm__now() - c2;
 }
 
-/* The leaves' passes. With the mutual near field (sources = targets, a
- * kernel with a _p2ps hook: c->pchunk), the leaves go
- * in chunks of consecutive leaves, one chunk per task, so that both leaves
- * of a pair computed once belong to the thread that writes their outputs. */
-KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
+/* The leaves of one chunk of the mutual near field (leaves i0 .. i1 - 1,
+ * whose targets are the contiguous [lo, hi)), outputs summed in the
+ * thread's buffer and added to the caller's, or into outs. */
+KIFMM__FN void KIFMM__F(__leaf_chunk)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                      int32_t i0, int32_t i1, double *tm)
 {
     const kifmm__tree *t = &c->tree;
+    const int64_t lo = t->t0[t->leaves[i0]];
+    const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
+    const size_t old = (size_t)(hi - lo) * KIFMM__TD;
+    int32_t j;
+    if (w->outs) {
+        for (j = i0; j < i1; j++)
+            KIFMM__F(__leaf)(c, w, nrhs, j, lo, hi, tm, w->outs, 0, (size_t)t->nt * KIFMM__TD);
+    } else {
+        KIFMM__R *ob = KIFMM__F(__lbuf)(w, nrhs, hi - lo);
+        double p0;
+        for (j = i0; j < i1; j++) KIFMM__F(__leaf)(c, w, nrhs, j, lo, hi, tm, ob, lo, old);
+        p0 = kifmm__now();
+        KIFMM__F(__put)(c, w, nrhs, lo, hi - lo, ob, old);
+        tm[2] += kifmm__now() - p0; /* counted as near field */
+    }
+}
+
+/* One leaf alone (no mutual near field): its outputs in the thread's buffer
+ * and added to the caller's, or into outs. */
+KIFMM__FN void KIFMM__F(__leaf_alone)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                      int32_t i, double *tm)
+{
+    const kifmm__tree *t = &c->tree;
+    const int64_t t0 = t->t0[t->leaves[i]], n = t->t1[t->leaves[i]] - t0;
+    if (w->outs) {
+        KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm, w->outs, 0, (size_t)t->nt * KIFMM__TD);
+    } else if (n > 0) {
+        KIFMM__R *ob = KIFMM__F(__lbuf)(w, nrhs, n);
+        double p0;
+        KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm, ob, t0, (size_t)n * KIFMM__TD);
+        p0 = kifmm__now();
+        KIFMM__F(__put)(c, w, nrhs, t0, n, ob, (size_t)n * KIFMM__TD);
+        tm[2] += kifmm__now() - p0; /* counted as near field */
+    }
+}
+
+/* The leaves' passes. With the mutual near field (sources = targets, a
+ * kernel with a mutual hook: near.chunk), the leaves go in chunks of
+ * consecutive leaves, one chunk per task, so that both leaves of a pair
+ * computed once belong to the thread that writes their outputs. */
+KIFMM__FN void KIFMM__F(__leaves)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
+{
+    const int32_t *ch = c->near.chunk;
     double tl = 0.0, tw = 0.0, tu = 0.0;
-    if (c->pchunk) {
-        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
-        for (int32_t i = 0; i < c->npchunk; i++) {
-            const int32_t i0 = c->pchunk[i], i1 = c->pchunk[i + 1];
+    if (ch) {
+        /* chunk i writes the outputs of its own leaves */
+        KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) reduction(+ : tl, tw, tu))
+        for (int32_t i = 0; i < c->near.nchunk; i++) {
             double tm[3] = {0.0, 0.0, 0.0};
-            int32_t j;
-            if (i0 < i1) {
-                const int64_t lo = t->t0[t->leaves[i0]];
-                const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
-                const size_t old = (size_t)(hi - lo) * KIFMM__TD;
-                if (w->outs) {
-                    for (j = i0; j < i1; j++)
-                        KIFMM__F(__leaf)(c, w, nrhs, j, lo, hi, tm, w->outs, 0,
-                                         (size_t)t->nt * KIFMM__TD);
-                } else {
-                    KIFMM__R *ob = KIFMM__F(__lbuf)(w, nrhs, hi - lo);
-                    double p0;
-                    for (j = i0; j < i1; j++)
-                        KIFMM__F(__leaf)(c, w, nrhs, j, lo, hi, tm, ob, lo, old);
-                    p0 = kifmm__now();
-                    KIFMM__F(__put)(c, w, nrhs, lo, hi - lo, ob, old);
-                    tm[2] += kifmm__now() - p0; /* counted as near field */
-                }
-            }
+            if (ch[i] < ch[i + 1]) KIFMM__F(__leaf_chunk)(c, w, nrhs, ch[i], ch[i + 1], tm);
             tl += tm[0];
             tw += tm[1];
             tu += tm[2];
         }
     } else {
-        KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->nthreads) reduction(+ : tl, tw, tu))
-        for (int32_t i = 0; i < t->nleaves; i++) {
+        /* leaf i writes its own outputs */
+        KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->opts.nthreads) reduction(+ : tl, tw, tu))
+        for (int32_t i = 0; i < c->tree.nleaves; i++) {
             double tm[3] = {0.0, 0.0, 0.0};
-            const int64_t t0 = t->t0[t->leaves[i]], n = t->t1[t->leaves[i]] - t0;
-            if (w->outs) {
-                KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm, w->outs, 0, (size_t)t->nt * KIFMM__TD);
-            } else if (n > 0) {
-                KIFMM__R *ob = KIFMM__F(__lbuf)(w, nrhs, n);
-                double p0;
-                KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm, ob, t0, (size_t)n * KIFMM__TD);
-                p0 = kifmm__now();
-                KIFMM__F(__put)(c, w, nrhs, t0, n, ob, (size_t)n * KIFMM__TD);
-                tm[2] += kifmm__now() - p0; /* counted as near field */
-            }
+            KIFMM__F(__leaf_alone)(c, w, nrhs, i, tm);
             tl += tm[0];
             tw += tm[1];
             tu += tm[2];
         }
     }
-    c->stats->t_l2p += tl / c->nthreads;
-    c->stats->t_m2p += tw / c->nthreads;
-    c->stats->t_p2p += tu / c->nthreads;
+    c->stats.t_l2p += tl / c->opts.nthreads;
+    c->stats.t_m2p += tw / c->opts.nthreads;
+    c->stats.t_p2p += tu / c->opts.nthreads;
 }
 
 /* The chunks of the mutual near field: the leaves in Morton order cut into
@@ -3940,17 +4440,17 @@ KIFMM__FN void KIFMM__F(__leaves)(const KIFMM_NAME *c, const KIFMM__F(__work) *w
 KIFMM__FN int KIFMM__F(__pair_plan)(KIFMM_NAME *c)
 {
     const kifmm__tree *t = &c->tree;
-    int32_t nk = c->nthreads > 1 ? KIFMM__PAIR_CHUNKS * c->nthreads : 1, i, k = 0;
+    int32_t nk = c->opts.nthreads > 1 ? KIFMM__PAIR_CHUNKS * c->opts.nthreads : 1, i, k = 0;
     double total = 0.0, acc = 0.0;
     int pass;
     if (nk > t->nleaves) nk = t->nleaves;
     if (nk < 1) return KIFMM_SUCCESS;
-    c->pchunk = (int32_t *)kifmm__alloc((size_t)nk + 1, sizeof(int32_t));
-    if (!c->pchunk) return KIFMM_ERR_NOMEM;
+    c->near.chunk = (int32_t *)kifmm__alloc((size_t)nk + 1, sizeof(int32_t));
+    if (!c->near.chunk) return KIFMM_ERR_NOMEM;
     for (pass = 0; pass < 2; pass++) {
         for (i = 0; i < t->nleaves; i++) {
             int32_t b = t->leaves[i], e;
-            double wk = (double)c->nse * (1 + t->wo[b + 1] - t->wo[b]);
+            double wk = (double)c->surf.nse * (1 + t->wo[b + 1] - t->wo[b]);
             for (e = t->uo[b]; e < t->uo[b + 1]; e++)
                 wk += 0.5 * (double)(t->s1[t->u[e]] - t->s0[t->u[e]]);
             wk *= (double)(t->t1[b] - t->t0[b]);
@@ -3958,87 +4458,54 @@ KIFMM__FN int KIFMM__F(__pair_plan)(KIFMM_NAME *c)
                 total += wk;
                 continue;
             }
-            while (k < nk && acc >= total * k / nk) c->pchunk[k++] = i;
+            while (k < nk && acc >= total * k / nk) c->near.chunk[k++] = i;
             acc += wk;
         }
     }
-    while (k <= nk) c->pchunk[k++] = t->nleaves; /* any empty chunks last */
-    c->npchunk = nk;
+    while (k <= nk) c->near.chunk[k++] = t->nleaves; /* any empty chunks last */
+    c->near.nchunk = nk;
     return KIFMM_SUCCESS;
 }
 
-/* ---- public entry points ------------------------------------------------ */
 
-/* <prefix>_destroy: free a handle and everything it owns. NULL is a no-op. */
-KIFMM__FN void KIFMM__F(_destroy)(KIFMM_NAME *h)
+// >>create
+
+/* Bytes held by the handle: counted where they were allocated. */
+KIFMM__FN double KIFMM__F(__held)(const KIFMM_NAME *h)
+{
+    return (double)h->held + (double)h->tree.held + (double)(h->work.w ? h->work.w->held : 0);
+}
+
+KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
 {
     int i;
     if (!h) return;
-#if KIFMM__FLOAT
-    kifmm__free(h->src);
-    if (h->trg != h->src) kifmm__free(h->trg);
-#endif
-    kifmm__tree_free(&h->tree);
-    if (h->ops) {
-        for (i = 0; i < h->nops; i++) KIFMM__F(__ops_free)(&h->ops[i]);
-        kifmm__free(h->ops);
+    if (KIFMM__FLOAT) {
+        kifmm__free(h->pts.src);
+        if (h->pts.trg != h->pts.src) kifmm__free(h->pts.trg);
     }
-    kifmm__free(h->surf_e);
-    kifmm__free(h->surf_c);
-    kifmm__free(h->scratch);
-    kifmm__free(h->gbuf);
-    KIFMM__F(__work_free)(h->w);
-    kifmm__fft_free(&h->fft);
-    kifmm__free(h->co);
-    kifmm__free(h->cj);
-    kifmm__free(h->cc);
-    kifmm__free(h->spec);
-    kifmm__free(h->fbuf);
-    kifmm__free(h->fout);
-    kifmm__free(h->loc);
-    kifmm__free(h->need);
-    kifmm__free(h->cjl);
-    kifmm__free(h->sch);
-    kifmm__free(h->pchunk);
-    kifmm__free(h->act);
-    kifmm__free(h->stats);
+    kifmm__tree_free(&h->tree);
+    for (i = 0; h->ops.at && i < h->ops.n; i++) KIFMM__F(__ops_free)(&h->ops.at[i]);
+    kifmm__free(h->ops.at);
+    kifmm__free(h->surf.unit_e);
+    kifmm__free(h->surf.unit_c);
+    kifmm__free(h->work.scratch);
+    kifmm__free(h->work.gbuf);
+    kifmm__free(h->work.act);
+    KIFMM__F(__work_free)(h->work.w);
+    kifmm__fft_free(&h->fft.plan);
+    kifmm__free(h->fft.co); kifmm__free(h->fft.cj); kifmm__free(h->fft.cc);
+    kifmm__free(h->fft.specf); kifmm__free(h->fft.specd);
+    kifmm__free(h->fft.bf); kifmm__free(h->fft.bd); kifmm__free(h->fft.mbuf);
+    kifmm__free(h->fft.foutf); kifmm__free(h->fft.foutd);
+    kifmm__free(h->fft.loc); kifmm__free(h->fft.need); kifmm__free(h->fft.cjl);
+    kifmm__free(h->fft.sch);
+    kifmm__free(h->near.chunk);
     kifmm__free(h);
 }
 
-/* What the handle is made of, for <prefix>_stats: the largest leaf, the
- * points of crowded leaves, and the code paths of this build. */
-KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
-{
-    const kifmm__tree *t = &h->tree;
-    kifmm_stats *st = h->stats;
-    const char *near =
-        KIFMM__NEAR_HOOK ? (KIFMM__MUTUAL && t->same ? "kernel hooks, each pair once"
-                                                     : "kernel hooks")
-                         : "generic loop over the kernel's eval";
-    int32_t b;
-    st->max_leaf = st->crowded = 0;
-    for (b = 0; b < t->nbox; b++) {
-        const int64_t ns = t->s1[b] - t->s0[b], nt = t->same ? 0 : t->t1[b] - t->t0[b];
-        if (t->child[b] >= 0) continue;
-        if (ns > st->max_leaf) st->max_leaf = ns;
-        if (nt > st->max_leaf) st->max_leaf = nt;
-        if (ns > h->opts.leaf_size || nt > h->opts.leaf_size) st->crowded += ns + nt;
-    }
-    st->threads = h->nthreads;
-    st->simd = KIFMM__SIMD_BITS;
-    snprintf(st->build, sizeof st->build,
-             "near field: %s, %s; level passes: %s; M2L: %s%s; %s %d thread%s", KIFMM__SIMD_NAME,
-             near, KIFMM__GC_FAST ? KIFMM__SIMD_NAME " column GEMM" : "BLAS",
-             KIFMM__FFT ? "FFT, " KIFMM__SIMD_NAME " products, " : "dense BLAS",
-             KIFMM__FFT ? (h->fft.single ? "float spectra" : "double spectra") : "",
-#ifdef _OPENMP
-             "OpenMP,",
-#else
-             "no OpenMP (built without -fopenmp):",
-#endif
-             h->nthreads, h->nthreads == 1 ? "" : "s");
-}
-
+/* A point set: a count that an array can hold, a pointer if there are
+ * points, and finite coordinates. */
 KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const KIFMM__R *xyz, int nth)
 {
     int bad = 0;
@@ -4064,10 +4531,43 @@ KIFMM__FN int KIFMM__F(__params)(const double *in, double *out)
     return KIFMM_SUCCESS;
 }
 
-/* Tree over the points given in the instance's precision: double goes
- * straight in, float through a double copy. Sets c->src and c->trg. */
-KIFMM__FN int KIFMM__F(__tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, int64_t nt,
-                               const KIFMM__R *trg)
+/* Create's checks: the options, both point sets and the kernel's
+ * parameters; *o gets the options with every default resolved. */
+KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIFMM__R *src,
+                                   int64_t nt, const KIFMM__R *trg, kifmm_opts *o)
+{
+    double param[4];
+    int rc = kifmm__resolve_opts(opts, o);
+    if (!rc) rc = KIFMM__F(__check_points)(ns, src, o->nthreads);
+    if (!rc) rc = KIFMM__F(__check_points)(nt, trg, o->nthreads);
+    if (!rc) rc = KIFMM__F(__params)(o->kernel_param, param);
+    if (!rc) memcpy(o->kernel_param, param, sizeof param);
+    return rc;
+}
+
+/* The surfaces: their orders, radii and unit points. */
+KIFMM__FN int KIFMM__F(__plan_surfaces)(KIFMM_NAME *h)
+{
+    const int p = h->opts.order;
+    h->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT);
+    h->surf.ao = kifmm__alpha_outer(h->surf.cdiff);
+    h->surf.nse = kifmm__surf_count(p);
+    h->surf.nsc = kifmm__surf_count(p + h->surf.cdiff);
+    h->surf.ne = h->surf.nse * KIFMM__SD;
+    h->surf.nc = h->surf.nsc * KIFMM__SD;
+    h->surf.unit_e = (double *)kifmm__take(&h->held, (size_t)3 * h->surf.nse, sizeof(double));
+    h->surf.unit_c = (double *)kifmm__take(&h->held, (size_t)3 * h->surf.nsc, sizeof(double));
+    if (!h->surf.unit_e || !h->surf.unit_c) return KIFMM_ERR_NOMEM;
+    kifmm__surf_unit(p, h->surf.unit_e);
+    kifmm__surf_unit(p + h->surf.cdiff, h->surf.unit_c);
+    return KIFMM_SUCCESS;
+}
+
+/* The tree over the points given in the instance's precision: double goes
+ * straight in, float through a double copy; pts.src and pts.trg, the sorted
+ * points in the instance's precision. */
+KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, int64_t nt,
+                                    const KIFMM__R *trg)
 {
     const kifmm_opts *o = &c->opts;
     int rc;
@@ -4080,6 +4580,7 @@ KIFMM__FN int KIFMM__F(__tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, i
         if (!same) kifmm__free(g);
         return KIFMM_ERR_NOMEM;
     }
+    /* each i copies its own value */
     KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
     for (int64_t i = 0; i < 3 * ns; i++) s[i] = src[i];
     if (!same) {
@@ -4091,232 +4592,329 @@ KIFMM__FN int KIFMM__F(__tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, i
     kifmm__free(s);
     if (!same) kifmm__free(g);
     if (rc) return rc;
-    c->src = KIFMM__F(__own)(&c->tree.src, (size_t)(3 * ns));
+    /* the double copies change into float ones */
+    c->tree.held -= kifmm__size(c->tree.src) + (c->tree.same ? 0 : kifmm__size(c->tree.trg));
+    c->pts.src = KIFMM__F(__own)(&c->held, &c->tree.src, (size_t)(3 * ns));
     if (c->tree.same) {
-        c->trg = c->src;
+        c->pts.trg = c->pts.src;
         c->tree.trg = NULL;
     } else {
-        c->trg = KIFMM__F(__own)(&c->tree.trg, (size_t)(3 * nt));
+        c->pts.trg = KIFMM__F(__own)(&c->held, &c->tree.trg, (size_t)(3 * nt));
     }
-    if (!c->src || !c->trg) return KIFMM_ERR_NOMEM;
+    if (!c->pts.src || !c->pts.trg) return KIFMM_ERR_NOMEM;
 #else
     rc = kifmm__tree_build(&c->tree, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads,
                            !KIFMM__FFT);
     if (rc) return rc;
-    c->src = c->tree.src;
-    c->trg = c->tree.trg;
+    c->pts.src = c->tree.src;
+    c->pts.trg = c->tree.trg;
 #endif
+    kifmm__tree_dsrc(&c->tree, c->surf.nsc); /* X lists of boxes with few targets go direct */
     return KIFMM_SUCCESS;
 }
 
-/* <prefix>_create: build the tree and the operators for these points.
- *   out      (out) the new handle; NULL on failure
- *   opts     (in)  options, NULL for all defaults (see kifmm_opts)
- *   nsources, src_xyz  (in) source points, x[3*i+k]
- *   ntargets, trg_xyz  (in) target points, x[3*j+k]
- * Coordinates, densities and outputs are KIFMM_REAL (double unless the
- * instance was made with KIFMM_REAL float). The handle keeps no pointer to the
- * caller's arrays. Returns KIFMM_SUCCESS or a negative kifmm result; on
- * failure nothing is leaked. Thread safe: distinct handles may be created
- * concurrently. */
-KIFMM__FN int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
-                                const KIFMM__R *src_xyz, int64_t ntargets,
-                                const KIFMM__R *trg_xyz)
+/* Per-thread buffers of the passes: three surfaces and, for float
+ * instances, the frame of the largest leaf (see __frame); and the level
+ * passes' column buffers, for trees that have levels 2 and deeper. */
+KIFMM__FN int KIFMM__F(__plan_buffers)(KIFMM_NAME *h)
 {
-    KIFMM_NAME *h;
-    kifmm_opts o;
-    double param[4];
-    int rc;
-    double t0, t1;
-    if (!out) return KIFMM_ERR_NULL;
-    *out = NULL;
-    if ((rc = kifmm__resolve_opts(opts, &o))) return rc;
-    if ((rc = KIFMM__F(__check_points)(nsources, src_xyz, o.nthreads))) return rc;
-    if ((rc = KIFMM__F(__check_points)(ntargets, trg_xyz, o.nthreads))) return rc;
-    if ((rc = KIFMM__F(__params)(o.kernel_param, param))) return rc;
-    memcpy(o.kernel_param, param, sizeof param);
-    h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h);
-    if (!h) return KIFMM_ERR_NOMEM;
-    h->stats = (kifmm_stats *)kifmm__calloc(1, sizeof(kifmm_stats));
-    if (!h->stats) {
-        kifmm__free(h);
-        return KIFMM_ERR_NOMEM;
-    }
-    h->opts = o;
-    h->nthreads = o.nthreads;
-    h->degree = (double)(KIFMM__DEGREE);
-    memcpy(h->param, param, sizeof param);
-    h->tree.ns = nsources;
-    h->tree.nt = ntargets;
-    if (nsources == 0 || ntargets == 0) {
-        KIFMM__F(__describe)(h);
-        *out = h;
-        return KIFMM_SUCCESS;
-    }
-    h->cdiff = kifmm__check_diff(o.order, KIFMM__FFT);
-    h->ao = kifmm__alpha_outer(h->cdiff);
-    h->nse = kifmm__surf_count(o.order);
-    h->nsc = kifmm__surf_count(o.order + h->cdiff);
-    h->ne = h->nse * KIFMM__SD;
-    h->nc = h->nsc * KIFMM__SD;
-    h->surf_e = (double *)kifmm__alloc((size_t)3 * h->nse, sizeof(double));
-    h->surf_c = (double *)kifmm__alloc((size_t)3 * h->nsc, sizeof(double));
-    if (!h->surf_e || !h->surf_c) { rc = KIFMM_ERR_NOMEM; goto fail; }
-    kifmm__surf_unit(o.order, h->surf_e);
-    kifmm__surf_unit(o.order + h->cdiff, h->surf_c);
-    t0 = kifmm__now();
-    if ((rc = KIFMM__F(__tree)(h, nsources, src_xyz, ntargets, trg_xyz))) goto fail;
-    kifmm__tree_dsrc(&h->tree, h->nsc); /* X lists of boxes with few targets go direct */
-    t1 = kifmm__now();
-    /* per thread: three surfaces, and for float instances the frame of the
-     * largest leaf (see __frame) */
-    h->fpts = KIFMM__FLOAT ? (size_t)kifmm__max_leaf(&h->tree) : 0;
-    h->scratch = (KIFMM__R *)kifmm__alloc((size_t)h->nthreads * KIFMM__F(__scratch_per)(h),
-                                          sizeof(KIFMM__R));
-    if (!h->scratch) { rc = KIFMM_ERR_NOMEM; goto fail; }
-    /* the level passes' buffers, for trees that have levels 2 and deeper */
-    h->gbuf_n = h->tree.nlev > 2 ? (size_t)(KIFMM__GC_FAST ? h->nthreads : 1) *
-                                       KIFMM__F(__gbuf_per)(h)
-                                 : 0;
-    if (!(h->gbuf = (KIFMM__R *)kifmm__alloc(h->gbuf_n, sizeof(KIFMM__R)))) {
-        rc = KIFMM_ERR_NOMEM;
-        goto fail;
-    }
+    const size_t nth = (size_t)h->opts.nthreads;
+    h->work.fpts = KIFMM__FLOAT ? (size_t)kifmm__max_leaf(&h->tree) : 0;
+    h->work.scratch = (KIFMM__R *)kifmm__take(&h->held, nth * KIFMM__F(__scratch_per)(h),
+                                              sizeof(KIFMM__R));
+    h->work.gbuf_n = h->tree.nlev > 2 ? (KIFMM__GC_FAST ? nth : 1) * KIFMM__F(__gbuf_per)(h) : 0;
+    h->work.gbuf = (KIFMM__R *)kifmm__take(&h->held, h->work.gbuf_n, sizeof(KIFMM__R));
+    return h->work.scratch && h->work.gbuf ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+}
+
 #if KIFMM__FFT
-    if ((rc = kifmm__fft_init(&h->fft, o.order + h->cdiff))) goto fail;
-    /* float spectra: float instances, and on request double instances of
-     * scale-invariant kernels (whose spectra's range fits float at every
-     * level, unlike those of a Yukawa kernel at large lambda r) */
-    h->fft.single = KIFMM__FLOAT || (KIFMM__SI &&
-                                     o.order <= KIFMM_FFT_SINGLE_MAX_ORDER);
-    if ((rc = kifmm__colleagues(&h->tree, h->nthreads, &h->co, &h->cj, &h->cc))) goto fail;
-    {
-        const kifmm__tree *t = &h->tree;
-        const size_t esz = h->fft.single ? sizeof(float) : sizeof(double);
-        const size_t slot = (size_t)h->fft.nfp * 16 * esz;
-        int32_t l, m = 1, mc = 1, i;
-        for (l = 1; l + 1 < t->nlev; l++) {
-            if (t->ioff[l + 1] - t->ioff[l] > m) m = t->ioff[l + 1] - t->ioff[l];
-            if (h->co[t->ioff[l + 1]] - h->co[t->ioff[l]] > mc)
-                mc = h->co[t->ioff[l + 1]] - h->co[t->ioff[l]];
-        }
-        {
-            /* KIFMM_FFT_SPEC_MB, or as much as one expansion array of the
-             * handle when that is larger, up to 4 times that: fewer slabs and
-             * fewer spectra computed twice where the handle is big anyway (two
-             * arrays' worth measured no faster at 1M uniform points, p = 6,
-             * for 23 MiB more) */
-            const size_t lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
-            size_t budget = (size_t)t->nbox * (size_t)h->ne * sizeof(KIFMM__R);
-            budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
-            h->slots = (int32_t)(budget / slot);
-        }
-        if (h->slots < 256) h->slots = 256; /* at high orders: few slabs per level */
-        if (h->slots > m) h->slots = m;
-        h->loc = (int32_t *)kifmm__alloc((size_t)m, sizeof(int32_t));
-        h->need = (int32_t *)kifmm__alloc((size_t)m, sizeof(int32_t));
-        h->cjl = (int32_t *)kifmm__alloc((size_t)mc, sizeof(int32_t));
-        h->sch = (unsigned char *)kifmm__alloc((size_t)h->slots, 9);
-        if (!h->loc || !h->need || !h->cjl || !h->sch) { rc = KIFMM_ERR_NOMEM; goto fail; }
-        for (i = 0; i < m; i++) h->loc[i] = -1;
-        /* forward transforms write every frequency below nf of a slot; the
-         * padding frequencies (the last chunk's tail) stay 0. Only that chunk
-         * is zeroed here: zeroing all of it (45 MiB at 1M points, p = 6) took
-         * 0.05 s of one thread in create */
-        h->spec = kifmm__alloc((size_t)h->slots, slot);
-        if (h->spec && h->fft.nfp > h->fft.nf) {
-            const size_t chunk = (size_t)h->slots * KIFMM__FFT_F * 16 * esz;
-            memset((char *)h->spec + (size_t)(h->fft.nchunk - 1) * chunk, 0, chunk);
-        }
-        h->fft_m = m;
-        h->fft_mc = mc;
-        /* products of up to 128 target parents per task, at most about 4 MiB */
-        h->ftb = (int)((size_t)(4u << 20) / ((size_t)h->fft.nfp * 16 * esz));
-        if (h->ftb > 128) h->ftb = 128;
-        if (h->ftb < 1) h->ftb = 1;
-        h->fbuf_per = (size_t)27 * 128 * KIFMM__FFT_F * esz / sizeof(double) +
-                      ((size_t)h->fft.nfp * h->ftb * 16 * esz + 7) / 8 +
-                      kifmm__fft_work8(&h->fft) + (size_t)8 * h->nc;
-        h->fbuf_per = (h->fbuf_per + 7) / 8 * 8; /* keeps each thread's part 64-byte aligned */
-        h->fbuf = (double *)kifmm__alloc((size_t)h->nthreads * h->fbuf_per, sizeof(double));
-        if (!h->spec || !h->fbuf) { rc = KIFMM_ERR_NOMEM; goto fail; }
+/* The spectra buffer: KIFMM_FFT_SPEC_MB, or as much as one expansion array of
+ * the handle when that is larger, up to 4 times that (fewer slabs and fewer
+ * spectra computed twice where the handle is big anyway; two arrays' worth
+ * measured no faster at 1M uniform points, p = 6, for 23 MiB more), at
+ * least 256 parents' (at high orders: few slabs per level), at most the
+ * largest level's; returns the parents (slots) it holds. */
+KIFMM__FN int32_t KIFMM__F(__fft_slots)(const KIFMM_NAME *h, size_t esz, int32_t m)
+{
+    const size_t slot = (size_t)h->fft.plan.nfp * 16 * esz, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
+    size_t budget = (size_t)h->tree.nbox * (size_t)h->surf.ne * sizeof(KIFMM__R);
+    int32_t slots;
+    budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
+    slots = (int32_t)(budget / slot);
+    if (slots < 256) slots = 256;
+    return slots > m ? m : slots;
+}
+
+/* The FFT M2L's slab bookkeeping: the largest level's internal boxes (m) and
+ * colleague entries (mc), the spectra buffer's slots, their index arrays. */
+KIFMM__FN int KIFMM__F(__plan_slabs)(KIFMM_NAME *h, size_t esz)
+{
+    const kifmm__tree *t = &h->tree;
+    size_t *held = &h->held;
+    int32_t l, i, m = 1, mc = 1;
+    for (l = 1; l + 1 < t->nlev; l++) {
+        if (t->ioff[l + 1] - t->ioff[l] > m) m = t->ioff[l + 1] - t->ioff[l];
+        if (h->fft.co[t->ioff[l + 1]] - h->fft.co[t->ioff[l]] > mc)
+            mc = h->fft.co[t->ioff[l + 1]] - h->fft.co[t->ioff[l]];
     }
-#endif
-    if (KIFMM__MUTUAL && h->tree.same && (rc = KIFMM__F(__pair_plan)(h))) goto fail;
-    if ((rc = KIFMM__F(__precompute)(h))) goto fail;
-#if KIFMM__FFT
-    {
-        /* a level whose products' blocks are not kept runs its products over
-         * chunks of frequencies (each chunk's blocks built once per slab), into
-         * one output buffer for the slab's target parents */
-        int l;
-        for (l = 0; l < h->nops; l++)
-            if (h->ops[l].khat && !h->ops[l].kb) break;
-        if (l < h->nops) {
-            h->fout = kifmm__alloc((size_t)h->slots,
-                                   (size_t)h->fft.nfp * 16 * (h->fft.single ? 4 : 8));
-            if (!h->fout) { rc = KIFMM_ERR_NOMEM; goto fail; }
-        }
-    }
-#endif
-    h->mb = kifmm__max_level_boxes(&h->tree);
-    if (!(h->act = kifmm__active(&h->tree))) { rc = KIFMM_ERR_NOMEM; goto fail; }
-    {
-        /* about 64 MB of stacked multipoles per M2L GEMM */
-        size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->ne);
-        if (cols < KIFMM__RHS_MAX) cols = KIFMM__RHS_MAX;
-        if (cols > (size_t)h->mb * KIFMM__RHS_MAX) cols = (size_t)h->mb * KIFMM__RHS_MAX;
-        if (h->tree.m2lo[h->tree.nlev] == 0) cols = 0; /* no M2L in this tree */
-        h->m2l_cols = (int)cols;
-    }
-    if (!(h->w = KIFMM__F(__work_new)(h, 1))) { rc = KIFMM_ERR_NOMEM; goto fail; }
-    h->stats->t_tree = t1 - t0;
-    h->stats->t_operators = kifmm__now() - t1;
-    KIFMM__F(__describe)(h);
-    h->stats->levels = h->tree.nlev;
-    h->stats->boxes = h->tree.nbox;
-    h->stats->leaves = h->tree.nleaves;
-    h->stats->bytes = KIFMM__F(__bytes)(h);
-    *out = h;
+    h->fft.m = m;
+    h->fft.mc = mc;
+    h->fft.slots = KIFMM__F(__fft_slots)(h, esz, m);
+    h->fft.loc = (int32_t *)kifmm__take(held, (size_t)m, sizeof(int32_t));
+    h->fft.need = (int32_t *)kifmm__take(held, (size_t)m, sizeof(int32_t));
+    h->fft.cjl = (int32_t *)kifmm__take(held, (size_t)mc, sizeof(int32_t));
+    h->fft.sch = (unsigned char *)kifmm__take(held, (size_t)h->fft.slots, 9);
+    if (!h->fft.loc || !h->fft.need || !h->fft.cjl || !h->fft.sch) return KIFMM_ERR_NOMEM;
+    for (i = 0; i < m; i++) h->fft.loc[i] = -1;
     return KIFMM_SUCCESS;
-fail:
-    KIFMM__F(_destroy)(h);
+}
+
+/* The FFT M2L's buffers in the spectra's precision: the spectra of a slab
+ * (forward transforms write every frequency below nf of a slot; only the
+ * last chunk, whose padding frequencies must read 0, is zeroed here:
+ * zeroing all of it, 45 MiB at 1M points, p = 6, took 0.05 s of one thread
+ * in create), and per thread the blocks of a chunk, the products of up to
+ * ftb target parents (128, at most about 4 MiB) and the transform work. */
+KIFMM__FN int KIFMM__F(__plan_fft_buffers)(KIFMM_NAME *h, size_t esz)
+{
+    const kifmm__fft *pl = &h->fft.plan;
+    const size_t nth = (size_t)h->opts.nthreads, chunk = (size_t)h->fft.slots * KIFMM__FFT_F * 16;
+    const size_t nspec = (size_t)h->fft.slots * (size_t)pl->nfp * 16;
+    size_t *held = &h->held;
+    h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz));
+    h->fft.ftb = h->fft.ftb > 128 ? 128 : h->fft.ftb < 1 ? 1 : h->fft.ftb;
+    h->fft.per = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(h) + kifmm__fft_work8(pl);
+    h->fft.per = (h->fft.per + 15) / 16 * 16; /* each thread's part 64-byte aligned */
+    if (pl->single) {
+        h->fft.specf = (float *)kifmm__take(held, nspec, sizeof(float));
+        h->fft.bf = (float *)kifmm__take(held, nth * h->fft.per, sizeof(float));
+        if (h->fft.specf && pl->nfp > pl->nf) memset(h->fft.specf + nspec - chunk, 0, chunk * esz);
+    } else {
+        h->fft.specd = (double *)kifmm__take(held, nspec, sizeof(double));
+        h->fft.bd = (double *)kifmm__take(held, nth * h->fft.per, sizeof(double));
+        if (h->fft.specd && pl->nfp > pl->nf) memset(h->fft.specd + nspec - chunk, 0, chunk * esz);
+    }
+    h->fft.mbuf = (double *)kifmm__take(held, nth * 8 * (size_t)h->surf.nc, sizeof(double));
+    return (h->fft.specf || h->fft.specd) && (h->fft.bf || h->fft.bd) && h->fft.mbuf
+               ? KIFMM_SUCCESS
+               : KIFMM_ERR_NOMEM;
+}
+
+/* The FFT M2L: the plan, the colleagues, the slabs and buffers. Float
+ * spectra for float instances, and on request for double instances of
+ * scale-invariant kernels (whose spectra's range fits float at every
+ * level, unlike those of a Yukawa kernel at large lambda r). */
+KIFMM__FN int KIFMM__F(__plan_fft)(KIFMM_NAME *h)
+{
+    size_t esz;
+    int rc = kifmm__fft_init(&h->fft.plan, h->opts.order + h->surf.cdiff, &h->held);
+    h->fft.plan.single =
+        KIFMM__FLOAT || (KIFMM__SI && h->opts.order <= KIFMM_FFT_SINGLE_MAX_ORDER);
+    esz = h->fft.plan.single ? sizeof(float) : sizeof(double);
+    if (!rc)
+        rc = kifmm__colleagues(&h->tree, h->opts.nthreads, &h->held, &h->fft.co, &h->fft.cj,
+                               &h->fft.cc);
+    if (!rc) rc = KIFMM__F(__plan_slabs)(h, esz);
+    if (!rc) rc = KIFMM__F(__plan_fft_buffers)(h, esz);
     return rc;
 }
 
-/* <prefix>_evaluate_many: nrhs density vectors at once, densities as nrhs
- * consecutive blocks of nsources*SRC_DIM, outputs as nrhs consecutive blocks
- * of ntargets*TRG_DIM (each block laid out as in evaluate). The kernel is
- * evaluated once per point pair for up to 8 vectors (generic kernel loops)
- * and the translations run as GEMMs over boxes and vectors together. Outputs
- * are overwritten; out may be the densities' own array (in place) or overlap
- * it. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT (nrhs < 0, or
- * more vectors than any array holds) or KIFMM_ERR_NOMEM (workspace for more
- * vectors than before, or the copy of overlapping densities; then out is
- * untouched). nrhs == 0 does nothing. Not thread safe on one handle. */
-KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
-                                       KIFMM__R *out)
+/* A level whose products' blocks are not kept runs its products over chunks
+ * of frequencies (each chunk's blocks built once per slab), into one output
+ * buffer for the slab's target parents. */
+KIFMM__FN int KIFMM__F(__plan_fout)(KIFMM_NAME *h)
+{
+    const size_t n = (size_t)h->fft.slots * (size_t)h->fft.plan.nfp * 16;
+    int l;
+    for (l = 0; l < h->ops.n; l++)
+        if (h->ops.at[l].khat && !h->ops.at[l].kbf && !h->ops.at[l].kbd) break;
+    if (l == h->ops.n) return KIFMM_SUCCESS;
+    if (h->fft.plan.single) h->fft.foutf = (float *)kifmm__take(&h->held, n, sizeof(float));
+    else h->fft.foutd = (double *)kifmm__take(&h->held, n, sizeof(double));
+    return h->fft.foutf || h->fft.foutd ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+}
+#endif
+
+/* The workspace of the passes for one vector, and what it is sized by: the
+ * boxes the solves visit, the largest level, the dense M2L's columns per
+ * GEMM (about 64 MB of stacked multipoles; none without M2L). */
+KIFMM__FN int KIFMM__F(__plan_work)(KIFMM_NAME *h)
+{
+    size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->surf.ne);
+    h->work.mb = kifmm__max_level_boxes(&h->tree);
+    if (!(h->work.act = kifmm__active(&h->tree, &h->held))) return KIFMM_ERR_NOMEM;
+    if (cols < KIFMM__RHS_MAX) cols = KIFMM__RHS_MAX;
+    if (cols > (size_t)h->work.mb * KIFMM__RHS_MAX) cols = (size_t)h->work.mb * KIFMM__RHS_MAX;
+    if (h->tree.m2lo[h->tree.nlev] == 0) cols = 0; /* no M2L in this tree */
+    h->ops.m2l_cols = (int)cols;
+    h->work.w = KIFMM__F(__work_new)(h, 1);
+    return h->work.w ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+}
+
+/* What the handle is made of, for <prefix>_stats: the largest leaf, the
+ * points of crowded leaves, and the code paths of this build. */
+KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
+{
+    const kifmm__tree *t = &h->tree;
+    kifmm_stats *st = &h->stats;
+    const char *near =
+        KIFMM__NEAR_HOOK ? (KIFMM__MUTUAL && t->same ? "kernel hooks, each pair once"
+                                                     : "kernel hooks")
+                         : "generic loop over the kernel's eval";
+    int32_t b;
+    st->max_leaf = st->crowded = 0;
+    for (b = 0; b < t->nbox; b++) {
+        const int64_t ns = t->s1[b] - t->s0[b], nt = t->same ? 0 : t->t1[b] - t->t0[b];
+        if (t->child[b] >= 0) continue;
+        if (ns > st->max_leaf) st->max_leaf = ns;
+        if (nt > st->max_leaf) st->max_leaf = nt;
+        if (ns > h->opts.leaf_size || nt > h->opts.leaf_size) st->crowded += ns + nt;
+    }
+    st->threads = h->opts.nthreads;
+    st->simd = KIFMM__SIMD_BITS;
+    snprintf(st->build, sizeof st->build,
+             "near field: %s, %s; level passes: %s; M2L: %s%s; %s %d thread%s", KIFMM__SIMD_NAME,
+             near, KIFMM__GC_FAST ? KIFMM__SIMD_NAME " column GEMM" : "BLAS",
+             KIFMM__FFT ? "FFT, " KIFMM__SIMD_NAME " products, " : "dense BLAS",
+             KIFMM__FFT ? (h->fft.plan.single ? "float spectra" : "double spectra") : "",
+#ifdef _OPENMP
+             "OpenMP,",
+#else
+             "no OpenMP (built without -fopenmp):",
+#endif
+             h->opts.nthreads, h->opts.nthreads == 1 ? "" : "s");
+}
+
+KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
+                                 const KIFMM__R *src_xyz, int64_t ntargets,
+                                 const KIFMM__R *trg_xyz)
+{
+    KIFMM_NAME *h;
+    kifmm_opts o;
+    double t0, t1;
+    int rc;
+    if (!out) return KIFMM_ERR_NULL;
+    *out = NULL;
+    if ((rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o))) return rc;
+    if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
+    h->held = sizeof *h;
+    h->opts = o;
+    h->ops.degree = (double)(KIFMM__DEGREE);
+    h->tree.ns = nsources;
+    h->tree.nt = ntargets;
+    t0 = kifmm__now();
+    if (nsources > 0 && ntargets > 0) {
+        rc = KIFMM__F(__plan_surfaces)(h);
+        if (!rc) rc = KIFMM__F(__plan_tree)(h, nsources, src_xyz, ntargets, trg_xyz);
+        t1 = kifmm__now();
+        if (!rc) rc = KIFMM__F(__plan_buffers)(h);
+#if KIFMM__FFT
+        if (!rc) rc = KIFMM__F(__plan_fft)(h);
+#endif
+        if (!rc && KIFMM__MUTUAL && h->tree.same) rc = KIFMM__F(__pair_plan)(h);
+        if (!rc) rc = KIFMM__F(__precompute)(h);
+#if KIFMM__FFT
+        if (!rc) rc = KIFMM__F(__plan_fout)(h);
+#endif
+        if (!rc) rc = KIFMM__F(__plan_work)(h);
+        if (rc) {
+            KIFMM__F(_destroy)(h);
+            return rc;
+        }
+        h->stats.t_tree = t1 - t0;
+        h->stats.t_operators = kifmm__now() - t1;
+    }
+    KIFMM__F(__describe)(h);
+    h->stats.levels = h->tree.nlev;
+    h->stats.boxes = h->tree.nbox;
+    h->stats.leaves = h->tree.nleaves;
+    h->stats.bytes = KIFMM__F(__held)(h);
+    *out = h;
+    return KIFMM_SUCCESS;
+}
+
+/* evaluate_many's checks; 1 for a call with nothing to compute (outputs
+ * zeroed where there are targets but no sources). */
+KIFMM__FN int KIFMM__F(__eval_check)(const KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
+                                     KIFMM__R *out, int *rc)
 {
     const kifmm__tree *t;
-    KIFMM__F(__work) *w;
-    KIFMM__R *dcopy = NULL;
-    int l, r0, nr, cap;
-    double t0;
     size_t qper, oper;
-    if (!h) return KIFMM_ERR_NULL;
-    if (nrhs < 0) return KIFMM_ERR_COUNT;
+    *rc = KIFMM_SUCCESS;
+    if (!h) return *rc = KIFMM_ERR_NULL;
+    if (nrhs < 0) return *rc = KIFMM_ERR_COUNT;
     t = &h->tree;
     if ((t->ns > 0 && nrhs > 0 && !densities) || (t->nt > 0 && nrhs > 0 && !out))
-        return KIFMM_ERR_NULL;
-    if (t->nt == 0 || nrhs == 0) return KIFMM_SUCCESS;
+        return *rc = KIFMM_ERR_NULL;
+    if (t->nt == 0 || nrhs == 0) return 1;
     qper = (size_t)t->ns * KIFMM__QD;
     oper = (size_t)t->nt * KIFMM__TD;
     if ((size_t)nrhs > (size_t)PTRDIFF_MAX / sizeof(KIFMM__R) / (qper > oper ? qper : oper))
-        return KIFMM_ERR_COUNT; /* no array holds that many vectors */
-    if (t->ns == 0) {
-        memset(out, 0, (size_t)nrhs * oper * sizeof(KIFMM__R));
-        return KIFMM_SUCCESS;
+        return *rc = KIFMM_ERR_COUNT; /* no array holds that many vectors */
+    if (t->ns > 0) return 0;
+    memset(out, 0, (size_t)nrhs * oper * sizeof(KIFMM__R));
+    return 1;
+}
+
+/* The workspace for cap vectors, if it has fewer (the first call with more
+ * vectors than any before grows it). */
+KIFMM__FN int KIFMM__F(__eval_grow)(KIFMM_NAME *h, int cap)
+{
+    KIFMM__F(__work) *nw;
+    if (h->work.w->nrhs >= cap) return KIFMM_SUCCESS;
+    if (!(nw = KIFMM__F(__work_new)(h, cap))) return KIFMM_ERR_NOMEM;
+    KIFMM__F(__work_free)(h->work.w);
+    h->work.w = nw;
+    h->stats.bytes = KIFMM__F(__held)(h);
+    return KIFMM_SUCCESS;
+}
+
+/* One group of nr vectors (densities d, outputs o: the group's first
+ * vectors): the densities in sorted order, the passes, the outputs in the
+ * caller's order. Outputs are summed in sorted order (outs) and gathered
+ * at the end, or added by each task to the caller's out (dst, see the
+ * workspace). */
+KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, KIFMM__R *o)
+{
+    const kifmm__tree *t = &h->tree;
+    KIFMM__F(__work) *w = h->work.w;
+    const size_t qper = (size_t)t->ns * KIFMM__QD, oper = (size_t)t->nt * KIFMM__TD;
+    int l;
+    /* each sorted source i writes its own densities */
+    KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
+    for (int64_t i = 0; i < t->ns; i++) {
+        int k, r;
+        for (r = 0; r < nr; r++)
+            for (k = 0; k < KIFMM__QD; k++)
+                w->qs[r * qper + i * KIFMM__QD + k] = d[r * qper + t->sperm[i] * KIFMM__QD + k];
     }
+    w->dst = o;
+    memset(w->outs ? w->outs : w->dst, 0, (size_t)nr * oper * sizeof(KIFMM__R));
+    for (l = t->nlev - 1; l >= 2; l--) KIFMM__F(__upward)(h, w, nr, l);
+    for (l = 2; l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
+    KIFMM__F(__leaves)(h, w, nr);
+    w->dst = NULL;
+    if (!w->outs) return;
+    /* each sorted target i writes its own outputs */
+    KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
+    for (int64_t i = 0; i < t->nt; i++) {
+        int k, r;
+        for (r = 0; r < nr; r++)
+            for (k = 0; k < KIFMM__TD; k++)
+                o[r * oper + t->tperm[i] * KIFMM__TD + k] = w->outs[r * oper + i * KIFMM__TD + k];
+    }
+}
+
+KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
+                                        KIFMM__R *out)
+{
+    KIFMM__R *dcopy = NULL;
+    size_t qper, oper;
+    int r0, nr, cap, rc;
+    double t0;
+    if (KIFMM__F(__eval_check)(h, nrhs, densities, out, &rc)) return rc;
+    qper = (size_t)h->tree.ns * KIFMM__QD;
+    oper = (size_t)h->tree.nt * KIFMM__TD;
     cap = nrhs < KIFMM__RHS_MAX ? nrhs : KIFMM__RHS_MAX;
     if (nrhs > cap && kifmm__overlap(densities, (size_t)nrhs * qper * sizeof(KIFMM__R), out,
                                      (size_t)nrhs * oper * sizeof(KIFMM__R))) {
@@ -4328,102 +4926,62 @@ KIFMM__FN int KIFMM__F(_evaluate_many)(const KIFMM_NAME *h, int nrhs, const KIFM
         memcpy(dcopy, densities, (size_t)nrhs * qper * sizeof(KIFMM__R));
         densities = dcopy;
     }
-    if (h->w->nrhs < cap) {
-        /* more vectors than any call before: a larger workspace (the handle
-         * is the caller's, allocated by create; only its workspace changes) */
-        KIFMM__F(__work) *nw = KIFMM__F(__work_new)(h, cap);
-        if (!nw) {
-            kifmm__free(dcopy);
-            return KIFMM_ERR_NOMEM;
-        }
-        KIFMM__F(__work_free)(h->w);
-        ((KIFMM_NAME *)h)->w = nw;
-        h->stats->bytes = KIFMM__F(__bytes)(h);
+    if ((rc = KIFMM__F(__eval_grow)(h, cap))) {
+        kifmm__free(dcopy);
+        return rc;
     }
-    w = h->w;
     t0 = kifmm__now();
-    {
-        kifmm_stats *st = h->stats;
-        st->t_p2m = st->t_m2m = st->t_m2l = st->t_l2l = st->t_p2l = 0.0;
-        st->t_l2p = st->t_m2p = st->t_p2p = 0.0;
-    }
+    h->stats.t_p2m = h->stats.t_m2m = h->stats.t_m2l = h->stats.t_l2l = h->stats.t_p2l = 0.0;
+    h->stats.t_l2p = h->stats.t_m2p = h->stats.t_p2p = 0.0;
     for (r0 = 0; r0 < nrhs; r0 += nr) {
         nr = nrhs - r0 < cap ? nrhs - r0 : cap;
-        KIFMM__OMP(parallel for schedule(static) num_threads(h->nthreads))
-        for (int64_t i = 0; i < t->ns; i++) {
-            int k, r;
-            for (r = 0; r < nr; r++)
-                for (k = 0; k < KIFMM__QD; k++)
-                    w->qs[r * qper + i * KIFMM__QD + k] =
-                        densities[(r0 + r) * qper + t->sperm[i] * KIFMM__QD + k];
-        }
-        /* outputs summed in sorted order (outs) and gathered at the end, or
-         * added by each task to the caller's out (dst, see the workspace) */
-        w->dst = out + (size_t)r0 * oper;
-        memset(w->outs ? w->outs : w->dst, 0, (size_t)nr * oper * sizeof(KIFMM__R));
-        for (l = t->nlev - 1; l >= 2; l--) KIFMM__F(__upward)(h, w, nr, l);
-        for (l = 2; l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
-        KIFMM__F(__leaves)(h, w, nr);
-        w->dst = NULL;
-        if (w->outs) {
-            KIFMM__OMP(parallel for schedule(static) num_threads(h->nthreads))
-            for (int64_t i = 0; i < t->nt; i++) {
-                int k, r;
-                for (r = 0; r < nr; r++)
-                    for (k = 0; k < KIFMM__TD; k++)
-                        out[(r0 + r) * oper + t->tperm[i] * KIFMM__TD + k] =
-                            w->outs[r * oper + i * KIFMM__TD + k];
-            }
-        }
+        KIFMM__F(__eval_group)(h, nr, densities + (size_t)r0 * qper, out + (size_t)r0 * oper);
     }
-    h->stats->t_evaluate = kifmm__now() - t0;
+    h->stats.t_evaluate = kifmm__now() - t0;
     kifmm__free(dcopy);
     return KIFMM_SUCCESS;
 }
 
-/* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
- * order, from densities[i*SRC_DIM + d]. Outputs are overwritten. Returns
- * KIFMM_SUCCESS or KIFMM_ERR_NULL (then out is untouched). Not thread safe
- * on one handle (the handle holds the workspace); use one handle per thread. */
-KIFMM__FN int KIFMM__F(_evaluate)(const KIFMM_NAME *h, const KIFMM__R *densities, KIFMM__R *out)
+KIFMM__API int KIFMM__F(_evaluate)(KIFMM_NAME *h, const KIFMM__R *densities, KIFMM__R *out)
 {
     return KIFMM__F(_evaluate_many)(h, 1, densities, out);
 }
 
-/* <prefix>_stats: tree size, memory held, and the time of create's stages
- * and of the last evaluate's passes (see kifmm_stats). */
-KIFMM__FN int KIFMM__F(_stats)(const KIFMM_NAME *h, kifmm_stats *out)
+KIFMM__API int KIFMM__F(_stats)(const KIFMM_NAME *h, kifmm_stats *out)
 {
     if (!h || !out) return KIFMM_ERR_NULL;
-    *out = *h->stats;
+    *out = h->stats;
     return KIFMM_SUCCESS;
 }
 
-/* <prefix>_options: the options the handle uses, defaults resolved (kernel
- * parameters included). */
-KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
+KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 {
     if (!h || !used) return KIFMM_ERR_NULL;
     *used = h->opts;
     return KIFMM_SUCCESS;
 }
 
-/* ======================================================================== */
-/* 5. Epilogue: the next include starts clean                              */
-/* ======================================================================== */
+#endif /* KIFMM_DECLARE */
+
+// >>epilogue: the next include starts clean
+
+#ifndef KIFMM_DECLARE
 #undef KIFMM__LVL
+#undef KIFMM__FFT_KBN
+#undef KIFMM__FFT_OUTN
 #undef KIFMM__NEAR_HOOK
 #undef KIFMM__MUTUAL
 #undef KIFMM__GEMM_COLS
 #undef KIFMM__FFT
 #undef KIFMM__CUTOFF
 #undef KIFMM__TINY
-#undef KIFMM_M2L_DENSE
 #undef KIFMM__DEFINE_P2P_HOOKN
 #undef KIFMM__P2P_SIG
 #undef KIFMM__DEFINE_P2P_HOOK
 #undef KIFMM__DEFINE_P2P
 #undef KIFMM__QD
+#undef KIFMM__TD
+#undef KIFMM__SD
 #undef KIFMM__SI
 #undef KIFMM__DEGREE
 #undef KIFMM__ROLE_QT
@@ -4444,19 +5002,24 @@ KIFMM__FN int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__B_P2PS
 #undef KIFMM__B_P2PSN
 #undef KIFMM__HOOK
+#endif /* KIFMM_DECLARE */
+#undef KIFMM__API
 #undef KIFMM__FLOAT
 #undef KIFMM__R
-#undef KIFMM__TD
-#undef KIFMM__SD
 #undef KIFMM__F
 #undef KIFMM__K
 #undef KIFMM_NAME
 #undef KIFMM_REAL
 #undef KIFMM_KERNEL
 
+#undef KIFMM_M2L_DENSE
+#undef KIFMM_DECLARE
+#undef KIFMM_IMPLEMENT
+
 #if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
 #pragma GCC diagnostic pop
 #endif
+#endif /* KIFMM__PREC_PASS: the normal pass */
 
 /* License: MIT. Copyright (c) 2026 the kifmm.h authors. Permission is hereby
  * granted, free of charge, to any person obtaining a copy of this software, to

@@ -430,7 +430,7 @@ typedef struct t_api {
     int trg_dim;
     int (*create)(void **out, const kifmm_opts *opts, int64_t ns, const double *src, int64_t nt,
                   const double *trg);
-    int (*evaluate)(const void *h, const double *q, double *out);
+    int (*evaluate)(void *h, const double *q, double *out);
     void (*destroy)(void *h);
     int (*options)(const void *h, kifmm_opts *used);
 } t_api;
@@ -449,9 +449,9 @@ typedef struct t_api {
         *out = (void *)h;                                                                 \
         return rc;                                                                        \
     }                                                                                     \
-    static inline int P##_t_evaluate(const void *h, const double *q, double *out)         \
+    static inline int P##_t_evaluate(void *h, const double *q, double *out)               \
     {                                                                                     \
-        return P##_evaluate((const P *)h, q, out);                                        \
+        return P##_evaluate((P *)h, q, out);                                              \
     }                                                                                     \
     static inline void P##_t_destroy(void *h) { P##_destroy((P *)h); }                   \
     static inline int P##_t_options(const void *h, kifmm_opts *used)                      \

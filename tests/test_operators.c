@@ -52,11 +52,11 @@ static void soa(int n, const double *xyz, double *s)
 /* Check vector -> equivalent density with the handle's two factors. */
 static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 {
-    const kifmm_laplace__ops *o = &c->ops[0];
+    const kifmm_laplace__ops *o = &c->ops.at[0];
     int k = up ? o->ku : o->kd;
     double *tmp = t_doubles(k);
-    kifmm__gemm(0, 0, k, 1, c->nc, 1.0, up ? o->ut_up : o->ut_dn, k, chk, c->nc, 0.0, tmp, k);
-    kifmm__gemm(0, 0, c->ne, 1, k, 1.0, up ? o->vs_up : o->vs_dn, c->ne, tmp, k, 0.0, eq, c->ne);
+    kifmm__gemm(0, 0, k, 1, c->surf.nc, 1.0, up ? o->ut_up : o->ut_dn, k, chk, c->surf.nc, 0.0, tmp, k);
+    kifmm__gemm(0, 0, c->surf.ne, 1, k, 1.0, up ? o->vs_up : o->vs_dn, c->surf.ne, tmp, k, 0.0, eq, c->surf.ne);
     free(tmp);
 }
 
@@ -66,12 +66,12 @@ static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, const double *x,
                 const double *q, double *ue)
 {
-    double *pc = t_doubles(3 * c->nsc), *chk = t_doubles(c->nc), *xs = t_doubles(3 * ns);
-    kifmm__surf_place(c->surf_c, c->nsc, ctr, c->ao * r, pc);
+    double *pc = t_doubles(3 * c->surf.nsc), *chk = t_doubles(c->surf.nc), *xs = t_doubles(3 * ns);
+    kifmm__surf_place(c->surf.unit_c, c->surf.nsc, ctr, c->surf.ao * r, pc);
     soa(ns, x, xs);
-    t_fill(c->nc, chk, 0.0);
-    kifmm_laplace__p2p_qc(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
-                             xs + 2 * ns, q, ns, 1, 0, r * c->ops[0].sigma, chk, 0);
+    t_fill(c->surf.nc, chk, 0.0);
+    kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc, c->surf.nsc, xs, xs + ns,
+                             xs + 2 * ns, q, ns, 1, 0, r * c->ops.at[0].sigma, chk, 0);
     solve(c, 1, chk, ue);
     free(pc);
     free(chk);
@@ -117,7 +117,7 @@ static kifmm_laplace *handle(int order)
     int n;
     double *x = ops_points(&n);
     kifmm_opts o = t_opts(order, 8, 0);
-    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == 0 && h->ops[0].khat != NULL,
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == 0 && h->ops.at[0].khat != NULL,
           "create order %d, operators built", order);
     return h;
 }
@@ -138,16 +138,16 @@ static void test_upward(int p)
     double ctr[3] = {0.3, -0.2, 0.1}, r = 0.25, *x, *q, *y, *pot, *ue, *uec, *chk, *pe;
     int ns = 400, ny = 300, o;
     x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
-    ue = t_doubles(c->ne); uec = t_doubles(8 * c->ne); chk = t_doubles(c->nc);
-    pe = t_doubles(3 * c->nse);
+    ue = t_doubles(c->surf.ne); uec = t_doubles(8 * c->surf.ne); chk = t_doubles(c->surf.nc);
+    pe = t_doubles(3 * c->surf.nse);
 
     /* P2M alone, evaluated where M2L would use it (beyond the check surface) */
     points_in_box(&g, ns, ctr, r, x);
     t_gen_charges(&g, ns, q, -1, 1);
     points_far(&g, ny, ctr, r, 3.0, 7.0, y);
     p2m(c, ctr, r, ns, x, q, ue);
-    kifmm__surf_place(c->surf_e, c->nse, ctr, KIFMM__ALPHA_INNER * r, pe);
-    eval_equiv(c, c->nse, pe, ue, ny, y, pot);
+    kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, KIFMM__ALPHA_INNER * r, pe);
+    eval_equiv(c, c->surf.nse, pe, ue, ny, y, pot);
     CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2M p=%d, far field", p);
 
     /* M2M: eight children, each P2M'd alone, shifted to the parent */
@@ -155,12 +155,12 @@ static void test_upward(int p)
         double cc[3] = {ctr[0] + (o >> 2 & 1 ? 0.5 : -0.5) * r, ctr[1] + (o >> 1 & 1 ? 0.5 : -0.5) * r,
                         ctr[2] + (o & 1 ? 0.5 : -0.5) * r};
         points_in_box(&g, ns / 8, cc, 0.5 * r, x + 3 * (ns / 8) * o);
-        p2m(c, cc, 0.5 * r, ns / 8, x + 3 * (ns / 8) * o, q + (ns / 8) * o, uec + o * c->ne);
+        p2m(c, cc, 0.5 * r, ns / 8, x + 3 * (ns / 8) * o, q + (ns / 8) * o, uec + o * c->surf.ne);
     }
-    kifmm__gemm(0, 0, c->nc, 1, 8 * c->ne, 1.0, c->ops[0].m2m, c->nc, uec, 8 * c->ne, 0.0, chk,
-                c->nc);
+    kifmm__gemm(0, 0, c->surf.nc, 1, 8 * c->surf.ne, 1.0, c->ops.at[0].m2m, c->surf.nc, uec, 8 * c->surf.ne, 0.0, chk,
+                c->surf.nc);
     solve(c, 1, chk, ue);
-    eval_equiv(c, c->nse, pe, ue, ny, y, pot);
+    eval_equiv(c, c->surf.nse, pe, ue, ny, y, pot);
     CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "M2M p=%d, far field", p);
     free(x); free(q); free(y); free(pot); free(ue); free(uec); free(chk); free(pe);
     kifmm_laplace_destroy(h);
@@ -172,31 +172,31 @@ static void test_upward(int p)
  * solve. */
 static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de)
 {
-    kifmm__fft plan = c->fft; /* this helper works in double throughout */
+    kifmm__fft plan = c->fft.plan; /* this helper works in double throughout */
     const kifmm__fft *pl = &plan;
-    const kifmm_laplace__ops *o = &c->ops[0];
+    const kifmm_laplace__ops *o = &c->ops.at[0];
     const size_t cs = 16 * KIFMM__FFT_F;
     double *spec = t_doubles(16 * pl->nfp), *prod = t_doubles(16 * pl->nfp);
-    double *work = t_doubles((int64_t)kifmm__fft_work8(pl)), *chk = t_doubles(8 * c->nc);
-    double *m = t_doubles(c->nc), *m8 = t_doubles(8 * c->nc);
+    double *work = t_doubles((int64_t)kifmm__fft_work8(pl)), *chk = t_doubles(8 * c->surf.nc);
+    double *m = t_doubles(c->surf.nc), *m8 = t_doubles(8 * c->surf.nc);
     int f, i;
     plan.single = 0;
     t_fill(16 * pl->nfp, spec, 0.0);
     t_fill(16 * pl->nfp, prod, 0.0);
-    if (o->conv) kifmm__gemm(0, 0, c->nc, 1, c->ne, 1.0, o->conv, c->nc, ue, c->ne, 0.0, m, c->nc);
-    else memcpy(m, ue, (size_t)c->nc * sizeof(double)); /* lattice = equivalent surface */
+    if (o->conv) kifmm__gemm(0, 0, c->surf.nc, 1, c->surf.ne, 1.0, o->conv, c->surf.nc, ue, c->surf.ne, 0.0, m, c->surf.nc);
+    else memcpy(m, ue, (size_t)c->surf.nc * sizeof(double)); /* lattice = equivalent surface */
     /* lane 3 of the batched transforms carries the density, the others 0 */
-    t_fill(8 * c->nc, m8, 0.0);
-    for (i = 0; i < c->nc; i++) m8[8 * i + 3] = m[i];
-    kifmm__fft_forward8(pl, m8, spec, cs, work);
+    t_fill(8 * c->surf.nc, m8, 0.0);
+    for (i = 0; i < c->surf.nc; i++) m8[8 * i + 3] = m[i];
+    kifmm__fft_forward8d(pl, m8, spec, cs, work);
     for (f = 0; f < pl->nf; f++) {
         size_t a = (size_t)(f / KIFMM__FFT_F) * cs + (size_t)(f % KIFMM__FFT_F) * 16 + 3;
         const double *k = o->khat + ((size_t)f * KIFMM__NT + tv) * 2;
         prod[a] = spec[a] * k[0] - spec[a + 8] * k[1];
         prod[a + 8] = spec[a] * k[1] + spec[a + 8] * k[0];
     }
-    kifmm__fft_inverse8(pl, prod, cs, chk, work);
-    for (i = 0; i < c->nc; i++) m[i] = chk[8 * i + 3];
+    kifmm__fft_inverse8d(pl, prod, cs, chk, work);
+    for (i = 0; i < c->surf.nc; i++) m[i] = chk[8 * i + 3];
     solve(c, 0, m, de);
     free(spec); free(prod); free(work); free(chk); free(m); free(m8);
 }
@@ -212,14 +212,14 @@ static void test_downward(int p)
     int ns = 300, ny = 300, tv, o, k;
     static const int vecs[4][3] = {{2, 0, 0}, {3, -2, 1}, {-3, -3, -3}, {0, 2, -2}};
     x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
-    ue = t_doubles(c->ne); de = t_doubles(c->ne); dec = t_doubles(c->ne);
-    chk = t_doubles(8 * c->nc); pe = t_doubles(3 * c->nse); pc = t_doubles(3 * c->nsc);
+    ue = t_doubles(c->surf.ne); de = t_doubles(c->surf.ne); dec = t_doubles(c->surf.ne);
+    chk = t_doubles(8 * c->surf.nc); pe = t_doubles(3 * c->surf.nse); pc = t_doubles(3 * c->surf.nsc);
     xs = t_doubles(3 * ns);
     {
         int n;
         double *xo = ops_points(&n);
         kifmm_opts o = t_opts(p, 8, 0);
-        CHECK(kifmm_laplace_dense_create(&hd, &o, n, xo, n, xo) == 0 && hd->ops[0].m2l != NULL,
+        CHECK(kifmm_laplace_dense_create(&hd, &o, n, xo, n, xo) == 0 && hd->ops.at[0].m2l != NULL,
               "dense create %d, operators built", p);
     }
 
@@ -233,24 +233,24 @@ static void test_downward(int p)
         t_gen_charges(&g, ns, q, -1, 1);
         points_in_box(&g, ny, ctr, r, y);
         p2m(c, cs, r, ns, x, q, ue);
-        kifmm__surf_place(c->surf_e, c->nse, ctr, c->ao * r, pe);
+        kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, c->surf.ao * r, pe);
         /* FFT path */
         m2l_fft(c, tv, ue, de);
-        eval_equiv(c, c->nse, pe, de, ny, y, pot);
+        eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
                   "M2L (FFT) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
         /* dense path: the stored matrices include the first factor of the
-         * solve; its downward equivalent surface has its own radius (hd->ao:
+         * solve; its downward equivalent surface has its own radius (hd->surf.ao:
          * the dense instance checks on order p + 1) */
         {
-            const kifmm_laplace_dense__ops *od = &hd->ops[0];
-            kifmm__gemm(0, 0, od->kd, 1, c->ne, 1.0, od->m2l + (size_t)tv * c->ne * od->kd,
-                        od->kd, ue, c->ne, 0.0, chk, od->kd);
-            kifmm__gemm(0, 0, c->ne, 1, od->kd, 1.0, od->vs_dn, c->ne, chk, od->kd, 0.0, de,
-                        c->ne);
+            const kifmm_laplace_dense__ops *od = &hd->ops.at[0];
+            kifmm__gemm(0, 0, od->kd, 1, c->surf.ne, 1.0, od->m2l + (size_t)tv * c->surf.ne * od->kd,
+                        od->kd, ue, c->surf.ne, 0.0, chk, od->kd);
+            kifmm__gemm(0, 0, c->surf.ne, 1, od->kd, 1.0, od->vs_dn, c->surf.ne, chk, od->kd, 0.0, de,
+                        c->surf.ne);
         }
-        kifmm__surf_place(c->surf_e, c->nse, ctr, hd->ao * r, pe);
-        eval_equiv(c, c->nse, pe, de, ny, y, pot);
+        kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, hd->surf.ao * r, pe);
+        eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
                   "M2L (dense) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
     }
@@ -262,24 +262,24 @@ static void test_downward(int p)
         points_in_box(&g, ns, cs, 2 * r, x);
         t_gen_charges(&g, ns, q, -1, 1);
         soa(ns, x, xs);
-        kifmm__surf_place(c->surf_c, c->nsc, cp, KIFMM__ALPHA_INNER * 2 * r, pc);
-        t_fill(c->nc, chk, 0.0);
-        kifmm_laplace__p2p_qc(c->param, pc, pc + c->nsc, pc + 2 * c->nsc, c->nsc, xs, xs + ns,
-                                 xs + 2 * ns, q, ns, 1, 0, 2 * r * c->ops[0].sigma, chk, 0);
+        kifmm__surf_place(c->surf.unit_c, c->surf.nsc, cp, KIFMM__ALPHA_INNER * 2 * r, pc);
+        t_fill(c->surf.nc, chk, 0.0);
+        kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc, c->surf.nsc, xs, xs + ns,
+                                 xs + 2 * ns, q, ns, 1, 0, 2 * r * c->ops.at[0].sigma, chk, 0);
         solve(c, 0, chk, de);
-        kifmm__surf_place(c->surf_e, c->nse, cp, c->ao * 2 * r, pe);
+        kifmm__surf_place(c->surf.unit_e, c->surf.nse, cp, c->surf.ao * 2 * r, pe);
         points_in_box(&g, ny, cp, 2 * r, y);
-        eval_equiv(c, c->nse, pe, de, ny, y, pot);
+        eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2L p=%d, inside the box", p);
-        kifmm__gemm(0, 0, 8 * c->nc, 1, c->ne, 1.0, c->ops[0].l2l, 8 * c->nc, de, c->ne, 0.0, chk,
-                    8 * c->nc);
+        kifmm__gemm(0, 0, 8 * c->surf.nc, 1, c->surf.ne, 1.0, c->ops.at[0].l2l, 8 * c->surf.nc, de, c->surf.ne, 0.0, chk,
+                    8 * c->surf.nc);
         for (o = 0; o < 8; o++) {
             double cc[3] = {cp[0] + (o >> 2 & 1 ? r : -r), cp[1] + (o >> 1 & 1 ? r : -r),
                             cp[2] + (o & 1 ? r : -r)};
-            solve(c, 0, chk + (size_t)o * c->nc, dec);
-            kifmm__surf_place(c->surf_e, c->nse, cc, c->ao * r, pe);
+            solve(c, 0, chk + (size_t)o * c->surf.nc, dec);
+            kifmm__surf_place(c->surf.unit_e, c->surf.nse, cc, c->surf.ao * r, pe);
             points_in_box(&g, ny, cc, r, y);
-            eval_equiv(c, c->nse, pe, dec, ny, y, pot);
+            eval_equiv(c, c->surf.nse, pe, dec, ny, y, pot);
             CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "L2L p=%d, child %d", p, o);
         }
     }
