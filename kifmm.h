@@ -2431,6 +2431,28 @@ KIFMM__FN void KIFMM__P(kifmm__fft_blocks)(const double *khat, const int *tv, in
             }
 }
 
+/* The products of kifmm__fft_products (below) in portable C. */
+KIFMM__FN void KIFMM__P(kifmm__fft_products_c)(int nn, const int32_t *nb, const unsigned char *no,
+                                               const unsigned char *sch, const KIFMM__T *sc,
+                                               const KIFMM__T *kb, KIFMM__T *oc)
+{
+    int e, fi, cs, ct, q;
+    memset(oc, 0, sizeof(KIFMM__T) * 16 * KIFMM__FFT_F);
+    for (e = 0; e < nn; e++)
+        for (fi = 0; fi < KIFMM__FFT_F; fi++) {
+            const KIFMM__T *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
+            const KIFMM__T *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
+            const unsigned char *h = sch + 9 * (size_t)nb[e];
+            KIFMM__T *acc = oc + fi * 16;
+            for (q = 0; q < h[0]; q++)
+                for (cs = h[1 + q], ct = 0; ct < 8; ct++) {
+                    const KIFMM__T kr = k[cs * 16 + ct], ki = k[cs * 16 + 8 + ct];
+                    acc[ct] += kr * x[cs] - ki * x[8 + cs];
+                    acc[8 + ct] += kr * x[8 + cs] + ki * x[cs];
+                }
+        }
+}
+
 /* One target parent, one chunk: oc[fi 16 ..] = sum over its nn source
  * parents e of K[no[e]][fi] (8 x 8 complex) times the 8 child spectra
  * sc[nb[e]] at fi (re 8 | im 8). Only the children listed in sch[9 nb[e]]
@@ -2490,21 +2512,9 @@ KIFMM__FN void KIFMM__P(kifmm__fft_products)(int nn, const int32_t *nb, const un
     KIFMM__FFT_PRODUCTS8(float, __m256, _mm256_setzero_ps(), _mm256_broadcast_ss, _mm256_load_ps,
                          _mm256_store_ps, _mm256_fmadd_ps, _mm256_fnmadd_ps)
 #else
-    int fi, ct, q;
-    memset(oc, 0, sizeof(KIFMM__T) * 16 * KIFMM__FFT_F);
-    for (e = 0; e < nn; e++)
-        for (fi = 0; fi < KIFMM__FFT_F; fi++) {
-            const KIFMM__T *x = sc + ((size_t)nb[e] * KIFMM__FFT_F + fi) * 16;
-            const KIFMM__T *k = kb + ((size_t)no[e] * KIFMM__FFT_F + fi) * 128;
-            const unsigned char *h = sch + 9 * (size_t)nb[e];
-            KIFMM__T *acc = oc + fi * 16;
-            for (q = 0; q < h[0]; q++)
-                for (cs = h[1 + q], ct = 0; ct < 8; ct++) {
-                    const KIFMM__T kr = k[cs * 16 + ct], ki = k[cs * 16 + 8 + ct];
-                    acc[ct] += kr * x[cs] - ki * x[8 + cs];
-                    acc[8 + ct] += kr * x[8 + cs] + ki * x[cs];
-                }
-        }
+    (void)e;
+    (void)cs;
+    KIFMM__P(kifmm__fft_products_c)(nn, nb, no, sch, sc, kb, oc);
 #endif
 }
 
@@ -2646,8 +2656,6 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used);
  * equivalent surfaces (the surface kernel's). */
 #define KIFMM__QD KIFMM__K(_SRC_DIM)
 #define KIFMM__TD KIFMM__K(_TRG_DIM)
-#define KIFMM__SI KIFMM__K(_SCALE_INVARIANT)
-#define KIFMM__DEGREE KIFMM__K(_DEGREE)
 
 /* The four kernel roles (docs/kernels.md), each a kernel name:
  *   QT  points -> targets (TD x QD): the kernel itself;
@@ -2685,6 +2693,17 @@ KIFMM__STATIC_ASSERT(KIFMM__R_(SC, _TRG_DIM) == KIFMM__SD && KIFMM__R_(ST, _SRC_
                          KIFMM__R_(QC, _SRC_DIM) == KIFMM__QD &&
                          KIFMM__R_(QC, _TRG_DIM) == KIFMM__SD,
                      KIFMM__CAT(KIFMM_NAME, _kernel_roles_must_have_matching_dimensions));
+
+/* Scale invariance and degree are the surface kernel's (SC): they decide
+ * whether the operators, all built from SC, serve every level, and how check
+ * potentials scale with the box size. The degree is read only when SC is
+ * invariant. */
+#define KIFMM__SI KIFMM__R_(SC, _SCALE_INVARIANT)
+#if KIFMM__SI
+#define KIFMM__DEGREE KIFMM__R_(SC, _DEGREE)
+#else
+#define KIFMM__DEGREE 0
+#endif
 
 /* A role kernel's optional features: its _HAS mask (in parentheses, of
  * KIFMM_HAS_* bits: a misspelt bit name stops the build, see below), or,
@@ -4178,8 +4197,9 @@ KIFMM__FN void KIFMM__F(__m2l_solve)(KIFMM_NAME *c, const KIFMM__F(__work) *w, i
     const double t0 = kifmm__now();
     double t1, t2;
 #if KIFMM__FFT
+    t1 = t0;
     if (c->tree.m2lo[l + 1] > c->tree.m2lo[l]) KIFMM__F(__m2l_fft)(c, w, nrhs, l);
-    t1 = t2 = kifmm__now();
+    t2 = kifmm__now();
     KIFMM__F(__solve)(c, w, nrhs, l, 0);
 #else
     KIFMM__F(__solve_step)(c, w, nrhs, l, 0, 0);

@@ -395,6 +395,56 @@ static void test_in_place(void)
     free(buf);
 }
 
+/* ---- the timings in kifmm_stats ------------------------------------------ */
+
+/* Each pass of a deep tree takes some time and the passes add up to at most
+ * the whole evaluation: a pass timed into another one's field (M2L counted
+ * as L2L, say) fails here. Laplace runs the FFT M2L, Stokes the dense one. */
+#define T_STATS_CHECK(P, what)                                                      \
+    do {                                                                                   \
+        P *h = NULL;                                                                       \
+        kifmm_stats st;                                                                    \
+        double sum;                                                                        \
+        int rc = P##_create(&h, &o, n, x, n, x);                                           \
+        if (!rc) rc = P##_evaluate(h, q, out);                                             \
+        if (!rc) rc = P##_stats(h, &st);                                                   \
+        CHECK(rc == 0, "%s: rc=%d", what, rc);                                             \
+        if (!rc) {                                                                         \
+            sum = st.t_p2m + st.t_m2m + st.t_m2l + st.t_l2l + st.t_p2l + st.t_l2p +        \
+                  st.t_m2p + st.t_p2p;                                                     \
+            printf("       %s: %d levels; P2M %.4f M2M %.4f M2L %.4f L2L %.4f L2P %.4f "     \
+                   "P2P %.4f, sum %.4f of %.4f s\n",                                       \
+                   what, st.levels, st.t_p2m, st.t_m2m, st.t_m2l, st.t_l2l, st.t_l2p,       \
+                   st.t_p2p, sum, st.t_evaluate);                                          \
+            CHECK(st.levels >= 4 && st.t_p2m > 0 && st.t_m2m > 0 && st.t_m2l > 0 &&        \
+                      st.t_l2l > 0 && st.t_l2p > 0 && st.t_p2p > 0,                        \
+                  "%s: every pass of the tree timed", what);                               \
+            CHECK(st.t_m2l > 0.1 * st.t_l2l, "%s: M2L %.2e s against L2L %.2e s", what,     \
+                  st.t_m2l, st.t_l2l);                                                     \
+            CHECK(sum <= 1.01 * st.t_evaluate + 1e-4 && sum >= 0.5 * st.t_evaluate,        \
+                  "%s: passes sum to %.4f s of %.4f s", what, sum, st.t_evaluate);         \
+        }                                                                                  \
+        P##_destroy(h);                                                                    \
+    } while (0)
+
+static void test_stats_timings(void)
+{
+    const int64_t n = 20000;
+    double *x = t_doubles(3 * n), *q = t_doubles(3 * n), *out = t_doubles(3 * n);
+    kifmm_opts o = t_opts(6, 40, 0);
+    t_rng r = t_rng_seed(17);
+    t_group("the timings in kifmm_stats");
+    t_gen_cube(&r, n, x, 0.0, 1.0);
+    t_gen_charges(&r, 3 * n, q, -1.0, 1.0);
+    T_STATS_CHECK(kifmm_laplace, "laplace (FFT M2L)");
+    o.order = 4;
+    o.leaf_size = 120;
+    T_STATS_CHECK(kifmm_stokes, "stokes (dense M2L)");
+    free(x);
+    free(q);
+    free(out);
+}
+
 int main(void)
 {
     test_yukawa_lambda();
@@ -403,5 +453,6 @@ int main(void)
     test_nan_kernel();
     test_deep_cluster();
     test_in_place();
+    test_stats_timings();
     return t_finish();
 }
