@@ -52,7 +52,9 @@ TEST_TIMEOUT=${TEST_TIMEOUT:-900}
 LIBS="-llapacke -lopenblas -lm"
 WARN="-Wall -Wextra -Werror -pedantic"
 # every tests/test_*.c with a main is a program; test_multi_tu_a.c and
-# test_multi_tu_b.c link together into test_multi_tu
+# test_multi_tu_b.c link together into test_multi_tu; test_linkage_a and
+# test_linkage_b link against libkifmm_linkage.a, built first from
+# tests/linkage_lib.c (KIFMM_IMPLEMENT, see tests/test_linkage.h)
 TESTS=$(for f in tests/test_*.c; do
     n=$(basename "$f" .c)
     case "$n" in test_multi_tu_a) echo test_multi_tu ;; test_multi_tu_b) ;; *) echo "$n" ;; esac
@@ -125,12 +127,22 @@ sources_of() {
     esac
 }
 
+# the library of instances that the test_linkage programs link against
+build_linkage_lib() {
+    local cc=$1 flags=$2 dir=$3
+    # shellcheck disable=SC2086
+    $cc $WARN $flags ${EXTRA_CFLAGS:-} -I. -c tests/linkage_lib.c -o "$dir/linkage_lib.o" \
+        </dev/null >"$dir/libkifmm_linkage.build.log" 2>&1 &&
+        ar rcs "$dir/libkifmm_linkage.a" "$dir/linkage_lib.o" >>"$dir/libkifmm_linkage.build.log" 2>&1
+}
+
 # compile one program in the background; status in $dir/$name.status
 compile() {
-    local cc=$1 flags=$2 dir=$3 name=$4
+    local cc=$1 flags=$2 dir=$3 name=$4 link=""
+    case "$name" in test_linkage_*) link="-L$dir -lkifmm_linkage" ;; esac
     (
         # shellcheck disable=SC2046,SC2086
-        if $cc $WARN $flags ${EXTRA_CFLAGS:-} -I. $(sources_of "$name") -o "$dir/$name" $LIBS \
+        if $cc $WARN $flags ${EXTRA_CFLAGS:-} -I. $(sources_of "$name") -o "$dir/$name" $link $LIBS \
             </dev/null >"$dir/$name.build.log" 2>&1; then
             echo 0 >"$dir/$name.status"
         else
@@ -145,7 +157,8 @@ run_config() {
     rm -rf "$dir"
     mkdir -p "$dir"
 
-    # build, at most $JOBS compiles at once
+    # build, at most $JOBS compiles at once (the library first)
+    build_linkage_lib "$cc" "$flags" "$dir"
     local running=0
     local progs="$TESTS laplace"
     case " $flags " in *" -x c++ "*) progs="$TESTS test_extern_c" ;; esac
