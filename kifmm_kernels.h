@@ -122,7 +122,7 @@ static inline int kifmm_kernel__viscosity_setup(const double *in, double *out)
 #define kifmm_kernel_yukawa_TRG_DIM 1
 #define kifmm_kernel_yukawa_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_DEGREE 0
-#define kifmm_kernel_yukawa_HAS (KIFMM_HAS_SETUP)
+#define kifmm_kernel_yukawa_HAS KIFMM_KERNEL__YUKAWA_HAS /* per ISA, below */
 #define kifmm_kernel_yukawa_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
@@ -138,7 +138,7 @@ static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, doub
 #define kifmm_kernel_yukawa_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_grad_DEGREE 0
 #define kifmm_kernel_yukawa_grad_EQUIV yukawa
-#define kifmm_kernel_yukawa_grad_HAS (KIFMM_HAS_SETUP)
+#define kifmm_kernel_yukawa_grad_HAS KIFMM_KERNEL__YUKAWA_HAS
 #define kifmm_kernel_yukawa_grad_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx, double dy,
                                                  double dz, double *k)
@@ -1917,6 +1917,217 @@ KIFMM_KERNEL__P2PSN_F(1)
 #endif
 #undef KIFMM_KERNEL__CH
 #endif
+
+/* ------------------------------------------------------------------------ */
+/* Yukawa near-field hooks (yukawa, yukawa_grad), AVX-512 or AVX2 + FMA     */
+/* ------------------------------------------------------------------------ */
+/* exp(-lambda r) / (4 pi r) and its gradient, with exp computed in the
+ * vector registers: x = n ln2 + r, |r| <= ln2 / 2, n = x / ln2 rounded to
+ * the nearest integer (by adding 1.5 2^52 in one fused multiply-add), r from
+ * ln2 in two parts (the first with 32 significant bits, so n ln2_hi is
+ * exact for any n here), exp(r) by its Taylor series to degree 13 (the
+ * remainder, r^14 / 14!, is below 5e-18 of the result) in Horner's form,
+ * and 2^n as 2^n1 2^n2 with n1 = floor(n / 2), both normal numbers, so that
+ * results in the subnormal range round once, as a scalar exp's do. Within
+ * 2 ulp of exp over [-745, 0] (tests/test_p2p.c checks every exponent); x
+ * below -746 gives 0, and so does a NaN x (a lane of a pair at infinite
+ * distance, whose 1 / r is 0 anyway). Domain: x <= 0. */
+#define KIFMM_KERNEL__LN2_HI 6.93147180369123816490e-01 /* 32 significant bits */
+#define KIFMM_KERNEL__LN2_LO 1.90821492927058770002e-10
+#define KIFMM_KERNEL__EXP_HORNER(V, FMA, SET1, r)                                           \
+    FMA(FMA(FMA(FMA(FMA(FMA(FMA(FMA(FMA(FMA(FMA(FMA(FMA(SET1(1.0 / 6227020800.0), r,        \
+    SET1(1.0 / 479001600.0)), r, SET1(1.0 / 39916800.0)), r, SET1(1.0 / 3628800.0)), r,     \
+    SET1(1.0 / 362880.0)), r, SET1(1.0 / 40320.0)), r, SET1(1.0 / 5040.0)), r,              \
+    SET1(1.0 / 720.0)), r, SET1(1.0 / 120.0)), r, SET1(1.0 / 24.0)), r, SET1(1.0 / 6.0)),   \
+    r, SET1(0.5)), r, SET1(1.0)), r, SET1(1.0))
+
+#if defined(__AVX512F__)
+
+static inline __m512d kifmm_kernel__exp8(__m512d x)
+{
+    const __m512d big = _mm512_set1_pd(6755399441055744.0 /* 1.5 2^52 */), bias = _mm512_set1_pd(1023.0 + 4503599627370496.0 /* 2^52 */);
+    __m512d t, n, r, p, n1;
+    __m512i b1, b2;
+    x = _mm512_max_pd(x, _mm512_set1_pd(-746.0)); /* NaN -> -746 */
+    t = _mm512_fmadd_pd(x, _mm512_set1_pd(1.4426950408889634), big);
+    n = _mm512_sub_pd(t, big);
+    r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__LN2_HI), x);
+    r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__LN2_LO), r);
+    p = KIFMM_KERNEL__EXP_HORNER(__m512d, _mm512_fmadd_pd, _mm512_set1_pd, r);
+    n1 = _mm512_roundscale_pd(_mm512_mul_pd(n, _mm512_set1_pd(0.5)),
+                              _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    /* 2^k: k + 1023 in the low mantissa bits of k + 1023 + 2^52, shifted
+     * into the exponent field */
+    b1 = _mm512_slli_epi64(_mm512_castpd_si512(_mm512_add_pd(n1, bias)), 52);
+    b2 = _mm512_slli_epi64(_mm512_castpd_si512(_mm512_add_pd(_mm512_sub_pd(n, n1), bias)), 52);
+    return _mm512_mul_pd(_mm512_mul_pd(p, _mm512_castsi512_pd(b1)), _mm512_castsi512_pd(b2));
+}
+
+/* One target against the sources j..j+7 of `valid`: acc[0] += q e / r and,
+ * with the gradient, acc[1..3] -= q e (1 + lambda r) d / r^3, e =
+ * exp(-lambda r); lanes outside `valid`, and pairs at distance 0, add 0. */
+static inline void kifmm_kernel__avx512_yukawa(__m512d *acc, int grad, __mmask8 valid,
+                                               __m512d X, __m512d Y, __m512d Z, __m512d lam,
+                                               const double *sx, const double *sy,
+                                               const double *sz, const double *q)
+{
+    const __m512d dx = _mm512_sub_pd(X, _mm512_maskz_loadu_pd(valid, sx));
+    const __m512d dy = _mm512_sub_pd(Y, _mm512_maskz_loadu_pd(valid, sy));
+    const __m512d dz = _mm512_sub_pd(Z, _mm512_maskz_loadu_pd(valid, sz));
+    const __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
+    const __m512d inv = kifmm_kernel__rinv8(r2), lr = _mm512_mul_pd(lam, _mm512_mul_pd(r2, inv));
+    const __m512d pot = _mm512_mul_pd(_mm512_mul_pd(_mm512_maskz_loadu_pd(valid, q), inv),
+                                      kifmm_kernel__exp8(_mm512_sub_pd(_mm512_setzero_pd(), lr)));
+    acc[0] = _mm512_add_pd(acc[0], pot);
+    if (grad) {
+        const __m512d g = _mm512_mul_pd(_mm512_mul_pd(pot, _mm512_mul_pd(inv, inv)),
+                                        _mm512_add_pd(_mm512_set1_pd(1.0), lr));
+        acc[1] = _mm512_fnmadd_pd(g, dx, acc[1]);
+        acc[2] = _mm512_fnmadd_pd(g, dy, acc[2]);
+        acc[3] = _mm512_fnmadd_pd(g, dz, acc[3]);
+    }
+}
+
+static inline void kifmm_kernel_yukawa_p2p(const double *param, const double *tx,
+                                           const double *ty, const double *tz, int64_t nt,
+                                           const double *sx, const double *sy, const double *sz,
+                                           const double *q, int64_t ns, double scale,
+                                           double *out)
+{
+    const double s = scale * KIFMM_INV_4PI;
+    const __m512d lam = _mm512_set1_pd(param[0]);
+    int64_t i, j;
+    for (i = 0; i < nt; i++) {
+        const __m512d X = _mm512_set1_pd(tx[i]), Y = _mm512_set1_pd(ty[i]),
+                      Z = _mm512_set1_pd(tz[i]);
+        __m512d acc = _mm512_setzero_pd();
+        for (j = 0; j < ns; j += 8)
+            kifmm_kernel__avx512_yukawa(&acc, 0, kifmm_kernel__first8(ns - j), X, Y, Z, lam,
+                                        sx + j, sy + j, sz + j, q + j);
+        out[i] += s * _mm512_reduce_add_pd(acc);
+    }
+}
+
+static inline void kifmm_kernel_yukawa_grad_p2p(const double *param, const double *tx,
+                                                const double *ty, const double *tz, int64_t nt,
+                                                const double *sx, const double *sy,
+                                                const double *sz, const double *q, int64_t ns,
+                                                double scale, double *out)
+{
+    const double s = scale * KIFMM_INV_4PI;
+    const __m512d lam = _mm512_set1_pd(param[0]);
+    int64_t i, j;
+    /* two targets per pass (i1 = i for the last of an odd count, not stored) */
+    for (i = 0; i < nt; i += 2) {
+        const int64_t i1 = i + 1 < nt ? i + 1 : i;
+        const __m512d X0 = _mm512_set1_pd(tx[i]), Y0 = _mm512_set1_pd(ty[i]),
+                      Z0 = _mm512_set1_pd(tz[i]), X1 = _mm512_set1_pd(tx[i1]),
+                      Y1 = _mm512_set1_pd(ty[i1]), Z1 = _mm512_set1_pd(tz[i1]);
+        __m512d a[4], c[4];
+        int k;
+        for (k = 0; k < 4; k++) a[k] = c[k] = _mm512_setzero_pd();
+        for (j = 0; j < ns; j += 8) {
+            const __mmask8 m = kifmm_kernel__first8(ns - j);
+            kifmm_kernel__avx512_yukawa(a, 1, m, X0, Y0, Z0, lam, sx + j, sy + j, sz + j, q + j);
+            kifmm_kernel__avx512_yukawa(c, 1, m, X1, Y1, Z1, lam, sx + j, sy + j, sz + j, q + j);
+        }
+        kifmm_kernel__red8x8(a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3], s, out + 4 * i,
+                             i1 > i);
+    }
+}
+#define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P)
+
+#elif defined(__AVX2__) && defined(__FMA__)
+
+static inline __m256d kifmm_kernel__exp4(__m256d x)
+{
+    const __m256d big = _mm256_set1_pd(6755399441055744.0 /* 1.5 2^52 */), bias = _mm256_set1_pd(1023.0 + 4503599627370496.0 /* 2^52 */);
+    __m256d t, n, r, p, n1;
+    __m256i b1, b2;
+    x = _mm256_max_pd(x, _mm256_set1_pd(-746.0)); /* NaN -> -746 */
+    t = _mm256_fmadd_pd(x, _mm256_set1_pd(1.4426950408889634), big);
+    n = _mm256_sub_pd(t, big);
+    r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__LN2_HI), x);
+    r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__LN2_LO), r);
+    p = KIFMM_KERNEL__EXP_HORNER(__m256d, _mm256_fmadd_pd, _mm256_set1_pd, r);
+    n1 = _mm256_round_pd(_mm256_mul_pd(n, _mm256_set1_pd(0.5)),
+                         _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+    b1 = _mm256_slli_epi64(_mm256_castpd_si256(_mm256_add_pd(n1, bias)), 52);
+    b2 = _mm256_slli_epi64(_mm256_castpd_si256(_mm256_add_pd(_mm256_sub_pd(n, n1), bias)), 52);
+    return _mm256_mul_pd(_mm256_mul_pd(p, _mm256_castsi256_pd(b1)), _mm256_castsi256_pd(b2));
+}
+
+/* As kifmm_kernel__avx512_yukawa, 4 sources; `live` all ones in the lanes
+ * that count (the loads of the others read 0). */
+static inline void kifmm_kernel__avx2_yukawa(__m256d *acc, int grad, __m256i live, __m256d X,
+                                             __m256d Y, __m256d Z, __m256d lam,
+                                             const double *sx, const double *sy,
+                                             const double *sz, const double *q)
+{
+    const __m256d dx = _mm256_sub_pd(X, _mm256_maskload_pd(sx, live));
+    const __m256d dy = _mm256_sub_pd(Y, _mm256_maskload_pd(sy, live));
+    const __m256d dz = _mm256_sub_pd(Z, _mm256_maskload_pd(sz, live));
+    const __m256d r2 = kifmm_kernel__avx2_r2(dx, dy, dz);
+    const __m256d inv = _mm256_and_pd(_mm256_castsi256_pd(live), kifmm_kernel__avx2_rinv(r2));
+    const __m256d lr = _mm256_mul_pd(lam, _mm256_mul_pd(r2, inv));
+    const __m256d pot = _mm256_mul_pd(_mm256_mul_pd(_mm256_maskload_pd(q, live), inv),
+                                      kifmm_kernel__exp4(_mm256_sub_pd(_mm256_setzero_pd(), lr)));
+    acc[0] = _mm256_add_pd(acc[0], pot);
+    if (grad) {
+        const __m256d g = _mm256_mul_pd(_mm256_mul_pd(pot, _mm256_mul_pd(inv, inv)),
+                                        _mm256_add_pd(_mm256_set1_pd(1.0), lr));
+        acc[1] = _mm256_fnmadd_pd(g, dx, acc[1]);
+        acc[2] = _mm256_fnmadd_pd(g, dy, acc[2]);
+        acc[3] = _mm256_fnmadd_pd(g, dz, acc[3]);
+    }
+}
+
+static inline void kifmm_kernel_yukawa_p2p(const double *param, const double *tx,
+                                           const double *ty, const double *tz, int64_t nt,
+                                           const double *sx, const double *sy, const double *sz,
+                                           const double *q, int64_t ns, double scale,
+                                           double *out)
+{
+    const double s = scale * KIFMM_INV_4PI;
+    const __m256d lam = _mm256_set1_pd(param[0]);
+    int64_t i, j;
+    for (i = 0; i < nt; i++) {
+        const __m256d X = _mm256_set1_pd(tx[i]), Y = _mm256_set1_pd(ty[i]),
+                      Z = _mm256_set1_pd(tz[i]);
+        __m256d acc = _mm256_setzero_pd();
+        for (j = 0; j < ns; j += 4)
+            kifmm_kernel__avx2_yukawa(&acc, 0, kifmm_kernel__avx2_first(ns - j), X, Y, Z, lam,
+                                      sx + j, sy + j, sz + j, q + j);
+        out[i] += s * kifmm_kernel__avx2_sum(acc);
+    }
+}
+
+static inline void kifmm_kernel_yukawa_grad_p2p(const double *param, const double *tx,
+                                                const double *ty, const double *tz, int64_t nt,
+                                                const double *sx, const double *sy,
+                                                const double *sz, const double *q, int64_t ns,
+                                                double scale, double *out)
+{
+    const double s = scale * KIFMM_INV_4PI;
+    const __m256d lam = _mm256_set1_pd(param[0]);
+    int64_t i, j;
+    for (i = 0; i < nt; i++) {
+        const __m256d X = _mm256_set1_pd(tx[i]), Y = _mm256_set1_pd(ty[i]),
+                      Z = _mm256_set1_pd(tz[i]);
+        __m256d acc[4];
+        acc[0] = acc[1] = acc[2] = acc[3] = _mm256_setzero_pd();
+        for (j = 0; j < ns; j += 4)
+            kifmm_kernel__avx2_yukawa(acc, 1, kifmm_kernel__avx2_first(ns - j), X, Y, Z, lam,
+                                      sx + j, sy + j, sz + j, q + j);
+        kifmm_kernel__red4(acc[0], acc[1], acc[2], acc[3], s, s, out + 4 * i);
+    }
+}
+#define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P)
+
+#else
+#define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP)
+#endif
+#undef KIFMM_KERNEL__EXP_HORNER
 
 /* The Laplace kernels' hooks that this build compiled: all of them with
  * AVX2 and FMA (or AVX-512), the one-way double loop otherwise. */

@@ -1,0 +1,201 @@
+/* test_yukawa_p2p.c - the vectorised exp of kifmm_kernels.h against the C
+ * library's exp over its whole domain, and the Yukawa near-field hooks
+ * (yukawa, yukawa_grad) against sums in long double written here from the
+ * formulas. In a build without AVX2 + FMA there are no hooks; the test then
+ * only checks that none is announced. */
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa
+#include "kifmm.h"
+
+#include <float.h>
+
+#include "test.h"
+
+#if defined(__AVX512F__)
+#define BODY "AVX-512F"
+#define VW 8
+static void exp_vec(const double *x, double *y)
+{
+    _mm512_storeu_pd(y, kifmm_kernel__exp8(_mm512_loadu_pd(x)));
+}
+#elif defined(__AVX2__) && defined(__FMA__)
+#define BODY "AVX2 + FMA"
+#define VW 4
+static void exp_vec(const double *x, double *y)
+{
+    _mm256_storeu_pd(y, kifmm_kernel__exp4(_mm256_loadu_pd(x)));
+}
+#else
+#define BODY "portable C (no hooks)"
+#define VW 0
+#endif
+
+#if VW
+/* |a - b| in units of the last place of b (2^-1074 below the normal range) */
+static double ulps(double a, double b)
+{
+    int e;
+    double u;
+    if (a == b) return 0.0;
+    if (b == 0.0 || fabs(b) < DBL_MIN) u = ldexp(1.0, -1074);
+    else {
+        frexp(b, &e);
+        u = ldexp(1.0, e - 53);
+    }
+    return fabs(a - b) / u;
+}
+
+static void test_exp(void)
+{
+    const int64_t n = 1 << 20;
+    double x[VW], y[VW], worst = 0.0, worst_sub = 0.0, at = 0.0;
+    t_rng r = t_rng_seed(3);
+    int64_t i;
+    int k, e, bad = 0;
+    t_group("vectorised exp against the C library's exp");
+    /* every binade of |x| from 2^-30 to 2^9, then uniform on [-745.2, 0] */
+    for (i = 0; i < n; i += VW) {
+        for (k = 0; k < VW; k++) {
+            e = (int)((i / VW) % 40) - 30;
+            x[k] = (i < n / 2) ? -ldexp(1.0 + t_rand01(&r), e) : -745.2 * t_rand01(&r);
+            if (x[k] < -745.2) x[k] = -745.2;
+        }
+        exp_vec(x, y);
+        for (k = 0; k < VW; k++) {
+            double ref = exp(x[k]), u = ulps(y[k], ref);
+            if (ref >= DBL_MIN) {
+                if (u > worst) {
+                    worst = u;
+                    at = x[k];
+                }
+            } else if (u > worst_sub)
+                worst_sub = u;
+        }
+    }
+    CHECK_ERR(worst, 2.0, "largest error in ulp, normal results (at x = %.17g)", at);
+    CHECK_ERR(worst_sub, 1.0, "largest error in units of 2^-1074, subnormal results");
+    /* special arguments, one lane each */
+    {
+        const double sx[] = {0.0, -0.0, -1e-300, -5e-324, -708.3964185322641, -708.4,
+                             -745.1332191019411, -745.2, -746.0, -1000.0, -INFINITY, NAN};
+        const double want[] = {1.0, 1.0, 1.0, 1.0, -1, -1, -1, -1, 0.0, 0.0, 0.0, 0.0};
+        for (i = 0; i < (int64_t)(sizeof sx / sizeof sx[0]); i++) {
+            for (k = 0; k < VW; k++) x[k] = sx[i];
+            exp_vec(x, y);
+            if (want[i] >= 0)
+                bad += y[0] != want[i];
+            else
+                bad += ulps(y[0], exp(sx[i])) > 1.0;
+        }
+        CHECK(bad == 0, "special arguments: 0, -0, -tiny, the subnormal edge, below it, -inf, NaN "
+                        "(%d wrong)", bad);
+    }
+}
+
+/* out[i td + k] += scale sum_j K_k(t_i - s_j) q_j in long double, K the
+ * Yukawa potential exp(-lam r) / (4 pi r) (k = 0) and its gradient
+ * -(1 + lam r) exp(-lam r) d / (4 pi r^3) (k = 1..3); mag: sums of |terms| */
+static void ref(int td, double lam, int64_t nt, const double *t, int64_t ns, const double *s,
+                const double *q, double scale, long double *out, long double *mag)
+{
+    int64_t i, j;
+    int k;
+    for (i = 0; i < nt; i++)
+        for (j = 0; j < ns; j++) {
+            long double d[3], r2 = 0, rr, p, g;
+            for (k = 0; k < 3; k++) {
+                d[k] = (double)(t[3 * i + k] - s[3 * j + k]);
+                r2 += d[k] * d[k];
+            }
+            if (r2 == 0) continue;
+            rr = sqrtl(r2);
+            p = scale * q[j] * expl(-(long double)lam * rr) / (4.0L * 3.14159265358979323846264L * rr);
+            g = -p * (1.0L + (long double)lam * rr) / r2;
+            out[i * td] += p;
+            mag[i * td] += fabsl(p);
+            for (k = 1; k < td; k++) {
+                out[i * td + k] += g * d[k - 1];
+                mag[i * td + k] += fabsl(g * d[k - 1]);
+            }
+        }
+}
+
+typedef void (*hook_fn)(const double *, const double *, const double *, const double *, int64_t,
+                        const double *, const double *, const double *, const double *, int64_t,
+                        double, double *);
+
+/* blocks of every size around the vector widths, sources and targets
+ * sharing some points, lambda over its useful range */
+static void test_hook(const char *name, hook_fn hook, int td)
+{
+    static const int64_t sizes[] = {0, 1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 64, 129};
+    static const double lams[] = {1e-3, 1.0, 30.0, 1e3};
+    const int nsz = (int)(sizeof sizes / sizeof sizes[0]);
+    t_rng r = t_rng_seed(11);
+    int a, b, l, k;
+    t_group(name);
+    for (l = 0; l < 4; l++) {
+        double worst = 0.0;
+        for (a = 0; a < nsz; a++)
+            for (b = 0; b < nsz; b++) {
+                const int64_t nt = sizes[a], ns = sizes[b];
+                double *t = t_doubles(3 * nt + 3), *s = t_doubles(3 * ns + 3), *q = t_doubles(ns + 1);
+                double *soa = t_doubles(3 * (nt + ns) + 6), *out = t_doubles(td * nt + 1);
+                long double *ro = (long double *)calloc((size_t)(td * nt + 1), sizeof(long double));
+                long double *rm = (long double *)calloc((size_t)(td * nt + 1), sizeof(long double));
+                int64_t i;
+                for (i = 0; i < 3 * ns; i++) s[i] = t_uniform(&r, -0.5, 0.5);
+                for (i = 0; i < 3 * nt; i++) t[i] = t_uniform(&r, -0.5, 0.5);
+                for (i = 0; i < nt && i < ns; i += 3) /* coincident pairs */
+                    for (k = 0; k < 3; k++) t[3 * i + k] = s[3 * i + k];
+                for (i = 0; i < ns; i++) q[i] = t_uniform(&r, -1.0, 1.0);
+                for (i = 0; i < td * nt; i++) out[i] = 0.0;
+                for (k = 0; k < 3; k++) {
+                    for (i = 0; i < nt; i++) soa[k * nt + i] = t[3 * i + k];
+                    for (i = 0; i < ns; i++) soa[3 * nt + k * ns + i] = s[3 * i + k];
+                }
+                /* twice: the second call adds to the first's outputs */
+                for (k = 0; k < 2; k++)
+                    hook(&lams[l], soa, soa + nt, soa + 2 * nt, nt, soa + 3 * nt,
+                         soa + 3 * nt + ns, soa + 3 * nt + 2 * ns, q, ns, 1.5, out);
+                ref(td, lams[l], nt, t, ns, s, q, 1.5, ro, rm);
+                for (i = 0; i < td * nt; i++) {
+                    /* terms below the normal range (lambda r in the hundreds) keep
+                     * fewer digits in double: an absolute floor of 1e-300 */
+                    double e = (double)(fabsl((long double)out[i] - 2.0L * ro[i]) /
+                                        (2.0L * rm[i] + 1e-286L));
+                    if (!(e <= worst)) worst = e; /* NaN sticks */
+                }
+                free(t);
+                free(s);
+                free(q);
+                free(soa);
+                free(out);
+                free(ro);
+                free(rm);
+            }
+        /* a relative error u of r (a few ulp) is one of lambda r u in exp(-lambda r):
+         * the bound grows with lambda times the largest distance, sqrt(3) */
+        CHECK_ERR(worst, 4.4e-16 * (10.0 + lams[l] * 1.7321),
+                  "lambda %g: largest error relative to the sum of |terms|, blocks of 0 to "
+                  "129, two calls adding up", lams[l]);
+    }
+}
+#endif
+
+int main(void)
+{
+    printf("test_yukawa_p2p: body %s\n", BODY);
+#if VW
+    CHECK((kifmm_kernel_yukawa_HAS & KIFMM_HAS_P2P) && (kifmm_kernel_yukawa_grad_HAS & KIFMM_HAS_P2P),
+          "the hooks are announced");
+    test_exp();
+    test_hook("yukawa hook against long double", kifmm_kernel_yukawa_p2p, 1);
+    test_hook("yukawa_grad hook against long double", kifmm_kernel_yukawa_grad_p2p, 4);
+#else
+    CHECK(!(kifmm_kernel_yukawa_HAS & KIFMM_HAS_P2P), "no hook announced without AVX2 + FMA");
+#endif
+    return t_finish();
+}
