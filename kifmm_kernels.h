@@ -2057,20 +2057,22 @@ static inline __m256d kifmm_kernel__exp4(__m256d x)
     return _mm256_mul_pd(_mm256_mul_pd(p, _mm256_castsi256_pd(b1)), _mm256_castsi256_pd(b2));
 }
 
-/* As kifmm_kernel__avx512_yukawa, 4 sources; `live` all ones in the lanes
- * that count (the loads of the others read 0). */
-static inline void kifmm_kernel__avx2_yukawa(__m256d *acc, int grad, __m256i live, __m256d X,
-                                             __m256d Y, __m256d Z, __m256d lam,
+/* As kifmm_kernel__avx512_yukawa, 4 sources: all of them when `full` (a
+ * constant at each call), else the lanes of `live` (the loads of the others
+ * read 0, and their 1 / r is set to 0). */
+static inline void kifmm_kernel__avx2_yukawa(__m256d *acc, int grad, int full, __m256i live,
+                                             __m256d X, __m256d Y, __m256d Z, __m256d lam,
                                              const double *sx, const double *sy,
                                              const double *sz, const double *q)
 {
-    const __m256d dx = _mm256_sub_pd(X, _mm256_maskload_pd(sx, live));
-    const __m256d dy = _mm256_sub_pd(Y, _mm256_maskload_pd(sy, live));
-    const __m256d dz = _mm256_sub_pd(Z, _mm256_maskload_pd(sz, live));
-    const __m256d r2 = kifmm_kernel__avx2_r2(dx, dy, dz);
-    const __m256d inv = _mm256_and_pd(_mm256_castsi256_pd(live), kifmm_kernel__avx2_rinv(r2));
+    const __m256d dx = _mm256_sub_pd(X, full ? _mm256_loadu_pd(sx) : _mm256_maskload_pd(sx, live));
+    const __m256d dy = _mm256_sub_pd(Y, full ? _mm256_loadu_pd(sy) : _mm256_maskload_pd(sy, live));
+    const __m256d dz = _mm256_sub_pd(Z, full ? _mm256_loadu_pd(sz) : _mm256_maskload_pd(sz, live));
+    const __m256d r2 = kifmm_kernel__avx2_r2(dx, dy, dz), ri = kifmm_kernel__avx2_rinv(r2);
+    const __m256d inv = full ? ri : _mm256_and_pd(_mm256_castsi256_pd(live), ri);
     const __m256d lr = _mm256_mul_pd(lam, _mm256_mul_pd(r2, inv));
-    const __m256d pot = _mm256_mul_pd(_mm256_mul_pd(_mm256_maskload_pd(q, live), inv),
+    const __m256d qv = full ? _mm256_loadu_pd(q) : _mm256_maskload_pd(q, live);
+    const __m256d pot = _mm256_mul_pd(_mm256_mul_pd(qv, inv),
                                       kifmm_kernel__exp4(_mm256_sub_pd(_mm256_setzero_pd(), lr)));
     acc[0] = _mm256_add_pd(acc[0], pot);
     if (grad) {
@@ -2090,14 +2092,19 @@ static inline void kifmm_kernel_yukawa_p2p(const double *param, const double *tx
 {
     const double s = scale * KIFMM_INV_4PI;
     const __m256d lam = _mm256_set1_pd(param[0]);
+    const __m256i tail = kifmm_kernel__avx2_first(ns & 3);
+    const int64_t nv = ns & ~(int64_t)3;
     int64_t i, j;
     for (i = 0; i < nt; i++) {
         const __m256d X = _mm256_set1_pd(tx[i]), Y = _mm256_set1_pd(ty[i]),
                       Z = _mm256_set1_pd(tz[i]);
         __m256d acc = _mm256_setzero_pd();
-        for (j = 0; j < ns; j += 4)
-            kifmm_kernel__avx2_yukawa(&acc, 0, kifmm_kernel__avx2_first(ns - j), X, Y, Z, lam,
-                                      sx + j, sy + j, sz + j, q + j);
+        for (j = 0; j < nv; j += 4)
+            kifmm_kernel__avx2_yukawa(&acc, 0, 1, tail, X, Y, Z, lam, sx + j, sy + j, sz + j,
+                                      q + j);
+        if (nv < ns)
+            kifmm_kernel__avx2_yukawa(&acc, 0, 0, tail, X, Y, Z, lam, sx + nv, sy + nv, sz + nv,
+                                      q + nv);
         out[i] += s * kifmm_kernel__avx2_sum(acc);
     }
 }
@@ -2110,15 +2117,20 @@ static inline void kifmm_kernel_yukawa_grad_p2p(const double *param, const doubl
 {
     const double s = scale * KIFMM_INV_4PI;
     const __m256d lam = _mm256_set1_pd(param[0]);
+    const __m256i tail = kifmm_kernel__avx2_first(ns & 3);
+    const int64_t nv = ns & ~(int64_t)3;
     int64_t i, j;
     for (i = 0; i < nt; i++) {
         const __m256d X = _mm256_set1_pd(tx[i]), Y = _mm256_set1_pd(ty[i]),
                       Z = _mm256_set1_pd(tz[i]);
         __m256d acc[4];
         acc[0] = acc[1] = acc[2] = acc[3] = _mm256_setzero_pd();
-        for (j = 0; j < ns; j += 4)
-            kifmm_kernel__avx2_yukawa(acc, 1, kifmm_kernel__avx2_first(ns - j), X, Y, Z, lam,
-                                      sx + j, sy + j, sz + j, q + j);
+        for (j = 0; j < nv; j += 4)
+            kifmm_kernel__avx2_yukawa(acc, 1, 1, tail, X, Y, Z, lam, sx + j, sy + j, sz + j,
+                                      q + j);
+        if (nv < ns)
+            kifmm_kernel__avx2_yukawa(acc, 1, 0, tail, X, Y, Z, lam, sx + nv, sy + nv, sz + nv,
+                                      q + nv);
         kifmm_kernel__red4(acc[0], acc[1], acc[2], acc[3], s, s, out + 4 * i);
     }
 }
