@@ -1747,39 +1747,60 @@ KIFMM__FN void kifmm__surf_place(const double *unit, int n, const double *c, dou
         for (i = 0; i < n; i++) out[d * n + i] = c[d] + radius * unit[d * n + i];
 }
 
-/* Surface radii in units of the box half-width. */
+/* Surface radii in units of the box half-width, for kernels with one
+ * surface density component: */
 #define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
 /* upward check, downward equivalent: 2.95 with check surfaces of order p + 1,
  * 4.5 with order p (see kifmm__check_diff) */
 #define KIFMM__ALPHA_OUTER_LSQ 2.95
 #define KIFMM__ALPHA_OUTER_SQUARE 4.5
+/* and with several (the Stokeslet's surfaces): inner surfaces on the box
+ * itself, outer ones at 3.2. Measured on 20,000 uniform points with the
+ * Stokeslet, relative L2 error of the velocity, with the 1.05 / 2.95 pair
+ * and with this one: p = 4 5.4e-4 / 3.9e-4 (1.0 / 2.95), p = 6 8.0e-6 /
+ * 3.5e-6, p = 8 1.7e-7 / 4.2e-8 (check order p + 2), p = 10 7.0e-9 /
+ * 2.4e-9 (p + 2); for Laplace 1.0 measured no better. */
+#define KIFMM__ALPHA_INNER_MULTI 1.0
+#define KIFMM__ALPHA_OUTER_MULTI 3.2
 
 /* The check surfaces' order minus the equivalent surfaces' order p, for an
- * instance with the FFT M2L (fft) or not. With the FFT M2L up to order
- * KIFMM_SQUARE_MAX_ORDER: 0, with the outer surfaces at 4.5 box half-widths
+ * instance with the FFT M2L (fft) or not, and sd surface density
+ * components. One component: with the FFT M2L up to order
+ * KIFMM_SQUARE_MAX_ORDER 0, with the outer surfaces at 4.5 box half-widths
  * (check and equivalent surfaces of the same order, square systems), whose
  * M2L runs on a (2p - 1)^3 grid instead of (2p + 1)^3: half the frequencies
  * at p = 4, 0.6 times at p = 6. Measured against order p + 1 at 2.95 on
  * uniform, sphere, clustered and separate point sets (p = 4, 6, 7; p = 2,
  * 3, 5 at radius 3.5), the errors are the same or smaller
  * (docs/algorithm.md). From order 8 on the square systems lose digits (at
- * radius 3.5), and Stokes (dense M2L) loses them at every order: 1 there.
- * A definition of KIFMM_CHECK_ORDER_DIFF before the include applies to every
- * order and kernel (the outer radius 4.5 when it is 0, 2.95 otherwise). */
-KIFMM__FN int kifmm__check_diff(int p, int fft)
+ * radius 3.5): 1 there, and without the FFT M2L. Several components (the
+ * Stokeslet's square systems lose digits at every order): 1 up to order 6,
+ * 2 above (at p = 8 the Stokeslet's error 9.3e-8 with 1, 4.2e-8 with 2, for
+ * 1.8 times the create time). A definition of KIFMM_CHECK_ORDER_DIFF before
+ * the include applies to every order and kernel (the outer radius 4.5 when
+ * it is 0). */
+KIFMM__FN int kifmm__check_diff(int p, int fft, int sd)
 {
 #ifdef KIFMM_CHECK_ORDER_DIFF
     (void)p;
     (void)fft;
+    (void)sd;
     return KIFMM_CHECK_ORDER_DIFF;
 #else
+    if (sd > 1) return p <= 6 ? 1 : 2;
     return fft && p <= KIFMM_SQUARE_MAX_ORDER ? 0 : 1;
 #endif
 }
 
-KIFMM__FN double kifmm__alpha_outer(int diff)
+KIFMM__FN double kifmm__alpha_outer(int diff, int sd)
 {
-    return diff == 0 ? KIFMM__ALPHA_OUTER_SQUARE : KIFMM__ALPHA_OUTER_LSQ;
+    return diff == 0 ? KIFMM__ALPHA_OUTER_SQUARE
+                     : sd > 1 ? KIFMM__ALPHA_OUTER_MULTI : KIFMM__ALPHA_OUTER_LSQ;
+}
+
+KIFMM__FN double kifmm__alpha_inner(int sd)
+{
+    return sd > 1 ? KIFMM__ALPHA_INNER_MULTI : KIFMM__ALPHA_INNER;
 }
 
 
@@ -1796,7 +1817,7 @@ typedef struct kifmm__ops {
     double *l2l;            /* 8 nc x ne: parent's equiv -> children's check */
     double *m2l;            /* kd x 316 ne: source equiv -> ut_dn (target check) */
     double *conv;           /* FFT M2L, nc x ne: upward equivalent density -> a density
-                               on the check surface's lattice (1.05 r) with the same
+                               on the check surface's lattice (ai r) with the same
                                field outside the upward check surface */
     double *khat;           /* FFT M2L: the 316 kernel spectra on that lattice,
                                frequency-major: khat[(f 316 + t) 2] (re, im) */
@@ -1814,10 +1835,10 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
 
 // >>fft
 
-/* The downward check surface (order q = p + kifmm__check_diff(p, 1), radius
- * 1.05 r) is the boundary of a q^3 lattice of spacing h = 2.1 r / (q - 1).
- * Each source multipole is first moved to a density on the same lattice
- * around its own box (conv, fitted on the upward check surface, so its field
+/* The downward check surface (order q = p + kifmm__check_diff, radius ai r,
+ * ai = kifmm__alpha_inner) is the boundary of a q^3 lattice of spacing h =
+ * 2 ai r / (q - 1). Each source multipole is first moved to a density on
+ * the same lattice around its own box (conv, fitted on the upward check surface, so its field
  * outside is the multipole's); then K_t(i, j) = G(h (i - j) - 2 r t) depends
  * only on the lattice offset i - j, and the M2L of one box pair is a
  * circular convolution on an n^3 grid, n = 2q - 1: a pointwise product of
@@ -1828,7 +1849,11 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
  * grouped in chunks of F; the products run per target parent over its
  * neighbouring source parents, one 8 x 8 complex block (child of source
  * parent -> child of target parent) per frequency, zero for adjacent child
- * pairs (those are not in the V list). Below, p is the lattice order q. */
+ * pairs (those are not in the V list). A kernel with SD > 1 surface density
+ * components has SD^2 such blocks per parent pair and frequency (target
+ * component a, source component b), each component's spectra in a slot of
+ * their own: SD forward and SD inverse transforms per parent, SD^2 times
+ * the scalar products. Below, p is the lattice order q. */
 #define KIFMM__FFT_F 4 /* frequencies per chunk (the AVX2 product kernels assume 4) */
 #define KIFMM__FFT_KB_MB 24 /* the products' blocks are kept if they fit in this */
 KIFMM__STATIC_ASSERT(KIFMM__FFT_F == 4, fft_product_kernels_take_4_frequencies_per_chunk);
@@ -2312,9 +2337,10 @@ KIFMM__FN void KIFMM__P(kifmm__dft_sum)(int len, int nin, const double *wr, cons
 }
 
 /* The first stage of the forward transforms: along z, each lattice point's
- * 8 lane values into the (x, y) row of its kx = a, ky = b (s1 re, im). */
-KIFMM__FN void KIFMM__P(kifmm__fft_zstage)(const kifmm__fft *pl, const double *m, KIFMM__T *s1r,
-                                           KIFMM__T *s1i)
+ * 8 lane values (component comp of sd: m[8 (s sd + comp) + v]) into the
+ * (x, y) row of its kx = a, ky = b (s1 re, im). */
+KIFMM__FN void KIFMM__P(kifmm__fft_zstage)(const kifmm__fft *pl, const double *m, int sd, int comp,
+                                           KIFMM__T *s1r, KIFMM__T *s1i)
 {
     const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
     int s, kz, v;
@@ -2322,7 +2348,7 @@ KIFMM__FN void KIFMM__P(kifmm__fft_zstage)(const kifmm__fft *pl, const double *m
     for (s = 0; s < pl->ne; s++) {
         const int a = pl->ijk[3 * s], b = pl->ijk[3 * s + 1], c = pl->ijk[3 * s + 2];
         KIFMM__T mv[KIFMM__FFT_L], *r = s1r + L * (a * p + b) * nh, *im = s1i + L * (a * p + b) * nh;
-        for (v = 0; v < L; v++) mv[v] = (KIFMM__T)m[L * s + v];
+        for (v = 0; v < L; v++) mv[v] = (KIFMM__T)m[L * (s * sd + comp) + v];
         for (kz = 0; kz < nh; kz++) {
             const KIFMM__T w0 = (KIFMM__T)pl->wr[kz * n + c], w1 = (KIFMM__T)pl->wi[kz * n + c];
             for (v = 0; v < L; v++) {
@@ -2333,19 +2359,20 @@ KIFMM__FN void KIFMM__P(kifmm__fft_zstage)(const kifmm__fft *pl, const double *m
     }
 }
 
-/* Spectra of 8 surface densities at once, m[s 8 + v] (lane v = child v),
- * into out: frequency f of lane v goes to out[(f / F) cstride + (f % F) 16 +
+/* Spectra of 8 surface densities at once, m[(s sd + comp) 8 + v] (lane v =
+ * child v; component comp of sd per lattice point), into out: frequency f of lane v goes to out[(f / F) cstride + (f % F) 16 +
  * v] (re) and 8 further (im), the layout of the products. Pruned: only the
  * p^3 lattice is nonzero. Every stage is a loop over the 8 lanes with the
  * same twiddle, which compilers vectorise. */
-KIFMM__FN void KIFMM__P(kifmm__fft_forward8)(const kifmm__fft *pl, const double *m, KIFMM__T *out,
-                                             size_t cstride, KIFMM__T *work)
+KIFMM__FN void KIFMM__P(kifmm__fft_forward8)(const kifmm__fft *pl, const double *m, int sd,
+                                             int comp, KIFMM__T *out, size_t cstride,
+                                             KIFMM__T *work)
 {
     const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
     int i, kx, ky, q, v;
     KIFMM__T *s1r = work, *s1i = s1r + L * p * p * nh, *s2r = s1i + L * p * p * nh;
     KIFMM__T *s2i = s2r + L * p * n * nh, *tr = s2i + L * p * n * nh, *ti = tr + L * n * nh;
-    KIFMM__P(kifmm__fft_zstage)(pl, m, s1r, s1i);
+    KIFMM__P(kifmm__fft_zstage)(pl, m, sd, comp, s1r, s1i);
     for (i = 0; i < p; i++)
         for (ky = 0; ky < n; ky++)
             KIFMM__P(kifmm__dft_sum)(L * nh, p, pl->wr + ky * n, pl->wi + ky * n, 1, 1.0,
@@ -2367,9 +2394,10 @@ KIFMM__FN void KIFMM__P(kifmm__fft_forward8)(const kifmm__fft *pl, const double 
 }
 
 /* 8 half spectra addressed as in forward8 -> the values at the ne lattice
- * surface points, chk[s 8 + v]. */
+ * surface points, component comp of sd: chk[(s sd + comp) 8 + v]. */
 KIFMM__FN void KIFMM__P(kifmm__fft_inverse8)(const kifmm__fft *pl, const KIFMM__T *in,
-                                             size_t cstride, double *chk, KIFMM__T *work)
+                                             size_t cstride, int sd, int comp, double *chk,
+                                             KIFMM__T *work)
 {
     const int L = KIFMM__FFT_L, p = pl->p, n = pl->n, nh = pl->nh;
     int i, j, k, kz, q, s, v;
@@ -2404,31 +2432,37 @@ KIFMM__FN void KIFMM__P(kifmm__fft_inverse8)(const kifmm__fft *pl, const KIFMM__
             const KIFMM__T w1 = (KIFMM__T)(pl->wz[kz] * pl->wi[kz * n + k]);
             for (v = 0; v < L; v++) acc[v] += xr[L * kz + v] * w0 + xi[L * kz + v] * w1;
         }
-        for (v = 0; v < L; v++) chk[L * s + v] = (double)acc[v];
+        for (v = 0; v < L; v++) chk[L * (s * sd + comp) + v] = (double)acc[v];
     }
 }
 
 /* ---- FFT products ---------------------------------------------------------- */
 
-/* The 8 x 8 blocks of frequency chunk ch for the 27 parent offsets, from the
- * 316 spectra (khat[(f 316 + t) 2]): kb[(o F + fi) 128 + cs 16 + ct] (re),
- * + 8 (im); zero for adjacent child pairs (tv[...] < 0). */
-KIFMM__FN void KIFMM__P(kifmm__fft_blocks)(const double *khat, const int *tv, int ch,
+/* The 8 x 8 blocks of frequency chunk ch for the 27 parent offsets and the
+ * sd x sd kernel components (target a, source b), from the 316 spectra of
+ * each component (khat[((f 316 + t) sd^2 + a sd + b) 2]): block (a, o, b)
+ * at kb[(((a 27 + o) sd + b) F + fi) 128 + cs 16 + ct] (re), + 8 (im); zero
+ * for adjacent child pairs (tv[...] < 0). */
+KIFMM__FN void KIFMM__P(kifmm__fft_blocks)(const double *khat, const int *tv, int sd, int ch,
                                            KIFMM__T *kb)
 {
-    int o, fi, cs, ct;
-    for (o = 0; o < 27; o++)
-        for (cs = 0; cs < 8; cs++)
-            for (ct = 0; ct < 8; ct++) {
-                const int t = tv[(o * 8 + cs) * 8 + ct];
-                for (fi = 0; fi < KIFMM__FFT_F; fi++) {
-                    const size_t a = ((size_t)o * KIFMM__FFT_F + fi) * 128 + cs * 16 + ct;
-                    const double *s =
-                        khat + (((size_t)ch * KIFMM__FFT_F + fi) * KIFMM__NT + (t < 0 ? 0 : t)) * 2;
-                    kb[a] = (KIFMM__T)(t < 0 ? 0.0 : s[0]);
-                    kb[a + 8] = (KIFMM__T)(t < 0 ? 0.0 : s[1]);
+    const int sd2 = sd * sd;
+    int o, ab, fi, cs, ct;
+    for (ab = 0; ab < sd2; ab++)
+        for (o = 0; o < 27; o++)
+            for (cs = 0; cs < 8; cs++)
+                for (ct = 0; ct < 8; ct++) {
+                    const int t = tv[(o * 8 + cs) * 8 + ct];
+                    const size_t blk = ((size_t)(ab / sd) * 27 + o) * sd + ab % sd;
+                    for (fi = 0; fi < KIFMM__FFT_F; fi++) {
+                        const size_t a = (blk * KIFMM__FFT_F + fi) * 128 + cs * 16 + ct;
+                        const double *s =
+                            khat + ((((size_t)ch * KIFMM__FFT_F + fi) * KIFMM__NT + (t < 0 ? 0 : t)) *
+                                        sd2 + ab) * 2;
+                        kb[a] = (KIFMM__T)(t < 0 ? 0.0 : s[0]);
+                        kb[a + 8] = (KIFMM__T)(t < 0 ? 0.0 : s[1]);
+                    }
                 }
-            }
 }
 
 /* The products of kifmm__fft_products (below) in portable C. */
@@ -2765,13 +2799,21 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
 #define KIFMM__GEMM_COLS kifmm__gemm_colsd
 #endif
 
-/* M2L by FFT for kernels with one surface density component (unless
- * KIFMM_M2L_DENSE is defined); dense stacked GEMMs otherwise. */
-#if KIFMM__SD == 1 && !defined(KIFMM_M2L_DENSE)
+/* M2L by FFT (kifmm__fft), for any number of surface density components up
+ * to 9 (the products' block codes are bytes), unless KIFMM_M2L_DENSE is
+ * defined; dense stacked GEMMs otherwise. */
+#if !defined(KIFMM_M2L_DENSE) && KIFMM__SD <= 9
 #define KIFMM__FFT 1
 #else
 #define KIFMM__FFT 0
 #endif
+/* The values of the thread's FFT buffer before the products and before the
+ * transform work: the blocks of a chunk (SD^2 x 27 of them), and the
+ * products of ftb parents (SD components each). Spectra and products keep
+ * one slot per parent and component: slot b SD + j, F 16 values per chunk. */
+#define KIFMM__FFT_KBN ((size_t)27 * 128 * KIFMM__FFT_F * KIFMM__SD * KIFMM__SD)
+#define KIFMM__FFT_PN ((size_t)KIFMM__FFT_F * 16 * KIFMM__SD)
+#define KIFMM__FFT_OUTN(c) ((size_t)(c)->fft.plan.nfp * (size_t)(c)->fft.ftb * 16 * KIFMM__SD)
 
 /* Singular value cutoff of the check-to-equivalent pseudo-inverses; the
  * smallest kernel magnitude on the surfaces for which a level keeps its far
@@ -2831,7 +2873,7 @@ struct KIFMM_NAME {
     struct {                   /* the equivalent and check surfaces */
         int nse, nsc;          /* points */
         int cdiff;             /* check order - equivalent order (kifmm__check_diff) */
-        double ao;             /* outer surfaces' radius, in box half-widths */
+        double ai, ao;         /* inner and outer surfaces' radii, in box half-widths */
         int ne, nc;            /* vector lengths: points x SD */
         double *unit_e, *unit_c; /* unit surfaces (SoA) */
     } surf;
@@ -3072,8 +3114,8 @@ KIFMM__FN int KIFMM__F(__surf_kmat)(const KIFMM_NAME *c, const double *uc, int n
 }
 
 /* UC2E and DC2E, the check-to-equivalent solves of boxes of half-width r:
- * pseudo-inverses of K(up check at ao r <- up equiv at 1.05 r) and K(down
- * check at 1.05 r <- down equiv at ao r). Float instances truncate at float
+ * pseudo-inverses of K(up check at ao r <- up equiv at ai r) and K(down
+ * check at ai r <- down equiv at ao r). Float instances truncate at float
  * resolution: factors that resolve singular values below it would amplify
  * the rounding of the passes.
  *
@@ -3096,14 +3138,14 @@ KIFMM__FN int KIFMM__F(__build_c2e)(const KIFMM_NAME *c, double r, kifmm__ops *o
     int rc;
     if (!a) return KIFMM_ERR_NOMEM;
     rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, zero,
-                               KIFMM__ALPHA_INNER * r, 1.0, a, (size_t)c->surf.nc, &big);
+                               c->surf.ai * r, 1.0, a, (size_t)c->surf.nc, &big);
     if (!rc) {
         o->sigma = big >= KIFMM__TINY ? 1.0 / big : 0.0;
         for (i = 0; i < nn; i++) a[i] *= o->sigma;
         rc = kifmm__pinv(a, c->surf.nc, c->surf.ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku);
     }
     if (!rc)
-        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, KIFMM__ALPHA_INNER * r,
+        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ai * r,
                                    c->surf.unit_e, c->surf.nse, zero, c->surf.ao * r, o->sigma, a,
                                    (size_t)c->surf.nc, NULL);
     if (!rc) rc = kifmm__pinv(a, c->surf.nc, c->surf.ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd);
@@ -3132,10 +3174,10 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
             cl[d] = -r * sgn[d];
         }
         rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, cm,
-                                   KIFMM__ALPHA_INNER * 0.5 * r, o->sigma,
+                                   c->surf.ai * 0.5 * r, o->sigma,
                                    o->m2m + (size_t)oct * ne * nc, nc, NULL);
         if (!rc)
-            rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, KIFMM__ALPHA_INNER * r,
+            rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ai * r,
                                        c->surf.unit_e, c->surf.nse, cl, c->surf.ao * 2.0 * r, o->sigma,
                                        o->l2l + (size_t)oct * nc, 8 * nc, NULL);
     }
@@ -3148,87 +3190,123 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
  * radius with the same field outside (fitted on the upward check surface).
  * With check surfaces of order p the lattice is the equivalent surface
  * itself and conv the identity, exactly: none is built (the fit gave it
- * with max |conv - I| 7e-11 at p = 4, 8e-6 at p = 6, 3e-2 at p = 7). */
+ * with max |conv - I| 7e-11 at p = 4, 8e-6 at p = 6, 3e-2 at p = 7). The
+ * fit is square (check order points) for one component; with more, on a
+ * surface one order finer, in least squares: square, the Stokeslet's fit
+ * gave 10 times the dense M2L's error at p = 6 (5.6e-5 against 5.6e-6,
+ * 30,000 uniform points); one order finer, the same error as the dense
+ * M2L. (For Laplace, one order finer measured 10 % worse at p = 8, 10.) */
 KIFMM__FN int KIFMM__F(__build_conv)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const int nc = c->surf.nc, ne = c->surf.ne;
-    double *kb, *a, *ut = NULL, *vs = NULL, *tmp = NULL;
+    const int nc = c->surf.nc, ne = c->surf.ne, qf = c->opts.order + c->surf.cdiff + (KIFMM__SD > 1);
+    const int nsf = kifmm__surf_count(qf), nf = nsf * KIFMM__SD;
+    double *kb, *a, *ut = NULL, *vs = NULL, *tmp = NULL, *uf;
     int k = 0, rc = KIFMM_SUCCESS;
     if (c->surf.cdiff == 0) return KIFMM_SUCCESS;
-    kb = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
-    a = (double *)kifmm__alloc((size_t)nc * nc, sizeof(double));
-    if (!kb || !a) { rc = KIFMM_ERR_NOMEM; goto done; }
-    rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, zero,
-                               KIFMM__ALPHA_INNER * r, 1.0, kb, (size_t)nc, NULL);
+    kb = (double *)kifmm__alloc((size_t)nf * ne, sizeof(double));
+    a = (double *)kifmm__alloc((size_t)nf * nc, sizeof(double));
+    uf = (double *)kifmm__alloc((size_t)3 * nsf, sizeof(double));
+    if (!kb || !a || !uf) { rc = KIFMM_ERR_NOMEM; goto done; }
+    kifmm__surf_unit(qf, uf);
+    rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, zero,
+                               c->surf.ai * r, 1.0, kb, (size_t)nf, NULL);
     if (!rc)
-        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_c, c->surf.nsc,
-                                   zero, KIFMM__ALPHA_INNER * r, 1.0, a, (size_t)nc, NULL);
-    if (!rc) rc = kifmm__pinv(a, nc, nc, KIFMM__CUTOFF, &ut, &vs, &k);
+        rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->surf.ao * r, c->surf.unit_c, c->surf.nsc,
+                                   zero, c->surf.ai * r, 1.0, a, (size_t)nf, NULL);
+    if (!rc) rc = kifmm__pinv(a, nf, nc, KIFMM__CUTOFF, &ut, &vs, &k);
     if (rc) goto done;
     tmp = (double *)kifmm__alloc((size_t)k * ne, sizeof(double));
     o->conv = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
     if (!tmp || !o->conv) { rc = KIFMM_ERR_NOMEM; goto done; }
-    kifmm__gemm(0, 0, k, ne, nc, 1.0, ut, k, kb, nc, 0.0, tmp, k);
+    kifmm__gemm(0, 0, k, ne, nf, 1.0, ut, k, kb, nf, 0.0, tmp, k);
     kifmm__gemm(0, 0, nc, ne, k, 1.0, vs, nc, tmp, k, 0.0, o->conv, nc);
 done:
     kifmm__free(kb);
     kifmm__free(a);
+    kifmm__free(uf);
     kifmm__free(ut);
     kifmm__free(vs);
     kifmm__free(tmp);
     return rc;
 }
 
-/* The FFT M2L's 316 kernel spectra for boxes of half-width r, times sigma:
- * the kernel at the lattice offsets h (i - j) - 2 r t on the (2q - 1)^3
- * grid, transformed (kifmm__fft_grid), then stored frequency-major
- * (khat[(f 316 + t) 2], re and im) so that the blocks of a chunk of
- * frequencies read one contiguous piece. */
-KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+/* The 316 lattice grids of the FFT M2L's kernel for boxes of half-width r,
+ * times sigma, each component ab (target a, source b) transformed
+ * (kifmm__fft_grid) into kt[(t SD^2 + ab) 2 nfp]: the kernel at the
+ * lattice offsets h (i - j) - 2 r t on the (2q - 1)^3 grid. *big gets the
+ * largest |value|. KIFMM_ERR_KERNEL if a value was not finite. */
+KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma, double *kt,
+                                    double *big)
 {
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
     const kifmm__fft *pl = &c->fft.plan;
     const int n = pl->n, p = pl->p;
-    const size_t per = (size_t)n * n * n + kifmm__fft_work(pl), nk = (size_t)KIFMM__NT * 2 * pl->nfp;
-    const double h = 2.0 * KIFMM__ALPHA_INNER * r / (p - 1), sigma = o->sigma;
-    double *kall, *kt; /* per thread grids and work; spectra per transfer vector */
-    double big = 0.0;
+    const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
+    const double h = 2.0 * c->surf.ai * r / (p - 1);
+    double *gall = (double *)kifmm__alloc((size_t)c->opts.nthreads * per, sizeof(double)), mx = 0.0;
     int bad = 0;
-    o->khat = (double *)kifmm__alloc(nk, sizeof(double));
-    kall = (double *)kifmm__alloc((size_t)c->opts.nthreads * per + nk, sizeof(double));
-    if (!o->khat || !kall) {
-        kifmm__free(kall);
-        return KIFMM_ERR_NOMEM;
-    }
-    kt = kall + (size_t)c->opts.nthreads * per;
-    memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
-    /* each transfer vector writes its own spectrum; g is the thread's grid */
+    if (!gall) return KIFMM_ERR_NOMEM;
+    /* each transfer vector writes its own spectra; g is the thread's grids */
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) reduction(| : bad) \
-               reduction(max : big))
+               reduction(max : mx))
     for (int tv = 0; tv < KIFMM__NT; tv++) {
-        double *g = kall + (size_t)kifmm__thread_num() * per, kv[1];
-        int d[3] = {0, 0, 0}, i, j, k;
+        double *g = gall + (size_t)kifmm__thread_num() * per, kv[SD2];
+        int d[3] = {0, 0, 0}, i, j, k, ab;
         kifmm__transfer_vector(tv, d);
-        memset(g, 0, sizeof(double) * (size_t)n * n * n);
+        memset(g, 0, sizeof(double) * SD2 * nnn);
         for (i = 1 - p; i < p; i++)
             for (j = 1 - p; j < p; j++)
                 for (k = 1 - p; k < p; k++) {
+                    const size_t at = ((size_t)(i + n) % n * n + (size_t)(j + n) % n) * n + (size_t)(k + n) % n;
                     KIFMM__R_(SC, _eval)(c->opts.kernel_param, h * i - 2.0 * r * d[0], h * j - 2.0 * r * d[1],
-                                 h * k - 2.0 * r * d[2], kv);
-                    bad |= !(fabs(kv[0]) <= DBL_MAX);
-                    big = fabs(sigma * kv[0]) > big ? fabs(sigma * kv[0]) : big;
-                    g[((i + n) % n * n + (j + n) % n) * n + (k + n) % n] = sigma * kv[0];
+                                         h * k - 2.0 * r * d[2], kv);
+                    for (ab = 0; ab < SD2; ab++) {
+                        bad |= !(fabs(kv[ab]) <= DBL_MAX);
+                        mx = fabs(sigma * kv[ab]) > mx ? fabs(sigma * kv[ab]) : mx;
+                        g[ab * nnn + at] = sigma * kv[ab];
+                    }
                 }
-        kifmm__fft_grid(pl, g, kt + (size_t)tv * 2 * pl->nfp, g + (size_t)n * n * n);
+        for (ab = 0; ab < SD2; ab++)
+            kifmm__fft_grid(pl, g + ab * nnn, kt + ((size_t)tv * SD2 + ab) * 2 * pl->nfp, g + SD2 * nnn);
+    }
+    kifmm__free(gall);
+    *big = mx;
+    return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
+}
+
+/* The FFT M2L's kernel spectra for boxes of half-width r, times sigma
+ * (kifmm__m2l_grids), stored frequency-major (khat[((f 316 + t) SD^2 + ab)
+ * 2], re and im) so that the blocks of a chunk of frequencies read one
+ * contiguous piece: 316 SD^2 nfp complex values, independent of the tree. */
+KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const kifmm__fft *pl = &c->fft.plan;
+    const size_t nk = (size_t)KIFMM__NT * SD2 * 2 * pl->nfp;
+    double *kt; /* spectra per transfer vector */
+    double big = 0.0;
+    int rc;
+    o->khat = (double *)kifmm__alloc(nk, sizeof(double));
+    kt = (double *)kifmm__alloc(nk, sizeof(double));
+    if (!o->khat || !kt) {
+        kifmm__free(kt);
+        return KIFMM_ERR_NOMEM;
+    }
+    memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
+    rc = KIFMM__F(__m2l_grids)(c, r, o->sigma, kt, &big);
+    if (rc == KIFMM_ERR_NOMEM) {
+        kifmm__free(kt);
+        return KIFMM_ERR_NOMEM;
     }
     /* each frequency f writes its own row of khat */
     KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
     for (int32_t f = 0; f < pl->nfp; f++)
-        for (int t = 0; t < KIFMM__NT; t++) {
-            o->khat[((size_t)f * KIFMM__NT + t) * 2] = kt[(size_t)t * 2 * pl->nfp + 2 * f];
-            o->khat[((size_t)f * KIFMM__NT + t) * 2 + 1] = kt[(size_t)t * 2 * pl->nfp + 2 * f + 1];
+        for (int tab = 0; tab < KIFMM__NT * SD2; tab++) {
+            o->khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2] = kt[(size_t)tab * 2 * pl->nfp + 2 * f];
+            o->khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2 + 1] = kt[(size_t)tab * 2 * pl->nfp + 2 * f + 1];
         }
-    kifmm__free(kall);
+    kifmm__free(kt);
     /* The M2L's kernel values reach those at the nearest lattice points of
      * well separated boxes (1.9 r apart), sigma is scaled to those of the
      * solves' surfaces (3.45 r): for a Yukawa kernel their ratio is
@@ -3239,7 +3317,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, kifmm__op
      * spectra would need lambda r > 445, past the point where the level's
      * surfaces already drop it (build_c2e). */
     if (big > (pl->single ? 1e30 : 1e300)) memset(o->khat, 0, sizeof(double) * nk);
-    return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
+    return rc;
 }
 
 #else
@@ -3271,8 +3349,8 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
             cs[0] = 2.0 * r * d[0];
             cs[1] = 2.0 * r * d[1];
             cs[2] = 2.0 * r * d[2];
-            bad |= KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, KIFMM__ALPHA_INNER * r,
-                                         c->surf.unit_e, c->surf.nse, cs, KIFMM__ALPHA_INNER * r,
+            bad |= KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ai * r,
+                                         c->surf.unit_e, c->surf.nse, cs, c->surf.ai * r,
                                          o->sigma, kall + (size_t)k * nc * ne, (size_t)nc,
                                          NULL) != KIFMM_SUCCESS;
         }
@@ -3352,7 +3430,7 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
 KIFMM__FN int KIFMM__F(__keep_blocks)(KIFMM_NAME *c)
 {
     const kifmm__fft *pl = &c->fft.plan;
-    const size_t per = (size_t)27 * 128 * KIFMM__FFT_F, all = per * (size_t)pl->nchunk;
+    const size_t per = KIFMM__FFT_KBN, all = per * (size_t)pl->nchunk;
     const size_t bytes = all * (pl->single ? sizeof(float) : sizeof(double));
     const size_t one = (size_t)c->tree.nbox * (size_t)c->surf.ne * sizeof(KIFMM__R);
     int tvm[27 * 64], n = 0, l;
@@ -3369,8 +3447,8 @@ KIFMM__FN int KIFMM__F(__keep_blocks)(KIFMM_NAME *c)
         /* each chunk writes its own blocks */
         KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
         for (int ch = 0; ch < pl->nchunk; ch++) {
-            if (o->kbf) kifmm__fft_blocksf(o->khat, tvm, ch, o->kbf + per * (size_t)ch);
-            else kifmm__fft_blocksd(o->khat, tvm, ch, o->kbd + per * (size_t)ch);
+            if (o->kbf) kifmm__fft_blocksf(o->khat, tvm, KIFMM__SD, ch, o->kbf + per * (size_t)ch);
+            else kifmm__fft_blocksd(o->khat, tvm, KIFMM__SD, ch, o->kbd + per * (size_t)ch);
         }
     }
     return KIFMM_SUCCESS;
@@ -3877,33 +3955,41 @@ KIFMM__FN int KIFMM__F(__fft_wanted)(const kifmm__tree *t, int l, int32_t j)
     return 0;
 }
 
-/* The values of the thread's FFT buffer before the products and before the
- * transform work: the blocks of a chunk, and the products of ftb parents. */
-#define KIFMM__FFT_KBN ((size_t)27 * 128 * KIFMM__FFT_F)
-#define KIFMM__FFT_OUTN(c) ((size_t)(c)->fft.plan.nfp * (size_t)(c)->fft.ftb * 16)
-
 /* The products of one target parent for frequency chunk ch (see
- * kifmm__fft_products): its nn source parents at slots nbr, offsets cc,
- * with the chunk's blocks kb, into out. The spectra at chunk chx of the nx
- * source parents at slots nxt (the next target parent's) are prefetched
- * meanwhile: they lie scattered over the spectra buffer, out of reach of
- * the hardware prefetchers. */
+ * kifmm__fft_products): its nn source parents at parent slots nbr, offsets
+ * cc, with the chunk's blocks kb, into out (component a at out + a F 16).
+ * With SD > 1 each target component a sums over the pairs (source parent,
+ * source component b): slot nbr SD + b, block (a, cc, b). The spectra at
+ * chunk chx of the nx source parents at slots nxt (the next target
+ * parent's) are prefetched meanwhile: they lie scattered over the spectra
+ * buffer, out of reach of the hardware prefetchers. */
 KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32_t *nbr, int nn,
                                         const unsigned char *cc, KIFMM__F(__sp) kb,
                                         KIFMM__F(__sp) out, int chx, const int32_t *nxt, int nx)
 {
     const size_t cs = (size_t)c->fft.slots * KIFMM__FFT_F * 16, at = (size_t)ch * cs;
     const size_t ax = (size_t)chx * cs, esz = c->fft.specf ? sizeof(float) : sizeof(double);
-    int e, q;
+    int32_t nb2[27 * KIFMM__SD];
+    unsigned char no2[27 * KIFMM__SD];
+    int e, q, a;
     for (e = 0; e < nx; e++) {
-        const size_t v = ax + (size_t)nxt[e] * KIFMM__FFT_F * 16;
-        const char *a = c->fft.specf ? (const char *)(c->fft.specf + v) : (const char *)(c->fft.specd + v);
-        for (q = 0; q < (int)(KIFMM__FFT_F * 16 * esz); q += 64) KIFMM__PREFETCH(a + q);
+        const size_t v = ax + (size_t)nxt[e] * KIFMM__FFT_PN;
+        const char *p = c->fft.specf ? (const char *)(c->fft.specf + v) : (const char *)(c->fft.specd + v);
+        for (q = 0; q < (int)(KIFMM__FFT_PN * esz); q += 64) KIFMM__PREFETCH(p + q);
     }
-    if (c->fft.specf)
-        kifmm__fft_productsf(nn, nbr, cc, c->fft.sch, c->fft.specf + at, kb.f, out.f);
-    else
-        kifmm__fft_productsd(nn, nbr, cc, c->fft.sch, c->fft.specd + at, kb.d, out.d);
+    for (e = 0; e < nn * KIFMM__SD; e++) {
+        nb2[e] = nbr[e / KIFMM__SD] * KIFMM__SD + e % KIFMM__SD;
+        no2[e] = (unsigned char)(cc[e / KIFMM__SD] * KIFMM__SD + e % KIFMM__SD);
+    }
+    for (a = 0; a < KIFMM__SD; a++) {
+        const size_t ka = (size_t)a * 27 * KIFMM__SD * KIFMM__FFT_F * 128, oa = (size_t)a * KIFMM__FFT_F * 16;
+        if (c->fft.specf)
+            kifmm__fft_productsf(nn * KIFMM__SD, nb2, no2, c->fft.sch, c->fft.specf + at, kb.f + ka,
+                                 out.f + oa);
+        else
+            kifmm__fft_productsd(nn * KIFMM__SD, nb2, no2, c->fft.sch, c->fft.specd + at, kb.d + ka,
+                                 out.d + oa);
+    }
 }
 
 /* The inverse transforms of the products of the j-th target parent of level
@@ -3917,9 +4003,12 @@ KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, KIF
     const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
     double *dchk = KIFMM__F(__mbuf)(c);
     KIFMM__F(__sp) work = KIFMM__F(__fbuf)(c, woff);
-    int q, i;
-    if (op.f) kifmm__fft_inverse8f(&c->fft.plan, op.f, ocs, dchk, work.f);
-    else kifmm__fft_inverse8d(&c->fft.plan, op.d, ocs, dchk, work.d);
+    int q, i, a;
+    for (a = 0; a < KIFMM__SD; a++) {
+        const size_t oa = (size_t)a * KIFMM__FFT_F * 16;
+        if (op.f) kifmm__fft_inverse8f(&c->fft.plan, op.f + oa, ocs, KIFMM__SD, a, dchk, work.f);
+        else kifmm__fft_inverse8d(&c->fft.plan, op.d + oa, ocs, KIFMM__SD, a, dchk, work.d);
+    }
     for (q = 0; q < 8; q++) {
         const int32_t lb = 8 * j + q, box = t->loff[l] + lb;
         KIFMM__R *dst = chk + (size_t)lb * nc;
@@ -3944,10 +4033,10 @@ KIFMM__FN int32_t KIFMM__F(__fft_slab)(const KIFMM_NAME *c, int l, int kept, int
     for (s1 = s0; s1 < ni; s1++) {
         const int32_t g = base + s1;
         int32_t add = 0;
-        if (!kept && s1 - s0 >= c->fft.slots) break;
+        if (!kept && (s1 - s0 + 1) * KIFMM__SD > c->fft.slots) break;
         if (!KIFMM__F(__fft_wanted)(t, l, s1)) continue; /* no child has a V list */
         for (e = co[g]; e < co[g + 1]; e++) add += loc[cj[e]] < 0;
-        if (s1 > s0 && *nneed + add > c->fft.slots) break;
+        if (s1 > s0 && (*nneed + add) * KIFMM__SD > c->fft.slots) break;
         for (e = co[g]; e < co[g + 1]; e++) {
             if (loc[cj[e]] < 0) {
                 loc[cj[e]] = *nneed;
@@ -3975,16 +4064,20 @@ KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__
     KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
     for (int32_t b = 0; b < nneed; b++) {
         const int32_t ch0 = t->loff[l] + 8 * c->fft.need[b];
-        const KIFMM__F(__sp) s = KIFMM__F(__sp_at)(c->fft.specf, c->fft.specd, (size_t)b * KIFMM__FFT_F * 16);
+        const KIFMM__F(__sp) s = KIFMM__F(__sp_at)(c->fft.specf, c->fft.specd, (size_t)b * KIFMM__FFT_PN);
         const KIFMM__F(__sp) work = KIFMM__F(__fbuf)(c, woff);
         double *m = KIFMM__F(__mbuf)(c);
-        unsigned char *h = c->fft.sch + 9 * (size_t)b;
-        int q;
+        unsigned char *h = c->fft.sch + 9 * (size_t)b * KIFMM__SD;
+        int q, j;
         for (h[0] = 0, q = 0; q < 8; q++)
             if (t->s1[ch0 + q] > t->s0[ch0 + q]) h[1 + h[0]++] = (unsigned char)q;
+        for (j = 1; j < KIFMM__SD; j++) memcpy(h + 9 * j, h, 9);
         KIFMM__F(__conv8)(o->conv, nc, ne, ue + (size_t)8 * c->fft.need[b] * ne, m);
-        if (s.f) kifmm__fft_forward8f(pl, m, s.f, cstride, work.f);
-        else kifmm__fft_forward8d(pl, m, s.d, cstride, work.d);
+        for (j = 0; j < KIFMM__SD; j++) {
+            const size_t sj = (size_t)j * KIFMM__FFT_F * 16;
+            if (s.f) kifmm__fft_forward8f(pl, m, KIFMM__SD, j, s.f + sj, cstride, work.f);
+            else kifmm__fft_forward8d(pl, m, KIFMM__SD, j, s.d + sj, cstride, work.d);
+        }
     }
 }
 
@@ -4003,8 +4096,8 @@ KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM
     for (int ch = 0; ch < c->fft.plan.nchunk; ch++) {
         const KIFMM__F(__sp) kb = KIFMM__F(__fbuf)(c, 0);
         int32_t P;
-        if (kb.f) kifmm__fft_blocksf(o->khat, tv, ch, kb.f);
-        else kifmm__fft_blocksd(o->khat, tv, ch, kb.d);
+        if (kb.f) kifmm__fft_blocksf(o->khat, tv, KIFMM__SD, ch, kb.f);
+        else kifmm__fft_blocksd(o->khat, tv, KIFMM__SD, ch, kb.d);
         for (P = s0; P < s1; P++) {
             /* (slots are set only for wanted target parents) */
             const int32_t g = base + P;
@@ -4014,7 +4107,7 @@ KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM
             KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]), co[g + 1] - co[g],
                                      c->fft.cc + co[g], kb,
                                      KIFMM__F(__sp_at)(c->fft.foutf, c->fft.foutd,
-                                                       ch * fcs + (size_t)(P - s0) * KIFMM__FFT_F * 16),
+                                                       ch * fcs + (size_t)(P - s0) * KIFMM__FFT_PN),
                                      ch, cjl + (co[g + 1] - co[base + s0]), nx);
         }
     }
@@ -4024,7 +4117,7 @@ KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM
         if (KIFMM__F(__fft_wanted)(t, l, b))
             KIFMM__F(__fft_finish)(c, l, b,
                                    KIFMM__F(__sp_at)(c->fft.foutf, c->fft.foutd,
-                                                     (size_t)(b - s0) * KIFMM__FFT_F * 16),
+                                                     (size_t)(b - s0) * KIFMM__FFT_PN),
                                    fcs, chk);
 }
 
@@ -4053,7 +4146,7 @@ KIFMM__FN void KIFMM__F(__fft_task)(const KIFMM_NAME *c, int l, const KIFMM__F(_
             KIFMM__F(__fft_products)(c, ch, cjl + (co[g] - co[base + s0]), co[g + 1] - co[g],
                                      c->fft.cc + co[g], kc,
                                      KIFMM__F(__fbuf)(c, KIFMM__FFT_KBN + (size_t)ch * ocs +
-                                                             (size_t)P * KIFMM__FFT_F * 16),
+                                                             (size_t)P * KIFMM__FFT_PN),
                                      chx, cjl + (co[gx] - co[base + s0]), nx);
         }
     }
@@ -4069,7 +4162,7 @@ KIFMM__FN void KIFMM__F(__fft_by_parents)(const KIFMM_NAME *c, int l, const KIFM
     int32_t tb = (s1 - s0) / (4 * c->opts.nthreads), nblk;
     size_t ocs;
     tb = tb < 1 ? 1 : tb > c->fft.ftb ? c->fft.ftb : tb;
-    ocs = (size_t)tb * KIFMM__FFT_F * 16;
+    ocs = (size_t)tb * KIFMM__FFT_PN;
     nblk = (s1 - s0 + tb - 1) / tb;
     /* task blk adds to the check vectors of its own target parents' children */
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
@@ -4080,7 +4173,7 @@ KIFMM__FN void KIFMM__F(__fft_by_parents)(const KIFMM_NAME *c, int l, const KIFM
         for (P = 0; P < nb; P++)
             if (KIFMM__F(__fft_wanted)(t, l, p0 + P))
                 KIFMM__F(__fft_finish)(c, l, p0 + P,
-                                       KIFMM__F(__fbuf)(c, KIFMM__FFT_KBN + (size_t)P * KIFMM__FFT_F * 16),
+                                       KIFMM__F(__fbuf)(c, KIFMM__FFT_KBN + (size_t)P * KIFMM__FFT_PN),
                                        ocs, chk);
     }
 }
@@ -4164,7 +4257,7 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     double ctr[3], half;
     int32_t e;
     kifmm__box_center(t, b, ctr, &half);
-    KIFMM__F(__place)(c->surf.unit_c, nsc, KIFMM__FLOAT ? zero : ctr, KIFMM__ALPHA_INNER * half, pc);
+    KIFMM__F(__place)(c->surf.unit_c, nsc, KIFMM__FLOAT ? zero : ctr, c->surf.ai * half, pc);
     if (a >= 0 && a != t->parent[b]) {
         double ac[3], ah;
         kifmm__box_center(t, a, ac, &ah);
@@ -4360,7 +4453,7 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
         if (t->s1[a] - t->s0[a] <= c->surf.nse)
             KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
         else
-            KIFMM__F(__from_surface)(c, w, nrhs, a, KIFMM__ALPHA_INNER,
+            KIFMM__F(__from_surface)(c, w, nrhs, a, c->surf.ai,
                                      w->ue + (size_t)a * c->surf.ne, fc, xf, xf + ld, xf + 2 * ld,
                                      ntb, pe, out, old);
     }
@@ -4569,8 +4662,9 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
 KIFMM__FN int KIFMM__F(__plan_surfaces)(KIFMM_NAME *h)
 {
     const int p = h->opts.order;
-    h->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT);
-    h->surf.ao = kifmm__alpha_outer(h->surf.cdiff);
+    h->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT, KIFMM__SD);
+    h->surf.ao = kifmm__alpha_outer(h->surf.cdiff, KIFMM__SD);
+    h->surf.ai = kifmm__alpha_inner(KIFMM__SD);
     h->surf.nse = kifmm__surf_count(p);
     h->surf.nsc = kifmm__surf_count(p + h->surf.cdiff);
     h->surf.ne = h->surf.nse * KIFMM__SD;
@@ -4656,13 +4750,13 @@ KIFMM__FN int KIFMM__F(__plan_buffers)(KIFMM_NAME *h)
  * largest level's; returns the parents (slots) it holds. */
 KIFMM__FN int32_t KIFMM__F(__fft_slots)(const KIFMM_NAME *h, size_t esz, int32_t m)
 {
-    const size_t slot = (size_t)h->fft.plan.nfp * 16 * esz, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
+    const size_t slot = (size_t)h->fft.plan.nfp * 16 * esz * KIFMM__SD, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
     size_t budget = (size_t)h->tree.nbox * (size_t)h->surf.ne * sizeof(KIFMM__R);
     int32_t slots;
     budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
     slots = (int32_t)(budget / slot);
     if (slots < 256) slots = 256;
-    return slots > m ? m : slots;
+    return (slots > m ? m : slots) * KIFMM__SD;
 }
 
 /* The FFT M2L's slab bookkeeping: the largest level's internal boxes (m) and
@@ -4701,7 +4795,7 @@ KIFMM__FN int KIFMM__F(__plan_fft_buffers)(KIFMM_NAME *h, size_t esz)
     const size_t nth = (size_t)h->opts.nthreads, chunk = (size_t)h->fft.slots * KIFMM__FFT_F * 16;
     const size_t nspec = (size_t)h->fft.slots * (size_t)pl->nfp * 16;
     size_t *held = &h->held;
-    h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz));
+    h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz * KIFMM__SD));
     h->fft.ftb = h->fft.ftb > 128 ? 128 : h->fft.ftb < 1 ? 1 : h->fft.ftb;
     h->fft.per = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(h) + kifmm__fft_work8(pl);
     h->fft.per = (h->fft.per + 15) / 16 * 16; /* each thread's part 64-byte aligned */
@@ -4989,6 +5083,7 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__LVL
 #undef KIFMM__FFT_KBN
 #undef KIFMM__FFT_OUTN
+#undef KIFMM__FFT_PN
 #undef KIFMM__NEAR_HOOK
 #undef KIFMM__MUTUAL
 #undef KIFMM__GEMM_COLS

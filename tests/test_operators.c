@@ -146,7 +146,7 @@ static void test_upward(int p)
     t_gen_charges(&g, ns, q, -1, 1);
     points_far(&g, ny, ctr, r, 3.0, 7.0, y);
     p2m(c, ctr, r, ns, x, q, ue);
-    kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, KIFMM__ALPHA_INNER * r, pe);
+    kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, c->surf.ai * r, pe);
     eval_equiv(c, c->surf.nse, pe, ue, ny, y, pot);
     CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2M p=%d, far field", p);
 
@@ -188,14 +188,14 @@ static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de
     /* lane 3 of the batched transforms carries the density, the others 0 */
     t_fill(8 * c->surf.nc, m8, 0.0);
     for (i = 0; i < c->surf.nc; i++) m8[8 * i + 3] = m[i];
-    kifmm__fft_forward8d(pl, m8, spec, cs, work);
+    kifmm__fft_forward8d(pl, m8, 1, 0, spec, cs, work);
     for (f = 0; f < pl->nf; f++) {
         size_t a = (size_t)(f / KIFMM__FFT_F) * cs + (size_t)(f % KIFMM__FFT_F) * 16 + 3;
         const double *k = o->khat + ((size_t)f * KIFMM__NT + tv) * 2;
         prod[a] = spec[a] * k[0] - spec[a + 8] * k[1];
         prod[a + 8] = spec[a] * k[1] + spec[a + 8] * k[0];
     }
-    kifmm__fft_inverse8d(pl, prod, cs, chk, work);
+    kifmm__fft_inverse8d(pl, prod, cs, 1, 0, chk, work);
     for (i = 0; i < c->surf.nc; i++) m[i] = chk[8 * i + 3];
     solve(c, 0, m, de);
     free(spec); free(prod); free(work); free(chk); free(m); free(m8);
@@ -262,7 +262,7 @@ static void test_downward(int p)
         points_in_box(&g, ns, cs, 2 * r, x);
         t_gen_charges(&g, ns, q, -1, 1);
         soa(ns, x, xs);
-        kifmm__surf_place(c->surf.unit_c, c->surf.nsc, cp, KIFMM__ALPHA_INNER * 2 * r, pc);
+        kifmm__surf_place(c->surf.unit_c, c->surf.nsc, cp, c->surf.ai * 2 * r, pc);
         t_fill(c->surf.nc, chk, 0.0);
         kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc, c->surf.nsc, xs, xs + ns,
                                  xs + 2 * ns, q, ns, 1, 0, 2 * r * c->ops.at[0].sigma, chk, 0);

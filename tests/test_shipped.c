@@ -361,6 +361,13 @@ int main(void)
     check(&STK, &cube, 6, 0.01, 0.01, 1e-5, 0); /* mu scales the result */
     /* a user kernel's mutual hook with 3 density components (sources = targets) */
     check(&STKM, &cube, 6, 0.0, 1.0, 1e-5, 0);
+#ifndef KIFMM_TEST_QUICK
+    t_group("stokes, double, p = 8 and 10 (the bounds of Laplace at these orders)");
+    check(&STK, &cube, 8, 0.0, 1.0, 1e-7, 0);
+    check(&STK, &sph, 8, 0.0, 1.0, 1e-7, 0);
+    check(&STK, &cube, 10, 0.0, 1.0, 5e-9, 0);
+    check(&STK, &sph, 10, 0.0, 1.0, 5e-9, 0);
+#endif
 
     t_group("single precision, p = 4 (bound 1e-3) and its floor at p = 6");
     check(&LAPF, &cube, 4, 0, 0, 1e-3, 0);
