@@ -25,6 +25,7 @@
 #ifdef __cplusplus
 extern "C++" {
 #endif
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #if defined(__AVX2__) && defined(__FMA__)
@@ -165,7 +166,8 @@ static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx,
 #define kifmm_kernel_stokes_TRG_DIM 3
 #define kifmm_kernel_stokes_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_DEGREE (-1)
-#define kifmm_kernel_stokes_HAS (KIFMM_HAS_SETUP)
+#define kifmm_kernel_stokes_HAS                                                           \
+    (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | KIFMM_HAS_P2PF | KIFMM_HAS_P2PS | KIFMM_HAS_P2PSF)
 #define kifmm_kernel_stokes_setup kifmm_kernel__viscosity_setup
 static inline void kifmm_kernel_stokes_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
@@ -2140,6 +2142,184 @@ static inline void kifmm_kernel_yukawa_grad_p2p(const double *param, const doubl
 #define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP)
 #endif
 #undef KIFMM_KERNEL__EXP_HORNER
+
+/* ------------------------------------------------------------------------ */
+/* Stokes near-field hooks (stokes): one-way and mutual, double and float   */
+/* ------------------------------------------------------------------------ */
+/* u_i += s sum_j (f_i / r + d_i (d . f) / r^3), s = scale / (8 pi mu). The
+ * sources come in blocks of KIFMM_KERNEL__SSB points, copied once into
+ * structure-of-arrays on the stack (positions and the three force
+ * components: the densities arrive interleaved, f[3 j + k]), so that each
+ * target's loop loads whole vectors; lanes past a block's end get 1 / r = 0
+ * (and so add nothing, whatever their padding). The mutual hooks use
+ * G(-d) = G(d): each pair's d and 1 / r serve both directions, B's sums kept
+ * in a stack block. One body, with the vector operations of the build: AVX-512
+ * (8 or 16 lanes, 1 / r from rsqrt14 with a correction, as the Laplace
+ * hooks), AVX2 + FMA (4 or 8 lanes, a division in double), or portable C
+ * (one lane, 1 / sqrt). Pairs at distance 0 are skipped; in float, pairs
+ * closer than sqrt(FLT_MIN) count as coincident, as in the Laplace loops. */
+#define KIFMM_KERNEL__SSB 64
+#define KIFMM_KERNEL__STOKES_BODY(T, V, W, SET1, ZERO, LOAD, STORE, SUB, MUL, FMADD, RINVM,      \
+                                  HSUM, MUTUAL)                                                 \
+    {                                                                                          \
+        enum { SB_ = KIFMM_KERNEL__SSB, NB_ = KIFMM_KERNEL__SSB / (W) };                       \
+        const T s = (T)((double)scale * (0.5 * KIFMM_INV_4PI / param[0]));                     \
+        V vx[NB_], vy[NB_], vz[NB_], vf[3 * NB_], vo[3 * NB_];                                 \
+        T *px = (T *)vx, *py = (T *)vy, *pz = (T *)vz, *pf = (T *)vf, *po = (T *)vo;           \
+        int64_t i, j, j0, jb, k;                                                               \
+        for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
+            jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;                                       \
+            for (k = 0; k < SB_; k++) {                                                        \
+                const int in = k < jb;                                                         \
+                px[k] = in ? bx[j0 + k] : (T)0;                                                \
+                py[k] = in ? by[j0 + k] : (T)0;                                                \
+                pz[k] = in ? bz[j0 + k] : (T)0;                                                \
+                pf[k] = in ? qb[3 * (j0 + k)] : (T)0;                                          \
+                pf[SB_ + k] = in ? qb[3 * (j0 + k) + 1] : (T)0;                                \
+                pf[2 * SB_ + k] = in ? qb[3 * (j0 + k) + 2] : (T)0;                            \
+                po[k] = po[SB_ + k] = po[2 * SB_ + k] = (T)0;                                  \
+            }                                                                                  \
+            for (i = 0; i < na; i++) {                                                         \
+                const V X = SET1(ax[i]), Y = SET1(ay[i]), Z = SET1(az[i]);                     \
+                const V g0 = (MUTUAL) ? SET1(qa[3 * i]) : ZERO;                                \
+                const V g1 = (MUTUAL) ? SET1(qa[3 * i + 1]) : ZERO;                            \
+                const V g2 = (MUTUAL) ? SET1(qa[3 * i + 2]) : ZERO;                            \
+                V u0 = ZERO, u1 = ZERO, u2 = ZERO;                                             \
+                for (j = 0; j < jb; j += (W)) {                                                \
+                    const V dx = SUB(X, LOAD(px + j)), dy = SUB(Y, LOAD(py + j));              \
+                    const V dz = SUB(Z, LOAD(pz + j));                                         \
+                    const V inv = RINVM(FMADD(dz, dz, FMADD(dy, dy, MUL(dx, dx))), jb - j);    \
+                    const V i3 = MUL(inv, MUL(inv, inv));                                      \
+                    const V f0 = LOAD(pf + j), f1 = LOAD(pf + SB_ + j);                        \
+                    const V f2 = LOAD(pf + 2 * SB_ + j);                                       \
+                    const V t = MUL(i3, FMADD(dz, f2, FMADD(dy, f1, MUL(dx, f0))));            \
+                    u0 = FMADD(f0, inv, FMADD(dx, t, u0));                                     \
+                    u1 = FMADD(f1, inv, FMADD(dy, t, u1));                                     \
+                    u2 = FMADD(f2, inv, FMADD(dz, t, u2));                                     \
+                    if (MUTUAL) {                                                              \
+                        const V w = MUL(i3, FMADD(dz, g2, FMADD(dy, g1, MUL(dx, g0))));        \
+                        STORE(po + j, FMADD(g0, inv, FMADD(dx, w, LOAD(po + j))));             \
+                        STORE(po + SB_ + j, FMADD(g1, inv, FMADD(dy, w, LOAD(po + SB_ + j)))); \
+                        STORE(po + 2 * SB_ + j,                                                \
+                              FMADD(g2, inv, FMADD(dz, w, LOAD(po + 2 * SB_ + j))));           \
+                    }                                                                          \
+                }                                                                              \
+                outa[3 * i] += s * HSUM(u0);                                                   \
+                outa[3 * i + 1] += s * HSUM(u1);                                               \
+                outa[3 * i + 2] += s * HSUM(u2);                                               \
+            }                                                                                  \
+            if (MUTUAL)                                                                        \
+                for (j = 0; j < jb; j++)                                                       \
+                    for (k = 0; k < 3; k++) outb[3 * (j0 + j) + k] += s * po[k * SB_ + j];     \
+        }                                                                                      \
+    }
+
+#if defined(__AVX512F__)
+#define KIFMM_KERNEL__SRINV8(r2, n) _mm512_maskz_mov_pd(kifmm_kernel__first8(n), kifmm_kernel__rinv8(r2))
+#define KIFMM_KERNEL__SRINV16(r2, n) _mm512_maskz_mov_ps(kifmm_kernel__first16(n), kifmm_kernel__rinv16(r2))
+#define KIFMM_KERNEL__STOKES_D(M)                                                              \
+    KIFMM_KERNEL__STOKES_BODY(double, __m512d, 8, _mm512_set1_pd, _mm512_setzero_pd(),         \
+                              _mm512_load_pd, _mm512_store_pd, _mm512_sub_pd, _mm512_mul_pd,   \
+                              _mm512_fmadd_pd, KIFMM_KERNEL__SRINV8, kifmm_kernel__hsum8, M)
+#define KIFMM_KERNEL__STOKES_F(M)                                                              \
+    KIFMM_KERNEL__STOKES_BODY(float, __m512, 16, _mm512_set1_ps, _mm512_setzero_ps(),          \
+                              _mm512_load_ps, _mm512_store_ps, _mm512_sub_ps, _mm512_mul_ps,   \
+                              _mm512_fmadd_ps, KIFMM_KERNEL__SRINV16, kifmm_kernel__hsum16, M)
+#elif defined(__AVX2__) && defined(__FMA__)
+/* 1 / sqrt(r2) in the first n lanes where r2 > 0 (float: FLT_MIN <= r2 <=
+ * FLT_MAX, rsqrt and one Newton step), 0 elsewhere */
+static inline __m256d kifmm_kernel__srinv4(__m256d r2, int64_t n)
+{
+    const __m256d live = _mm256_and_pd(
+        _mm256_cmp_pd(r2, _mm256_setzero_pd(), _CMP_GT_OQ),
+        _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_set1_epi64x((long long)n),
+                                               _mm256_setr_epi64x(0, 1, 2, 3))));
+    return _mm256_and_pd(_mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(r2)), live);
+}
+static inline __m256 kifmm_kernel__srinv8f(__m256 r2, int64_t n)
+{
+    const __m256 live = _mm256_and_ps(
+        _mm256_and_ps(_mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MIN), _CMP_GE_OQ),
+                      _mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ)),
+        _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32((int)(n < 8 ? n : 8)),
+                                               _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))));
+    const __m256 y = _mm256_rsqrt_ps(r2);
+    const __m256 e = _mm256_fnmadd_ps(_mm256_mul_ps(r2, y), y, _mm256_set1_ps(1.0f));
+    return _mm256_and_ps(_mm256_fmadd_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), y), e, y), live);
+}
+static inline double kifmm_kernel__shsum4(__m256d v)
+{
+    __m128d h = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(h, _mm_unpackhi_pd(h, h)));
+}
+static inline float kifmm_kernel__shsum8f(__m256 v)
+{
+    __m128 h = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    h = _mm_add_ps(h, _mm_movehl_ps(h, h));
+    return _mm_cvtss_f32(_mm_add_ss(h, _mm_shuffle_ps(h, h, 1)));
+}
+#define KIFMM_KERNEL__STOKES_D(M)                                                              \
+    KIFMM_KERNEL__STOKES_BODY(double, __m256d, 4, _mm256_set1_pd, _mm256_setzero_pd(),         \
+                              _mm256_load_pd, _mm256_store_pd, _mm256_sub_pd, _mm256_mul_pd,   \
+                              _mm256_fmadd_pd, kifmm_kernel__srinv4, kifmm_kernel__shsum4, M)
+#define KIFMM_KERNEL__STOKES_F(M)                                                              \
+    KIFMM_KERNEL__STOKES_BODY(float, __m256, 8, _mm256_set1_ps, _mm256_setzero_ps(),           \
+                              _mm256_load_ps, _mm256_store_ps, _mm256_sub_ps, _mm256_mul_ps,   \
+                              _mm256_fmadd_ps, kifmm_kernel__srinv8f, kifmm_kernel__shsum8f, M)
+#else
+/* one lane: the scalar kernel's 1 / r */
+static inline double kifmm_kernel__srinv1(double r2, int64_t n)
+{
+    (void)n;
+    return r2 > 0.0 ? 1.0 / sqrt(r2) : 0.0;
+}
+static inline float kifmm_kernel__srinv1f(float r2, int64_t n)
+{
+    (void)n;
+    return r2 >= FLT_MIN && r2 <= FLT_MAX ? 1.0f / sqrtf(r2) : 0.0f;
+}
+#define KIFMM_KERNEL__S_SET1(x) (x)
+#define KIFMM_KERNEL__S_LOAD(p) (*(p))
+#define KIFMM_KERNEL__S_STORE(p, v) (*(p) = (v))
+#define KIFMM_KERNEL__S_SUB(a, b) ((a) - (b))
+#define KIFMM_KERNEL__S_MUL(a, b) ((a) * (b))
+#define KIFMM_KERNEL__S_FMADD(a, b, c) ((a) * (b) + (c))
+#define KIFMM_KERNEL__STOKES_D(M)                                                              \
+    KIFMM_KERNEL__STOKES_BODY(double, double, 1, KIFMM_KERNEL__S_SET1, 0.0, KIFMM_KERNEL__S_LOAD, \
+                              KIFMM_KERNEL__S_STORE, KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, \
+                              KIFMM_KERNEL__S_FMADD, kifmm_kernel__srinv1, KIFMM_KERNEL__S_SET1, M)
+#define KIFMM_KERNEL__STOKES_F(M)                                                              \
+    KIFMM_KERNEL__STOKES_BODY(float, float, 1, KIFMM_KERNEL__S_SET1, 0.0f, KIFMM_KERNEL__S_LOAD, \
+                              KIFMM_KERNEL__S_STORE, KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, \
+                              KIFMM_KERNEL__S_FMADD, kifmm_kernel__srinv1f, KIFMM_KERNEL__S_SET1, M)
+#endif
+
+/* The one-way hooks run the mutual body without B's sums (targets as A). */
+#define KIFMM_KERNEL__STOKES_P2P(name, T, BODY)                                                \
+    static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
+                            int64_t na, const T *bx, const T *by, const T *bz, const T *qb,    \
+                            int64_t nb, T scale, T *outa)                                      \
+    {                                                                                          \
+        const T *qa = NULL;                                                                    \
+        T *outb = NULL;                                                                        \
+        BODY(0)                                                                                \
+        (void)qa;                                                                              \
+        (void)outb;                                                                            \
+    }
+#define KIFMM_KERNEL__STOKES_P2PS(name, T, BODY)                                               \
+    static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
+                            const T *qa, int64_t na, const T *bx, const T *by, const T *bz,    \
+                            const T *qb, int64_t nb, T scale, T *outa, T *outb)                \
+        BODY(1)
+KIFMM_KERNEL__STOKES_P2P(kifmm_kernel_stokes_p2p, double, KIFMM_KERNEL__STOKES_D)
+KIFMM_KERNEL__STOKES_P2P(kifmm_kernel_stokes_p2pf, float, KIFMM_KERNEL__STOKES_F)
+KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2ps, double, KIFMM_KERNEL__STOKES_D)
+KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2psf, float, KIFMM_KERNEL__STOKES_F)
+#undef KIFMM_KERNEL__STOKES_P2P
+#undef KIFMM_KERNEL__STOKES_P2PS
+#undef KIFMM_KERNEL__STOKES_D
+#undef KIFMM_KERNEL__STOKES_F
+#undef KIFMM_KERNEL__STOKES_BODY
 
 /* The Laplace kernels' hooks that this build compiled: all of them with
  * AVX2 and FMA (or AVX-512), the one-way double loop otherwise. */
