@@ -3971,23 +3971,29 @@ KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32
     const size_t ax = (size_t)chx * cs, esz = c->fft.specf ? sizeof(float) : sizeof(double);
     int32_t nb2[27 * KIFMM__SD];
     unsigned char no2[27 * KIFMM__SD];
+    const int32_t *nbs = nbr;
+    const unsigned char *nos = cc;
     int e, q, a;
     for (e = 0; e < nx; e++) {
         const size_t v = ax + (size_t)nxt[e] * KIFMM__FFT_PN;
         const char *p = c->fft.specf ? (const char *)(c->fft.specf + v) : (const char *)(c->fft.specd + v);
         for (q = 0; q < (int)(KIFMM__FFT_PN * esz); q += 64) KIFMM__PREFETCH(p + q);
     }
-    for (e = 0; e < nn * KIFMM__SD; e++) {
-        nb2[e] = nbr[e / KIFMM__SD] * KIFMM__SD + e % KIFMM__SD;
-        no2[e] = (unsigned char)(cc[e / KIFMM__SD] * KIFMM__SD + e % KIFMM__SD);
+    if (KIFMM__SD > 1) { /* one scalar kernel's lists serve as they are */
+        for (e = 0; e < nn * KIFMM__SD; e++) {
+            nb2[e] = nbr[e / KIFMM__SD] * KIFMM__SD + e % KIFMM__SD;
+            no2[e] = (unsigned char)(cc[e / KIFMM__SD] * KIFMM__SD + e % KIFMM__SD);
+        }
+        nbs = nb2;
+        nos = no2;
     }
     for (a = 0; a < KIFMM__SD; a++) {
         const size_t ka = (size_t)a * 27 * KIFMM__SD * KIFMM__FFT_F * 128, oa = (size_t)a * KIFMM__FFT_F * 16;
         if (c->fft.specf)
-            kifmm__fft_productsf(nn * KIFMM__SD, nb2, no2, c->fft.sch, c->fft.specf + at, kb.f + ka,
+            kifmm__fft_productsf(nn * KIFMM__SD, nbs, nos, c->fft.sch, c->fft.specf + at, kb.f + ka,
                                  out.f + oa);
         else
-            kifmm__fft_productsd(nn * KIFMM__SD, nb2, no2, c->fft.sch, c->fft.specd + at, kb.d + ka,
+            kifmm__fft_productsd(nn * KIFMM__SD, nbs, nos, c->fft.sch, c->fft.specd + at, kb.d + ka,
                                  out.d + oa);
     }
 }
