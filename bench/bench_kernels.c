@@ -1,6 +1,6 @@
 /* bench/bench_kernels.c - the shipped kernels side by side on the same points
  *
- *   bench_kernels DIST N P [--sample S] [--repeat R] [--dump FILE]
+ *   bench_kernels DIST N P [--sample S] [--repeat R] [--dump FILE] [--leaf L] [--passes]
  *
  * Runs laplace_grad, yukawa_grad (lambda 1) and stokes (mu 1) on the same N
  * points of DIST (cube, sphere, clustered: bench/points.h), sources =
@@ -12,7 +12,11 @@
  * direct sums computed here. --dump writes the Stokes case for
  * bench/fmm3d_stokes.py (little endian: int64 n, int64 ns, double xyz[3n],
  * double f[3n], int64 idx[ns], double u[3ns], double kifmm_err,
- * double kifmm_seconds).
+ * double kifmm_seconds). --leaf sets opts.leaf_size for every kernel (default:
+ * each kernel's own). --passes adds a line per kernel with the fastest
+ * evaluate's time per pass and create's tree and operator times. A last
+ * line compares the Stokes far field with the harmonic route's
+ * (harmonic_route below).
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -79,12 +83,15 @@ static double rel(int td, int k0, int k1, int64_t ns, const int64_t *idx, const 
 
 typedef struct {
     double create, eval, mib, e0, e1;
+    int leaf;         /* the leaf size the handle used */
+    kifmm_stats best; /* the stats of the fastest evaluate */
 } res;
 
 #define RUN(P, KIND, TD)                                                                     \
     do {                                                                                     \
         P *h = NULL;                                                                         \
         kifmm_stats st = {0};                                                                \
+        kifmm_opts used;                                                                     \
         int rc = P##_create(&h, &o, n, x, n, x), k;                                          \
         double *ref = (double *)malloc(sizeof(double) * (size_t)(TD * ns));                  \
         if (rc) {                                                                            \
@@ -92,12 +99,16 @@ typedef struct {
             exit(1);                                                                         \
         }                                                                                    \
         P##_stats(h, &st);                                                                   \
+        r[KIND].leaf = P##_options(h, &used) == KIFMM_SUCCESS ? used.leaf_size : 0;          \
         r[KIND].create = st.t_tree + st.t_operators;                                         \
         r[KIND].eval = 1e30;                                                                 \
         for (k = 0; k < rep; k++) {                                                          \
             P##_evaluate(h, KIND == K_STOKES ? f : q, out);                                  \
             P##_stats(h, &st);                                                               \
-            if (st.t_evaluate < r[KIND].eval) r[KIND].eval = st.t_evaluate;                  \
+            if (st.t_evaluate < r[KIND].eval) {                                              \
+                r[KIND].eval = st.t_evaluate;                                                \
+                r[KIND].best = st;                                                           \
+            }                                                                                \
         }                                                                                    \
         r[KIND].mib = st.bytes / 1048576.0;                                                  \
         P##_destroy(h);                                                                      \
@@ -124,10 +135,61 @@ static void write_dump(const char *path, int64_t n, const double *x, const doubl
     fclose(fp);
 }
 
+/* The Stokeslet carried by Laplace expansions, as FMM3D does: with phi_j
+ * the Laplace fields of f_j (j = 1..3), phi_4 that of y . f and g_j their
+ * gradients, u_i = (phi_i - x_j g_j,i + g_4,i) / (2 mu) (the kernels' 1 /
+ * (4 pi) normalisation). Run here as laplace_grad over those four density
+ * vectors on the tree the shipped Stokes used (same order, same leaves):
+ * its far field (evaluate minus the near field) against the shipped
+ * three-component far field, and the velocity it gives against the direct
+ * sums. The route's near field would be the Stokes hook's (the same pairs). */
+static void harmonic_route(const kifmm_opts *o, int64_t n, const double *x, const double *f,
+                           int rep, res stk, int64_t ns, const int64_t *idx)
+{
+    kifmm_laplace_grad *h = NULL;
+    kifmm_stats st = {0};
+    kifmm_opts ol = *o;
+    double *d = (double *)malloc(sizeof(double) * (size_t)(4 * n));
+    double *u = (double *)malloc(sizeof(double) * (size_t)(16 * n));
+    double *ref = (double *)malloc(sizeof(double) * (size_t)(3 * ns));
+    double *v = (double *)malloc(sizeof(double) * (size_t)(3 * n)), far = 1e30;
+    int64_t i;
+    int k;
+    ol.leaf_size = stk.leaf;
+    if (!d || !u || !ref || !v || kifmm_laplace_grad_create(&h, &ol, n, x, n, x)) {
+        fprintf(stderr, "harmonic route: create failed\n");
+        exit(1);
+    }
+    for (i = 0; i < n; i++) {
+        for (k = 0; k < 3; k++) d[k * n + i] = f[3 * i + k];
+        d[3 * n + i] = x[3 * i] * f[3 * i] + x[3 * i + 1] * f[3 * i + 1] + x[3 * i + 2] * f[3 * i + 2];
+    }
+    for (k = 0; k < rep; k++) {
+        kifmm_laplace_grad_evaluate_many(h, 4, d, u);
+        kifmm_laplace_grad_stats(h, &st);
+        if (st.t_evaluate - st.t_p2p < far) far = st.t_evaluate - st.t_p2p;
+    }
+    for (i = 0; i < n; i++) /* vector j's output block at u + 4 n j */
+        for (k = 0; k < 3; k++) {
+            const double *g = u + 4 * i + 1 + k;
+            v[3 * i + k] = 0.5 * (u[(size_t)k * 4 * n + 4 * i] - x[3 * i] * g[0] -
+                                  x[3 * i + 1] * g[4 * n] - x[3 * i + 2] * g[8 * n] + g[12 * n]);
+        }
+    direct(K_STOKES, n, x, f, ns, idx, ref);
+    printf("  stokes far field on its tree (leaf %d): 3 components %.3f s, error %.2e; "
+           "4 Laplace fields (global coordinates) %.3f s, error %.2e\n",
+           stk.leaf, stk.eval - stk.best.t_p2p, stk.e0, far, rel(3, 0, 3, ns, idx, v, ref));
+    kifmm_laplace_grad_destroy(h);
+    free(d);
+    free(u);
+    free(ref);
+    free(v);
+}
+
 int main(int argc, char **argv)
 {
     static const char *names[3] = {"laplace_grad", "yukawa_grad", "stokes"};
-    int dist = -1, p, rep = 3, a, k;
+    int dist = -1, p, rep = 3, a, k, leaf = 0, passes = 0;
     int64_t n, ns = 500, s;
     const char *dump = NULL;
     kifmm_opts o;
@@ -135,19 +197,23 @@ int main(int argc, char **argv)
     double *x, *q, *f, *out;
     int64_t *idx;
     if (argc < 4) {
-        fprintf(stderr, "usage: %s DIST N P [--sample S] [--repeat R] [--dump FILE]\n", argv[0]);
+        fprintf(stderr, "usage: %s DIST N P [--sample S] [--repeat R] [--dump FILE] [--leaf L] [--passes]\n", argv[0]);
         return 2;
     }
     for (k = 0; k < NDIST; k++)
         if (!strcmp(argv[1], dist_names[k])) dist = k;
     n = (int64_t)atof(argv[2]);
     p = atoi(argv[3]);
-    for (a = 4; a + 1 < argc; a += 2) {
-        if (!strcmp(argv[a], "--sample")) ns = (int64_t)atof(argv[a + 1]);
-        else if (!strcmp(argv[a], "--repeat")) rep = atoi(argv[a + 1]);
-        else if (!strcmp(argv[a], "--dump")) dump = argv[a + 1];
+    for (a = 4; a < argc; a++) {
+        const char *v = a + 1 < argc ? argv[a + 1] : "";
+        if (!strcmp(argv[a], "--passes")) passes = 1;
+        else if (!strcmp(argv[a], "--sample")) ns = (int64_t)atof(v), a++;
+        else if (!strcmp(argv[a], "--repeat")) rep = atoi(v), a++;
+        else if (!strcmp(argv[a], "--dump")) dump = v, a++;
+        else if (!strcmp(argv[a], "--leaf")) leaf = atoi(v), a++;
+        else dist = -1; /* unknown: refused below */
     }
-    if (dist < 0 || n < 1 || ns < 1 || rep < 1) {
+    if (dist < 0 || n < 1 || ns < 1 || rep < 1 || leaf < 0) {
         fprintf(stderr, "bad arguments\n");
         return 2;
     }
@@ -162,6 +228,7 @@ int main(int argc, char **argv)
     for (s = 0; s < ns; s++) idx[s] = (s * 7919) % n;
     memset(&o, 0, sizeof o);
     o.order = p;
+    o.leaf_size = leaf;
     RUN(kifmm_laplace_grad, K_LAPG, 4);
     RUN(kifmm_yukawa_grad, K_YUKG, 4);
     RUN(kifmm_stokes, K_STOKES, 3);
@@ -171,6 +238,14 @@ int main(int argc, char **argv)
                r[k].create + r[k].eval,
                (r[k].create + r[k].eval) / (r[0].create + r[0].eval), r[k].mib,
                r[k].mib / r[0].mib, r[k].e0, r[k].e1);
+    harmonic_route(&o, n, x, f, rep, r[K_STOKES], ns, idx);
+    for (k = 0; passes && k < 3; k++) {
+        const kifmm_stats *b = &r[k].best;
+        printf("  %-12s tree %.3f operators %.3f | p2m %.3f m2m %.3f m2l %.3f l2l %.3f p2l %.3f "
+               "l2p %.3f m2p %.3f p2p %.3f | levels %d leaves %lld\n",
+               names[k], b->t_tree, b->t_operators, b->t_p2m, b->t_m2m, b->t_m2l, b->t_l2l,
+               b->t_p2l, b->t_l2p, b->t_m2p, b->t_p2p, b->levels, (long long)b->leaves);
+    }
     free(x); free(q); free(f); free(out); free(idx);
     return 0;
 }
