@@ -123,7 +123,7 @@ static inline int kifmm_kernel__viscosity_setup(const double *in, double *out)
 #define kifmm_kernel_yukawa_TRG_DIM 1
 #define kifmm_kernel_yukawa_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_DEGREE 0
-#define kifmm_kernel_yukawa_HAS KIFMM_KERNEL__YUKAWA_HAS /* per ISA, below */
+#define kifmm_kernel_yukawa_HAS KIFMM_KERNEL__YUKAWA_HAS /* below */
 #define kifmm_kernel_yukawa_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
@@ -869,6 +869,22 @@ static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const flo
 #endif /* __AVX512F__ */
 #endif
 
+/* B's gradient sums at o, o + SB, o + 2 SB += w0 d0 + w1 d1 (two points of
+ * A with differences dx0 .. dz1), and A's two points' sums added to outa
+ * (the gradient's four through RED2, or the potential's one through HSUM):
+ * steps shared by the mutual bodies below. */
+#define KIFMM_KERNEL__ADD_B3(o, w0, w1, SB, LOAD, STORE, FMADD)                                \
+    STORE(o, FMADD(w0, dx0, FMADD(w1, dx1, LOAD(o))));                                         \
+    STORE(o + (SB), FMADD(w0, dy0, FMADD(w1, dy1, LOAD(o + (SB)))));                           \
+    STORE(o + 2 * (SB), FMADD(w0, dz0, FMADD(w1, dz1, LOAD(o + 2 * (SB)))))
+#define KIFMM_KERNEL__ADD_A2(RED2, HSUM, GRAD)                                                 \
+    if (GRAD) {                                                                                \
+        RED2(a0, a1, a2, a3, c0, c1, c2, c3, s, outa + 4 * i, i1 > i);                         \
+    } else {                                                                                   \
+        outa[i] += s * HSUM(a0);                                                               \
+        if (i1 > i) outa[i1] += s * HSUM(c0);                                                  \
+    }
+
 /* ------------------------------------------------------------------------ */
 /* Many-vector near-field hooks (kifmm_kernel_NAME_P2PN / _p2pn, and      */
 /* _P2PNF / _p2pnf in float)                                               */
@@ -1510,11 +1526,7 @@ KIFMM_KERNEL__P2PN_F(1)
         c1 = FNMADD(qb31, dx1, c1);                                                            \
         c2 = FNMADD(qb31, dy1, c2);                                                            \
         c3 = FNMADD(qb31, dz1, c3);                                                            \
-        STORE(o, FMADD(qa30, dx0, FMADD(qa31, dx1, LOAD(o))));                                 \
-        o += (SB);                                                                             \
-        STORE(o, FMADD(qa30, dy0, FMADD(qa31, dy1, LOAD(o))));                                 \
-        o += (SB);                                                                             \
-        STORE(o, FMADD(qa30, dz0, FMADD(qa31, dz1, LOAD(o))));                                 \
+        KIFMM_KERNEL__ADD_B3(o, qa30, qa31, SB, LOAD, STORE, FMADD);                           \
     }
 #define KIFMM_KERNEL__P2PS_BODY(T, V, W, GEOMV, MASK, SET1, ZERO, LOADU, STOREU, ADD, MUL, \
                                 FMADD, FNMADD, HSUM, RED2, GRAD)                               \
@@ -1554,12 +1566,7 @@ KIFMM_KERNEL__P2PN_F(1)
                     KIFMM_KERNEL__MUTUAL_STEP(T, V, LOADU, STOREU, ADD, MUL, FMADD, FNMADD,      \
                                               KIFMM_KERNEL__SB, GRAD)                          \
                 }                                                                              \
-                if (GRAD) {                                                                    \
-                    RED2(a0, a1, a2, a3, c0, c1, c2, c3, s, outa + 4 * i, i1 > i);             \
-                } else {                                                                       \
-                    outa[i] += s * HSUM(a0);                                                   \
-                    if (i1 > i) outa[i1] += s * HSUM(c0);                                      \
-                }                                                                              \
+                KIFMM_KERNEL__ADD_A2(RED2, HSUM, GRAD)                                         \
             }                                                                                  \
             for (j = 0; j < jb; j++) {                                                         \
                 if (GRAD)                                                                      \
@@ -1674,12 +1681,7 @@ static inline void kifmm_kernel__addb16(const float *pb, int sb, float s, float 
                     KIFMM_KERNEL__MUTUAL_STEP(T, V, LOAD, STORE, ADD, MUL, FMADD, FNMADD, SB_,   \
                                               GRAD)                                            \
                 }                                                                              \
-                if (GRAD) {                                                                    \
-                    RED8(a0, a1, a2, a3, c0, c1, c2, c3, s, outa + 4 * i, i1 > i);             \
-                } else {                                                                       \
-                    outa[i] += s * HSUM(a0);                                                   \
-                    if (i1 > i) outa[i1] += s * HSUM(c0);                                      \
-                }                                                                              \
+                KIFMM_KERNEL__ADD_A2(RED8, HSUM, GRAD)                                         \
             }                                                                                  \
             ADDB(pb, SB_, s, outb + ((GRAD) ? 4 : 1) * j0, jb, GRAD);                         \
         }                                                                                      \
@@ -1921,7 +1923,7 @@ KIFMM_KERNEL__P2PSN_F(1)
 #endif
 
 /* ------------------------------------------------------------------------ */
-/* Yukawa near-field hooks (yukawa, yukawa_grad), AVX-512 or AVX2 + FMA     */
+/* The vectorised exp of the Yukawa hooks (AVX-512 or AVX2 + FMA)          */
 /* ------------------------------------------------------------------------ */
 /* exp(-lambda r) / (4 pi r) and its gradient, with exp computed in the
  * vector registers: x = n ln2 + r, |r| <= ln2 / 2, n = x / ln2 rounded to
@@ -1945,99 +1947,51 @@ KIFMM_KERNEL__P2PSN_F(1)
 
 #if defined(__AVX512F__)
 
-static inline __m512d kifmm_kernel__exp8(__m512d x)
+/* With AVX-512, a table of 16 entries in two registers shortens the series:
+ * n = x 16 / ln2 rounded, r = x - n ln2 / 16, |r| <= ln2 / 32, and exp(x) =
+ * 2^floor(n / 16) 2^(j / 16) exp(r), j = n mod 16 (the low bits of the
+ * rounding sum, which select the table entry), exp(r) - 1 to degree 7 (the
+ * remainder, r^8 / 8!, is below 2e-18), 2^(j / 16) in two parts (hi + lo,
+ * the sum of the two exact to 2^-106), and the power of two by scalef, which
+ * rounds once also in the subnormal range. It takes y = -x >= 0 (the
+ * hooks' lambda r): exp(-y), with y above 746 or NaN giving 0, as above. */
+static inline __m512d kifmm_kernel__expn8(__m512d y)
 {
-    const __m512d big = _mm512_set1_pd(6755399441055744.0 /* 1.5 2^52 */), bias = _mm512_set1_pd(1023.0 + 4503599627370496.0 /* 2^52 */);
-    __m512d t, n, r, p, n1;
-    __m512i b1, b2;
-    x = _mm512_max_pd(x, _mm512_set1_pd(-746.0)); /* NaN -> -746 */
-    t = _mm512_fmadd_pd(x, _mm512_set1_pd(1.4426950408889634), big);
+    const __m512d big = _mm512_set1_pd(6755399441055744.0 /* 1.5 2^52 */);
+    const __m512d h0 = _mm512_setr_pd(1.0, 1.0442737824274138, 1.0905077326652577,
+                                      1.1387886347566916, 1.189207115002721, 1.241857812073484,
+                                      1.2968395546510096, 1.3542555469368927);
+    const __m512d h1 = _mm512_setr_pd(1.4142135623730951, 1.4768261459394993,
+                                      1.5422108254079407, 1.6104903319492543, 1.681792830507429,
+                                      1.7562521603732995, 1.8340080864093424, 1.9152065613971474);
+    const __m512d l0 = _mm512_setr_pd(0.0, 8.551889705537965e-17, -3.046782079812471e-17,
+                                      8.912812676025408e-17, 3.982015231465646e-17,
+                                      4.658027591836937e-17, 2.5382502794888315e-17,
+                                      7.70094837980299e-17);
+    const __m512d l1 = _mm512_setr_pd(-9.667293313452913e-17, -3.483994556892796e-17,
+                                      7.949834809697621e-17, 2.4707192569797888e-17,
+                                      8.199010020581497e-17, 2.960140695448873e-17,
+                                      3.283107224245627e-17, -1.0619946056195963e-16);
+    __m512d t, n, r, c, th;
+    __m512i j;
+    y = _mm512_min_pd(y, _mm512_set1_pd(746.0)); /* NaN -> 746 */
+    t = _mm512_fmadd_pd(y, _mm512_set1_pd(-23.083120654223414 /* -16 / ln2 */), big);
     n = _mm512_sub_pd(t, big);
-    r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__LN2_HI), x);
-    r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__LN2_LO), r);
-    p = KIFMM_KERNEL__EXP_HORNER(__m512d, _mm512_fmadd_pd, _mm512_set1_pd, r);
-    n1 = _mm512_roundscale_pd(_mm512_mul_pd(n, _mm512_set1_pd(0.5)),
-                              _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-    /* 2^k: k + 1023 in the low mantissa bits of k + 1023 + 2^52, shifted
-     * into the exponent field */
-    b1 = _mm512_slli_epi64(_mm512_castpd_si512(_mm512_add_pd(n1, bias)), 52);
-    b2 = _mm512_slli_epi64(_mm512_castpd_si512(_mm512_add_pd(_mm512_sub_pd(n, n1), bias)), 52);
-    return _mm512_mul_pd(_mm512_mul_pd(p, _mm512_castsi512_pd(b1)), _mm512_castsi512_pd(b2));
+    r = _mm512_fmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__LN2_HI / 16), y); /* exact */
+    r = _mm512_fnmsub_pd(n, _mm512_set1_pd(KIFMM_KERNEL__LN2_LO / 16), r); /* -y - n ln2 / 16 */
+    c = _mm512_fmadd_pd(_mm512_set1_pd(1.0 / 5040.0), r, _mm512_set1_pd(1.0 / 720.0));
+    c = _mm512_fmadd_pd(c, r, _mm512_set1_pd(1.0 / 120.0));
+    c = _mm512_fmadd_pd(c, r, _mm512_set1_pd(1.0 / 24.0));
+    c = _mm512_fmadd_pd(c, r, _mm512_set1_pd(1.0 / 6.0));
+    c = _mm512_fmadd_pd(c, r, _mm512_set1_pd(0.5));
+    c = _mm512_fmadd_pd(c, r, _mm512_set1_pd(1.0));
+    c = _mm512_mul_pd(c, r); /* exp(r) - 1 */
+    j = _mm512_castpd_si512(t); /* the low 4 bits pick the entry */
+    th = _mm512_permutex2var_pd(h0, j, h1);
+    c = _mm512_add_pd(th, _mm512_fmadd_pd(th, c, _mm512_permutex2var_pd(l0, j, l1)));
+    return _mm512_scalef_pd(c, _mm512_mul_pd(n, _mm512_set1_pd(1.0 / 16.0))); /* 2^floor(n/16) */
 }
 
-/* One target against the sources j..j+7 of `valid`: acc[0] += q e / r and,
- * with the gradient, acc[1..3] -= q e (1 + lambda r) d / r^3, e =
- * exp(-lambda r); lanes outside `valid`, and pairs at distance 0, add 0. */
-static inline void kifmm_kernel__avx512_yukawa(__m512d *acc, int grad, __mmask8 valid,
-                                               __m512d X, __m512d Y, __m512d Z, __m512d lam,
-                                               const double *sx, const double *sy,
-                                               const double *sz, const double *q)
-{
-    const __m512d dx = _mm512_sub_pd(X, _mm512_maskz_loadu_pd(valid, sx));
-    const __m512d dy = _mm512_sub_pd(Y, _mm512_maskz_loadu_pd(valid, sy));
-    const __m512d dz = _mm512_sub_pd(Z, _mm512_maskz_loadu_pd(valid, sz));
-    const __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-    const __m512d inv = kifmm_kernel__rinv8(r2), lr = _mm512_mul_pd(lam, _mm512_mul_pd(r2, inv));
-    const __m512d pot = _mm512_mul_pd(_mm512_mul_pd(_mm512_maskz_loadu_pd(valid, q), inv),
-                                      kifmm_kernel__exp8(_mm512_sub_pd(_mm512_setzero_pd(), lr)));
-    acc[0] = _mm512_add_pd(acc[0], pot);
-    if (grad) {
-        const __m512d g = _mm512_mul_pd(_mm512_mul_pd(pot, _mm512_mul_pd(inv, inv)),
-                                        _mm512_add_pd(_mm512_set1_pd(1.0), lr));
-        acc[1] = _mm512_fnmadd_pd(g, dx, acc[1]);
-        acc[2] = _mm512_fnmadd_pd(g, dy, acc[2]);
-        acc[3] = _mm512_fnmadd_pd(g, dz, acc[3]);
-    }
-}
-
-static inline void kifmm_kernel_yukawa_p2p(const double *param, const double *tx,
-                                           const double *ty, const double *tz, int64_t nt,
-                                           const double *sx, const double *sy, const double *sz,
-                                           const double *q, int64_t ns, double scale,
-                                           double *out)
-{
-    const double s = scale * KIFMM_INV_4PI;
-    const __m512d lam = _mm512_set1_pd(param[0]);
-    int64_t i, j;
-    for (i = 0; i < nt; i++) {
-        const __m512d X = _mm512_set1_pd(tx[i]), Y = _mm512_set1_pd(ty[i]),
-                      Z = _mm512_set1_pd(tz[i]);
-        __m512d acc = _mm512_setzero_pd();
-        for (j = 0; j < ns; j += 8)
-            kifmm_kernel__avx512_yukawa(&acc, 0, kifmm_kernel__first8(ns - j), X, Y, Z, lam,
-                                        sx + j, sy + j, sz + j, q + j);
-        out[i] += s * _mm512_reduce_add_pd(acc);
-    }
-}
-
-static inline void kifmm_kernel_yukawa_grad_p2p(const double *param, const double *tx,
-                                                const double *ty, const double *tz, int64_t nt,
-                                                const double *sx, const double *sy,
-                                                const double *sz, const double *q, int64_t ns,
-                                                double scale, double *out)
-{
-    const double s = scale * KIFMM_INV_4PI;
-    const __m512d lam = _mm512_set1_pd(param[0]);
-    int64_t i, j;
-    /* two targets per pass (i1 = i for the last of an odd count, not stored) */
-    for (i = 0; i < nt; i += 2) {
-        const int64_t i1 = i + 1 < nt ? i + 1 : i;
-        const __m512d X0 = _mm512_set1_pd(tx[i]), Y0 = _mm512_set1_pd(ty[i]),
-                      Z0 = _mm512_set1_pd(tz[i]), X1 = _mm512_set1_pd(tx[i1]),
-                      Y1 = _mm512_set1_pd(ty[i1]), Z1 = _mm512_set1_pd(tz[i1]);
-        __m512d a[4], c[4];
-        int k;
-        for (k = 0; k < 4; k++) a[k] = c[k] = _mm512_setzero_pd();
-        for (j = 0; j < ns; j += 8) {
-            const __mmask8 m = kifmm_kernel__first8(ns - j);
-            kifmm_kernel__avx512_yukawa(a, 1, m, X0, Y0, Z0, lam, sx + j, sy + j, sz + j, q + j);
-            kifmm_kernel__avx512_yukawa(c, 1, m, X1, Y1, Z1, lam, sx + j, sy + j, sz + j, q + j);
-        }
-        kifmm_kernel__red8x8(a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3], s, out + 4 * i,
-                             i1 > i);
-    }
-}
-#define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P)
 
 #elif defined(__AVX2__) && defined(__FMA__)
 
@@ -2058,88 +2012,12 @@ static inline __m256d kifmm_kernel__exp4(__m256d x)
     b2 = _mm256_slli_epi64(_mm256_castpd_si256(_mm256_add_pd(_mm256_sub_pd(n, n1), bias)), 52);
     return _mm256_mul_pd(_mm256_mul_pd(p, _mm256_castsi256_pd(b1)), _mm256_castsi256_pd(b2));
 }
-
-/* As kifmm_kernel__avx512_yukawa, 4 sources: all of them when `full` (a
- * constant at each call), else the lanes of `live` (the loads of the others
- * read 0, and their 1 / r is set to 0). */
-static inline void kifmm_kernel__avx2_yukawa(__m256d *acc, int grad, int full, __m256i live,
-                                             __m256d X, __m256d Y, __m256d Z, __m256d lam,
-                                             const double *sx, const double *sy,
-                                             const double *sz, const double *q)
+/* exp(-y), as kifmm_kernel__expn8 */
+static inline __m256d kifmm_kernel__expn4(__m256d y)
 {
-    const __m256d dx = _mm256_sub_pd(X, full ? _mm256_loadu_pd(sx) : _mm256_maskload_pd(sx, live));
-    const __m256d dy = _mm256_sub_pd(Y, full ? _mm256_loadu_pd(sy) : _mm256_maskload_pd(sy, live));
-    const __m256d dz = _mm256_sub_pd(Z, full ? _mm256_loadu_pd(sz) : _mm256_maskload_pd(sz, live));
-    const __m256d r2 = kifmm_kernel__avx2_r2(dx, dy, dz), ri = kifmm_kernel__avx2_rinv(r2);
-    const __m256d inv = full ? ri : _mm256_and_pd(_mm256_castsi256_pd(live), ri);
-    const __m256d lr = _mm256_mul_pd(lam, _mm256_mul_pd(r2, inv));
-    const __m256d qv = full ? _mm256_loadu_pd(q) : _mm256_maskload_pd(q, live);
-    const __m256d pot = _mm256_mul_pd(_mm256_mul_pd(qv, inv),
-                                      kifmm_kernel__exp4(_mm256_sub_pd(_mm256_setzero_pd(), lr)));
-    acc[0] = _mm256_add_pd(acc[0], pot);
-    if (grad) {
-        const __m256d g = _mm256_mul_pd(_mm256_mul_pd(pot, _mm256_mul_pd(inv, inv)),
-                                        _mm256_add_pd(_mm256_set1_pd(1.0), lr));
-        acc[1] = _mm256_fnmadd_pd(g, dx, acc[1]);
-        acc[2] = _mm256_fnmadd_pd(g, dy, acc[2]);
-        acc[3] = _mm256_fnmadd_pd(g, dz, acc[3]);
-    }
+    return kifmm_kernel__exp4(_mm256_sub_pd(_mm256_setzero_pd(), y));
 }
 
-static inline void kifmm_kernel_yukawa_p2p(const double *param, const double *tx,
-                                           const double *ty, const double *tz, int64_t nt,
-                                           const double *sx, const double *sy, const double *sz,
-                                           const double *q, int64_t ns, double scale,
-                                           double *out)
-{
-    const double s = scale * KIFMM_INV_4PI;
-    const __m256d lam = _mm256_set1_pd(param[0]);
-    const __m256i tail = kifmm_kernel__avx2_first(ns & 3);
-    const int64_t nv = ns & ~(int64_t)3;
-    int64_t i, j;
-    for (i = 0; i < nt; i++) {
-        const __m256d X = _mm256_set1_pd(tx[i]), Y = _mm256_set1_pd(ty[i]),
-                      Z = _mm256_set1_pd(tz[i]);
-        __m256d acc = _mm256_setzero_pd();
-        for (j = 0; j < nv; j += 4)
-            kifmm_kernel__avx2_yukawa(&acc, 0, 1, tail, X, Y, Z, lam, sx + j, sy + j, sz + j,
-                                      q + j);
-        if (nv < ns)
-            kifmm_kernel__avx2_yukawa(&acc, 0, 0, tail, X, Y, Z, lam, sx + nv, sy + nv, sz + nv,
-                                      q + nv);
-        out[i] += s * kifmm_kernel__avx2_sum(acc);
-    }
-}
-
-static inline void kifmm_kernel_yukawa_grad_p2p(const double *param, const double *tx,
-                                                const double *ty, const double *tz, int64_t nt,
-                                                const double *sx, const double *sy,
-                                                const double *sz, const double *q, int64_t ns,
-                                                double scale, double *out)
-{
-    const double s = scale * KIFMM_INV_4PI;
-    const __m256d lam = _mm256_set1_pd(param[0]);
-    const __m256i tail = kifmm_kernel__avx2_first(ns & 3);
-    const int64_t nv = ns & ~(int64_t)3;
-    int64_t i, j;
-    for (i = 0; i < nt; i++) {
-        const __m256d X = _mm256_set1_pd(tx[i]), Y = _mm256_set1_pd(ty[i]),
-                      Z = _mm256_set1_pd(tz[i]);
-        __m256d acc[4];
-        acc[0] = acc[1] = acc[2] = acc[3] = _mm256_setzero_pd();
-        for (j = 0; j < nv; j += 4)
-            kifmm_kernel__avx2_yukawa(acc, 1, 1, tail, X, Y, Z, lam, sx + j, sy + j, sz + j,
-                                      q + j);
-        if (nv < ns)
-            kifmm_kernel__avx2_yukawa(acc, 1, 0, tail, X, Y, Z, lam, sx + nv, sy + nv, sz + nv,
-                                      q + nv);
-        kifmm_kernel__red4(acc[0], acc[1], acc[2], acc[3], s, s, out + 4 * i);
-    }
-}
-#define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P)
-
-#else
-#define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP)
 #endif
 #undef KIFMM_KERNEL__EXP_HORNER
 
@@ -2320,6 +2198,153 @@ KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2psf, float, KIFMM_KERNEL__STOKES
 #undef KIFMM_KERNEL__STOKES_D
 #undef KIFMM_KERNEL__STOKES_F
 #undef KIFMM_KERNEL__STOKES_BODY
+
+/* ------------------------------------------------------------------------ */
+/* Yukawa near-field hooks (yukawa, yukawa_grad): one-way and mutual, double */
+/* ------------------------------------------------------------------------ */
+/* Both directions of the contract of the _p2ps hooks above: with e =
+ * exp(-lambda r), outa_i += s sum_j qb_j e / r and, with the gradient,
+ * -= s sum_j qb_j e (1 + lambda r) d / r^3 (d = a_i - b_j), and B's sums
+ * the same with d = b_j - a_i; each pair's r and exp computed once. B goes
+ * in blocks of KIFMM_KERNEL__SSB points, copied into structure-of-arrays on
+ * the stack with their sums; two points of A at a time share each load and
+ * store of those (i1 = i for the last of an odd count, with no density and
+ * its sums not stored). Lanes past the block's end get 1 / r = 0, so e / r
+ * = 0 (exp(0) = 1). One body over the build's vectors: AVX-512 and AVX2 +
+ * FMA with the vectorised exp above, portable C with the C library's exp;
+ * RED2 adds two points' four sums to outa (the gradient), HSUM one sum. */
+#define KIFMM_KERNEL__YUKAWA_BODY(V, W, SET1, ZERO, LOAD, STORE, SUB, MUL, FMADD, FNMADD,        \
+                                  RINVM, EXPNV, HSUM, RED2, GRAD, MUTUAL)                       \
+    {                                                                                          \
+        enum { SB_ = KIFMM_KERNEL__SSB, NB_ = KIFMM_KERNEL__SSB / (W), TD_ = (GRAD) ? 4 : 1 };  \
+        const double s = scale * KIFMM_INV_4PI;                                                \
+        const V lam = SET1(param[0]);                                                          \
+        V vx[NB_], vy[NB_], vz[NB_], vq[NB_], vo[TD_ * NB_];                                   \
+        double *px = (double *)vx, *py = (double *)vy, *pz = (double *)vz;                     \
+        double *pq = (double *)vq, *po = (double *)vo;                                         \
+        int64_t i, j, j0, jb, k;                                                               \
+        for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
+            jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;                                       \
+            for (k = 0; k < SB_; k++) {                                                        \
+                const int in = k < jb;                                                         \
+                px[k] = in ? bx[j0 + k] : 0.0;                                                 \
+                py[k] = in ? by[j0 + k] : 0.0;                                                 \
+                pz[k] = in ? bz[j0 + k] : 0.0;                                                 \
+                pq[k] = in ? qb[j0 + k] : 0.0;                                                 \
+            }                                                                                  \
+            for (k = 0; k < TD_ * SB_; k++) po[k] = 0.0;                                       \
+            for (i = 0; i < na; i += 2) {                                                      \
+                const int64_t i1 = i + 1 < na ? i + 1 : i;                                     \
+                const V X0 = SET1(ax[i]), Y0 = SET1(ay[i]), Z0 = SET1(az[i]);                  \
+                const V X1 = SET1(ax[i1]), Y1 = SET1(ay[i1]), Z1 = SET1(az[i1]);               \
+                const V QA0 = (MUTUAL) ? SET1(qa[i]) : ZERO;                                   \
+                const V QA1 = (MUTUAL) && i1 > i ? SET1(qa[i1]) : ZERO;                        \
+                V a0 = ZERO, a1 = ZERO, a2 = ZERO, a3 = ZERO;                                  \
+                V c0 = ZERO, c1 = ZERO, c2 = ZERO, c3 = ZERO;                                  \
+                for (j = 0; j < jb; j += (W)) {                                                \
+                    const V sx = LOAD(px + j), sy = LOAD(py + j), sz = LOAD(pz + j);           \
+                    const V q = LOAD(pq + j);                                                  \
+                    const V dx0 = SUB(X0, sx), dy0 = SUB(Y0, sy), dz0 = SUB(Z0, sz);           \
+                    const V dx1 = SUB(X1, sx), dy1 = SUB(Y1, sy), dz1 = SUB(Z1, sz);           \
+                    const V r20 = FMADD(dz0, dz0, FMADD(dy0, dy0, MUL(dx0, dx0)));             \
+                    const V r21 = FMADD(dz1, dz1, FMADD(dy1, dy1, MUL(dx1, dx1)));             \
+                    const V inv0 = RINVM(r20, jb - j), lr0 = MUL(lam, MUL(r20, inv0));         \
+                    const V inv1 = RINVM(r21, jb - j), lr1 = MUL(lam, MUL(r21, inv1));         \
+                    const V e0 = MUL(inv0, EXPNV(lr0)); /* e^(-lambda r) / r */               \
+                    const V e1 = MUL(inv1, EXPNV(lr1));                                        \
+                    a0 = FMADD(q, e0, a0);                                                     \
+                    c0 = FMADD(q, e1, c0);                                                     \
+                    if (MUTUAL) STORE(po + j, FMADD(QA0, e0, FMADD(QA1, e1, LOAD(po + j))));   \
+                    if (GRAD) {                                                                \
+                        const V f0 = MUL(e0, MUL(inv0, inv0)), g0 = FMADD(lr0, f0, f0);        \
+                        const V f1 = MUL(e1, MUL(inv1, inv1)), g1 = FMADD(lr1, f1, f1);        \
+                        const V gb0 = MUL(q, g0), gb1 = MUL(q, g1);                            \
+                        const V ga0 = MUL(QA0, g0), ga1 = MUL(QA1, g1);                        \
+                        a1 = FNMADD(gb0, dx0, a1);                                             \
+                        a2 = FNMADD(gb0, dy0, a2);                                             \
+                        a3 = FNMADD(gb0, dz0, a3);                                             \
+                        c1 = FNMADD(gb1, dx1, c1);                                             \
+                        c2 = FNMADD(gb1, dy1, c2);                                             \
+                        c3 = FNMADD(gb1, dz1, c3);                                             \
+                        if (MUTUAL) {                                                          \
+                            KIFMM_KERNEL__ADD_B3(po + SB_ + j, ga0, ga1, SB_, LOAD, STORE, FMADD); \
+                        }                                                                      \
+                    }                                                                          \
+                }                                                                              \
+                KIFMM_KERNEL__ADD_A2(RED2, HSUM, GRAD)                                         \
+            }                                                                                  \
+            for (j = 0; (MUTUAL) && j < jb; j++)                                               \
+                for (k = 0; k < TD_; k++) outb[TD_ * (j0 + j) + k] += s * po[k * SB_ + j];     \
+        }                                                                                      \
+    }
+#if defined(__AVX512F__)
+#define KIFMM_KERNEL__YUKAWA_D(G, M)                                                              \
+    KIFMM_KERNEL__YUKAWA_BODY(__m512d, 8, _mm512_set1_pd, _mm512_setzero_pd(), _mm512_load_pd,  \
+                              _mm512_store_pd, _mm512_sub_pd, _mm512_mul_pd, _mm512_fmadd_pd,  \
+                              _mm512_fnmadd_pd, KIFMM_KERNEL__SRINV8, kifmm_kernel__expn8,     \
+                              kifmm_kernel__hsum8, kifmm_kernel__red8x8, G, M)
+#elif defined(__AVX2__) && defined(__FMA__)
+#define KIFMM_KERNEL__YUKAWA_D(G, M)                                                              \
+    KIFMM_KERNEL__YUKAWA_BODY(__m256d, 4, _mm256_set1_pd, _mm256_setzero_pd(), _mm256_load_pd,  \
+                              _mm256_store_pd, _mm256_sub_pd, _mm256_mul_pd, _mm256_fmadd_pd,  \
+                              _mm256_fnmadd_pd, kifmm_kernel__srinv4, kifmm_kernel__expn4,     \
+                              kifmm_kernel__shsum4, kifmm_kernel__red2, G, M)
+#else
+#define KIFMM_KERNEL__S_FNMADD(a, b, c) ((c) - (a) * (b))
+static inline double kifmm_kernel__expn1(double y) { return exp(-y); }
+/* two points' four sums, one lane each */
+static inline void kifmm_kernel__sred2(double a0, double a1, double a2, double a3, double c0,
+                                       double c1, double c2, double c3, double s, double *o,
+                                       int both)
+{
+    o[0] += s * a0;
+    o[1] += s * a1;
+    o[2] += s * a2;
+    o[3] += s * a3;
+    if (both) {
+        o[4] += s * c0;
+        o[5] += s * c1;
+        o[6] += s * c2;
+        o[7] += s * c3;
+    }
+}
+#define KIFMM_KERNEL__YUKAWA_D(G, M)                                                           \
+    KIFMM_KERNEL__YUKAWA_BODY(double, 1, KIFMM_KERNEL__S_SET1, 0.0, KIFMM_KERNEL__S_LOAD,        \
+                              KIFMM_KERNEL__S_STORE, KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, \
+                              KIFMM_KERNEL__S_FMADD, KIFMM_KERNEL__S_FNMADD,                   \
+                              kifmm_kernel__srinv1, kifmm_kernel__expn1, KIFMM_KERNEL__S_SET1, \
+                              kifmm_kernel__sred2, G, M)
+#endif
+#define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | KIFMM_HAS_P2PS)
+/* The one-way hooks run the mutual body without B's sums (targets as A). */
+#define KIFMM_KERNEL__YUKAWA_P2P(name, G)                                                      \
+    static inline void name(const double *param, const double *ax, const double *ay,           \
+                            const double *az, int64_t na, const double *bx, const double *by,  \
+                            const double *bz, const double *qb, int64_t nb, double scale,      \
+                            double *outa)                                                      \
+    {                                                                                          \
+        const double *qa = NULL;                                                               \
+        double *outb = NULL;                                                                   \
+        KIFMM_KERNEL__YUKAWA_D(G, 0)                                                           \
+        (void)qa;                                                                              \
+        (void)outb;                                                                            \
+    }
+#define KIFMM_KERNEL__YUKAWA_P2PS(name, G)                                                     \
+    static inline void name(const double *param, const double *ax, const double *ay,           \
+                            const double *az, const double *qa, int64_t na, const double *bx,  \
+                            const double *by, const double *bz, const double *qb, int64_t nb,  \
+                            double scale, double *outa, double *outb)                          \
+        KIFMM_KERNEL__YUKAWA_D(G, 1)
+KIFMM_KERNEL__YUKAWA_P2P(kifmm_kernel_yukawa_p2p, 0)
+KIFMM_KERNEL__YUKAWA_P2P(kifmm_kernel_yukawa_grad_p2p, 1)
+KIFMM_KERNEL__YUKAWA_P2PS(kifmm_kernel_yukawa_p2ps, 0)
+KIFMM_KERNEL__YUKAWA_P2PS(kifmm_kernel_yukawa_grad_p2ps, 1)
+#undef KIFMM_KERNEL__YUKAWA_P2P
+#undef KIFMM_KERNEL__YUKAWA_P2PS
+#undef KIFMM_KERNEL__YUKAWA_D
+#undef KIFMM_KERNEL__YUKAWA_BODY
+#undef KIFMM_KERNEL__ADD_B3
+#undef KIFMM_KERNEL__ADD_A2
 
 /* The Laplace kernels' hooks that this build compiled: all of them with
  * AVX2 and FMA (or AVX-512), the one-way double loop otherwise. */

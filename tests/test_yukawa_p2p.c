@@ -1,8 +1,8 @@
 /* test_yukawa_p2p.c - the vectorised exp of kifmm_kernels.h against the C
  * library's exp over its whole domain, and the Yukawa near-field hooks
  * (yukawa, yukawa_grad) against sums in long double written here from the
- * formulas. In a build without AVX2 + FMA there are no hooks; the test then
- * only checks that none is announced. */
+ * formulas, one-way and mutual, in every build (without AVX2 + FMA the
+ * hooks use the C library's exp, and there is no vectorised exp to test). */
 #include "kifmm.h"
 #define KIFMM_KERNEL yukawa_grad
 #include "kifmm.h"
@@ -18,17 +18,17 @@
 #define VW 8
 static void exp_vec(const double *x, double *y)
 {
-    _mm512_storeu_pd(y, kifmm_kernel__exp8(_mm512_loadu_pd(x)));
+    _mm512_storeu_pd(y, kifmm_kernel__expn8(_mm512_sub_pd(_mm512_setzero_pd(), _mm512_loadu_pd(x))));
 }
 #elif defined(__AVX2__) && defined(__FMA__)
 #define BODY "AVX2 + FMA"
 #define VW 4
 static void exp_vec(const double *x, double *y)
 {
-    _mm256_storeu_pd(y, kifmm_kernel__exp4(_mm256_loadu_pd(x)));
+    _mm256_storeu_pd(y, kifmm_kernel__expn4(_mm256_sub_pd(_mm256_setzero_pd(), _mm256_loadu_pd(x))));
 }
 #else
-#define BODY "portable C (no hooks)"
+#define BODY "portable C"
 #define VW 0
 #endif
 
@@ -93,6 +93,8 @@ static void test_exp(void)
                         "(%d wrong)", bad);
     }
 }
+
+#endif
 
 /* out[i td + k] += scale sum_j K_k(t_i - s_j) q_j in long double, K the
  * Yukawa potential exp(-lam r) / (4 pi r) (k = 0) and its gradient
@@ -183,19 +185,101 @@ static void test_hook(const char *name, hook_fn hook, int td)
                   "129, two calls adding up", lams[l]);
     }
 }
-#endif
+
+typedef void (*mutual_fn)(const double *, const double *, const double *, const double *,
+                          const double *, int64_t, const double *, const double *,
+                          const double *, const double *, int64_t, double, double *, double *);
+
+/* |out - 2 ref| / (2 mag) over n outputs, the worst so far in *worst (NaN sticks) */
+static void worst_rel(int64_t n, const double *out, const long double *ro, const long double *rm,
+                      double *worst)
+{
+    int64_t i;
+    for (i = 0; i < n; i++) {
+        double e = (double)(fabsl((long double)out[i] - 2.0L * ro[i]) / (2.0L * rm[i] + 1e-286L));
+        if (!(e <= *worst)) *worst = e;
+    }
+}
+
+/* the mutual hooks: A's sums from B and B's from A, blocks of every size
+ * around the vector widths and the stack block (64), coincident pairs
+ * across A and B, two calls adding up, guards after each output */
+static void test_mutual(const char *name, mutual_fn hook, int td)
+{
+    static const int64_t sizes[] = {0, 1, 3, 4, 5, 8, 9, 17, 63, 64, 65, 129};
+    static const double lams[] = {1e-3, 1.0, 30.0, 1e3};
+    const int nsz = (int)(sizeof sizes / sizeof sizes[0]);
+    t_rng r = t_rng_seed(12);
+    int a, b, l, k, guards = 1;
+    t_group(name);
+    for (l = 0; l < 4; l++) {
+        double worst = 0.0;
+        for (a = 0; a < nsz; a++)
+            for (b = 0; b < nsz; b++) {
+                const int64_t na = sizes[a], nb = sizes[b];
+                double *pa = t_doubles(3 * na + 3), *pb = t_doubles(3 * nb + 3);
+                double *qa = t_doubles(na + 1), *qb = t_doubles(nb + 1);
+                double *soa = t_doubles(3 * (na + nb) + 6);
+                double *oa = t_doubles(td * na + 1), *ob = t_doubles(td * nb + 1);
+                long double *ra = (long double *)calloc((size_t)(td * na + 1), sizeof(long double));
+                long double *ma = (long double *)calloc((size_t)(td * na + 1), sizeof(long double));
+                long double *rb = (long double *)calloc((size_t)(td * nb + 1), sizeof(long double));
+                long double *mb = (long double *)calloc((size_t)(td * nb + 1), sizeof(long double));
+                int64_t i;
+                for (i = 0; i < 3 * na; i++) pa[i] = t_uniform(&r, -0.5, 0.5);
+                for (i = 0; i < 3 * nb; i++) pb[i] = t_uniform(&r, -0.5, 0.5);
+                for (i = 0; i < na && i < nb; i += 5) /* coincident pairs */
+                    for (k = 0; k < 3; k++) pa[3 * i + k] = pb[3 * i + k];
+                for (i = 0; i < na; i++) qa[i] = t_uniform(&r, -1.0, 1.0);
+                for (i = 0; i < nb; i++) qb[i] = t_uniform(&r, -1.0, 1.0);
+                for (i = 0; i <= td * na; i++) oa[i] = i < td * na ? 0.0 : 7.0;
+                for (i = 0; i <= td * nb; i++) ob[i] = i < td * nb ? 0.0 : 7.0;
+                for (k = 0; k < 3; k++) {
+                    for (i = 0; i < na; i++) soa[k * na + i] = pa[3 * i + k];
+                    for (i = 0; i < nb; i++) soa[3 * na + k * nb + i] = pb[3 * i + k];
+                }
+                for (k = 0; k < 2; k++)
+                    hook(&lams[l], soa, soa + na, soa + 2 * na, qa, na, soa + 3 * na,
+                         soa + 3 * na + nb, soa + 3 * na + 2 * nb, qb, nb, 1.5, oa, ob);
+                guards &= oa[td * na] == 7.0 && ob[td * nb] == 7.0;
+                ref(td, lams[l], na, pa, nb, pb, qb, 1.5, ra, ma);
+                ref(td, lams[l], nb, pb, na, pa, qa, 1.5, rb, mb);
+                worst_rel(td * na, oa, ra, ma, &worst);
+                worst_rel(td * nb, ob, rb, mb, &worst);
+                free(pa);
+                free(pb);
+                free(qa);
+                free(qb);
+                free(soa);
+                free(oa);
+                free(ob);
+                free(ra);
+                free(ma);
+                free(rb);
+                free(mb);
+            }
+        /* as for the one-way hooks; the portable body's exp is the C library's */
+        CHECK_ERR(worst, 4.4e-16 * (10.0 + lams[l] * 1.7321),
+                  "lambda %g: both sides, largest error relative to the sum of |terms|, "
+                  "blocks of 0 to 129, two calls adding up", lams[l]);
+    }
+    CHECK(guards, "nothing written past either output");
+}
 
 int main(void)
 {
     printf("test_yukawa_p2p: body %s\n", BODY);
-#if VW
     CHECK((kifmm_kernel_yukawa_HAS & KIFMM_HAS_P2P) && (kifmm_kernel_yukawa_grad_HAS & KIFMM_HAS_P2P),
-          "the hooks are announced");
+          "the one-way hooks are announced");
+#if VW
     test_exp();
+#endif
     test_hook("yukawa hook against long double", kifmm_kernel_yukawa_p2p, 1);
     test_hook("yukawa_grad hook against long double", kifmm_kernel_yukawa_grad_p2p, 4);
-#else
-    CHECK(!(kifmm_kernel_yukawa_HAS & KIFMM_HAS_P2P), "no hook announced without AVX2 + FMA");
-#endif
+    CHECK((kifmm_kernel_yukawa_HAS & KIFMM_HAS_P2PS) &&
+              (kifmm_kernel_yukawa_grad_HAS & KIFMM_HAS_P2PS),
+          "the mutual hooks are announced");
+    test_mutual("yukawa mutual hook against long double", kifmm_kernel_yukawa_p2ps, 1);
+    test_mutual("yukawa_grad mutual hook against long double", kifmm_kernel_yukawa_grad_p2ps, 4);
     return t_finish();
 }
