@@ -422,7 +422,7 @@ KIFMM__FN double kifmm__now(void)
 
 // >>options (implementation)
 
-KIFMM__FN int kifmm__default_leaf(int order)
+KIFMM__FN int kifmm__default_leaf(int order, int multi)
 {
     /* Larger expansions make the far field dearer per box, so leaves grow
      * with the number of surface points; from p = 7 on the M2L products run
@@ -432,11 +432,17 @@ KIFMM__FN int kifmm__default_leaf(int order)
      * against 2.8 s at 96); see docs/algorithm.md. */
     static const int leaf[KIFMM_MAX_ORDER + 1] = {0, 0, 32, 48, 128, 128, 128, 384, 384,
                                                   448, 512, 576, 640};
-    return leaf[order];
+    /* `multi`: several surface density components and a near-field hook. The
+     * M2L products grow as the square of the components, the hook's cost per
+     * pair about as their number, and leaves 2x (p <= 4) or 4x larger pay
+     * (Stokes, 1M points, p = 6: cube 12.4 s at 128 -> 4.1 s at 512, sphere
+     * 6.7 -> 3.5 s, clustered 10.1 -> 6.0 s; p = 4: 2.4 / 2.4 / 2.8 s at 128,
+     * 3.0 / 1.9 / 2.8 s at 256; docs/algorithm.md). */
+    return multi ? leaf[order] * (order <= 4 ? 2 : 4) : leaf[order];
 }
 
 /* Resolve defaults and check ranges; *out gets the values actually used. */
-KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, kifmm_opts *out)
+KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, kifmm_opts *out)
 {
     kifmm_opts o;
     if (in) o = *in;
@@ -444,7 +450,7 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, kifmm_opts *out)
     if (o.order == 0) o.order = KIFMM_DEFAULT_ORDER;
     if (o.order < 2 || o.order > KIFMM_MAX_ORDER) return KIFMM_ERR_ORDER;
     if (o.leaf_size < 0) return KIFMM_ERR_LEAF_SIZE;
-    if (o.leaf_size == 0) o.leaf_size = kifmm__default_leaf(o.order);
+    if (o.leaf_size == 0) o.leaf_size = kifmm__default_leaf(o.order, multi);
     if (o.max_depth < 0 || o.max_depth > KIFMM_MAX_DEPTH) return KIFMM_ERR_DEPTH;
     if (o.max_depth == 0) o.max_depth = KIFMM_DEFAULT_DEPTH;
     if (o.nthreads < 0 || o.nthreads > KIFMM_MAX_THREADS) return KIFMM_ERR_NTHREADS;
@@ -2792,6 +2798,14 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
 #else
 #define KIFMM__MUTUAL 0
 #endif
+/* Kernels whose surfaces carry several components and which have a
+ * near-field hook of this precision get larger default leaves
+ * (kifmm__default_leaf). */
+#if KIFMM__SD > 1 && (KIFMM__NEAR_HOOK || KIFMM__MUTUAL)
+#define KIFMM__LEAF_MULTI 1
+#else
+#define KIFMM__LEAF_MULTI 0
+#endif
 /* The single-thread column GEMM of this precision. */
 #if KIFMM__FLOAT
 #define KIFMM__GEMM_COLS kifmm__gemm_colsf
@@ -4656,7 +4670,7 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
                                    int64_t nt, const KIFMM__R *trg, kifmm_opts *o)
 {
     double param[4];
-    int rc = kifmm__resolve_opts(opts, o);
+    int rc = kifmm__resolve_opts(opts, KIFMM__LEAF_MULTI, o);
     if (!rc) rc = KIFMM__F(__check_points)(ns, src, o->nthreads);
     if (!rc) rc = KIFMM__F(__check_points)(nt, trg, o->nthreads);
     if (!rc) rc = KIFMM__F(__params)(o->kernel_param, param);
@@ -5092,6 +5106,7 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__FFT_PN
 #undef KIFMM__NEAR_HOOK
 #undef KIFMM__MUTUAL
+#undef KIFMM__LEAF_MULTI
 #undef KIFMM__GEMM_COLS
 #undef KIFMM__FFT
 #undef KIFMM__CUTOFF
