@@ -2700,14 +2700,15 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used);
 /* The four kernel roles (docs/kernels.md), each a kernel name:
  *   QT  points -> targets (TD x QD): the kernel itself;
  *   SC  surface -> check surface (SD x SD): the surface kernel, _EQUIV, or
- *       the kernel itself when TD == QD;
+ *       the kernel itself when TD == QD (unless it sets _USE_EQUIV to 1:
+ *       laplace_cd_grad, 4 densities and 4 outputs, on Laplace surfaces);
  *   ST  surface -> targets (TD x SD): the kernel itself when QD == SD,
  *       else _SURFACE;
  *   QC  points -> check surface (SD x QD): SC when QD == SD, the kernel
  *       itself when TD == SD, else _CHECK.
- * Today's kernels (QD = SD) name at most _EQUIV, as before. */
+ * The Laplace dipole kernels of kifmm_kernels.h name all three. */
 #define KIFMM__ROLE_QT KIFMM_KERNEL
-#if KIFMM__K(_TRG_DIM) == KIFMM__K(_SRC_DIM)
+#if KIFMM__K(_TRG_DIM) == KIFMM__K(_SRC_DIM) && !KIFMM__IS_ONE(KIFMM__K(_USE_EQUIV))
 #define KIFMM__ROLE_SC KIFMM_KERNEL
 #else
 #define KIFMM__ROLE_SC KIFMM__K(_EQUIV)
