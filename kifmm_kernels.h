@@ -189,6 +189,195 @@ static inline void kifmm_kernel_stokes_eval(const double *param, double dx, doub
 }
 
 /* ------------------------------------------------------------------------ */
+/* The Laplace family: charges q, dipoles v, potential, gradient, Hessian   */
+/* ------------------------------------------------------------------------ */
+/* d = target - source, r = |d|. A charge q gives q / (4 pi r); a dipole v
+ * gives v . d / (4 pi r^3) (the field of a charge pair +q at s + v / (2 q),
+ * -q at s - v / (2 q) as v / q -> 0: the double layer's kernel). Gradients
+ * are with respect to the target; Hessians as 6 components xx, yy, zz, xy,
+ * xz, yz. Outputs per target in the order potential, gradient, Hessian;
+ * densities per source in the order q, v. All of them carry Laplace
+ * charges on the surfaces (_EQUIV laplace) and name the kernels that map
+ * surface charges to their outputs (_SURFACE) and their sources to a
+ * potential (_CHECK). */
+
+/* 1 / (4 pi r), 1 / (4 pi r^3), 1 / (4 pi r^5) in c[0..2]; 0 if r = 0 or
+ * not finite (the pair then adds nothing) */
+static inline int kifmm_kernel__lap_powers(double dx, double dy, double dz, double *c)
+{
+    const double r2 = dx * dx + dy * dy + dz * dz, inv = 1.0 / sqrt(r2);
+    if (!(r2 > 0.0) || !(inv > 0.0)) return 0;
+    c[0] = KIFMM_INV_4PI * inv;
+    c[1] = c[0] * inv * inv;
+    c[2] = c[1] * inv * inv;
+    return 1;
+}
+/* the Hessian pairs (i, j) in output order xx, yy, zz, xy, xz, yz: m < 3 is
+ * (m, m), 3, 4, 5 are (0, 1), (0, 2), (1, 2) */
+#define KIFMM_KERNEL__HI(m) ((m) < 3 ? (m) : (m) == 5)
+#define KIFMM_KERNEL__HJ(m) ((m) < 3 ? (m) : (m) == 3 ? 1 : 2)
+
+/* Rows of the charge's potential (1), gradient (3) and Hessian (6) at
+ * k[0], k[ld], ..., k[9 ld], as many as `rows`: q / (4 pi r), -q d / (4 pi
+ * r^3), q (3 d_i d_j - r^2 delta_ij) / (4 pi r^5). */
+static inline void kifmm_kernel__lap_charge(const double *d, const double *c, int rows, int ld,
+                                            double *k)
+{
+    int m;
+    k[0] = c[0];
+    for (m = 0; m < 3 && rows > 1; m++) k[(1 + m) * ld] = -c[1] * d[m];
+    for (m = 0; m < 6 && rows > 4; m++) {
+        const int i = KIFMM_KERNEL__HI(m), j = KIFMM_KERNEL__HJ(m);
+        k[(4 + m) * ld] = 3.0 * c[2] * d[i] * d[j] - (i == j ? c[1] : 0.0);
+    }
+}
+/* The same for a dipole, columns 0..2 (v_x, v_y, v_z): potential d_k /
+ * (4 pi r^3); gradient (delta_ik - 3 d_i d_k / r^2) / (4 pi r^3); Hessian
+ * (15 d_i d_j d_k / r^2 - 3 (delta_ik d_j + delta_jk d_i + delta_ij d_k)) /
+ * (4 pi r^5). */
+static inline void kifmm_kernel__lap_dipole(const double *d, const double *c, int rows, int ld,
+                                            double *k)
+{
+    const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    int m, a;
+    for (a = 0; a < 3; a++) {
+        k[a] = c[1] * d[a];
+        for (m = 0; m < 3 && rows > 1; m++)
+            k[(1 + m) * ld + a] = (m == a ? c[1] : 0.0) - 3.0 * c[2] * d[m] * d[a];
+        for (m = 0; m < 6 && rows > 4; m++) {
+            const int i = KIFMM_KERNEL__HI(m), j = KIFMM_KERNEL__HJ(m);
+            k[(4 + m) * ld + a] =
+                c[2] * (15.0 * d[i] * d[j] * d[a] / r2 -
+                        3.0 * ((i == a ? d[j] : 0.0) + (j == a ? d[i] : 0.0) + (i == j ? d[a] : 0.0)));
+        }
+    }
+}
+/* k[rows x cols] = 0 */
+static inline void kifmm_kernel__zero(int n, double *k)
+{
+    int i;
+    for (i = 0; i < n; i++) k[i] = 0.0;
+}
+
+/* laplace_hess: charges -> potential, gradient, Hessian (10 outputs) */
+#define kifmm_kernel_laplace_hess_SRC_DIM 1
+#define kifmm_kernel_laplace_hess_TRG_DIM 10
+#define kifmm_kernel_laplace_hess_SCALE_INVARIANT 1
+#define kifmm_kernel_laplace_hess_DEGREE (-1)
+#define kifmm_kernel_laplace_hess_EQUIV laplace
+static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx, double dy,
+                                                  double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double c[3];
+    (void)param;
+    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) kifmm_kernel__lap_charge(d, c, 10, 1, k);
+    else kifmm_kernel__zero(10, k);
+}
+
+/* laplace_dipole: dipoles (3 per source) -> potential */
+#define kifmm_kernel_laplace_dipole_SRC_DIM 3
+#define kifmm_kernel_laplace_dipole_TRG_DIM 1
+#define kifmm_kernel_laplace_dipole_SCALE_INVARIANT 1
+#define kifmm_kernel_laplace_dipole_HAS KIFMM_KERNEL__LCD_HAS /* below */
+#define kifmm_kernel_laplace_dipole_DEGREE (-2)
+#define kifmm_kernel_laplace_dipole_EQUIV laplace
+#define kifmm_kernel_laplace_dipole_SURFACE laplace
+static inline void kifmm_kernel_laplace_dipole_eval(const double *param, double dx, double dy,
+                                                    double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double c[3];
+    (void)param;
+    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) kifmm_kernel__lap_dipole(d, c, 1, 3, k);
+    else kifmm_kernel__zero(3, k);
+}
+
+/* laplace_dipole_grad: dipoles -> potential and gradient */
+#define kifmm_kernel_laplace_dipole_grad_SRC_DIM 3
+#define kifmm_kernel_laplace_dipole_grad_TRG_DIM 4
+#define kifmm_kernel_laplace_dipole_grad_SCALE_INVARIANT 1
+#define kifmm_kernel_laplace_dipole_grad_HAS KIFMM_KERNEL__LCD_HAS /* below */
+#define kifmm_kernel_laplace_dipole_grad_DEGREE (-2)
+#define kifmm_kernel_laplace_dipole_grad_EQUIV laplace
+#define kifmm_kernel_laplace_dipole_grad_SURFACE laplace_grad
+#define kifmm_kernel_laplace_dipole_grad_CHECK laplace_dipole
+static inline void kifmm_kernel_laplace_dipole_grad_eval(const double *param, double dx,
+                                                         double dy, double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double c[3];
+    (void)param;
+    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) kifmm_kernel__lap_dipole(d, c, 4, 3, k);
+    else kifmm_kernel__zero(12, k);
+}
+
+/* laplace_cd: charges and dipoles (q, v: 4 per source) -> potential */
+#define kifmm_kernel_laplace_cd_SRC_DIM 4
+#define kifmm_kernel_laplace_cd_TRG_DIM 1
+#define kifmm_kernel_laplace_cd_SCALE_INVARIANT 1
+#define kifmm_kernel_laplace_cd_HAS KIFMM_KERNEL__LCD_HAS /* below */
+#define kifmm_kernel_laplace_cd_DEGREE (-1)
+#define kifmm_kernel_laplace_cd_EQUIV laplace
+#define kifmm_kernel_laplace_cd_SURFACE laplace
+static inline void kifmm_kernel_laplace_cd_eval(const double *param, double dx, double dy,
+                                                double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double c[3];
+    (void)param;
+    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) {
+        kifmm_kernel__lap_charge(d, c, 1, 4, k);
+        kifmm_kernel__lap_dipole(d, c, 1, 4, k + 1);
+    } else
+        kifmm_kernel__zero(4, k);
+}
+
+/* laplace_cd_grad: charges and dipoles -> potential and gradient */
+#define kifmm_kernel_laplace_cd_grad_SRC_DIM 4
+#define kifmm_kernel_laplace_cd_grad_TRG_DIM 4
+#define kifmm_kernel_laplace_cd_grad_SCALE_INVARIANT 1
+#define kifmm_kernel_laplace_cd_grad_HAS KIFMM_KERNEL__LCD_HAS /* below */
+#define kifmm_kernel_laplace_cd_grad_DEGREE (-1)
+#define kifmm_kernel_laplace_cd_grad_EQUIV laplace
+#define kifmm_kernel_laplace_cd_grad_USE_EQUIV 1 /* 4 x 4, yet not its own surface kernel */
+#define kifmm_kernel_laplace_cd_grad_SURFACE laplace_grad
+#define kifmm_kernel_laplace_cd_grad_CHECK laplace_cd
+static inline void kifmm_kernel_laplace_cd_grad_eval(const double *param, double dx, double dy,
+                                                     double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double c[3];
+    (void)param;
+    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) {
+        kifmm_kernel__lap_charge(d, c, 4, 4, k);
+        kifmm_kernel__lap_dipole(d, c, 4, 4, k + 1);
+    } else
+        kifmm_kernel__zero(16, k);
+}
+
+/* laplace_cd_hess: charges and dipoles -> potential, gradient, Hessian */
+#define kifmm_kernel_laplace_cd_hess_SRC_DIM 4
+#define kifmm_kernel_laplace_cd_hess_TRG_DIM 10
+#define kifmm_kernel_laplace_cd_hess_SCALE_INVARIANT 1
+#define kifmm_kernel_laplace_cd_hess_DEGREE (-1)
+#define kifmm_kernel_laplace_cd_hess_EQUIV laplace
+#define kifmm_kernel_laplace_cd_hess_SURFACE laplace_hess
+#define kifmm_kernel_laplace_cd_hess_CHECK laplace_cd
+static inline void kifmm_kernel_laplace_cd_hess_eval(const double *param, double dx, double dy,
+                                                     double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double c[3];
+    (void)param;
+    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) {
+        kifmm_kernel__lap_charge(d, c, 10, 4, k);
+        kifmm_kernel__lap_dipole(d, c, 10, 4, k + 1);
+    } else
+        kifmm_kernel__zero(40, k);
+}
+
+/* ------------------------------------------------------------------------ */
 /* Near-field hooks (kifmm_kernel_NAME_P2P, kifmm_kernel_NAME_p2p)          */
 /* ------------------------------------------------------------------------ */
 /* kifmm_kernel_NAME_p2p(param, tx, ty, tz, nt, sx, sy, sz, q, ns, scale, out):
@@ -2345,6 +2534,116 @@ KIFMM_KERNEL__YUKAWA_P2PS(kifmm_kernel_yukawa_grad_p2ps, 1)
 #undef KIFMM_KERNEL__YUKAWA_BODY
 #undef KIFMM_KERNEL__ADD_B3
 #undef KIFMM_KERNEL__ADD_A2
+
+/* ------------------------------------------------------------------------ */
+/* Laplace charge and dipole hooks (laplace_dipole, laplace_dipole_grad,    */
+/* laplace_cd, laplace_cd_grad): one-way, double and float                 */
+/* ------------------------------------------------------------------------ */
+/* outa_i += s sum_j q_j / r + v_j . d / r^3 and, with the gradient,
+ * += s sum_j (v_j - d (q_j + 3 v_j . d / r^2)) / r^3, s = scale / (4 pi),
+ * d = a_i - b_j; densities per source (q, v) (CH = 1) or v alone (CH = 0).
+ * The sources come in blocks of KIFMM_KERNEL__SSB points copied once into
+ * structure-of-arrays on the stack (the densities arrive interleaved);
+ * lanes past a block's end get 1 / r = 0. One body over the build's vectors,
+ * as the Stokes hooks (AVX-512, AVX2 + FMA, portable C). */
+#define KIFMM_KERNEL__LCD_BODY(T, V, W, SET1, ZERO, LOAD, SUB, MUL, FMADD, FNMADD, RINVM, HSUM,   \
+                               CH, GRAD)                                                        \
+    {                                                                                          \
+        enum { SB_ = KIFMM_KERNEL__SSB, NB_ = KIFMM_KERNEL__SSB / (W), QD_ = (CH) + 3 };        \
+        const T s = (T)((double)scale * KIFMM_INV_4PI);                                        \
+        V vx[NB_], vy[NB_], vz[NB_], vq[4 * NB_];                                              \
+        T *px = (T *)vx, *py = (T *)vy, *pz = (T *)vz, *pq = (T *)vq;                          \
+        int64_t i, j, j0, jb, k;                                                               \
+        (void)param;                                                                           \
+        for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
+            jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;                                       \
+            for (k = 0; k < SB_; k++) { /* q, v_x, v_y, v_z, SB_ apart */                      \
+                const int in = k < jb;                                                         \
+                const T *qk = qb + QD_ * (j0 + k);                                             \
+                px[k] = in ? bx[j0 + k] : (T)0;                                                \
+                py[k] = in ? by[j0 + k] : (T)0;                                                \
+                pz[k] = in ? bz[j0 + k] : (T)0;                                                \
+                pq[k] = in && (CH) ? qk[0] : (T)0;                                             \
+                pq[SB_ + k] = in ? qk[CH] : (T)0;                                              \
+                pq[2 * SB_ + k] = in ? qk[(CH) + 1] : (T)0;                                    \
+                pq[3 * SB_ + k] = in ? qk[(CH) + 2] : (T)0;                                    \
+            }                                                                                  \
+            for (i = 0; i < na; i++) {                                                         \
+                const V X = SET1(ax[i]), Y = SET1(ay[i]), Z = SET1(az[i]), three = SET1((T)3); \
+                V p = ZERO, g0 = ZERO, g1 = ZERO, g2 = ZERO;                                   \
+                for (j = 0; j < jb; j += (W)) {                                                \
+                    const V dx = SUB(X, LOAD(px + j)), dy = SUB(Y, LOAD(py + j));              \
+                    const V dz = SUB(Z, LOAD(pz + j));                                         \
+                    const V inv = RINVM(FMADD(dz, dz, FMADD(dy, dy, MUL(dx, dx))), jb - j);    \
+                    const V i2 = MUL(inv, inv), i3 = MUL(inv, i2), q = LOAD(pq + j);           \
+                    const V v0 = LOAD(pq + SB_ + j), v1 = LOAD(pq + 2 * SB_ + j);              \
+                    const V v2 = LOAD(pq + 3 * SB_ + j);                                       \
+                    const V vd = FMADD(dz, v2, FMADD(dy, v1, MUL(dx, v0)));                    \
+                    p = FMADD(vd, i3, (CH) ? FMADD(q, inv, p) : p);                            \
+                    if (GRAD) { /* m = (q + 3 v . d / r^2) / r^3 */                            \
+                        const V m = MUL(i3, FMADD(MUL(three, vd), i2, q));                     \
+                        g0 = FNMADD(dx, m, FMADD(v0, i3, g0));                                 \
+                        g1 = FNMADD(dy, m, FMADD(v1, i3, g1));                                 \
+                        g2 = FNMADD(dz, m, FMADD(v2, i3, g2));                                 \
+                    }                                                                          \
+                }                                                                              \
+                outa[((GRAD) ? 4 : 1) * i] += s * HSUM(p);                                     \
+                if (GRAD) {                                                                    \
+                    outa[4 * i + 1] += s * HSUM(g0);                                           \
+                    outa[4 * i + 2] += s * HSUM(g1);                                           \
+                    outa[4 * i + 3] += s * HSUM(g2);                                           \
+                }                                                                              \
+            }                                                                                  \
+        }                                                                                      \
+    }
+#if defined(__AVX512F__)
+#define KIFMM_KERNEL__LCD_D(C, G)                                                              \
+    KIFMM_KERNEL__LCD_BODY(double, __m512d, 8, _mm512_set1_pd, _mm512_setzero_pd(),            \
+                           _mm512_load_pd, _mm512_sub_pd, _mm512_mul_pd, _mm512_fmadd_pd,      \
+                           _mm512_fnmadd_pd, KIFMM_KERNEL__SRINV8, kifmm_kernel__hsum8, C, G)
+#define KIFMM_KERNEL__LCD_F(C, G)                                                              \
+    KIFMM_KERNEL__LCD_BODY(float, __m512, 16, _mm512_set1_ps, _mm512_setzero_ps(),             \
+                           _mm512_load_ps, _mm512_sub_ps, _mm512_mul_ps, _mm512_fmadd_ps,      \
+                           _mm512_fnmadd_ps, KIFMM_KERNEL__SRINV16, kifmm_kernel__hsum16, C, G)
+#elif defined(__AVX2__) && defined(__FMA__)
+#define KIFMM_KERNEL__LCD_D(C, G)                                                              \
+    KIFMM_KERNEL__LCD_BODY(double, __m256d, 4, _mm256_set1_pd, _mm256_setzero_pd(),            \
+                           _mm256_load_pd, _mm256_sub_pd, _mm256_mul_pd, _mm256_fmadd_pd,      \
+                           _mm256_fnmadd_pd, kifmm_kernel__srinv4, kifmm_kernel__shsum4, C, G)
+#define KIFMM_KERNEL__LCD_F(C, G)                                                              \
+    KIFMM_KERNEL__LCD_BODY(float, __m256, 8, _mm256_set1_ps, _mm256_setzero_ps(),              \
+                           _mm256_load_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_fmadd_ps,      \
+                           _mm256_fnmadd_ps, kifmm_kernel__srinv8f, kifmm_kernel__shsum8f, C, G)
+#else
+#define KIFMM_KERNEL__LCD_D(C, G)                                                              \
+    KIFMM_KERNEL__LCD_BODY(double, double, 1, KIFMM_KERNEL__S_SET1, 0.0, KIFMM_KERNEL__S_LOAD,  \
+                           KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, KIFMM_KERNEL__S_FMADD,    \
+                           KIFMM_KERNEL__S_FNMADD, kifmm_kernel__srinv1, KIFMM_KERNEL__S_SET1, \
+                           C, G)
+#define KIFMM_KERNEL__LCD_F(C, G)                                                              \
+    KIFMM_KERNEL__LCD_BODY(float, float, 1, KIFMM_KERNEL__S_SET1, 0.0f, KIFMM_KERNEL__S_LOAD,   \
+                           KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, KIFMM_KERNEL__S_FMADD,    \
+                           KIFMM_KERNEL__S_FNMADD, kifmm_kernel__srinv1f, KIFMM_KERNEL__S_SET1,\
+                           C, G)
+#endif
+#define KIFMM_KERNEL__LCD_P2P(name, T, BODY)                                                   \
+    static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
+                            int64_t na, const T *bx, const T *by, const T *bz, const T *qb,    \
+                            int64_t nb, T scale, T *outa)                                      \
+        BODY
+KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_dipole_p2p, double, KIFMM_KERNEL__LCD_D(0, 0))
+KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_dipole_grad_p2p, double, KIFMM_KERNEL__LCD_D(0, 1))
+KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_p2p, double, KIFMM_KERNEL__LCD_D(1, 0))
+KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2p, double, KIFMM_KERNEL__LCD_D(1, 1))
+KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_dipole_p2pf, float, KIFMM_KERNEL__LCD_F(0, 0))
+KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_dipole_grad_p2pf, float, KIFMM_KERNEL__LCD_F(0, 1))
+KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_p2pf, float, KIFMM_KERNEL__LCD_F(1, 0))
+KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LCD_F(1, 1))
+#undef KIFMM_KERNEL__LCD_P2P
+#undef KIFMM_KERNEL__LCD_D
+#undef KIFMM_KERNEL__LCD_F
+#undef KIFMM_KERNEL__LCD_BODY
+#define KIFMM_KERNEL__LCD_HAS (KIFMM_HAS_P2P | KIFMM_HAS_P2PF)
 
 /* The Laplace kernels' hooks that this build compiled: all of them with
  * AVX2 and FMA (or AVX-512), the one-way double loop otherwise. */

@@ -1,0 +1,366 @@
+/* test_laplace_family.c - the Laplace family of kifmm_kernels.h (charges and
+ * dipoles, potential, gradient and Hessian: laplace_hess, laplace_dipole,
+ * laplace_dipole_grad, laplace_cd, laplace_cd_grad, laplace_cd_hess) in
+ * double at p = 6 and in float at p = 4, against direct sums in long double
+ * written here from the formulas (not from the kernels' eval functions), on
+ * uniform, sphere-surface and clustered points, with sources = targets and
+ * with separate targets. Relative L2 error of each output group (potential,
+ * gradient, Hessian) at sample targets. */
+#define KIFMM_KERNEL laplace_hess
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_dipole
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_dipole_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_cd
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_cd_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_cd_hess
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL laplace_hess
+#define KIFMM_NAME kifmm_laplace_hessf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL laplace_dipole
+#define KIFMM_NAME kifmm_laplace_dipolef
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL laplace_dipole_grad
+#define KIFMM_NAME kifmm_laplace_dipole_gradf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL laplace_cd
+#define KIFMM_NAME kifmm_laplace_cdf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL laplace_cd_grad
+#define KIFMM_NAME kifmm_laplace_cd_gradf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL laplace_cd_hess
+#define KIFMM_NAME kifmm_laplace_cd_hessf
+#include "kifmm.h"
+
+#include "test.h"
+
+#ifdef KIFMM_TEST_QUICK
+#define N 4000
+#else
+#define N 12000
+#endif
+#define NSAMPLE 200
+
+/* create, evaluate, destroy; float instances get rounded copies of the
+ * inputs and return their outputs widened */
+#define DEFINE_RUN(P, R, SD, TD)                                                               \
+    static int run_##P(const kifmm_opts *o, int64_t ns, const double *s, int64_t nt,           \
+                       const double *t, const double *q, double *out)                          \
+    {                                                                                          \
+        P *h = NULL;                                                                           \
+        int64_t i;                                                                             \
+        R *sr = (R *)malloc(sizeof(R) * (size_t)(3 * ns));                                     \
+        R *tr = (R *)malloc(sizeof(R) * (size_t)(3 * nt));                                     \
+        R *qr = (R *)malloc(sizeof(R) * (size_t)((SD) * ns));                                  \
+        R *orr = (R *)malloc(sizeof(R) * (size_t)((TD) * nt));                                 \
+        int rc;                                                                                \
+        for (i = 0; i < 3 * ns; i++) sr[i] = (R)s[i];                                          \
+        for (i = 0; i < 3 * nt; i++) tr[i] = (R)t[i];                                          \
+        for (i = 0; i < (SD) * ns; i++) qr[i] = (R)q[i];                                       \
+        rc = P##_create(&h, o, ns, sr, nt, s == t ? sr : tr);                                  \
+        if (rc == 0) rc = P##_evaluate(h, qr, orr);                                            \
+        for (i = 0; i < (TD) * nt; i++) out[i] = (double)orr[i];                               \
+        P##_destroy(h);                                                                        \
+        free(sr);                                                                              \
+        free(tr);                                                                              \
+        free(qr);                                                                              \
+        free(orr);                                                                             \
+        return rc;                                                                             \
+    }
+DEFINE_RUN(kifmm_laplace_hess, double, 1, 10)
+DEFINE_RUN(kifmm_laplace_dipole, double, 3, 1)
+DEFINE_RUN(kifmm_laplace_dipole_grad, double, 3, 4)
+DEFINE_RUN(kifmm_laplace_cd, double, 4, 1)
+DEFINE_RUN(kifmm_laplace_cd_grad, double, 4, 4)
+DEFINE_RUN(kifmm_laplace_cd_hess, double, 4, 10)
+DEFINE_RUN(kifmm_laplace_hessf, float, 1, 10)
+DEFINE_RUN(kifmm_laplace_dipolef, float, 3, 1)
+DEFINE_RUN(kifmm_laplace_dipole_gradf, float, 3, 4)
+DEFINE_RUN(kifmm_laplace_cdf, float, 4, 1)
+DEFINE_RUN(kifmm_laplace_cd_gradf, float, 4, 4)
+DEFINE_RUN(kifmm_laplace_cd_hessf, float, 4, 10)
+
+typedef int (*run_fn)(const kifmm_opts *, int64_t, const double *, int64_t, const double *,
+                      const double *, double *);
+typedef struct {
+    const char *name;
+    int charges, dipoles, tdim; /* densities: q if charges, then v if dipoles */
+    run_fn run, runf;
+} kern;
+
+static const kern kernels[] = {
+    {"laplace_hess", 1, 0, 10, run_kifmm_laplace_hess, run_kifmm_laplace_hessf},
+    {"laplace_dipole", 0, 1, 1, run_kifmm_laplace_dipole, run_kifmm_laplace_dipolef},
+    {"laplace_dipole_grad", 0, 1, 4, run_kifmm_laplace_dipole_grad,
+     run_kifmm_laplace_dipole_gradf},
+    {"laplace_cd", 1, 1, 1, run_kifmm_laplace_cd, run_kifmm_laplace_cdf},
+    {"laplace_cd_grad", 1, 1, 4, run_kifmm_laplace_cd_grad, run_kifmm_laplace_cd_gradf},
+    {"laplace_cd_hess", 1, 1, 10, run_kifmm_laplace_cd_hess, run_kifmm_laplace_cd_hessf},
+};
+
+/* ref[10] at target t from ns sources: charges q (or none) and dipoles v
+ * (or none). Potential phi = sum q / (4 pi r) + v . d / (4 pi r^3), d = t - s;
+ * gradient and Hessian of phi with respect to t, the Hessian as xx, yy, zz,
+ * xy, xz, yz; every derivative written out, in long double. */
+static void direct_mag(int64_t ns, const double *s, const double *q, const double *v,
+                       const double *t, double *ref, double *mag)
+{
+    static const int hi[6] = {0, 1, 2, 0, 0, 1}, hj[6] = {0, 1, 2, 1, 2, 2};
+    const long double c = 1.0L / (4.0L * 3.141592653589793238462643383279503L);
+    long double acc[10] = {0}, am[10] = {0};
+    int64_t j;
+    int m;
+    for (j = 0; j < ns; j++) {
+        const long double d[3] = {(long double)t[0] - s[3 * j], (long double)t[1] - s[3 * j + 1],
+                                  (long double)t[2] - s[3 * j + 2]};
+        const long double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        long double r, r3, r5, r7, vd;
+        if (r2 == 0.0L) continue;
+        r = sqrtl(r2);
+        r3 = r2 * r;
+        r5 = r3 * r2;
+        r7 = r5 * r2;
+        if (q) {
+            acc[0] += q[j] / r;
+            for (m = 0; m < 3; m++) acc[1 + m] -= q[j] * d[m] / r3;
+            for (m = 0; m < 6; m++)
+                acc[4 + m] += q[j] * (3.0L * d[hi[m]] * d[hj[m]] - (hi[m] == hj[m] ? r2 : 0.0L)) / r5;
+        }
+        if (v) {
+            const double *w = v + 3 * j;
+            vd = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
+            acc[0] += vd / r3;
+            for (m = 0; m < 3; m++) acc[1 + m] += w[m] / r3 - 3.0L * vd * d[m] / r5;
+            for (m = 0; m < 6; m++) {
+                const int a = hi[m], b = hj[m];
+                acc[4 + m] += 15.0L * vd * d[a] * d[b] / r7 -
+                              3.0L * (w[a] * d[b] + w[b] * d[a] + (a == b ? vd : 0.0L)) / r5;
+            }
+        }
+        if (mag) { /* sums of the absolute values of the products that make each term */
+            const long double qa = q ? fabsl((long double)q[j]) : 0.0L;
+            long double va[3] = {0, 0, 0}, vda = 0.0L, da[3];
+            for (m = 0; m < 3; m++) {
+                da[m] = fabsl(d[m]);
+                va[m] = v ? fabsl((long double)v[3 * j + m]) : 0.0L;
+                vda += va[m] * da[m];
+            }
+            am[0] += qa / r + vda / r3;
+            for (m = 0; m < 3; m++) am[1 + m] += qa * da[m] / r3 + va[m] / r3 + 3.0L * vda * da[m] / r5;
+            for (m = 0; m < 6; m++) {
+                const int a = hi[m], b = hj[m];
+                am[4 + m] += qa * (3.0L * da[a] * da[b] + (a == b ? r2 : 0.0L)) / r5 +
+                             15.0L * vda * da[a] * da[b] / r7 +
+                             3.0L * (va[a] * da[b] + va[b] * da[a] + (a == b ? vda : 0.0L)) / r5;
+            }
+        }
+    }
+    for (m = 0; m < 10; m++) ref[m] = (double)(c * acc[m]);
+    for (m = 0; m < 10 && mag; m++) mag[m] = (double)(c * am[m]);
+}
+
+static void direct(int64_t ns, const double *s, const double *q, const double *v,
+                   const double *t, double *ref)
+{
+    direct_mag(ns, s, q, v, t, ref, NULL);
+}
+
+/* relative L2 error of outputs [k0, k1) over the sample */
+static double group_err(int td, int k0, int k1, int64_t ns, const int64_t *idx, const double *out,
+                        const double *ref)
+{
+    double num = 0.0, den = 0.0;
+    int64_t i;
+    int k;
+    for (i = 0; i < ns; i++)
+        for (k = k0; k < k1; k++) {
+            const double e = out[idx[i] * td + k] - ref[10 * i + k];
+            num += e * e;
+            den += ref[10 * i + k] * ref[10 * i + k];
+        }
+    return sqrt(num / den);
+}
+
+/* one distribution, sources = targets or separate targets, every kernel in
+ * double at p = 6 and in float at p = 4 */
+static void check_case(const char *dist, int separate)
+{
+    const int64_t n = N, nt = separate ? N / 2 : N;
+    /* separate targets: further points of the same distribution (the same
+     * blobs), drawn in the same call as the sources */
+    double *all = t_doubles(3 * (n + (separate ? nt : 0))), *s = all, *t = separate ? all + 3 * n : s;
+    double *q = t_doubles(n), *v = t_doubles(3 * n), *ref = t_doubles(10 * NSAMPLE);
+    double *dens = t_doubles(4 * n), *out = t_doubles(10 * nt);
+    double *allr = t_doubles(3 * (n + (separate ? nt : 0))), *qr = t_doubles(n), *vr = t_doubles(3 * n);
+    int64_t idx[NSAMPLE], i;
+    t_rng r = t_rng_seed(41 + (uint64_t)separate + 7 * (uint64_t)dist[1]);
+    size_t k;
+    int fl;
+    if (strcmp(dist, "sphere") == 0) t_gen_sphere(&r, n + (separate ? nt : 0), all);
+    else if (strcmp(dist, "clustered") == 0) t_gen_blobs(&r, n + (separate ? nt : 0), all);
+    else t_gen_cube(&r, n + (separate ? nt : 0), all, 0.0, 1.0);
+    t_gen_charges(&r, n, q, -1.0, 1.0);
+    t_gen_charges(&r, 3 * n, v, -1.0, 1.0);
+    for (i = 0; i < NSAMPLE; i++) idx[i] = (i * 7919) % nt;
+    for (k = 0; k < sizeof kernels / sizeof kernels[0]; k++) {
+        const kern *K = &kernels[k];
+        const int sd = K->charges + 3 * K->dipoles, td = K->tdim;
+        for (i = 0; i < n; i++) {
+            if (K->charges) dens[sd * i] = q[i];
+            if (K->dipoles) memcpy(dens + sd * i + K->charges, v + 3 * i, 3 * sizeof(double));
+        }
+        for (fl = 0; fl < 2; fl++) {
+            kifmm_opts o = t_opts(fl ? 4 : 6, 0, 0);
+            const double bp = fl ? 1e-3 : 1e-5, bg = fl ? 1e-3 : 1e-4;
+            const int rc = (fl ? K->runf : K->run)(&o, n, s, nt, t, dens, out);
+            /* the reference from the inputs the instance saw: in float, the
+             * points and densities rounded to float (in clusters of width 1e-3
+             * the rounding of the coordinates alone moves the gradients by
+             * about 1e-3) */
+            for (i = 0; i < 3 * (n + (separate ? nt : 0)); i++) allr[i] = fl ? (float)all[i] : all[i];
+            for (i = 0; i < n; i++) qr[i] = fl ? (float)q[i] : q[i];
+            for (i = 0; i < 3 * n; i++) vr[i] = fl ? (float)v[i] : v[i];
+            for (i = 0; i < NSAMPLE; i++)
+                direct(n, allr, K->charges ? qr : NULL, K->dipoles ? vr : NULL,
+                       allr + (t - s) + 3 * idx[i], ref + 10 * i);
+            CHECK(rc == KIFMM_SUCCESS, "%s%s rc=%d", K->name, fl ? "f" : "", rc);
+            if (rc != KIFMM_SUCCESS) continue;
+            CHECK_ERR(group_err(td, 0, 1, NSAMPLE, idx, out, ref), bp,
+                      "%s%-3s %-9s %s p=%d potential", K->name, fl ? "f" : "", dist,
+                      separate ? "separate" : "same", fl ? 4 : 6);
+            if (td >= 4)
+                CHECK_ERR(group_err(td, 1, 4, NSAMPLE, idx, out, ref), bg, "%s%-3s %-9s gradient",
+                          K->name, fl ? "f" : "", dist);
+            if (td >= 10)
+                CHECK_ERR(group_err(td, 4, 10, NSAMPLE, idx, out, ref), bg, "%s%-3s %-9s Hessian",
+                          K->name, fl ? "f" : "", dist);
+        }
+    }
+    free(all);
+    free(allr);
+    free(qr);
+    free(vr);
+    free(q);
+    free(v);
+    free(ref);
+    free(dens);
+    free(out);
+}
+
+/* The one-way hooks of the charge and dipole kernels, double and float,
+ * against the long double sums: blocks of 0 to 129 targets and sources
+ * (around the stack block of 64), coincident pairs, two calls adding up;
+ * error relative to the sum of |terms| of each output. */
+typedef void (*hook_d)(const double *, const double *, const double *, const double *, int64_t,
+                       const double *, const double *, const double *, const double *, int64_t,
+                       double, double *);
+typedef void (*hook_f)(const double *, const float *, const float *, const float *, int64_t,
+                       const float *, const float *, const float *, const float *, int64_t,
+                       float, float *);
+static void check_hooks(const char *name, int ch, int td, hook_d hd, hook_f hf)
+{
+    static const int64_t sizes[] = {0, 1, 3, 7, 8, 9, 17, 64, 65, 129};
+    const int nsz = (int)(sizeof sizes / sizeof sizes[0]), qd = ch + 3;
+    double worst[2] = {0.0, 0.0};
+    t_rng r = t_rng_seed(77 + (uint64_t)qd * 10 + (uint64_t)td);
+    int a, b, fl;
+    for (a = 0; a < nsz; a++)
+        for (b = 0; b < nsz; b++)
+            for (fl = 0; fl < 2; fl++) {
+                const int64_t na = sizes[a], nb = sizes[b];
+                double *pa = t_doubles(3 * na + 3), *pb = t_doubles(3 * nb + 3);
+                double *dq = t_doubles(qd * nb + 1), *q = t_doubles(nb + 1), *v = t_doubles(3 * nb + 3);
+                double *soa = t_doubles(3 * (na + nb) + 6), *out = t_doubles(td * na + 1);
+                float *sf = (float *)malloc(sizeof(float) * (size_t)(3 * (na + nb) + 6));
+                float *qf = (float *)malloc(sizeof(float) * (size_t)(qd * nb + 1));
+                float *of = (float *)malloc(sizeof(float) * (size_t)(td * na + 1));
+                int64_t i;
+                int k, c;
+                for (i = 0; i < 3 * na; i++) pa[i] = t_uniform(&r, -0.5, 0.5);
+                for (i = 0; i < 3 * nb; i++) pb[i] = t_uniform(&r, -0.5, 0.5);
+                for (i = 0; i < na && i < nb; i += 4) /* coincident pairs */
+                    for (k = 0; k < 3; k++) pa[3 * i + k] = pb[3 * i + k];
+                for (i = 0; i < qd * nb; i++) dq[i] = t_uniform(&r, -1.0, 1.0);
+                if (fl) { /* the reference sees the float inputs */
+                    for (i = 0; i < 3 * na; i++) pa[i] = (float)pa[i];
+                    for (i = 0; i < 3 * nb; i++) pb[i] = (float)pb[i];
+                    for (i = 0; i < qd * nb; i++) dq[i] = (float)dq[i];
+                }
+                for (i = 0; i < nb; i++) {
+                    q[i] = ch ? dq[qd * i] : 0.0;
+                    for (k = 0; k < 3; k++) v[3 * i + k] = dq[qd * i + ch + k];
+                }
+                for (k = 0; k < 3; k++) {
+                    for (i = 0; i < na; i++) soa[k * na + i] = pa[3 * i + k];
+                    for (i = 0; i < nb; i++) soa[3 * na + k * nb + i] = pb[3 * i + k];
+                }
+                for (i = 0; i < 3 * (na + nb); i++) sf[i] = (float)soa[i];
+                for (i = 0; i < qd * nb; i++) qf[i] = (float)dq[i];
+                for (i = 0; i < td * na; i++) out[i] = 0.0, of[i] = 0.0f;
+                for (c = 0; c < 2; c++) {
+                    if (fl)
+                        hf(NULL, sf, sf + na, sf + 2 * na, na, sf + 3 * na, sf + 3 * na + nb,
+                           sf + 3 * na + 2 * nb, qf, nb, 1.5f, of);
+                    else
+                        hd(NULL, soa, soa + na, soa + 2 * na, na, soa + 3 * na, soa + 3 * na + nb,
+                           soa + 3 * na + 2 * nb, dq, nb, 1.5, out);
+                }
+                for (i = 0; i < na; i++) {
+                    double ref[10], mag[10];
+                    direct_mag(nb, pb, ch ? q : NULL, v, pa + 3 * i, ref, mag);
+                    for (k = 0; k < td; k++) {
+                        const double o = fl ? (double)of[td * i + k] : out[td * i + k];
+                        const double e = fabs(o - 3.0 * ref[k]) / (3.0 * mag[k] + 1e-300);
+                        if (!(e <= worst[fl])) worst[fl] = e;
+                    }
+                }
+                free(pa);
+                free(pb);
+                free(dq);
+                free(q);
+                free(v);
+                free(soa);
+                free(out);
+                free(sf);
+                free(qf);
+                free(of);
+            }
+    CHECK_ERR(worst[0], 1e-14, "%s_p2p  vs long double, blocks of 0 to 129, two calls", name);
+    CHECK_ERR(worst[1], 2e-6, "%s_p2pf vs long double on its float inputs", name);
+}
+
+int main(void)
+{
+    static const char *dists[3] = {"cube", "sphere", "clustered"};
+    int d, sep;
+    t_group("one-way hooks of the charge and dipole kernels");
+    CHECK((kifmm_kernel_laplace_cd_grad_HAS & KIFMM_HAS_P2P) &&
+              (kifmm_kernel_laplace_dipole_HAS & KIFMM_HAS_P2PF),
+          "the hooks are announced");
+    check_hooks("laplace_dipole", 0, 1, kifmm_kernel_laplace_dipole_p2p,
+                kifmm_kernel_laplace_dipole_p2pf);
+    check_hooks("laplace_dipole_grad", 0, 4, kifmm_kernel_laplace_dipole_grad_p2p,
+                kifmm_kernel_laplace_dipole_grad_p2pf);
+    check_hooks("laplace_cd", 1, 1, kifmm_kernel_laplace_cd_p2p, kifmm_kernel_laplace_cd_p2pf);
+    check_hooks("laplace_cd_grad", 1, 4, kifmm_kernel_laplace_cd_grad_p2p,
+                kifmm_kernel_laplace_cd_grad_p2pf);
+    for (d = 0; d < 3; d++)
+        for (sep = 0; sep < 2; sep++) {
+            char name[64];
+            snprintf(name, sizeof name, "%s, %s targets", dists[d], sep ? "separate" : "the source");
+            t_group(name);
+            check_case(dists[d], sep);
+        }
+    return t_finish();
+}
