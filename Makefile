@@ -7,6 +7,8 @@
 #                   without OpenMP, a sanitizer build and a build without -march)
 #   make custom     build and run examples/custom_kernel.c (a kernel written in
 #                   the example file, checked against direct summation)
+#   make double_layer  build and run examples/double_layer.c (the Laplace
+#                   double layer of a unit density on a sphere: -1 inside, 0 outside)
 #   make examples   build the examples into build/
 #   make deps       check the compilers, OpenMP and BLAS/LAPACKE headers;
 #                   installs the Debian packages when run as root
@@ -34,7 +36,7 @@ CBLAS_CFLAGS := $(shell \
     [ -n "$$d" ] && echo "-I$$(dirname $$d)"; \
   fi)
 
-.PHONY: all run custom test examples deps clean
+.PHONY: all run custom double_layer test examples deps clean
 
 all: examples
 
@@ -86,12 +88,20 @@ $(BUILD):
 $(BUILD)/custom_kernel: examples/custom_kernel.c kifmm.h kifmm_kernels.h | $(BUILD)
 	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. $< -o $@ $(LDLIBS)
 
-examples: $(BUILD)/laplace $(BUILD)/custom_kernel
+$(BUILD)/double_layer: examples/double_layer.c kifmm.h kifmm_kernels.h | $(BUILD)
+	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. $< -o $@ $(LDLIBS)
+
+examples: $(BUILD)/laplace $(BUILD)/custom_kernel $(BUILD)/double_layer
 
 # a user-defined kernel (examples/custom_kernel.c), checked against direct sums
 custom: deps
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/custom_kernel $(ARGS)
+
+# the double-layer identity on a sphere with the laplace_dipole kernel
+double_layer: deps
+	@$(MAKE) --no-print-directory examples
+	./$(BUILD)/double_layer $(ARGS)
 
 run: deps
 	@$(MAKE) --no-print-directory examples
@@ -101,6 +111,7 @@ test: deps
 	EXTRA_CFLAGS="$(CBLAS_CFLAGS)" CONFIGS="$(CONFIGS)" bash tests/run.sh
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/custom_kernel 20000 6
+	./$(BUILD)/double_layer 64 6
 
 clean:
 	rm -rf $(BUILD)
