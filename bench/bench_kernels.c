@@ -2,16 +2,19 @@
  *
  *   bench_kernels DIST N P [--sample S] [--repeat R] [--dump FILE] [--leaf L] [--passes]
  *
- * Runs laplace_grad, yukawa_grad (lambda 1) and stokes (mu 1) on the same N
+ * Runs laplace_grad, yukawa_grad (lambda 1), stokes (mu 1) and
+ * laplace_cd_grad (a charge and a dipole per point) on the same N
  * points of DIST (cube, sphere, clustered: bench/points.h), sources =
  * targets, one after the other in this process, and prints one row per
  * kernel: create and evaluate time (the fastest of R evaluates), their sum
  * and its ratio to laplace_grad's, the memory the handle holds and its ratio
  * to laplace_grad's, and the relative L2 error of the first output group
  * (potential, velocity) and of the gradient at S sample targets against
- * direct sums computed here. --dump writes the Stokes case for
- * bench/fmm3d_stokes.py (little endian: int64 n, int64 ns, double xyz[3n],
- * double f[3n], int64 idx[ns], double u[3ns], double kifmm_err,
+ * direct sums computed here. --dump FILE writes the Stokes case to FILE and
+ * the laplace_cd_grad case to FILE.cd, for bench/fmm3d_kernels.py (little
+ * endian: int64 kind (0 Stokes, 1 charges and dipoles), int64 n, int64 ns,
+ * double xyz[3n], int64 sd, double densities[sd n], int64 idx[ns], int64 td,
+ * double ref[td ns], double kifmm_err[2] (first group, gradient),
  * double kifmm_seconds). --leaf sets opts.leaf_size for every kernel (default:
  * each kernel's own). --passes adds a line per kernel with the fastest
  * evaluate's time per pass and create's tree and operator times. A last
@@ -28,12 +31,14 @@
 #include "kifmm.h"
 #define KIFMM_KERNEL stokes
 #include "kifmm.h"
+#define KIFMM_KERNEL laplace_cd_grad
+#include "kifmm.h"
 
 #include <omp.h>
 
 #include "points.h"
 
-enum { K_LAPG, K_YUKG, K_STOKES };
+enum { K_LAPG, K_YUKG, K_STOKES, K_LCDG, NKIND };
 
 /* ref[s td ..] at target idx[s]: laplace_grad / yukawa_grad (lambda 1):
  * potential and gradient; stokes (mu 1): velocity */
@@ -49,7 +54,14 @@ static void direct(int kind, int64_t n, const double *x, const double *q, int64_
             const double dx = t[0] - x[3 * j], dy = t[1] - x[3 * j + 1], dz = t[2] - x[3 * j + 2];
             const double r2 = dx * dx + dy * dy + dz * dz, r = sqrt(r2);
             if (r2 == 0.0) continue;
-            if (kind == K_STOKES) {
+            if (kind == K_LCDG) { /* charge q, dipole v: q / r + v . d / r^3 and the gradient */
+                const double *c = q + 4 * j, vd = dx * c[1] + dy * c[2] + dz * c[3];
+                const double r3 = r2 * r, m = (c[0] + 3.0 * vd / r2) / r3;
+                a[0] += c[0] / r + vd / r3;
+                a[1] += c[1] / r3 - dx * m;
+                a[2] += c[2] / r3 - dy * m;
+                a[3] += c[3] / r3 - dz * m;
+            } else if (kind == K_STOKES) {
                 const double *f = q + 3 * j, fd = (dx * f[0] + dy * f[1] + dz * f[2]) / (r2 * r);
                 a[0] += f[0] / r + dx * fd;
                 a[1] += f[1] / r + dy * fd;
@@ -103,7 +115,7 @@ typedef struct {
         r[KIND].create = st.t_tree + st.t_operators;                                         \
         r[KIND].eval = 1e30;                                                                 \
         for (k = 0; k < rep; k++) {                                                          \
-            P##_evaluate(h, KIND == K_STOKES ? f : q, out);                                  \
+            P##_evaluate(h, KIND == K_STOKES ? f : KIND == K_LCDG ? cd : q, out);            \
             P##_stats(h, &st);                                                               \
             if (st.t_evaluate < r[KIND].eval) {                                              \
                 r[KIND].eval = st.t_evaluate;                                                \
@@ -112,24 +124,30 @@ typedef struct {
         }                                                                                    \
         r[KIND].mib = st.bytes / 1048576.0;                                                  \
         P##_destroy(h);                                                                      \
-        direct(KIND, n, x, KIND == K_STOKES ? f : q, ns, idx, ref);                           \
+        direct(KIND, n, x, KIND == K_STOKES ? f : KIND == K_LCDG ? cd : q, ns, idx, ref);    \
         r[KIND].e0 = rel(TD, 0, TD == 3 ? 3 : 1, ns, idx, out, ref);                          \
         r[KIND].e1 = TD == 4 ? rel(TD, 1, 4, ns, idx, out, ref) : 0.0;                       \
-        if (KIND == K_STOKES && dump) write_dump(dump, n, x, f, ns, idx, ref, r[KIND]);      \
+        if ((KIND == K_STOKES || KIND == K_LCDG) && dump)                                    \
+            write_dump(dump, KIND == K_LCDG, n, x, KIND == K_LCDG ? cd : f, ns, idx, ref,      \
+                       r[KIND]);                                                             \
         free(ref);                                                                           \
     } while (0)
 
-static void write_dump(const char *path, int64_t n, const double *x, const double *f,
-                       int64_t ns, const int64_t *idx, const double *u, res r)
+static void write_dump(const char *path, int cd, int64_t n, const double *x, const double *dens,
+                       int64_t ns, const int64_t *idx, const double *ref, res r)
 {
-    FILE *fp = fopen(path, "wb");
-    const double tail[2] = {r.e0, r.create + r.eval};
-    if (!fp || fwrite(&n, 8, 1, fp) != 1 || fwrite(&ns, 8, 1, fp) != 1 ||
-        fwrite(x, 8, (size_t)(3 * n), fp) != (size_t)(3 * n) ||
-        fwrite(f, 8, (size_t)(3 * n), fp) != (size_t)(3 * n) ||
-        fwrite(idx, 8, (size_t)ns, fp) != (size_t)ns ||
-        fwrite(u, 8, (size_t)(3 * ns), fp) != (size_t)(3 * ns) || fwrite(tail, 8, 2, fp) != 2) {
-        fprintf(stderr, "cannot write %s\n", path);
+    char name[4096];
+    FILE *fp;
+    const int64_t kind = cd, sd = cd ? 4 : 3, td = cd ? 4 : 3;
+    const double tail[3] = {r.e0, r.e1, r.create + r.eval};
+    snprintf(name, sizeof name, "%s%s", path, cd ? ".cd" : "");
+    fp = fopen(name, "wb");
+    if (!fp || fwrite(&kind, 8, 1, fp) != 1 || fwrite(&n, 8, 1, fp) != 1 ||
+        fwrite(&ns, 8, 1, fp) != 1 || fwrite(x, 8, (size_t)(3 * n), fp) != (size_t)(3 * n) ||
+        fwrite(&sd, 8, 1, fp) != 1 || fwrite(dens, 8, (size_t)(sd * n), fp) != (size_t)(sd * n) ||
+        fwrite(idx, 8, (size_t)ns, fp) != (size_t)ns || fwrite(&td, 8, 1, fp) != 1 ||
+        fwrite(ref, 8, (size_t)(td * ns), fp) != (size_t)(td * ns) || fwrite(tail, 8, 3, fp) != 3) {
+        fprintf(stderr, "cannot write %s\n", name);
         exit(1);
     }
     fclose(fp);
@@ -188,13 +206,13 @@ static void harmonic_route(const kifmm_opts *o, int64_t n, const double *x, cons
 
 int main(int argc, char **argv)
 {
-    static const char *names[3] = {"laplace_grad", "yukawa_grad", "stokes"};
+    static const char *names[NKIND] = {"laplace_grad", "yukawa_grad", "stokes", "laplace_cd_grad"};
     int dist = -1, p, rep = 3, a, k, leaf = 0, passes = 0;
     int64_t n, ns = 500, s;
     const char *dump = NULL;
     kifmm_opts o;
-    res r[3];
-    double *x, *q, *f, *out;
+    res r[NKIND];
+    double *x, *q, *f, *cd, *out;
     int64_t *idx;
     if (argc < 4) {
         fprintf(stderr, "usage: %s DIST N P [--sample S] [--repeat R] [--dump FILE] [--leaf L] [--passes]\n", argv[0]);
@@ -221,10 +239,12 @@ int main(int argc, char **argv)
     x = (double *)malloc(sizeof(double) * (size_t)(3 * n));
     q = (double *)malloc(sizeof(double) * (size_t)n);
     f = (double *)malloc(sizeof(double) * (size_t)(3 * n));
+    cd = (double *)malloc(sizeof(double) * (size_t)(4 * n));
     out = (double *)malloc(sizeof(double) * (size_t)(4 * n));
     idx = (int64_t *)malloc(sizeof(int64_t) * (size_t)ns);
     make_points(dist, n, 1, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, x, q);
     make_points(dist, n, 3, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, x, f);
+    make_points(dist, n, 4, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, x, cd);
     for (s = 0; s < ns; s++) idx[s] = (s * 7919) % n;
     memset(&o, 0, sizeof o);
     o.order = p;
@@ -232,20 +252,21 @@ int main(int argc, char **argv)
     RUN(kifmm_laplace_grad, K_LAPG, 4);
     RUN(kifmm_yukawa_grad, K_YUKG, 4);
     RUN(kifmm_stokes, K_STOKES, 3);
-    for (k = 0; k < 3; k++)
-        printf("%-9s %8.0f %2d %-12s %7.3f %7.3f %7.3f %6.2f %7.0f %6.2f %9.2e %9.2e\n",
+    RUN(kifmm_laplace_cd_grad, K_LCDG, 4);
+    for (k = 0; k < NKIND; k++)
+        printf("%-9s %8.0f %2d %-15s %7.3f %7.3f %7.3f %6.2f %7.0f %6.2f %9.2e %9.2e\n",
                dist_names[dist], (double)n, p, names[k], r[k].create, r[k].eval,
                r[k].create + r[k].eval,
                (r[k].create + r[k].eval) / (r[0].create + r[0].eval), r[k].mib,
                r[k].mib / r[0].mib, r[k].e0, r[k].e1);
     harmonic_route(&o, n, x, f, rep, r[K_STOKES], ns, idx);
-    for (k = 0; passes && k < 3; k++) {
+    for (k = 0; passes && k < NKIND; k++) {
         const kifmm_stats *b = &r[k].best;
         printf("  %-12s tree %.3f operators %.3f | p2m %.3f m2m %.3f m2l %.3f l2l %.3f p2l %.3f "
                "l2p %.3f m2p %.3f p2p %.3f | levels %d leaves %lld\n",
                names[k], b->t_tree, b->t_operators, b->t_p2m, b->t_m2m, b->t_m2l, b->t_l2l,
                b->t_p2l, b->t_l2p, b->t_m2p, b->t_p2p, b->levels, (long long)b->leaves);
     }
-    free(x); free(q); free(f); free(out); free(idx);
+    free(x); free(q); free(f); free(cd); free(out); free(idx);
     return 0;
 }

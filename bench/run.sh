@@ -244,8 +244,9 @@ done
 [ -n "$RATIOS" ] && printf '%s' "$RATIOS"
 
 # ---------------------------------------------------------------- kernels side by side
-# laplace_grad, yukawa_grad and stokes on the same points (bench/bench_kernels.c);
-# FMM3D's stfmm3d on the Stokes case of the cube at matching error.
+# laplace_grad, yukawa_grad, stokes and laplace_cd_grad on the same points (bench/bench_kernels.c);
+# FMM3D's stfmm3d and lfmm3d (charges and dipoles) on the Stokes and laplace_cd_grad
+# cases of the cube at matching error (bench/fmm3d_kernels.py).
 if [ "$QUICK" = 1 ]; then KNS="1e5"; else KNS="1e6"; fi
 KNS=${BENCH_KNS:-$KNS}
 echo
@@ -253,14 +254,14 @@ echo "== kernels side by side, p = 6, ${OMP_NUM_THREADS} threads (create + evalu
 # shellcheck disable=SC2086
 if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. bench/bench_kernels.c \
         -o "$OUT/bench_kernels" -llapacke -lopenblas -lm; then
-    echo "dist             N  p kernel        create    eval   total  x lapg     MiB  x lapg  err(pot/u)  err(grad)    bg%"
+    echo "dist             N  p kernel           create    eval   total  x lapg     MiB  x lapg  err(pot/u)  err(grad)    bg%"
     for dist in $DISTS; do
         for n in $KNS; do
             kargs=("$dist" "$n" 6 --sample 300 --repeat 2)
             [ -n "$PY" ] && [ "$dist" = cube ] && kargs+=(--dump "$OUT/stokes_${n}.bin")
             wait_quiet
             if run_measured "$OUT/bench_kernels" "${kargs[@]}" > "$OUT/.krows"; then
-                sed "s/\$/    $BG/" "$OUT/.krows"
+                sed "/^ /!s/\$/    $BG/" "$OUT/.krows"
             else
                 echo "kernels $dist $n: FAILED"
                 FAILED="$FAILED kernels/$dist/$n"
@@ -271,7 +272,7 @@ if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. b
         for n in $KNS; do
             [ -f "$OUT/stokes_${n}.bin" ] || continue
             wait_quiet
-            if run_measured "$PY" bench/fmm3d_stokes.py "$OUT/stokes_${n}.bin" > "$OUT/.fst"; then
+            if run_measured "$PY" bench/fmm3d_kernels.py "$OUT/stokes_${n}.bin" "$OUT/stokes_${n}.bin.cd" > "$OUT/.fst"; then
                 sed "/^#/!s/\$/    $BG/" "$OUT/.fst"
             else
                 echo "fmm3d stokes $n: FAILED"
