@@ -259,6 +259,23 @@ static inline void kifmm_kernel__zero(int n, double *k)
     for (i = 0; i < n; i++) k[i] = 0.0;
 }
 
+/* k = the kernel matrix of charges (ch), dipoles (dip) or both, `rows`
+ * outputs (1, 4 or 10), row by row: column 0 the charge's, then the
+ * dipole's three */
+static inline void kifmm_kernel__lap_eval(double dx, double dy, double dz, int ch, int dip,
+                                          int rows, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    const int ld = ch + 3 * dip;
+    double c[3];
+    if (!kifmm_kernel__lap_powers(dx, dy, dz, c)) {
+        kifmm_kernel__zero(rows * ld, k);
+        return;
+    }
+    if (ch) kifmm_kernel__lap_charge(d, c, rows, ld, k);
+    if (dip) kifmm_kernel__lap_dipole(d, c, rows, ld, k + ch);
+}
+
 /* laplace_hess: charges -> potential, gradient, Hessian (10 outputs) */
 #define kifmm_kernel_laplace_hess_SRC_DIM 1
 #define kifmm_kernel_laplace_hess_TRG_DIM 10
@@ -268,11 +285,8 @@ static inline void kifmm_kernel__zero(int n, double *k)
 static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx, double dy,
                                                   double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double c[3];
     (void)param;
-    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) kifmm_kernel__lap_charge(d, c, 10, 1, k);
-    else kifmm_kernel__zero(10, k);
+    kifmm_kernel__lap_eval(dx, dy, dz, 1, 0, 10, k);
 }
 
 /* laplace_dipole: dipoles (3 per source) -> potential */
@@ -286,11 +300,8 @@ static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx
 static inline void kifmm_kernel_laplace_dipole_eval(const double *param, double dx, double dy,
                                                     double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double c[3];
     (void)param;
-    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) kifmm_kernel__lap_dipole(d, c, 1, 3, k);
-    else kifmm_kernel__zero(3, k);
+    kifmm_kernel__lap_eval(dx, dy, dz, 0, 1, 1, k);
 }
 
 /* laplace_dipole_grad: dipoles -> potential and gradient */
@@ -305,11 +316,8 @@ static inline void kifmm_kernel_laplace_dipole_eval(const double *param, double 
 static inline void kifmm_kernel_laplace_dipole_grad_eval(const double *param, double dx,
                                                          double dy, double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double c[3];
     (void)param;
-    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) kifmm_kernel__lap_dipole(d, c, 4, 3, k);
-    else kifmm_kernel__zero(12, k);
+    kifmm_kernel__lap_eval(dx, dy, dz, 0, 1, 4, k);
 }
 
 /* laplace_cd: charges and dipoles (q, v: 4 per source) -> potential */
@@ -323,14 +331,8 @@ static inline void kifmm_kernel_laplace_dipole_grad_eval(const double *param, do
 static inline void kifmm_kernel_laplace_cd_eval(const double *param, double dx, double dy,
                                                 double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double c[3];
     (void)param;
-    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) {
-        kifmm_kernel__lap_charge(d, c, 1, 4, k);
-        kifmm_kernel__lap_dipole(d, c, 1, 4, k + 1);
-    } else
-        kifmm_kernel__zero(4, k);
+    kifmm_kernel__lap_eval(dx, dy, dz, 1, 1, 1, k);
 }
 
 /* laplace_cd_grad: charges and dipoles -> potential and gradient */
@@ -346,14 +348,8 @@ static inline void kifmm_kernel_laplace_cd_eval(const double *param, double dx, 
 static inline void kifmm_kernel_laplace_cd_grad_eval(const double *param, double dx, double dy,
                                                      double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double c[3];
     (void)param;
-    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) {
-        kifmm_kernel__lap_charge(d, c, 4, 4, k);
-        kifmm_kernel__lap_dipole(d, c, 4, 4, k + 1);
-    } else
-        kifmm_kernel__zero(16, k);
+    kifmm_kernel__lap_eval(dx, dy, dz, 1, 1, 4, k);
 }
 
 /* laplace_cd_hess: charges and dipoles -> potential, gradient, Hessian */
@@ -367,14 +363,8 @@ static inline void kifmm_kernel_laplace_cd_grad_eval(const double *param, double
 static inline void kifmm_kernel_laplace_cd_hess_eval(const double *param, double dx, double dy,
                                                      double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double c[3];
     (void)param;
-    if (kifmm_kernel__lap_powers(dx, dy, dz, c)) {
-        kifmm_kernel__lap_charge(d, c, 10, 4, k);
-        kifmm_kernel__lap_dipole(d, c, 10, 4, k + 1);
-    } else
-        kifmm_kernel__zero(40, k);
+    kifmm_kernel__lap_eval(dx, dy, dz, 1, 1, 10, k);
 }
 
 /* ------------------------------------------------------------------------ */

@@ -499,4 +499,37 @@ static inline int t_run(const t_api *api, const kifmm_opts *opts, int64_t ns, co
     return rc;
 }
 
+/* run_P: create, evaluate (nrhs == 1) or evaluate_many, destroy, for an
+ * instance P of element type R with SD densities per source and TD outputs
+ * per target; float instances get rounded copies of the inputs and return
+ * their outputs widened; *used (if not NULL) gets the options used. */
+#define T_DEFINE_RUN(P, R, SD, TD)                                                               \
+    static int run_##P(const kifmm_opts *o, int64_t ns, const double *s, int64_t nt,           \
+                       const double *t, const double *q, int nrhs, double *out,                \
+                       kifmm_opts *used)                                                       \
+    {                                                                                          \
+        P *h = NULL;                                                                           \
+        int64_t i, nq = (int64_t)nrhs * ns * (SD), no = (int64_t)nrhs * nt * (TD);            \
+        R *sr = (R *)malloc(sizeof(R) * (size_t)(3 * ns + 1));                                 \
+        R *tr = (R *)malloc(sizeof(R) * (size_t)(3 * nt + 1));                                 \
+        R *qr = (R *)malloc(sizeof(R) * (size_t)(nq + 1));                                     \
+        R *orr = (R *)malloc(sizeof(R) * (size_t)(no + 1));                                    \
+        int rc;                                                                                \
+        for (i = 0; i < 3 * ns; i++) sr[i] = (R)s[i];                                          \
+        for (i = 0; i < 3 * nt; i++) tr[i] = (R)t[i];                                          \
+        for (i = 0; i < nq; i++) qr[i] = (R)q[i];                                              \
+        for (i = 0; i < no; i++) orr[i] = (R)NAN;                                              \
+        /* the same array twice when the sources are the targets, as a caller \
+         * would pass it (create then sorts once and pairs of leaves are      \
+         * computed once for both) */                                         \
+        rc = P##_create(&h, o, ns, sr, nt, s == t && ns == nt ? sr : tr);                      \
+        if (rc == 0 && used) rc = P##_options(h, used);                                        \
+        if (rc == 0)                                                                           \
+            rc = nrhs == 1 ? P##_evaluate(h, qr, orr) : P##_evaluate_many(h, nrhs, qr, orr);   \
+        for (i = 0; i < no; i++) out[i] = (double)orr[i];                                      \
+        P##_destroy(h);                                                                        \
+        free(sr); free(tr); free(qr); free(orr);                                               \
+        return rc;                                                                             \
+    }
+
 #endif /* KIFMM_TEST_H */

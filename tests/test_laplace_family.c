@@ -52,47 +52,21 @@
 #endif
 #define NSAMPLE 200
 
-/* create, evaluate, destroy; float instances get rounded copies of the
- * inputs and return their outputs widened */
-#define DEFINE_RUN(P, R, SD, TD)                                                               \
-    static int run_##P(const kifmm_opts *o, int64_t ns, const double *s, int64_t nt,           \
-                       const double *t, const double *q, double *out)                          \
-    {                                                                                          \
-        P *h = NULL;                                                                           \
-        int64_t i;                                                                             \
-        R *sr = (R *)malloc(sizeof(R) * (size_t)(3 * ns));                                     \
-        R *tr = (R *)malloc(sizeof(R) * (size_t)(3 * nt));                                     \
-        R *qr = (R *)malloc(sizeof(R) * (size_t)((SD) * ns));                                  \
-        R *orr = (R *)malloc(sizeof(R) * (size_t)((TD) * nt));                                 \
-        int rc;                                                                                \
-        for (i = 0; i < 3 * ns; i++) sr[i] = (R)s[i];                                          \
-        for (i = 0; i < 3 * nt; i++) tr[i] = (R)t[i];                                          \
-        for (i = 0; i < (SD) * ns; i++) qr[i] = (R)q[i];                                       \
-        rc = P##_create(&h, o, ns, sr, nt, s == t ? sr : tr);                                  \
-        if (rc == 0) rc = P##_evaluate(h, qr, orr);                                            \
-        for (i = 0; i < (TD) * nt; i++) out[i] = (double)orr[i];                               \
-        P##_destroy(h);                                                                        \
-        free(sr);                                                                              \
-        free(tr);                                                                              \
-        free(qr);                                                                              \
-        free(orr);                                                                             \
-        return rc;                                                                             \
-    }
-DEFINE_RUN(kifmm_laplace_hess, double, 1, 10)
-DEFINE_RUN(kifmm_laplace_dipole, double, 3, 1)
-DEFINE_RUN(kifmm_laplace_dipole_grad, double, 3, 4)
-DEFINE_RUN(kifmm_laplace_cd, double, 4, 1)
-DEFINE_RUN(kifmm_laplace_cd_grad, double, 4, 4)
-DEFINE_RUN(kifmm_laplace_cd_hess, double, 4, 10)
-DEFINE_RUN(kifmm_laplace_hessf, float, 1, 10)
-DEFINE_RUN(kifmm_laplace_dipolef, float, 3, 1)
-DEFINE_RUN(kifmm_laplace_dipole_gradf, float, 3, 4)
-DEFINE_RUN(kifmm_laplace_cdf, float, 4, 1)
-DEFINE_RUN(kifmm_laplace_cd_gradf, float, 4, 4)
-DEFINE_RUN(kifmm_laplace_cd_hessf, float, 4, 10)
+T_DEFINE_RUN(kifmm_laplace_hess, double, 1, 10)
+T_DEFINE_RUN(kifmm_laplace_dipole, double, 3, 1)
+T_DEFINE_RUN(kifmm_laplace_dipole_grad, double, 3, 4)
+T_DEFINE_RUN(kifmm_laplace_cd, double, 4, 1)
+T_DEFINE_RUN(kifmm_laplace_cd_grad, double, 4, 4)
+T_DEFINE_RUN(kifmm_laplace_cd_hess, double, 4, 10)
+T_DEFINE_RUN(kifmm_laplace_hessf, float, 1, 10)
+T_DEFINE_RUN(kifmm_laplace_dipolef, float, 3, 1)
+T_DEFINE_RUN(kifmm_laplace_dipole_gradf, float, 3, 4)
+T_DEFINE_RUN(kifmm_laplace_cdf, float, 4, 1)
+T_DEFINE_RUN(kifmm_laplace_cd_gradf, float, 4, 4)
+T_DEFINE_RUN(kifmm_laplace_cd_hessf, float, 4, 10)
 
 typedef int (*run_fn)(const kifmm_opts *, int64_t, const double *, int64_t, const double *,
-                      const double *, double *);
+                      const double *, int, double *, kifmm_opts *);
 typedef struct {
     const char *name;
     int charges, dipoles, tdim; /* densities: q if charges, then v if dipoles */
@@ -223,7 +197,7 @@ static void check_case(const char *dist, int separate)
         for (fl = 0; fl < 2; fl++) {
             kifmm_opts o = t_opts(fl ? 4 : 6, 0, 0);
             const double bp = fl ? 1e-3 : 1e-5, bg = fl ? 1e-3 : 1e-4;
-            const int rc = (fl ? K->runf : K->run)(&o, n, s, nt, t, dens, out);
+            const int rc = (fl ? K->runf : K->run)(&o, n, s, nt, t, dens, 1, out, NULL);
             /* the reference from the inputs the instance saw: in float, the
              * points and densities rounded to float (in clusters of width 1e-3
              * the rounding of the coordinates alone moves the gradients by
