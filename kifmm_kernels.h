@@ -238,7 +238,7 @@ static inline void kifmm_kernel__lap_charge(const double *d, const double *c, in
 static inline void kifmm_kernel__lap_dipole(const double *d, const double *c, int rows, int ld,
                                             double *k)
 {
-    const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    const double ir2 = rows > 4 ? 1.0 / (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) : 0.0;
     int m, a;
     for (a = 0; a < 3; a++) {
         k[a] = c[1] * d[a];
@@ -247,7 +247,7 @@ static inline void kifmm_kernel__lap_dipole(const double *d, const double *c, in
         for (m = 0; m < 6 && rows > 4; m++) {
             const int i = KIFMM_KERNEL__HI(m), j = KIFMM_KERNEL__HJ(m);
             k[(4 + m) * ld + a] =
-                c[2] * (15.0 * d[i] * d[j] * d[a] / r2 -
+                c[2] * (15.0 * d[i] * d[j] * d[a] * ir2 -
                         3.0 * ((i == a ? d[j] : 0.0) + (j == a ? d[i] : 0.0) + (i == j ? d[a] : 0.0)));
         }
     }
