@@ -2691,61 +2691,6 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used);
 #error "kifmm.h: the kernel named by KIFMM_KERNEL must define kifmm_kernel_<name>_SRC_DIM and _TRG_DIM (see docs/kernels.md)"
 #endif
 
-/* The kernel's traits, resolved once. QD: density components per source
- * point; TD: outputs per target; SD: density components per point of the
- * equivalent surfaces (the surface kernel's). */
-#define KIFMM__QD KIFMM__K(_SRC_DIM)
-#define KIFMM__TD KIFMM__K(_TRG_DIM)
-
-/* The four kernel roles (docs/kernels.md), each a kernel name:
- *   QT  points -> targets (TD x QD): the kernel itself;
- *   SC  surface -> check surface (SD x SD): the surface kernel, _EQUIV, or
- *       the kernel itself when TD == QD (unless it sets _USE_EQUIV to 1:
- *       laplace_cd_grad, 4 densities and 4 outputs, on Laplace surfaces);
- *   ST  surface -> targets (TD x SD): the kernel itself when QD == SD,
- *       else _SURFACE;
- *   QC  points -> check surface (SD x QD): SC when QD == SD, the kernel
- *       itself when TD == SD, else _CHECK.
- * The Laplace dipole kernels of kifmm_kernels.h name all three. */
-#define KIFMM__ROLE_QT KIFMM_KERNEL
-#if KIFMM__K(_TRG_DIM) == KIFMM__K(_SRC_DIM) && !KIFMM__IS_ONE(KIFMM__K(_USE_EQUIV))
-#define KIFMM__ROLE_SC KIFMM_KERNEL
-#else
-#define KIFMM__ROLE_SC KIFMM__K(_EQUIV)
-#endif
-/* kifmm_kernel_<the role's kernel><suffix>; a concatenation of its own, as
- * the role's name may itself expand through KIFMM__CAT */
-#define KIFMM__RCAT_(a, b, c) a##b##c
-#define KIFMM__RCAT(a, b, c) KIFMM__RCAT_(a, b, c)
-#define KIFMM__R_(role, suffix) KIFMM__RCAT(kifmm_kernel_, KIFMM__ROLE_##role, suffix)
-#define KIFMM__SD KIFMM__R_(SC, _SRC_DIM)
-#if KIFMM__QD == KIFMM__SD
-#define KIFMM__ROLE_ST KIFMM_KERNEL
-#define KIFMM__ROLE_QC KIFMM__ROLE_SC
-#elif KIFMM__TD == KIFMM__SD
-#define KIFMM__ROLE_ST KIFMM__K(_SURFACE)
-#define KIFMM__ROLE_QC KIFMM_KERNEL
-#else
-#define KIFMM__ROLE_ST KIFMM__K(_SURFACE)
-#define KIFMM__ROLE_QC KIFMM__K(_CHECK)
-#endif
-KIFMM__STATIC_ASSERT(KIFMM__R_(SC, _TRG_DIM) == KIFMM__SD && KIFMM__R_(ST, _SRC_DIM) == KIFMM__SD &&
-                         KIFMM__R_(ST, _TRG_DIM) == KIFMM__TD &&
-                         KIFMM__R_(QC, _SRC_DIM) == KIFMM__QD &&
-                         KIFMM__R_(QC, _TRG_DIM) == KIFMM__SD,
-                     KIFMM__CAT(KIFMM_NAME, _kernel_roles_must_have_matching_dimensions));
-
-/* Scale invariance and degree are the surface kernel's (SC): they decide
- * whether the operators, all built from SC, serve every level, and how check
- * potentials scale with the box size. The degree is read only when SC is
- * invariant. */
-#define KIFMM__SI KIFMM__R_(SC, _SCALE_INVARIANT)
-#if KIFMM__SI
-#define KIFMM__DEGREE KIFMM__R_(SC, _DEGREE)
-#else
-#define KIFMM__DEGREE 0
-#endif
-
 /* A role kernel's optional features: its _HAS mask (in parentheses, of
  * KIFMM_HAS_* bits: a misspelt bit name stops the build, see below), or,
  * for kernels written before the mask, the flags _SETUP, _P2P, _P2PF, ...
@@ -2763,6 +2708,78 @@ KIFMM__STATIC_ASSERT(KIFMM__R_(SC, _TRG_DIM) == KIFMM__SD && KIFMM__R_(ST, _SRC_
 #define KIFMM__HAS_OF(k)                                                                    \
     KIFMM__IF(KIFMM__IS_PAREN(KIFMM__CAT3(kifmm_kernel_, k, _HAS)))(                        \
         KIFMM__CAT3(kifmm_kernel_, k, _HAS), KIFMM__LEGACY_HAS(k))
+
+/* The kernel's traits, resolved once. UD: density components per source
+ * point in the caller's array; QD: the components the kernel is linear in
+ * (UD, or _DENSITY_DIM for a kernel with KIFMM_HAS_DENSITY, whose _density
+ * function maps the caller's UD to them when they are gathered: the
+ * q_j n_k of stokes_dl); TD: outputs per target; SD: density components per
+ * point of the equivalent surfaces (the surface kernel's). */
+#define KIFMM__UD KIFMM__K(_SRC_DIM)
+#if KIFMM__HAS_OF(KIFMM_KERNEL) & KIFMM_HAS_DENSITY
+#define KIFMM__QD KIFMM__K(_DENSITY_DIM)
+#else
+#define KIFMM__QD KIFMM__UD
+#endif
+#define KIFMM__TD KIFMM__K(_TRG_DIM)
+
+/* The four kernel roles (docs/kernels.md), each a kernel name:
+ *   QT  points -> targets (TD x QD): the kernel itself;
+ *   SC  surface -> check surface (SD x SD): the surface kernel, _EQUIV, or
+ *       the kernel itself when TD == QD (unless it sets _USE_EQUIV to 1:
+ *       laplace_cd_grad, 4 densities and 4 outputs, on Laplace surfaces);
+ *   ST  surface -> targets (TD x SD): the kernel itself when QD == SD,
+ *       else _SURFACE;
+ *   QC  points -> check surface (SD x QD): SC when QD == SD, the kernel
+ *       itself when TD == SD (unless it sets _USE_CHECK to 1: stokes_pvel,
+ *       whose outputs are not its check potentials), else _CHECK.
+ * The Laplace dipole kernels of kifmm_kernels.h name all three. */
+#define KIFMM__ROLE_QT KIFMM_KERNEL
+#if KIFMM__TD == KIFMM__QD && !KIFMM__IS_ONE(KIFMM__K(_USE_EQUIV))
+#define KIFMM__ROLE_SC KIFMM_KERNEL
+#else
+#define KIFMM__ROLE_SC KIFMM__K(_EQUIV)
+#endif
+/* kifmm_kernel_<the role's kernel><suffix>; a concatenation of its own, as
+ * the role's name may itself expand through KIFMM__CAT */
+#define KIFMM__RCAT_(a, b, c) a##b##c
+#define KIFMM__RCAT(a, b, c) KIFMM__RCAT_(a, b, c)
+#define KIFMM__R_(role, suffix) KIFMM__RCAT(kifmm_kernel_, KIFMM__ROLE_##role, suffix)
+#define KIFMM__SD KIFMM__R_(SC, _SRC_DIM)
+/* ST_IN, QC_IN: the density components ST and QC take (QD when the role is
+ * the kernel itself, whose _SRC_DIM counts the caller's densities) */
+#if KIFMM__QD == KIFMM__SD
+#define KIFMM__ROLE_ST KIFMM_KERNEL
+#define KIFMM__ROLE_QC KIFMM__ROLE_SC
+#define KIFMM__ST_IN KIFMM__QD
+#define KIFMM__QC_IN KIFMM__R_(QC, _SRC_DIM)
+#elif KIFMM__TD == KIFMM__SD && !KIFMM__IS_ONE(KIFMM__K(_USE_CHECK))
+#define KIFMM__ROLE_ST KIFMM__K(_SURFACE)
+#define KIFMM__ROLE_QC KIFMM_KERNEL
+#define KIFMM__ST_IN KIFMM__R_(ST, _SRC_DIM)
+#define KIFMM__QC_IN KIFMM__QD
+#else
+#define KIFMM__ROLE_ST KIFMM__K(_SURFACE)
+#define KIFMM__ROLE_QC KIFMM__K(_CHECK)
+#define KIFMM__ST_IN KIFMM__R_(ST, _SRC_DIM)
+#define KIFMM__QC_IN KIFMM__R_(QC, _SRC_DIM)
+#endif
+KIFMM__STATIC_ASSERT(KIFMM__R_(SC, _TRG_DIM) == KIFMM__SD && KIFMM__ST_IN == KIFMM__SD &&
+                         KIFMM__R_(ST, _TRG_DIM) == KIFMM__TD && KIFMM__QC_IN == KIFMM__QD &&
+                         KIFMM__R_(QC, _TRG_DIM) == KIFMM__SD,
+                     KIFMM__CAT(KIFMM_NAME, _kernel_roles_must_have_matching_dimensions));
+
+/* Scale invariance and degree are the surface kernel's (SC): they decide
+ * whether the operators, all built from SC, serve every level, and how check
+ * potentials scale with the box size. The degree is read only when SC is
+ * invariant. */
+#define KIFMM__SI KIFMM__R_(SC, _SCALE_INVARIANT)
+#if KIFMM__SI
+#define KIFMM__DEGREE KIFMM__R_(SC, _DEGREE)
+#else
+#define KIFMM__DEGREE 0
+#endif
+
 #define KIFMM__HAS_QT KIFMM__HAS_OF(KIFMM__ROLE_QT)
 #define KIFMM__HAS_ST KIFMM__HAS_OF(KIFMM__ROLE_ST)
 #define KIFMM__HAS_QC KIFMM__HAS_OF(KIFMM__ROLE_QC)
@@ -2909,6 +2926,11 @@ struct KIFMM_NAME {
         int32_t m, mc;         /* sizes of loc/need and cjl */
         int32_t *loc, *need, *cjl; /* slab: slot of a parent, parents, local colleagues */
         unsigned char *sch;    /* per slot: number of children with sources, then which */
+        unsigned char nz[KIFMM__SD * KIFMM__SD]; /* kernel components (a, b) whose spectra
+                                  are not all zero at some level: only those are
+                                  multiplied (the blocks of _laplace3 off the diagonal
+                                  are zero, those between the Stokeslet and the charge
+                                  of _stokes_pl too) */
         float *bf;             /* per thread: blocks, products, transform work (fper */
         double *bd;            /* values of the spectra's type) */
         double *mbuf;          /* per thread: one lattice density of 8 lanes, 8 nc */
@@ -3395,6 +3417,20 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, int m2l, kifm
 
 /* Build one level's operators in double and keep them in the instance's
  * precision, counted in c->held. */
+/* c->fft.nz[ab] = 1 for the kernel components ab with a nonzero value in
+ * the spectra khat (kifmm__build_m2l_fft's layout) */
+KIFMM__FN void KIFMM__F(__m2l_nonzero)(KIFMM_NAME *c, const double *khat)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const size_t n = (size_t)c->fft.plan.nfp * KIFMM__NT;
+    size_t ft;
+    int ab;
+    for (ft = 0; ft < n; ft++)
+        for (ab = 0; ab < SD2; ab++)
+            if (khat[(ft * SD2 + ab) * 2] != 0.0 || khat[(ft * SD2 + ab) * 2 + 1] != 0.0)
+                c->fft.nz[ab] = 1;
+}
+
 KIFMM__FN int KIFMM__F(__ops_make)(KIFMM_NAME *c, double r, int m2l, KIFMM__F(__ops) *out)
 {
     const size_t ne = (size_t)c->surf.ne, nc = (size_t)c->surf.nc;
@@ -3417,6 +3453,7 @@ KIFMM__FN int KIFMM__F(__ops_make)(KIFMM_NAME *c, double r, int m2l, KIFMM__F(__
         if (o.m2l && !(out->m2l = KIFMM__F(__own)(held, &o.m2l, (size_t)o.kd * KIFMM__NT * ne)))
             rc = KIFMM_ERR_NOMEM;
         if (o.khat) *held += kifmm__size(o.khat);
+        if (o.khat) KIFMM__F(__m2l_nonzero)(c, o.khat);
         out->khat = o.khat;
         o.khat = NULL;
         if (!out->ut_up || !out->vs_up || !out->ut_dn || !out->vs_dn || !out->m2m || !out->l2l)
@@ -3988,28 +4025,28 @@ KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32
     unsigned char no2[27 * KIFMM__SD];
     const int32_t *nbs = nbr;
     const unsigned char *nos = cc;
-    int e, q, a;
+    int e, q, a, b, m = nn;
     for (e = 0; e < nx; e++) {
         const size_t v = ax + (size_t)nxt[e] * KIFMM__FFT_PN;
         const char *p = c->fft.specf ? (const char *)(c->fft.specf + v) : (const char *)(c->fft.specd + v);
         for (q = 0; q < (int)(KIFMM__FFT_PN * esz); q += 64) KIFMM__PREFETCH(p + q);
     }
-    if (KIFMM__SD > 1) { /* one scalar kernel's lists serve as they are */
-        for (e = 0; e < nn * KIFMM__SD; e++) {
-            nb2[e] = nbr[e / KIFMM__SD] * KIFMM__SD + e % KIFMM__SD;
-            no2[e] = (unsigned char)(cc[e / KIFMM__SD] * KIFMM__SD + e % KIFMM__SD);
-        }
-        nbs = nb2;
-        nos = no2;
-    }
     for (a = 0; a < KIFMM__SD; a++) {
         const size_t ka = (size_t)a * 27 * KIFMM__SD * KIFMM__FFT_F * 128, oa = (size_t)a * KIFMM__FFT_F * 16;
+        if (KIFMM__SD > 1) { /* the (parent, component) pairs of row a's nonzero blocks */
+            for (m = 0, e = 0; e < nn; e++)
+                for (b = 0; b < KIFMM__SD; b++)
+                    if (c->fft.nz[a * KIFMM__SD + b]) {
+                        nb2[m] = nbr[e] * KIFMM__SD + b;
+                        no2[m++] = (unsigned char)(cc[e] * KIFMM__SD + b);
+                    }
+            nbs = nb2;
+            nos = no2;
+        }
         if (c->fft.specf)
-            kifmm__fft_productsf(nn * KIFMM__SD, nbs, nos, c->fft.sch, c->fft.specf + at, kb.f + ka,
-                                 out.f + oa);
+            kifmm__fft_productsf(m, nbs, nos, c->fft.sch, c->fft.specf + at, kb.f + ka, out.f + oa);
         else
-            kifmm__fft_productsd(nn * KIFMM__SD, nbs, nos, c->fft.sch, c->fft.specd + at, kb.d + ka,
-                                 out.d + oa);
+            kifmm__fft_productsd(m, nbs, nos, c->fft.sch, c->fft.specd + at, kb.d + ka, out.d + oa);
     }
 }
 
@@ -4982,7 +5019,7 @@ KIFMM__FN int KIFMM__F(__eval_check)(const KIFMM_NAME *h, int nrhs, const KIFMM_
     if ((t->ns > 0 && nrhs > 0 && !densities) || (t->nt > 0 && nrhs > 0 && !out))
         return *rc = KIFMM_ERR_NULL;
     if (t->nt == 0 || nrhs == 0) return 1;
-    qper = (size_t)t->ns * KIFMM__QD;
+    qper = (size_t)t->ns * KIFMM__UD;
     oper = (size_t)t->nt * KIFMM__TD;
     if ((size_t)nrhs > (size_t)PTRDIFF_MAX / sizeof(KIFMM__R) / (qper > oper ? qper : oper))
         return *rc = KIFMM_ERR_COUNT; /* no array holds that many vectors */
@@ -5004,6 +5041,31 @@ KIFMM__FN int KIFMM__F(__eval_grow)(KIFMM_NAME *h, int cap)
     return KIFMM_SUCCESS;
 }
 
+/* The densities of nr vectors in sorted order, each sorted source writing
+ * its own (through the kernel's _density map, if it has one). */
+KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work) *w, int nr,
+                                            const KIFMM__R *d)
+{
+    const kifmm__tree *t = &h->tree;
+    const size_t qper = (size_t)t->ns * KIFMM__QD, uper = (size_t)t->ns * KIFMM__UD;
+    KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
+    for (int64_t i = 0; i < t->ns; i++) {
+        int k, r;
+        for (r = 0; r < nr; r++) {
+            const KIFMM__R *in = d + r * uper + t->sperm[i] * KIFMM__UD;
+            KIFMM__R *q = w->qs + r * qper + i * KIFMM__QD;
+#if KIFMM__HAS_QT & KIFMM_HAS_DENSITY
+            double u[KIFMM__UD], lin[KIFMM__QD];
+            for (k = 0; k < KIFMM__UD; k++) u[k] = (double)in[k];
+            KIFMM__K(_density)(h->opts.kernel_param, u, lin);
+            for (k = 0; k < KIFMM__QD; k++) q[k] = (KIFMM__R)lin[k];
+#else
+            for (k = 0; k < KIFMM__QD; k++) q[k] = in[k];
+#endif
+        }
+    }
+}
+
 /* One group of nr vectors (densities d, outputs o: the group's first
  * vectors): the densities in sorted order, the passes, the outputs in the
  * caller's order. Outputs are summed in sorted order (outs) and gathered
@@ -5013,16 +5075,9 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
 {
     const kifmm__tree *t = &h->tree;
     KIFMM__F(__work) *w = h->work.w;
-    const size_t qper = (size_t)t->ns * KIFMM__QD, oper = (size_t)t->nt * KIFMM__TD;
+    const size_t oper = (size_t)t->nt * KIFMM__TD;
     int l;
-    /* each sorted source i writes its own densities */
-    KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
-    for (int64_t i = 0; i < t->ns; i++) {
-        int k, r;
-        for (r = 0; r < nr; r++)
-            for (k = 0; k < KIFMM__QD; k++)
-                w->qs[r * qper + i * KIFMM__QD + k] = d[r * qper + t->sperm[i] * KIFMM__QD + k];
-    }
+    KIFMM__F(__gather_densities)(h, w, nr, d);
     w->dst = o;
     memset(w->outs ? w->outs : w->dst, 0, (size_t)nr * oper * sizeof(KIFMM__R));
     for (l = t->nlev - 1; l >= 2; l--) KIFMM__F(__upward)(h, w, nr, l);
@@ -5048,7 +5103,7 @@ KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R 
     int r0, nr, cap, rc;
     double t0;
     if (KIFMM__F(__eval_check)(h, nrhs, densities, out, &rc)) return rc;
-    qper = (size_t)h->tree.ns * KIFMM__QD;
+    qper = (size_t)h->tree.ns * KIFMM__UD;
     oper = (size_t)h->tree.nt * KIFMM__TD;
     cap = nrhs < KIFMM__RHS_MAX ? nrhs : KIFMM__RHS_MAX;
     if (nrhs > cap && kifmm__overlap(densities, (size_t)nrhs * qper * sizeof(KIFMM__R), out,
@@ -5117,6 +5172,9 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__DEFINE_P2P_HOOK
 #undef KIFMM__DEFINE_P2P
 #undef KIFMM__QD
+#undef KIFMM__UD
+#undef KIFMM__ST_IN
+#undef KIFMM__QC_IN
 #undef KIFMM__TD
 #undef KIFMM__SD
 #undef KIFMM__SI

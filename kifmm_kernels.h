@@ -52,7 +52,10 @@ extern "C++" {
  * (in parentheses; docs/kernels.md): a setup function for its parameters,
  * and near-field hooks in double and float (F): one-way, for several density
  * vectors (N), mutual (S: both directions between two sets of points), and
- * mutual for several vectors (SN). A misspelt bit stops the build. */
+ * mutual for several vectors (SN); and a map from the caller's densities to
+ * the ones the kernel is linear in (DENSITY: kifmm_kernel_NAME_DENSITY_DIM
+ * and kifmm_kernel_NAME_density(param, in, out), stokes_dl). A misspelt bit
+ * stops the build. */
 #define KIFMM_HAS_SETUP 1
 #define KIFMM_HAS_P2P 2
 #define KIFMM_HAS_P2PF 4
@@ -62,7 +65,8 @@ extern "C++" {
 #define KIFMM_HAS_P2PSF 64
 #define KIFMM_HAS_P2PSN 128
 #define KIFMM_HAS_P2PSNF 256
-#define KIFMM_HAS_ALL 511
+#define KIFMM_HAS_DENSITY 512
+#define KIFMM_HAS_ALL 1023
 
 /* laplace: phi(y) = q / (4 pi |y - x|). */
 #define kifmm_kernel_laplace_SRC_DIM 1
@@ -280,6 +284,7 @@ static inline void kifmm_kernel__lap_eval(double dx, double dy, double dz, int c
 #define kifmm_kernel_laplace_hess_SRC_DIM 1
 #define kifmm_kernel_laplace_hess_TRG_DIM 10
 #define kifmm_kernel_laplace_hess_SCALE_INVARIANT 1
+#define kifmm_kernel_laplace_hess_HAS KIFMM_KERNEL__OW_HAS /* below */
 #define kifmm_kernel_laplace_hess_DEGREE (-1)
 #define kifmm_kernel_laplace_hess_EQUIV laplace
 static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx, double dy,
@@ -356,6 +361,7 @@ static inline void kifmm_kernel_laplace_cd_grad_eval(const double *param, double
 #define kifmm_kernel_laplace_cd_hess_SRC_DIM 4
 #define kifmm_kernel_laplace_cd_hess_TRG_DIM 10
 #define kifmm_kernel_laplace_cd_hess_SCALE_INVARIANT 1
+#define kifmm_kernel_laplace_cd_hess_HAS KIFMM_KERNEL__OW_HAS /* below */
 #define kifmm_kernel_laplace_cd_hess_DEGREE (-1)
 #define kifmm_kernel_laplace_cd_hess_EQUIV laplace
 #define kifmm_kernel_laplace_cd_hess_SURFACE laplace_hess
@@ -365,6 +371,367 @@ static inline void kifmm_kernel_laplace_cd_hess_eval(const double *param, double
 {
     (void)param;
     kifmm_kernel__lap_eval(dx, dy, dz, 1, 1, 10, k);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Yukawa charges and dipoles                                               */
+/* ------------------------------------------------------------------------ */
+/* G = exp(-lambda r) / (4 pi r), lambda = param[0] (yukawa's setup). A charge
+ * q gives q G, gradient -q (1 + lambda r) exp(-lambda r) d / (4 pi r^3); a
+ * dipole v gives v . grad_source G = (v . d) (1 + lambda r) exp(-lambda r) /
+ * (4 pi r^3), gradient (v (1 + lambda r) - (v . d) d (3 + 3 lambda r +
+ * lambda^2 r^2) / r^2) exp(-lambda r) / (4 pi r^3); lambda = 0 gives the
+ * Laplace family's. Densities (q, v), outputs potential, gradient. */
+static inline void kifmm_kernel__yuk_cd(const double *param, double dx, double dy, double dz,
+                                        int rows, double *k)
+{
+    const double r2 = dx * dx + dy * dy + dz * dz, r = sqrt(r2), lr = param[0] * r;
+    const double d[3] = {dx, dy, dz};
+    double e, c1, c3;
+    int m;
+    if (!(r2 > 0.0) || !(r > 0.0) || !(r2 < DBL_MAX)) {
+        kifmm_kernel__zero(4 * rows, k);
+        return;
+    }
+    e = KIFMM_INV_4PI * exp(-lr) / r;        /* G */
+    c1 = e * (1.0 + lr) / r2;                /* (1 + lambda r) G / r^2 */
+    c3 = e * (3.0 + lr * (3.0 + lr)) / (r2 * r2);
+    k[0] = e;
+    for (m = 0; m < 3; m++) k[1 + m] = c1 * d[m];
+    for (m = 0; m < 3 && rows > 1; m++) {
+        int a;
+        k[4 * (1 + m)] = -c1 * d[m];
+        for (a = 0; a < 3; a++) k[4 * (1 + m) + 1 + a] = (m == a ? c1 : 0.0) - c3 * d[m] * d[a];
+    }
+}
+
+/* yukawa_cd: charges and dipoles (q, v: 4 per source) -> potential */
+#define kifmm_kernel_yukawa_cd_SRC_DIM 4
+#define kifmm_kernel_yukawa_cd_TRG_DIM 1
+#define kifmm_kernel_yukawa_cd_SCALE_INVARIANT 0
+#define kifmm_kernel_yukawa_cd_DEGREE 0
+#define kifmm_kernel_yukawa_cd_HAS (KIFMM_HAS_SETUP)
+#define kifmm_kernel_yukawa_cd_setup kifmm_kernel__positive_setup
+#define kifmm_kernel_yukawa_cd_EQUIV yukawa
+#define kifmm_kernel_yukawa_cd_SURFACE yukawa
+static inline void kifmm_kernel_yukawa_cd_eval(const double *param, double dx, double dy,
+                                               double dz, double *k)
+{
+    kifmm_kernel__yuk_cd(param, dx, dy, dz, 1, k);
+}
+
+/* yukawa_cd_grad: charges and dipoles -> potential and gradient */
+#define kifmm_kernel_yukawa_cd_grad_SRC_DIM 4
+#define kifmm_kernel_yukawa_cd_grad_TRG_DIM 4
+#define kifmm_kernel_yukawa_cd_grad_SCALE_INVARIANT 0
+#define kifmm_kernel_yukawa_cd_grad_DEGREE 0
+#define kifmm_kernel_yukawa_cd_grad_HAS (KIFMM_HAS_SETUP)
+#define kifmm_kernel_yukawa_cd_grad_setup kifmm_kernel__positive_setup
+#define kifmm_kernel_yukawa_cd_grad_EQUIV yukawa
+#define kifmm_kernel_yukawa_cd_grad_USE_EQUIV 1
+#define kifmm_kernel_yukawa_cd_grad_SURFACE yukawa_grad
+#define kifmm_kernel_yukawa_cd_grad_CHECK yukawa_cd
+static inline void kifmm_kernel_yukawa_cd_grad_eval(const double *param, double dx, double dy,
+                                                    double dz, double *k)
+{
+    kifmm_kernel__yuk_cd(param, dx, dy, dz, 4, k);
+}
+
+/* ------------------------------------------------------------------------ */
+/* The Stokes family: velocity gradient, pressure, double layer             */
+/* ------------------------------------------------------------------------ */
+/* d = target - source, r = |d|, mu = param[0] (the Stokes setup). Forces f
+ * (3 per source) give the Stokeslet velocity u_i = G_ij f_j, G_ij = (delta_ij
+ * / r + d_i d_j / r^3) / (8 pi mu), the pressure p = f . d / (4 pi r^3) and
+ * the velocity gradient du_i / dy_j = ((delta_ij d_k + delta_jk d_i -
+ * delta_ik d_j) / r^3 - 3 d_i d_j d_k / r^5) f_k / (8 pi mu) at [i * 3 + j].
+ * The double layer of a density q with normal n (q then n, 6 per source)
+ * gives u_i = T_ijk q_j n_k, T_ijk = -3 d_i d_j d_k / (4 pi r^5), whatever
+ * mu.
+ *
+ * The velocities and gradients ride on Stokeslet surfaces (stokes). The
+ * pressure is harmonic, and so is the flux of a double layer (its trace part
+ * (q . n) grad (1 / (4 pi r)) is a potential flow, which no Stokeslet
+ * density carries through a closed surface): stokes_pvel and stokes_dl add
+ * a Laplace charge to each surface point, 4 components (c, f) whose check
+ * potentials are (phi, u) = (c / (4 pi r), G f), with mu = 1 on the
+ * surfaces so that no viscosity puts the two blocks apart in scale. */
+
+/* k[i * ld + j] (i, j < 3) = c (delta_ij + d_i d_j / r^2), c = 1 / (8 pi mu r) */
+static inline void kifmm_kernel__stokeslet(const double *d, double c, double ir2, int ld,
+                                           double *k)
+{
+    int i, j;
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) k[i * ld + j] = c * d[i] * d[j] * ir2 + (i == j ? c : 0.0);
+}
+
+/* 1 / r, 1 / r^2 of d, and 0 for d = 0 or not finite */
+static inline int kifmm_kernel__inv(const double *d, double *inv, double *ir2)
+{
+    const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    *inv = 1.0 / sqrt(r2);
+    *ir2 = *inv * *inv;
+    return r2 > 0.0 && *inv > 0.0;
+}
+
+/* stokes_grad: forces -> velocity (3) and its gradient (9, du_i/dy_j at 3 + 3 i + j) */
+#define kifmm_kernel_stokes_grad_SRC_DIM 3
+#define kifmm_kernel_stokes_grad_TRG_DIM 12
+#define kifmm_kernel_stokes_grad_SCALE_INVARIANT 1
+#define kifmm_kernel_stokes_grad_DEGREE (-1)
+#define kifmm_kernel_stokes_grad_EQUIV stokes
+#define kifmm_kernel_stokes_grad_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS) /* below */
+#define kifmm_kernel_stokes_grad_setup kifmm_kernel__viscosity_setup
+static inline void kifmm_kernel_stokes_grad_eval(const double *param, double dx, double dy,
+                                                 double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2, c, c3;
+    int i, j, m;
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
+        kifmm_kernel__zero(36, k);
+        return;
+    }
+    c = 0.5 * KIFMM_INV_4PI / param[0] * inv; /* 1 / (8 pi mu r) */
+    c3 = c * ir2;
+    kifmm_kernel__stokeslet(d, c, ir2, 3, k);
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++)
+            for (m = 0; m < 3; m++)
+                k[3 * (3 + 3 * i + j) + m] =
+                    c3 * ((i == j ? d[m] : 0.0) + (j == m ? d[i] : 0.0) - (i == m ? d[j] : 0.0) -
+                          3.0 * d[i] * d[j] * d[m] * ir2);
+}
+
+/* The surfaces of stokes_pvel and stokes_dl: densities (c, f_1..3), check
+ * potentials (c / (4 pi r), G f with mu = 1) */
+#define kifmm_kernel__stokes_pl_SRC_DIM 4
+#define kifmm_kernel__stokes_pl_TRG_DIM 4
+#define kifmm_kernel__stokes_pl_SCALE_INVARIANT 1
+#define kifmm_kernel__stokes_pl_DEGREE (-1)
+static inline void kifmm_kernel__stokes_pl_eval(const double *param, double dx, double dy,
+                                                double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2;
+    (void)param;
+    kifmm_kernel__zero(16, k);
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) return;
+    k[0] = KIFMM_INV_4PI * inv;
+    kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI * inv, ir2, 4, k + 5);
+}
+
+/* stokes_pvel: forces -> pressure and velocity (p, u) */
+#define kifmm_kernel_stokes_pvel_SRC_DIM 3
+#define kifmm_kernel_stokes_pvel_TRG_DIM 4
+#define kifmm_kernel_stokes_pvel_SCALE_INVARIANT 1
+#define kifmm_kernel_stokes_pvel_DEGREE (-1)
+#define kifmm_kernel_stokes_pvel_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS) /* below */
+#define kifmm_kernel_stokes_pvel_setup kifmm_kernel__viscosity_setup
+#define kifmm_kernel_stokes_pvel_EQUIV _stokes_pl
+#define kifmm_kernel_stokes_pvel_SURFACE _stokes_pvel_st
+#define kifmm_kernel_stokes_pvel_CHECK _stokes_pvel_qc
+#define kifmm_kernel_stokes_pvel_USE_CHECK 1
+/* k rows p, u; cols f; u with viscosity mu (or 1 in the check kernel) */
+static inline void kifmm_kernel__pvel(double mu, double dx, double dy, double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2;
+    int j;
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
+        kifmm_kernel__zero(12, k);
+        return;
+    }
+    for (j = 0; j < 3; j++) k[j] = KIFMM_INV_4PI * inv * ir2 * d[j];
+    kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI / mu * inv, ir2, 3, k + 3);
+}
+static inline void kifmm_kernel_stokes_pvel_eval(const double *param, double dx, double dy,
+                                                 double dz, double *k)
+{
+    kifmm_kernel__pvel(param[0], dx, dy, dz, k);
+}
+/* its check kernel: forces -> (p, u at mu = 1) */
+#define kifmm_kernel__stokes_pvel_qc_HAS KIFMM_KERNEL__OW_HAS
+#define kifmm_kernel__stokes_pvel_qc_SRC_DIM 3
+#define kifmm_kernel__stokes_pvel_qc_TRG_DIM 4
+static inline void kifmm_kernel__stokes_pvel_qc_eval(const double *param, double dx, double dy,
+                                                     double dz, double *k)
+{
+    (void)param;
+    kifmm_kernel__pvel(1.0, dx, dy, dz, k);
+}
+/* its surface kernel: (c, f) -> (p, u) = (c / (4 pi r), G f / mu) */
+#define kifmm_kernel__stokes_pvel_st_HAS KIFMM_KERNEL__OW_HAS
+#define kifmm_kernel__stokes_pvel_st_SRC_DIM 4
+#define kifmm_kernel__stokes_pvel_st_TRG_DIM 4
+static inline void kifmm_kernel__stokes_pvel_st_eval(const double *param, double dx, double dy,
+                                                     double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2;
+    kifmm_kernel__zero(16, k);
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) return;
+    k[0] = KIFMM_INV_4PI * inv;
+    kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI / param[0] * inv, ir2, 4, k + 5);
+}
+
+/* stokes_dl: the double layer, densities (q, n) per source, mapped to the
+ * 9 products q_j n_k (at 3 j + k) the kernel is linear in */
+#define kifmm_kernel_stokes_dl_SRC_DIM 6
+#define kifmm_kernel_stokes_dl_DENSITY_DIM 9
+#define kifmm_kernel_stokes_dl_TRG_DIM 3
+#define kifmm_kernel_stokes_dl_SCALE_INVARIANT 1
+#define kifmm_kernel_stokes_dl_DEGREE (-2)
+#define kifmm_kernel_stokes_dl_HAS (KIFMM_HAS_DENSITY | KIFMM_KERNEL__OW_HAS) /* below */
+#define kifmm_kernel_stokes_dl_EQUIV _stokes_pl
+#define kifmm_kernel_stokes_dl_SURFACE _stokes_dl_st
+#define kifmm_kernel_stokes_dl_CHECK _stokes_dl_qc
+static inline void kifmm_kernel_stokes_dl_density(const double *param, const double *in,
+                                                  double *out)
+{
+    int j, m;
+    (void)param;
+    for (j = 0; j < 3; j++)
+        for (m = 0; m < 3; m++) out[3 * j + m] = in[j] * in[3 + m];
+}
+/* k[i * ld + 3 j + m] = c d_i d_j d_m, c = -3 / (4 pi r^5) */
+static inline void kifmm_kernel__stresslet(const double *d, double c, int ld, double *k)
+{
+    int i, j, m;
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++)
+            for (m = 0; m < 3; m++) k[i * ld + 3 * j + m] = c * d[i] * d[j] * d[m];
+}
+static inline void kifmm_kernel_stokes_dl_eval(const double *param, double dx, double dy,
+                                               double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2;
+    (void)param;
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
+        kifmm_kernel__zero(27, k);
+        return;
+    }
+    kifmm_kernel__stresslet(d, -3.0 * KIFMM_INV_4PI * inv * ir2 * ir2, 9, k);
+}
+/* its check kernel: q_j n_k -> (phi, u - grad phi), phi = (q . n) / (4 pi
+ * r) the trace part's potential, u - grad phi = T_ijk q_j n_k + (q . n) d_i
+ * / (4 pi r^3) the traceless part's velocity (a Stokes flow without flux) */
+#define kifmm_kernel__stokes_dl_qc_HAS KIFMM_KERNEL__OW_HAS
+#define kifmm_kernel__stokes_dl_qc_SRC_DIM 9
+#define kifmm_kernel__stokes_dl_qc_TRG_DIM 4
+static inline void kifmm_kernel__stokes_dl_qc_eval(const double *param, double dx, double dy,
+                                                   double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2;
+    int i;
+    (void)param;
+    kifmm_kernel__zero(36, k);
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) return;
+    kifmm_kernel__stresslet(d, -3.0 * KIFMM_INV_4PI * inv * ir2 * ir2, 9, k + 9);
+    for (i = 0; i < 3; i++) {
+        k[4 * i] = KIFMM_INV_4PI * inv;
+        k[9 * (1 + i) + 0] += KIFMM_INV_4PI * inv * ir2 * d[i];
+        k[9 * (1 + i) + 4] += KIFMM_INV_4PI * inv * ir2 * d[i];
+        k[9 * (1 + i) + 8] += KIFMM_INV_4PI * inv * ir2 * d[i];
+    }
+}
+/* its surface kernel: (c, f) -> u = c grad (1 / (4 pi r)) + G f (mu = 1) */
+#define kifmm_kernel__stokes_dl_st_HAS KIFMM_KERNEL__OW_HAS
+#define kifmm_kernel__stokes_dl_st_SRC_DIM 4
+#define kifmm_kernel__stokes_dl_st_TRG_DIM 3
+static inline void kifmm_kernel__stokes_dl_st_eval(const double *param, double dx, double dy,
+                                                   double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2;
+    int i;
+    (void)param;
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
+        kifmm_kernel__zero(12, k);
+        return;
+    }
+    for (i = 0; i < 3; i++) k[4 * i] = -KIFMM_INV_4PI * inv * ir2 * d[i];
+    kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI * inv, ir2, 4, k + 1);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Biot-Savart: vortex particles                                            */
+/* ------------------------------------------------------------------------ */
+/* A vortex strength a (3 per source) gives the velocity u = a x d / (4 pi
+ * r^3) = curl (a / (4 pi r)) and its gradient du_i / dy_j = (eps_ilj a_l /
+ * r^3 - 3 (a x d)_i d_j / r^5) / (4 pi) at [i * 3 + j]. The expansions are
+ * those of the vector potential a / (4 pi r): three Laplace charges per
+ * surface point (_laplace3). */
+#define kifmm_kernel__laplace3_HAS KIFMM_KERNEL__OW_HAS
+#define kifmm_kernel__laplace3_SRC_DIM 3
+#define kifmm_kernel__laplace3_TRG_DIM 3
+#define kifmm_kernel__laplace3_SCALE_INVARIANT 1
+#define kifmm_kernel__laplace3_DEGREE (-1)
+static inline void kifmm_kernel__laplace3_eval(const double *param, double dx, double dy,
+                                               double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2;
+    (void)param;
+    kifmm_kernel__zero(9, k);
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) return;
+    k[0] = k[4] = k[8] = KIFMM_INV_4PI * inv;
+}
+/* rows of u (3) and, with the gradient, du_i/dy_j (9) of a x d / (4 pi r^3) */
+static inline void kifmm_kernel__bs_eval(double dx, double dy, double dz, int grad, double *k)
+{
+    static const int nx[3] = {1, 2, 0}, px[3] = {2, 0, 1}; /* (a x d)_i = a_nx d_px - a_px d_nx */
+    const double d[3] = {dx, dy, dz};
+    double inv, ir2, c3, e[3][3] = {{0.0}}; /* e[i][l] = eps_ilm d_m */
+    int i, j, l;
+    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
+        kifmm_kernel__zero(grad ? 36 : 9, k);
+        return;
+    }
+    c3 = KIFMM_INV_4PI * inv * ir2;
+    for (i = 0; i < 3; i++) {
+        e[i][nx[i]] = d[px[i]];
+        e[i][px[i]] = -d[nx[i]];
+        for (l = 0; l < 3; l++) k[3 * i + l] = c3 * e[i][l];
+    }
+    for (i = 0; i < 3 && grad; i++) /* (eps_ilj - 3 e[i][l] d_j / r^2) / (4 pi r^3) */
+        for (j = 0; j < 3; j++)
+            for (l = 0; l < 3; l++)
+                k[3 * (3 + 3 * i + j) + l] =
+                    c3 * ((l == nx[i] && j == px[i]) - (l == px[i] && j == nx[i]) -
+                          3.0 * e[i][l] * d[j] * ir2);
+}
+
+/* biot_savart: vortex strengths -> velocity */
+#define kifmm_kernel_biot_savart_SRC_DIM 3
+#define kifmm_kernel_biot_savart_TRG_DIM 3
+#define kifmm_kernel_biot_savart_SCALE_INVARIANT 1
+#define kifmm_kernel_biot_savart_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_biot_savart_DEGREE (-2)
+#define kifmm_kernel_biot_savart_EQUIV _laplace3
+#define kifmm_kernel_biot_savart_USE_EQUIV 1
+static inline void kifmm_kernel_biot_savart_eval(const double *param, double dx, double dy,
+                                                 double dz, double *k)
+{
+    (void)param;
+    kifmm_kernel__bs_eval(dx, dy, dz, 0, k);
+}
+
+/* biot_savart_grad: vortex strengths -> velocity and its gradient */
+#define kifmm_kernel_biot_savart_grad_SRC_DIM 3
+#define kifmm_kernel_biot_savart_grad_TRG_DIM 12
+#define kifmm_kernel_biot_savart_grad_SCALE_INVARIANT 1
+#define kifmm_kernel_biot_savart_grad_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_biot_savart_grad_DEGREE (-2)
+#define kifmm_kernel_biot_savart_grad_EQUIV _laplace3
+static inline void kifmm_kernel_biot_savart_grad_eval(const double *param, double dx, double dy,
+                                                      double dz, double *k)
+{
+    (void)param;
+    kifmm_kernel__bs_eval(dx, dy, dz, 1, k);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -2634,6 +3001,303 @@ KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LC
 #undef KIFMM_KERNEL__LCD_F
 #undef KIFMM_KERNEL__LCD_BODY
 #define KIFMM_KERNEL__LCD_HAS (KIFMM_HAS_P2P | KIFMM_HAS_P2PF)
+
+/* ------------------------------------------------------------------------ */
+/* One-way hooks of the Laplace family and of Biot-Savart                   */
+/* ------------------------------------------------------------------------ */
+/* outa[i * TD + k] += scale / (4 pi) sum_j (terms of pair (i, j))_k: the
+ * sources in blocks of KIFMM_KERNEL__SSB points copied once into
+ * structure-of-arrays on the stack (the densities arrive interleaved, QD_
+ * per point); lanes past a block's end and coincident pairs get 1 / r = 0,
+ * which zeroes every term. Each target keeps TD_ (<= 12) sums o0, o1, ... in
+ * registers; PAIR
+ * (with its flags P1, P2, P3) adds one vector of sources to them, from
+ * d = a_i - b_j, 1 / r and the densities at q (component c at q + c SB). One body over the build's
+ * vectors, as the Stokes hooks (AVX-512, AVX2 + FMA, portable C). */
+#define KIFMM_KERNEL__OW_BODY(T, V, W, SET1, ZERO, LOAD, SUB, MUL, FMADD, FNMADD, RINVM, HSUM,    \
+                              QD_, TD_, PAIR, P1, P2, P3)                                      \
+    {                                                                                          \
+        enum { SB_ = KIFMM_KERNEL__SSB, NB_ = KIFMM_KERNEL__SSB / (W) };                       \
+        const T s = (T)((double)scale * KIFMM_INV_4PI);                                        \
+        V vx[NB_], vy[NB_], vz[NB_], vq[(QD_) * NB_];                                          \
+        T *px = (T *)vx, *py = (T *)vy, *pz = (T *)vz, *pq = (T *)vq;                          \
+        int64_t i, j, j0, jb, k;                                                               \
+        int c;                                                                                 \
+        (void)param;                                                                           \
+        for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
+            jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;                                       \
+            for (k = 0; k < SB_; k++) {                                                        \
+                const int in = k < jb;                                                         \
+                px[k] = in ? bx[j0 + k] : (T)0;                                                \
+                py[k] = in ? by[j0 + k] : (T)0;                                                \
+                pz[k] = in ? bz[j0 + k] : (T)0;                                                \
+                for (c = 0; c < (QD_); c++) pq[c * SB_ + k] = in ? qb[(QD_) * (j0 + k) + c] : (T)0; \
+            }                                                                                  \
+            for (i = 0; i < na; i++) {                                                         \
+                const V X = SET1(ax[i]), Y = SET1(ay[i]), Z = SET1(az[i]);                     \
+                V o0 = ZERO, o1 = ZERO, o2 = ZERO, o3 = ZERO, o4 = ZERO, o5 = ZERO, o6 = ZERO; \
+                V o7 = ZERO, o8 = ZERO, o9 = ZERO, o10 = ZERO, o11 = ZERO;                     \
+                for (j = 0; j < jb; j += (W)) {                                                \
+                    const V dx = SUB(X, LOAD(px + j)), dy = SUB(Y, LOAD(py + j));              \
+                    const V dz = SUB(Z, LOAD(pz + j));                                         \
+                    const V inv = RINVM(FMADD(dz, dz, FMADD(dy, dy, MUL(dx, dx))), jb - j);    \
+                    PAIR(P1, P2, P3, T, V, dx, dy, dz, inv, pq + j, SB_, SET1, LOAD, SUB, MUL,  \
+                         FMADD, FNMADD)                                                        \
+                }                                                                              \
+                {                                                                              \
+                    T *oi = outa + (TD_) * i;                                                  \
+                    const V ov[12] = {o0, o1, o2, o3, o4, o5, o6, o7, o8, o9, o10, o11};       \
+                    for (c = 0; c < (TD_); c++) oi[c] += s * HSUM(ov[c]);                      \
+                }                                                                              \
+            }                                                                                  \
+        }                                                                                      \
+    }
+
+/* A pair of the Laplace family (times 4 pi): charge q (CH) and dipole v
+ * (DIP), ROWS outputs (1, 4, 10). With i3 = 1 / r^3, i5 = 1 / r^5:
+ * potential q / r + (v . d) i3; gradient v i3 - d m1; Hessian d_a d_b m2 -
+ * delta_ab m1 - 3 i5 (v_a d_b + v_b d_a), where m1 = q i3 + 3 (v . d) i5,
+ * m2 = 3 q i5 + 15 (v . d) i7. */
+#define KIFMM_KERNEL__LAP_PAIR(CH, DIP, ROWS, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB,    \
+                               MUL, FMADD, FNMADD)                                             \
+    {                                                                                          \
+        const V i2 = MUL(inv, inv), i3 = MUL(inv, i2), i5 = MUL(i3, i2);                      \
+        const V qc = (CH) ? LOAD(q) : SET1((T)0);                                              \
+        const V v0 = (DIP) ? LOAD(q + (CH) * SB) : SET1((T)0);                                 \
+        const V v1 = (DIP) ? LOAD(q + ((CH) + 1) * SB) : SET1((T)0);                           \
+        const V v2 = (DIP) ? LOAD(q + ((CH) + 2) * SB) : SET1((T)0);                           \
+        const V vd = (DIP) ? FMADD(dz, v2, FMADD(dy, v1, MUL(dx, v0))) : v0;                   \
+        o0 = (DIP) ? FMADD(vd, i3, (CH) ? FMADD(qc, inv, o0) : o0) : FMADD(qc, inv, o0); \
+        if ((ROWS) > 1) {                                                                      \
+            const V t3 = MUL(SET1((T)3), i5);                                                  \
+            const V m1 = (DIP) ? FMADD(t3, vd, MUL(qc, i3)) : MUL(qc, i3);                     \
+            o1 = FNMADD(dx, m1, (DIP) ? FMADD(v0, i3, o1) : o1);                         \
+            o2 = FNMADD(dy, m1, (DIP) ? FMADD(v1, i3, o2) : o2);                         \
+            o3 = FNMADD(dz, m1, (DIP) ? FMADD(v2, i3, o3) : o3);                         \
+            if ((ROWS) > 4) {                                                                  \
+                const V m2 = (DIP) ? MUL(i5, FMADD(MUL(SET1((T)15), vd), i2, MUL(SET1((T)3), qc))) \
+                                   : MUL(MUL(SET1((T)3), qc), i5);                             \
+                const V mx = MUL(m2, dx), my = MUL(m2, dy);                                    \
+                o4 = SUB(FMADD(mx, dx, o4), m1);                                           \
+                o5 = SUB(FMADD(my, dy, o5), m1);                                           \
+                o6 = SUB(FMADD(MUL(m2, dz), dz, o6), m1);                                  \
+                o7 = FMADD(mx, dy, o7);                                                    \
+                o8 = FMADD(mx, dz, o8);                                                    \
+                o9 = FMADD(my, dz, o9);                                                    \
+                if (DIP) { /* - 3 i5 (v_a d_b + v_b d_a) */                                   \
+                    const V w0 = MUL(t3, v0), w1 = MUL(t3, v1), w2 = MUL(t3, v2);              \
+                    o4 = FNMADD(MUL(SET1((T)2), w0), dx, o4);                              \
+                    o5 = FNMADD(MUL(SET1((T)2), w1), dy, o5);                              \
+                    o6 = FNMADD(MUL(SET1((T)2), w2), dz, o6);                              \
+                    o7 = FNMADD(w0, dy, FNMADD(w1, dx, o7));                               \
+                    o8 = FNMADD(w0, dz, FNMADD(w2, dx, o8));                               \
+                    o9 = FNMADD(w1, dz, FNMADD(w2, dy, o9));                               \
+                }                                                                              \
+            }                                                                                  \
+        }                                                                                      \
+    }
+
+/* A pair of Biot-Savart (times 4 pi): strength a, c = a x d; velocity c i3;
+ * with GRAD its gradient du_i/dy_j = eps_ilj a_l i3 - 3 c_i d_j i5 */
+#define KIFMM_KERNEL__BS_PAIR(GRAD, U1, U2, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB,      \
+                              MUL, FMADD, FNMADD)                                              \
+    {                                                                                          \
+        const V a0 = LOAD(q), a1 = LOAD(q + (SB)), a2 = LOAD(q + 2 * (SB));                    \
+        const V i2 = MUL(inv, inv), i3 = MUL(inv, i2);                                         \
+        const V cx = FNMADD(a2, dy, MUL(a1, dz)), cy = FNMADD(a0, dz, MUL(a2, dx));            \
+        const V cz = FNMADD(a1, dx, MUL(a0, dy));                                              \
+        o0 = FMADD(cx, i3, o0);                                                            \
+        o1 = FMADD(cy, i3, o1);                                                            \
+        o2 = FMADD(cz, i3, o2);                                                            \
+        if (GRAD) {                                                                            \
+            const V i5 = MUL(MUL(SET1((T)3), i3), i2);                                         \
+            const V tx = MUL(cx, i5), ty = MUL(cy, i5), tz = MUL(cz, i5);                      \
+            o3 = FNMADD(tx, dx, o3);                                                       \
+            o4 = FNMADD(tx, dy, FNMADD(a2, i3, o4));                                       \
+            o5 = FNMADD(tx, dz, FMADD(a1, i3, o5));                                        \
+            o6 = FNMADD(ty, dx, FMADD(a2, i3, o6));                                        \
+            o7 = FNMADD(ty, dy, o7);                                                       \
+            o8 = FNMADD(ty, dz, FNMADD(a0, i3, o8));                                       \
+            o9 = FNMADD(tz, dx, FNMADD(a1, i3, o9));                                       \
+            o10 = FNMADD(tz, dy, FMADD(a0, i3, o10));                                      \
+            o11 = FNMADD(tz, dz, o11);                                                     \
+        }                                                                                      \
+    }
+/* Pairs of the Stokes family (times 4 pi; hv = 1 / (2 mu), mu = param[0], or
+ * 1 / 2 where the kernel fixes mu = 1): G f = hv (f / r + d (f . d) / r^3).
+ *   PVEL  f -> (p, u): p = f . d / r^3 (MU: mu = param[0], else 1)
+ *   SGRAD f -> (u, du_i/dy_j): hv ((delta_ij (f . d) + d_i f_j - f_i d_j) /
+ *         r^3 - 3 (f . d) d_i d_j / r^5)
+ *   DL    D = q n (9) -> u = -3 (d . D d) d / r^5
+ *   PLST  (c, f) -> (c / r, G f) (MODE 0, stokes_pvel's surfaces) or
+ *         -c d / r^3 + G f at mu = 1 (MODE 1, stokes_dl's)
+ *   DLQC  D -> (tr D / r, -3 (d . D d) d / r^5 + tr D d / r^3)
+ *   L3    a -> a / r (three Laplace charges) */
+#define KIFMM_KERNEL__STK_F3(V, q, SB, LOAD)                                                     \
+    const V f0 = LOAD(q), f1 = LOAD((q) + (SB)), f2 = LOAD((q) + 2 * (SB))
+#define KIFMM_KERNEL__PVEL_PAIR(MU, U1, U2, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB, MUL,  \
+                                FMADD, FNMADD)                                                 \
+    {                                                                                          \
+        KIFMM_KERNEL__STK_F3(V, q, SB, LOAD);                                                     \
+        const V i3 = MUL(inv, MUL(inv, inv)), fd = FMADD(dz, f2, FMADD(dy, f1, MUL(dx, f0)));  \
+        const V hv = SET1((T)((MU) ? 0.5 / param[0] : 0.5));                                   \
+        const V t = MUL(hv, MUL(fd, i3)), hi = MUL(hv, inv);                                   \
+        o0 = FMADD(fd, i3, o0);                                                                \
+        o1 = FMADD(f0, hi, FMADD(dx, t, o1));                                                  \
+        o2 = FMADD(f1, hi, FMADD(dy, t, o2));                                                  \
+        o3 = FMADD(f2, hi, FMADD(dz, t, o3));                                                  \
+    }
+#define KIFMM_KERNEL__SGRAD_PAIR(U0, U1, U2, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB, MUL, \
+                                 FMADD, FNMADD)                                                \
+    {                                                                                          \
+        KIFMM_KERNEL__STK_F3(V, q, SB, LOAD);                                                     \
+        const V i2 = MUL(inv, inv), fd = FMADD(dz, f2, FMADD(dy, f1, MUL(dx, f0)));            \
+        const V hv = SET1((T)(0.5 / param[0]));                                                \
+        const V a = MUL(hv, MUL(inv, i2)), hi = MUL(hv, inv), afd = MUL(a, fd);                \
+        const V b = MUL(MUL(SET1((T)3), afd), i2);                                             \
+        const V bx = MUL(b, dx), by = MUL(b, dy), bz = MUL(b, dz);                             \
+        const V w01 = FNMADD(f0, dy, MUL(dx, f1)), w02 = FNMADD(f0, dz, MUL(dx, f2));          \
+        const V w12 = FNMADD(f1, dz, MUL(dy, f2));                                             \
+        o0 = FMADD(f0, hi, FMADD(dx, afd, o0));                                                \
+        o1 = FMADD(f1, hi, FMADD(dy, afd, o1));                                                \
+        o2 = FMADD(f2, hi, FMADD(dz, afd, o2));                                                \
+        o3 = FNMADD(bx, dx, FMADD(a, fd, o3));                                                 \
+        o4 = FNMADD(bx, dy, FMADD(a, w01, o4));                                                \
+        o5 = FNMADD(bx, dz, FMADD(a, w02, o5));                                                \
+        o6 = FNMADD(bx, dy, FNMADD(a, w01, o6));                                               \
+        o7 = FNMADD(by, dy, FMADD(a, fd, o7));                                                 \
+        o8 = FNMADD(by, dz, FMADD(a, w12, o8));                                                \
+        o9 = FNMADD(bx, dz, FNMADD(a, w02, o9));                                               \
+        o10 = FNMADD(by, dz, FNMADD(a, w12, o10));                                             \
+        o11 = FNMADD(bz, dz, FMADD(a, fd, o11));                                               \
+    }
+/* s = d . D d and tr D of the 9 products at q (D_jk at q + (3 j + k) SB) */
+#define KIFMM_KERNEL__DDD(V, q, SB, LOAD, MUL, FMADD)                                           \
+    const V e0 = FMADD(LOAD((q) + 2 * (SB)), dz, FMADD(LOAD((q) + (SB)), dy, MUL(LOAD(q), dx))); \
+    const V e1 = FMADD(LOAD((q) + 5 * (SB)), dz,                                              \
+                       FMADD(LOAD((q) + 4 * (SB)), dy, MUL(LOAD((q) + 3 * (SB)), dx)));         \
+    const V e2 = FMADD(LOAD((q) + 8 * (SB)), dz,                                              \
+                       FMADD(LOAD((q) + 7 * (SB)), dy, MUL(LOAD((q) + 6 * (SB)), dx)));         \
+    const V sd = FMADD(dz, e2, FMADD(dy, e1, MUL(dx, e0)))
+#define KIFMM_KERNEL__DL_PAIR(QC, U1, U2, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB, MUL,    \
+                              FMADD, FNMADD)                                                   \
+    {                                                                                          \
+        KIFMM_KERNEL__DDD(V, q, SB, LOAD, MUL, FMADD);                                            \
+        const V i2 = MUL(inv, inv), i3 = MUL(inv, i2);                                         \
+        const V tr = (QC) ? FMADD(SET1((T)1), LOAD((q) + 8 * (SB)),                            \
+                                  FMADD(SET1((T)1), LOAD((q) + 4 * (SB)), LOAD(q)))            \
+                          : SET1((T)0);                                                        \
+        /* -3 s / r^5, and with QC + tr D / r^3 */                                             \
+        const V m = (QC) ? FNMADD(MUL(SET1((T)3), sd), MUL(i3, i2), MUL(tr, i3))               \
+                         : MUL(MUL(SET1((T)-3), sd), MUL(i3, i2));                             \
+        if (QC) {                                                                              \
+            o0 = FMADD(tr, inv, o0);                                                           \
+            o1 = FMADD(m, dx, o1);                                                             \
+            o2 = FMADD(m, dy, o2);                                                             \
+            o3 = FMADD(m, dz, o3);                                                             \
+        } else {                                                                               \
+            o0 = FMADD(m, dx, o0);                                                             \
+            o1 = FMADD(m, dy, o1);                                                             \
+            o2 = FMADD(m, dz, o2);                                                             \
+        }                                                                                      \
+        (void)e0, (void)e1, (void)e2;                                                          \
+    }
+#define KIFMM_KERNEL__PLST_PAIR(MODE, U1, U2, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB, MUL, \
+                                FMADD, FNMADD)                                                 \
+    {                                                                                          \
+        const V c = LOAD(q);                                                                   \
+        KIFMM_KERNEL__STK_F3(V, (q) + (SB), SB, LOAD);                                            \
+        const V i3 = MUL(inv, MUL(inv, inv)), fd = FMADD(dz, f2, FMADD(dy, f1, MUL(dx, f0)));  \
+        const V hv = SET1((T)((MODE) ? 0.5 : 0.5 / param[0]));                                 \
+        const V hi = MUL(hv, inv);                                                             \
+        const V t = (MODE) ? FNMADD(c, i3, MUL(hv, MUL(fd, i3))) : MUL(hv, MUL(fd, i3));       \
+        if (MODE) {                                                                            \
+            o0 = FMADD(f0, hi, FMADD(dx, t, o0));                                              \
+            o1 = FMADD(f1, hi, FMADD(dy, t, o1));                                              \
+            o2 = FMADD(f2, hi, FMADD(dz, t, o2));                                              \
+        } else {                                                                               \
+            o0 = FMADD(c, inv, o0);                                                            \
+            o1 = FMADD(f0, hi, FMADD(dx, t, o1));                                              \
+            o2 = FMADD(f1, hi, FMADD(dy, t, o2));                                              \
+            o3 = FMADD(f2, hi, FMADD(dz, t, o3));                                              \
+        }                                                                                      \
+    }
+#define KIFMM_KERNEL__L3_PAIR(U0, U1, U2, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB, MUL,    \
+                              FMADD, FNMADD)                                                   \
+    {                                                                                          \
+        o0 = FMADD(LOAD(q), inv, o0);                                                          \
+        o1 = FMADD(LOAD((q) + (SB)), inv, o1);                                                 \
+        o2 = FMADD(LOAD((q) + 2 * (SB)), inv, o2);                                             \
+    }
+#if defined(__AVX512F__)
+#define KIFMM_KERNEL__OW_D(QD, TD, PAIR, P1, P2, P3)                                            \
+    KIFMM_KERNEL__OW_BODY(double, __m512d, 8, _mm512_set1_pd, _mm512_setzero_pd(),             \
+                          _mm512_load_pd, _mm512_sub_pd, _mm512_mul_pd, _mm512_fmadd_pd,       \
+                          _mm512_fnmadd_pd, KIFMM_KERNEL__SRINV8, kifmm_kernel__hsum8, QD, TD, \
+                          PAIR, P1, P2, P3)
+#define KIFMM_KERNEL__OW_F(QD, TD, PAIR, P1, P2, P3)                                            \
+    KIFMM_KERNEL__OW_BODY(float, __m512, 16, _mm512_set1_ps, _mm512_setzero_ps(),              \
+                          _mm512_load_ps, _mm512_sub_ps, _mm512_mul_ps, _mm512_fmadd_ps,       \
+                          _mm512_fnmadd_ps, KIFMM_KERNEL__SRINV16, kifmm_kernel__hsum16, QD,   \
+                          TD, PAIR, P1, P2, P3)
+#elif defined(__AVX2__) && defined(__FMA__)
+#define KIFMM_KERNEL__OW_D(QD, TD, PAIR, P1, P2, P3)                                            \
+    KIFMM_KERNEL__OW_BODY(double, __m256d, 4, _mm256_set1_pd, _mm256_setzero_pd(),             \
+                          _mm256_load_pd, _mm256_sub_pd, _mm256_mul_pd, _mm256_fmadd_pd,       \
+                          _mm256_fnmadd_pd, kifmm_kernel__srinv4, kifmm_kernel__shsum4, QD,    \
+                          TD, PAIR, P1, P2, P3)
+#define KIFMM_KERNEL__OW_F(QD, TD, PAIR, P1, P2, P3)                                            \
+    KIFMM_KERNEL__OW_BODY(float, __m256, 8, _mm256_set1_ps, _mm256_setzero_ps(),               \
+                          _mm256_load_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_fmadd_ps,       \
+                          _mm256_fnmadd_ps, kifmm_kernel__srinv8f, kifmm_kernel__shsum8f, QD,  \
+                          TD, PAIR, P1, P2, P3)
+#else
+#define KIFMM_KERNEL__OW_D(QD, TD, PAIR, P1, P2, P3)                                            \
+    KIFMM_KERNEL__OW_BODY(double, double, 1, KIFMM_KERNEL__S_SET1, 0.0, KIFMM_KERNEL__S_LOAD,   \
+                          KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, KIFMM_KERNEL__S_FMADD,     \
+                          KIFMM_KERNEL__S_FNMADD, kifmm_kernel__srinv1, KIFMM_KERNEL__S_SET1,  \
+                          QD, TD, PAIR, P1, P2, P3)
+#define KIFMM_KERNEL__OW_F(QD, TD, PAIR, P1, P2, P3)                                            \
+    KIFMM_KERNEL__OW_BODY(float, float, 1, KIFMM_KERNEL__S_SET1, 0.0f, KIFMM_KERNEL__S_LOAD,    \
+                          KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, KIFMM_KERNEL__S_FMADD,     \
+                          KIFMM_KERNEL__S_FNMADD, kifmm_kernel__srinv1f, KIFMM_KERNEL__S_SET1, \
+                          QD, TD, PAIR, P1, P2, P3)
+#endif
+#define KIFMM_KERNEL__OW_P2P(name, T, BODY)                                                    \
+    static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
+                            int64_t na, const T *bx, const T *by, const T *bz, const T *qb,    \
+                            int64_t nb, T scale, T *outa)                                      \
+        BODY
+#define KIFMM_KERNEL__OW_BOTH(name, QD, TD, PAIR, P1, P2, P3)                                  \
+    KIFMM_KERNEL__OW_P2P(name##_p2p, double, KIFMM_KERNEL__OW_D(QD, TD, PAIR, P1, P2, P3))    \
+    KIFMM_KERNEL__OW_P2P(name##_p2pf, float, KIFMM_KERNEL__OW_F(QD, TD, PAIR, P1, P2, P3))
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_hess, 1, 10, KIFMM_KERNEL__LAP_PAIR, 1, 0, 10)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_cd_hess, 4, 10, KIFMM_KERNEL__LAP_PAIR, 1, 1, 10)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_biot_savart, 3, 3, KIFMM_KERNEL__BS_PAIR, 0, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_biot_savart_grad, 3, 12, KIFMM_KERNEL__BS_PAIR, 1, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel__laplace3, 3, 3, KIFMM_KERNEL__L3_PAIR, 0, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_stokes_pvel, 3, 4, KIFMM_KERNEL__PVEL_PAIR, 1, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_pvel_qc, 3, 4, KIFMM_KERNEL__PVEL_PAIR, 0, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_pvel_st, 4, 4, KIFMM_KERNEL__PLST_PAIR, 0, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_dl_st, 4, 3, KIFMM_KERNEL__PLST_PAIR, 1, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_stokes_grad, 3, 12, KIFMM_KERNEL__SGRAD_PAIR, 0, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_stokes_dl, 9, 3, KIFMM_KERNEL__DL_PAIR, 0, 0, 0)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_dl_qc, 9, 4, KIFMM_KERNEL__DL_PAIR, 1, 0, 0)
+#undef KIFMM_KERNEL__OW_BOTH
+#undef KIFMM_KERNEL__OW_P2P
+#undef KIFMM_KERNEL__OW_D
+#undef KIFMM_KERNEL__OW_F
+#undef KIFMM_KERNEL__BS_PAIR
+#undef KIFMM_KERNEL__STK_F3
+#undef KIFMM_KERNEL__PVEL_PAIR
+#undef KIFMM_KERNEL__SGRAD_PAIR
+#undef KIFMM_KERNEL__DDD
+#undef KIFMM_KERNEL__DL_PAIR
+#undef KIFMM_KERNEL__PLST_PAIR
+#undef KIFMM_KERNEL__L3_PAIR
+#undef KIFMM_KERNEL__LAP_PAIR
+#undef KIFMM_KERNEL__OW_BODY
+#define KIFMM_KERNEL__OW_HAS (KIFMM_HAS_P2P | KIFMM_HAS_P2PF)
 
 /* The Laplace kernels' hooks that this build compiled: all of them with
  * AVX2 and FMA (or AVX-512), the one-way double loop otherwise. */

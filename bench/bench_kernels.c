@@ -33,19 +33,21 @@
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace_cd_grad
 #include "kifmm.h"
+#define KIFMM_KERNEL biot_savart
+#include "kifmm.h"
 
 #include <omp.h>
 
 #include "points.h"
 
-enum { K_LAPG, K_YUKG, K_STOKES, K_LCDG, NKIND };
+enum { K_LAPG, K_YUKG, K_STOKES, K_LCDG, K_BS, NKIND };
 
 /* ref[s td ..] at target idx[s]: laplace_grad / yukawa_grad (lambda 1):
  * potential and gradient; stokes (mu 1): velocity */
 static void direct(int kind, int64_t n, const double *x, const double *q, int64_t ns,
                    const int64_t *idx, double *ref)
 {
-    const int td = kind == K_STOKES ? 3 : 4;
+    const int td = kind == K_STOKES || kind == K_BS ? 3 : 4;
 #pragma omp parallel for schedule(dynamic, 4)
     for (int64_t s = 0; s < ns; s++) {
         const double *t = x + 3 * idx[s];
@@ -61,6 +63,11 @@ static void direct(int kind, int64_t n, const double *x, const double *q, int64_
                 a[1] += c[1] / r3 - dx * m;
                 a[2] += c[2] / r3 - dy * m;
                 a[3] += c[3] / r3 - dz * m;
+            } else if (kind == K_BS) { /* vortex strength: a x d / r^3 */
+                const double *w = q + 3 * j, r3 = r2 * r;
+                a[0] += (w[1] * dz - w[2] * dy) / r3;
+                a[1] += (w[2] * dx - w[0] * dz) / r3;
+                a[2] += (w[0] * dy - w[1] * dx) / r3;
             } else if (kind == K_STOKES) {
                 const double *f = q + 3 * j, fd = (dx * f[0] + dy * f[1] + dz * f[2]) / (r2 * r);
                 a[0] += f[0] / r + dx * fd;
@@ -115,7 +122,7 @@ typedef struct {
         r[KIND].create = st.t_tree + st.t_operators;                                         \
         r[KIND].eval = 1e30;                                                                 \
         for (k = 0; k < rep; k++) {                                                          \
-            P##_evaluate(h, KIND == K_STOKES ? f : KIND == K_LCDG ? cd : q, out);            \
+            P##_evaluate(h, KIND == K_STOKES || KIND == K_BS ? f : KIND == K_LCDG ? cd : q, out); \
             P##_stats(h, &st);                                                               \
             if (st.t_evaluate < r[KIND].eval) {                                              \
                 r[KIND].eval = st.t_evaluate;                                                \
@@ -124,7 +131,8 @@ typedef struct {
         }                                                                                    \
         r[KIND].mib = st.bytes / 1048576.0;                                                  \
         P##_destroy(h);                                                                      \
-        direct(KIND, n, x, KIND == K_STOKES ? f : KIND == K_LCDG ? cd : q, ns, idx, ref);    \
+        direct(KIND, n, x, KIND == K_STOKES || KIND == K_BS ? f : KIND == K_LCDG ? cd : q, ns, idx, \
+               ref);                                                                         \
         r[KIND].e0 = rel(TD, 0, TD == 3 ? 3 : 1, ns, idx, out, ref);                          \
         r[KIND].e1 = TD == 4 ? rel(TD, 1, 4, ns, idx, out, ref) : 0.0;                       \
         if ((KIND == K_STOKES || KIND == K_LCDG) && dump)                                    \
@@ -206,7 +214,8 @@ static void harmonic_route(const kifmm_opts *o, int64_t n, const double *x, cons
 
 int main(int argc, char **argv)
 {
-    static const char *names[NKIND] = {"laplace_grad", "yukawa_grad", "stokes", "laplace_cd_grad"};
+    static const char *names[NKIND] = {"laplace_grad", "yukawa_grad", "stokes", "laplace_cd_grad",
+                                               "biot_savart"};
     int dist = -1, p, rep = 3, a, k, leaf = 0, passes = 0;
     int64_t n, ns = 500, s;
     const char *dump = NULL;
@@ -253,6 +262,7 @@ int main(int argc, char **argv)
     RUN(kifmm_yukawa_grad, K_YUKG, 4);
     RUN(kifmm_stokes, K_STOKES, 3);
     RUN(kifmm_laplace_cd_grad, K_LCDG, 4);
+    RUN(kifmm_biot_savart, K_BS, 3);
     for (k = 0; k < NKIND; k++)
         printf("%-9s %8.0f %2d %-15s %7.3f %7.3f %7.3f %6.2f %7.0f %6.2f %9.2e %9.2e\n",
                dist_names[dist], (double)n, p, names[k], r[k].create, r[k].eval,

@@ -532,4 +532,81 @@ static inline int t_run(const t_api *api, const kifmm_opts *opts, int64_t ns, co
         return rc;                                                                             \
     }
 
+/* One-way near-field hooks (double and float) against a long double
+ * reference: blocks of 0 to 129 targets and sources (around the stack block
+ * of 64 points), coincident pairs, two calls adding up; the error of each
+ * output relative to the sum of |terms| (mag) that make it. ref(nb, b, q,
+ * a, ref, mag) gives the outputs at the target a of nb sources b (xyz
+ * interleaved) with densities q (qd per source); param goes to the hooks. */
+typedef void (*t_hook_d)(const double *, const double *, const double *, const double *, int64_t,
+                         const double *, const double *, const double *, const double *, int64_t,
+                         double, double *);
+typedef void (*t_hook_f)(const double *, const float *, const float *, const float *, int64_t,
+                         const float *, const float *, const float *, const float *, int64_t,
+                         float, float *);
+typedef void (*t_hook_ref)(int64_t nb, const double *b, const double *q, const double *a,
+                           double *ref, double *mag);
+static inline void t_hook_case(t_rng *r, int64_t na, int64_t nb, int qd, int td, int fl,
+                               const double *param, t_hook_d hd, t_hook_f hf, t_hook_ref ref,
+                               double *worst)
+{
+    double *pa = t_doubles(3 * na + 3), *pb = t_doubles(3 * nb + 3), *dq = t_doubles(qd * nb + 1);
+    double *soa = t_doubles(3 * (na + nb) + 6), *out = t_doubles(td * na + 1);
+    float *sf = (float *)t_malloc_or_die(sizeof(float) * (size_t)(3 * (na + nb) + 6));
+    float *qf = (float *)t_malloc_or_die(sizeof(float) * (size_t)(qd * nb + 1));
+    float *of = (float *)t_malloc_or_die(sizeof(float) * (size_t)(td * na + 1));
+    double rv[16], mag[16];
+    int64_t i;
+    int k, c;
+    for (i = 0; i < 3 * na; i++) pa[i] = t_uniform(r, -0.5, 0.5);
+    for (i = 0; i < 3 * nb; i++) pb[i] = t_uniform(r, -0.5, 0.5);
+    for (i = 0; i < na && i < nb; i += 4) /* coincident pairs */
+        for (k = 0; k < 3; k++) pa[3 * i + k] = pb[3 * i + k];
+    for (i = 0; i < qd * nb; i++) dq[i] = t_uniform(r, -1.0, 1.0);
+    if (fl) { /* the reference sees the float inputs */
+        for (i = 0; i < 3 * na; i++) pa[i] = (float)pa[i];
+        for (i = 0; i < 3 * nb; i++) pb[i] = (float)pb[i];
+        for (i = 0; i < qd * nb; i++) dq[i] = (float)dq[i];
+    }
+    for (k = 0; k < 3; k++) {
+        for (i = 0; i < na; i++) soa[k * na + i] = pa[3 * i + k];
+        for (i = 0; i < nb; i++) soa[3 * na + k * nb + i] = pb[3 * i + k];
+    }
+    for (i = 0; i < 3 * (na + nb); i++) sf[i] = (float)soa[i];
+    for (i = 0; i < qd * nb; i++) qf[i] = (float)dq[i];
+    for (i = 0; i < td * na; i++) out[i] = 0.0, of[i] = 0.0f;
+    for (c = 0; c < 2; c++) {
+        if (fl)
+            hf(param, sf, sf + na, sf + 2 * na, na, sf + 3 * na, sf + 3 * na + nb,
+               sf + 3 * na + 2 * nb, qf, nb, 1.5f, of);
+        else
+            hd(param, soa, soa + na, soa + 2 * na, na, soa + 3 * na, soa + 3 * na + nb,
+               soa + 3 * na + 2 * nb, dq, nb, 1.5, out);
+    }
+    for (i = 0; i < na; i++) {
+        ref(nb, pb, dq, pa + 3 * i, rv, mag);
+        for (k = 0; k < td; k++) {
+            const double o = fl ? (double)of[td * i + k] : out[td * i + k];
+            const double e = fabs(o - 3.0 * rv[k]) / (3.0 * mag[k] + 1e-300);
+            if (!(e <= worst[fl])) worst[fl] = e;
+        }
+    }
+    free(pa), free(pb), free(dq), free(soa), free(out), free(sf), free(qf), free(of);
+}
+static inline void t_check_hooks(const char *name, int qd, int td, const double *param,
+                                 t_hook_d hd, t_hook_f hf, t_hook_ref ref)
+{
+    static const int64_t sizes[] = {0, 1, 3, 7, 8, 9, 17, 64, 65, 129};
+    const int nsz = (int)(sizeof sizes / sizeof sizes[0]);
+    double worst[2] = {0.0, 0.0};
+    t_rng r = t_rng_seed(77 + (uint64_t)qd * 10 + (uint64_t)td);
+    int a, b, fl;
+    for (a = 0; a < nsz; a++)
+        for (b = 0; b < nsz; b++)
+            for (fl = 0; fl < 2; fl++) t_hook_case(&r, sizes[a], sizes[b], qd, td, fl, param, hd, hf, ref,
+                                                   worst);
+    CHECK_ERR(worst[0], 1e-14, "%s_p2p  vs long double, blocks of 0 to 129, two calls", name);
+    CHECK_ERR(worst[1], 2e-6, "%s_p2pf vs long double on its float inputs", name);
+}
+
 #endif /* KIFMM_TEST_H */

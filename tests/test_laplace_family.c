@@ -232,86 +232,29 @@ static void check_case(const char *dist, int separate)
     free(out);
 }
 
-/* The one-way hooks of the charge and dipole kernels, double and float,
- * against the long double sums: blocks of 0 to 129 targets and sources
- * (around the stack block of 64), coincident pairs, two calls adding up;
- * error relative to the sum of |terms| of each output. */
-typedef void (*hook_d)(const double *, const double *, const double *, const double *, int64_t,
-                       const double *, const double *, const double *, const double *, int64_t,
-                       double, double *);
-typedef void (*hook_f)(const double *, const float *, const float *, const float *, int64_t,
-                       const float *, const float *, const float *, const float *, int64_t,
-                       float, float *);
-static void check_hooks(const char *name, int ch, int td, hook_d hd, hook_f hf)
+/* The one-way hooks of the family against direct_mag (t_check_hooks):
+ * densities q (CH), v (DIP), interleaved as the kernel takes them. */
+static int hook_ch, hook_dip;
+static void hook_ref(int64_t nb, const double *b, const double *dq, const double *a, double *ref,
+                     double *mag)
 {
-    static const int64_t sizes[] = {0, 1, 3, 7, 8, 9, 17, 64, 65, 129};
-    const int nsz = (int)(sizeof sizes / sizeof sizes[0]), qd = ch + 3;
-    double worst[2] = {0.0, 0.0};
-    t_rng r = t_rng_seed(77 + (uint64_t)qd * 10 + (uint64_t)td);
-    int a, b, fl;
-    for (a = 0; a < nsz; a++)
-        for (b = 0; b < nsz; b++)
-            for (fl = 0; fl < 2; fl++) {
-                const int64_t na = sizes[a], nb = sizes[b];
-                double *pa = t_doubles(3 * na + 3), *pb = t_doubles(3 * nb + 3);
-                double *dq = t_doubles(qd * nb + 1), *q = t_doubles(nb + 1), *v = t_doubles(3 * nb + 3);
-                double *soa = t_doubles(3 * (na + nb) + 6), *out = t_doubles(td * na + 1);
-                float *sf = (float *)malloc(sizeof(float) * (size_t)(3 * (na + nb) + 6));
-                float *qf = (float *)malloc(sizeof(float) * (size_t)(qd * nb + 1));
-                float *of = (float *)malloc(sizeof(float) * (size_t)(td * na + 1));
-                int64_t i;
-                int k, c;
-                for (i = 0; i < 3 * na; i++) pa[i] = t_uniform(&r, -0.5, 0.5);
-                for (i = 0; i < 3 * nb; i++) pb[i] = t_uniform(&r, -0.5, 0.5);
-                for (i = 0; i < na && i < nb; i += 4) /* coincident pairs */
-                    for (k = 0; k < 3; k++) pa[3 * i + k] = pb[3 * i + k];
-                for (i = 0; i < qd * nb; i++) dq[i] = t_uniform(&r, -1.0, 1.0);
-                if (fl) { /* the reference sees the float inputs */
-                    for (i = 0; i < 3 * na; i++) pa[i] = (float)pa[i];
-                    for (i = 0; i < 3 * nb; i++) pb[i] = (float)pb[i];
-                    for (i = 0; i < qd * nb; i++) dq[i] = (float)dq[i];
-                }
-                for (i = 0; i < nb; i++) {
-                    q[i] = ch ? dq[qd * i] : 0.0;
-                    for (k = 0; k < 3; k++) v[3 * i + k] = dq[qd * i + ch + k];
-                }
-                for (k = 0; k < 3; k++) {
-                    for (i = 0; i < na; i++) soa[k * na + i] = pa[3 * i + k];
-                    for (i = 0; i < nb; i++) soa[3 * na + k * nb + i] = pb[3 * i + k];
-                }
-                for (i = 0; i < 3 * (na + nb); i++) sf[i] = (float)soa[i];
-                for (i = 0; i < qd * nb; i++) qf[i] = (float)dq[i];
-                for (i = 0; i < td * na; i++) out[i] = 0.0, of[i] = 0.0f;
-                for (c = 0; c < 2; c++) {
-                    if (fl)
-                        hf(NULL, sf, sf + na, sf + 2 * na, na, sf + 3 * na, sf + 3 * na + nb,
-                           sf + 3 * na + 2 * nb, qf, nb, 1.5f, of);
-                    else
-                        hd(NULL, soa, soa + na, soa + 2 * na, na, soa + 3 * na, soa + 3 * na + nb,
-                           soa + 3 * na + 2 * nb, dq, nb, 1.5, out);
-                }
-                for (i = 0; i < na; i++) {
-                    double ref[10], mag[10];
-                    direct_mag(nb, pb, ch ? q : NULL, v, pa + 3 * i, ref, mag);
-                    for (k = 0; k < td; k++) {
-                        const double o = fl ? (double)of[td * i + k] : out[td * i + k];
-                        const double e = fabs(o - 3.0 * ref[k]) / (3.0 * mag[k] + 1e-300);
-                        if (!(e <= worst[fl])) worst[fl] = e;
-                    }
-                }
-                free(pa);
-                free(pb);
-                free(dq);
-                free(q);
-                free(v);
-                free(soa);
-                free(out);
-                free(sf);
-                free(qf);
-                free(of);
-            }
-    CHECK_ERR(worst[0], 1e-14, "%s_p2p  vs long double, blocks of 0 to 129, two calls", name);
-    CHECK_ERR(worst[1], 2e-6, "%s_p2pf vs long double on its float inputs", name);
+    const int qd = hook_ch + 3 * hook_dip;
+    double *q = t_doubles(nb + 1), *v = t_doubles(3 * nb + 3);
+    int64_t i;
+    int k;
+    for (i = 0; i < nb; i++) {
+        q[i] = hook_ch ? dq[qd * i] : 0.0;
+        for (k = 0; k < 3; k++) v[3 * i + k] = hook_dip ? dq[qd * i + hook_ch + k] : 0.0;
+    }
+    direct_mag(nb, b, hook_ch ? q : NULL, hook_dip ? v : NULL, a, ref, mag);
+    free(q);
+    free(v);
+}
+static void check_hooks(const char *name, int ch, int dip, int td, t_hook_d hd, t_hook_f hf)
+{
+    hook_ch = ch;
+    hook_dip = dip;
+    t_check_hooks(name, ch + 3 * dip, td, NULL, hd, hf, hook_ref);
 }
 
 int main(void)
@@ -322,13 +265,17 @@ int main(void)
     CHECK((kifmm_kernel_laplace_cd_grad_HAS & KIFMM_HAS_P2P) &&
               (kifmm_kernel_laplace_dipole_HAS & KIFMM_HAS_P2PF),
           "the hooks are announced");
-    check_hooks("laplace_dipole", 0, 1, kifmm_kernel_laplace_dipole_p2p,
+    check_hooks("laplace_dipole", 0, 1, 1, kifmm_kernel_laplace_dipole_p2p,
                 kifmm_kernel_laplace_dipole_p2pf);
-    check_hooks("laplace_dipole_grad", 0, 4, kifmm_kernel_laplace_dipole_grad_p2p,
+    check_hooks("laplace_dipole_grad", 0, 1, 4, kifmm_kernel_laplace_dipole_grad_p2p,
                 kifmm_kernel_laplace_dipole_grad_p2pf);
-    check_hooks("laplace_cd", 1, 1, kifmm_kernel_laplace_cd_p2p, kifmm_kernel_laplace_cd_p2pf);
-    check_hooks("laplace_cd_grad", 1, 4, kifmm_kernel_laplace_cd_grad_p2p,
+    check_hooks("laplace_cd", 1, 1, 1, kifmm_kernel_laplace_cd_p2p, kifmm_kernel_laplace_cd_p2pf);
+    check_hooks("laplace_cd_grad", 1, 1, 4, kifmm_kernel_laplace_cd_grad_p2p,
                 kifmm_kernel_laplace_cd_grad_p2pf);
+    check_hooks("laplace_hess", 1, 0, 10, kifmm_kernel_laplace_hess_p2p,
+                kifmm_kernel_laplace_hess_p2pf);
+    check_hooks("laplace_cd_hess", 1, 1, 10, kifmm_kernel_laplace_cd_hess_p2p,
+                kifmm_kernel_laplace_cd_hess_p2pf);
     for (d = 0; d < 3; d++)
         for (sep = 0; sep < 2; sep++) {
             char name[64];

@@ -1,0 +1,357 @@
+/* test_families.c - the Yukawa charge-and-dipole, Stokes and vortex kernels
+ * of kifmm_kernels.h (yukawa_cd, yukawa_cd_grad, stokes_pvel, stokes_grad,
+ * stokes_dl, biot_savart, biot_savart_grad) in double at p = 6 and in float
+ * at p = 4, against direct sums in long double written here from the
+ * formulas of the kernels' documentation (not from their eval functions),
+ * on uniform, sphere-surface and clustered points, with sources = targets
+ * and with separate targets. Relative L2 error of each output group at
+ * sample targets. */
+#define KIFMM_KERNEL yukawa_cd
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa_cd_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL stokes_pvel
+#include "kifmm.h"
+#define KIFMM_KERNEL stokes_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL stokes_dl
+#include "kifmm.h"
+#define KIFMM_KERNEL biot_savart
+#include "kifmm.h"
+#define KIFMM_KERNEL biot_savart_grad
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL yukawa_cd
+#define KIFMM_NAME kifmm_yukawa_cdf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL yukawa_cd_grad
+#define KIFMM_NAME kifmm_yukawa_cd_gradf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL stokes_pvel
+#define KIFMM_NAME kifmm_stokes_pvelf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL stokes_grad
+#define KIFMM_NAME kifmm_stokes_gradf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL stokes_dl
+#define KIFMM_NAME kifmm_stokes_dlf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL biot_savart
+#define KIFMM_NAME kifmm_biot_savartf
+#include "kifmm.h"
+#define KIFMM_REAL float
+#define KIFMM_KERNEL biot_savart_grad
+#define KIFMM_NAME kifmm_biot_savart_gradf
+#include "kifmm.h"
+
+#include "test.h"
+
+#ifdef KIFMM_TEST_QUICK
+#define N 4000
+#else
+#define N 12000
+#endif
+#define NSAMPLE 200
+#define LAMBDA 3.0 /* yukawa's lambda */
+#ifndef MU
+#define MU 0.7 /* the Stokes viscosity (stokes_dl does not depend on it) */
+#endif
+
+T_DEFINE_RUN(kifmm_yukawa_cd, double, 4, 1)
+T_DEFINE_RUN(kifmm_yukawa_cd_grad, double, 4, 4)
+T_DEFINE_RUN(kifmm_stokes_pvel, double, 3, 4)
+T_DEFINE_RUN(kifmm_stokes_grad, double, 3, 12)
+T_DEFINE_RUN(kifmm_stokes_dl, double, 6, 3)
+T_DEFINE_RUN(kifmm_biot_savart, double, 3, 3)
+T_DEFINE_RUN(kifmm_biot_savart_grad, double, 3, 12)
+T_DEFINE_RUN(kifmm_yukawa_cdf, float, 4, 1)
+T_DEFINE_RUN(kifmm_yukawa_cd_gradf, float, 4, 4)
+T_DEFINE_RUN(kifmm_stokes_pvelf, float, 3, 4)
+T_DEFINE_RUN(kifmm_stokes_gradf, float, 3, 12)
+T_DEFINE_RUN(kifmm_stokes_dlf, float, 6, 3)
+T_DEFINE_RUN(kifmm_biot_savartf, float, 3, 3)
+T_DEFINE_RUN(kifmm_biot_savart_gradf, float, 3, 12)
+
+typedef int (*run_fn)(const kifmm_opts *, int64_t, const double *, int64_t, const double *,
+                      const double *, int, double *, kifmm_opts *);
+enum { YUK, STOKES, DL, BS };
+typedef struct {
+    const char *name;
+    int family, sd, td;
+    int split;                /* outputs [0, split) and [split, td) are the two groups */
+    const char *g0, *g1;      /* their names */
+    double b0, b1;            /* their bounds at p = 6 */
+    run_fn run, runf;
+} kern;
+
+static const kern kernels[] = {
+    {"yukawa_cd", YUK, 4, 1, 1, "potential", NULL, 1e-5, 0, run_kifmm_yukawa_cd,
+     run_kifmm_yukawa_cdf},
+    {"yukawa_cd_grad", YUK, 4, 4, 1, "potential", "gradient", 1e-5, 1e-4, run_kifmm_yukawa_cd_grad,
+     run_kifmm_yukawa_cd_gradf},
+    {"stokes_pvel", STOKES, 3, 4, 1, "pressure", "velocity", 1e-5, 1e-5, run_kifmm_stokes_pvel,
+     run_kifmm_stokes_pvelf},
+    {"stokes_grad", STOKES, 3, 12, 3, "velocity", "gradient", 1e-5, 1e-4, run_kifmm_stokes_grad,
+     run_kifmm_stokes_gradf},
+    {"stokes_dl", DL, 6, 3, 3, "velocity", NULL, 1e-5, 0, run_kifmm_stokes_dl, run_kifmm_stokes_dlf},
+    {"biot_savart", BS, 3, 3, 3, "velocity", NULL, 1e-5, 0, run_kifmm_biot_savart,
+     run_kifmm_biot_savartf},
+    {"biot_savart_grad", BS, 3, 12, 3, "velocity", "gradient", 1e-5, 1e-4,
+     run_kifmm_biot_savart_grad, run_kifmm_biot_savart_gradf},
+};
+
+/* The outputs of one source with densities w at d = target - source, all
+ * of the family's (in the layouts of kifmm_kernels.h), in long double:
+ *   YUK    (q, v) -> potential, gradient
+ *   STOKES f -> pressure (0), velocity (1..3), du_i/dy_j (4 + 3 i + j)
+ *   DL     (q, n) -> velocity
+ *   BS     a -> velocity (0..2), du_i/dy_j (3 + 3 i + j) */
+static void pair(int family, const long double *d, const double *w, long double *o)
+{
+    const long double pi4 = 4.0L * 3.141592653589793238462643383279503L;
+    const long double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], r = sqrtl(r2);
+    const long double r3 = r2 * r, r5 = r3 * r2;
+    int i, j;
+    if (family == YUK) {
+        const long double lr = LAMBDA * r, e = expl(-lr) / pi4;
+        const long double vd = w[1] * d[0] + w[2] * d[1] + w[3] * d[2];
+        o[0] = w[0] * e / r + vd * e * (1.0L + lr) / r3;
+        for (i = 0; i < 3; i++)
+            o[1 + i] = -w[0] * e * (1.0L + lr) * d[i] / r3 + w[1 + i] * e * (1.0L + lr) / r3 -
+                       vd * d[i] * e * (3.0L + 3.0L * lr + lr * lr) / r5;
+    } else if (family == STOKES) {
+        const long double fd = w[0] * d[0] + w[1] * d[1] + w[2] * d[2], c = 1.0L / (2.0L * pi4 * MU);
+        o[0] = fd / (pi4 * r3);
+        for (i = 0; i < 3; i++) {
+            o[1 + i] = c * (w[i] / r + d[i] * fd / r3);
+            for (j = 0; j < 3; j++) /* d/dy_j of (f_i / r + d_i (f . d) / r^3) */
+                o[4 + 3 * i + j] =
+                    c * (-w[i] * d[j] / r3 + ((i == j) * fd + d[i] * w[j]) / r3 -
+                         3.0L * d[i] * fd * d[j] / r5);
+        }
+    } else if (family == DL) {
+        const long double qd = w[0] * d[0] + w[1] * d[1] + w[2] * d[2];
+        const long double nd = w[3] * d[0] + w[4] * d[1] + w[5] * d[2];
+        for (i = 0; i < 3; i++) o[i] = -3.0L * d[i] * qd * nd / (pi4 * r5);
+    } else {
+        const long double u[3] = {w[1] * d[2] - w[2] * d[1], w[2] * d[0] - w[0] * d[2],
+                                  w[0] * d[1] - w[1] * d[0]};
+        for (i = 0; i < 3; i++) {
+            o[i] = u[i] / (pi4 * r3);
+            for (j = 0; j < 3; j++) { /* d/dy_j (a x d)_i = (a x e_j)_i */
+                const long double axe = (i == j) ? 0.0L
+                                      : ((j == (i + 2) % 3) ? w[(i + 1) % 3] : -w[(i + 2) % 3]);
+                o[3 + 3 * i + j] = axe / (pi4 * r3) - 3.0L * u[i] * d[j] / (pi4 * r5);
+            }
+        }
+    }
+}
+
+/* ref[16] at target t: the sum over the ns sources */
+static void direct(int family, int sd, int64_t ns, const double *s, const double *w,
+                   const double *t, double *ref)
+{
+    long double acc[16] = {0}, o[16];
+    int64_t j;
+    int m;
+    for (j = 0; j < ns; j++) {
+        const long double d[3] = {(long double)t[0] - s[3 * j], (long double)t[1] - s[3 * j + 1],
+                                  (long double)t[2] - s[3 * j + 2]};
+        if (d[0] == 0.0L && d[1] == 0.0L && d[2] == 0.0L) continue;
+        pair(family, d, w + sd * j, o);
+        for (m = 0; m < 13; m++) acc[m] += o[m];
+    }
+    for (m = 0; m < 16; m++) ref[m] = (double)acc[m];
+}
+
+/* the kernel's outputs from the family's: pvel (p, u); stokes_grad (u, grad u) */
+static int out_index(const kern *K, int k)
+{
+    if (K->family == STOKES && K->td == 12) return 1 + k;
+    return k;
+}
+
+/* relative L2 error of outputs [k0, k1) over the sample */
+static double group_err(const kern *K, int k0, int k1, const int64_t *idx, const double *out,
+                        const double *ref)
+{
+    double num = 0.0, den = 0.0;
+    int64_t i;
+    int k;
+    for (i = 0; i < NSAMPLE; i++)
+        for (k = k0; k < k1; k++) {
+            const double rv = ref[16 * i + out_index(K, k)], e = out[idx[i] * K->td + k] - rv;
+            num += e * e;
+            den += rv * rv;
+        }
+    return sqrt(num / den);
+}
+
+/* the densities of kernel K for n sources, from uniform numbers in [-1, 1];
+ * stokes_dl gets unit normals */
+static void densities(const kern *K, int64_t n, t_rng *r, double *w)
+{
+    int64_t i;
+    for (i = 0; i < n * K->sd; i++) w[i] = t_uniform(r, -1.0, 1.0);
+    for (i = 0; i < n && K->family == DL; i++) {
+        double *nv = w + 6 * i + 3, s;
+        do {
+            nv[0] = t_randn(r), nv[1] = t_randn(r), nv[2] = t_randn(r);
+            s = sqrt(nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2]);
+        } while (s < 1e-3);
+        nv[0] /= s, nv[1] /= s, nv[2] /= s;
+    }
+}
+
+static void check_case(const char *dist, int separate)
+{
+    const int64_t n = N, nt = separate ? N / 2 : N, na = n + (separate ? nt : 0);
+    double *all = t_doubles(3 * na), *s = all, *t = separate ? all + 3 * n : s;
+    double *allr = t_doubles(3 * na), *w = t_doubles(6 * n), *wr = t_doubles(6 * n);
+    double *ref = t_doubles(16 * NSAMPLE), *out = t_doubles(12 * nt);
+    int64_t idx[NSAMPLE], i;
+    t_rng r = t_rng_seed(43 + (uint64_t)separate + 5 * (uint64_t)dist[1]);
+    size_t k;
+    int fl;
+    if (strcmp(dist, "sphere") == 0) t_gen_sphere(&r, na, all);
+    else if (strcmp(dist, "clustered") == 0) t_gen_blobs(&r, na, all);
+    else t_gen_cube(&r, na, all, 0.0, 1.0);
+    for (i = 0; i < NSAMPLE; i++) idx[i] = (i * 7919) % nt;
+    for (k = 0; k < sizeof kernels / sizeof kernels[0]; k++) {
+        const kern *K = &kernels[k];
+        densities(K, n, &r, w);
+        for (fl = 0; fl < 2; fl++) {
+            kifmm_opts o = t_opts(fl ? 4 : 6, 0, 0);
+            int rc;
+            o.kernel_param[0] = K->family == YUK ? LAMBDA : MU;
+            rc = (fl ? K->runf : K->run)(&o, n, s, nt, t, w, 1, out, NULL);
+            /* in float, the reference sees the inputs rounded to float */
+            for (i = 0; i < 3 * na; i++) allr[i] = fl ? (float)all[i] : all[i];
+            for (i = 0; i < K->sd * n; i++) wr[i] = fl ? (float)w[i] : w[i];
+            for (i = 0; i < NSAMPLE; i++)
+                direct(K->family, K->sd, n, allr, wr, allr + (t - s) + 3 * idx[i], ref + 16 * i);
+            CHECK(rc == KIFMM_SUCCESS, "%s%s rc=%d", K->name, fl ? "f" : "", rc);
+            if (rc != KIFMM_SUCCESS) continue;
+            CHECK_ERR(group_err(K, 0, K->split, idx, out, ref), fl ? 1e-3 : K->b0,
+                      "%s%-2s %-9s %s p=%d %s", K->name, fl ? "f" : "", dist,
+                      separate ? "separate" : "same", fl ? 4 : 6, K->g0);
+            if (K->g1)
+                CHECK_ERR(group_err(K, K->split, K->td, idx, out, ref), fl ? 1e-3 : K->b1,
+                          "%s%-2s %-9s %s", K->name, fl ? "f" : "", dist, K->g1);
+        }
+    }
+    free(all);
+    free(allr);
+    free(w);
+    free(wr);
+    free(ref);
+    free(out);
+}
+
+/* The one-way hooks of biot_savart and biot_savart_grad against the sums of
+ * pair() (t_check_hooks), with the sums of |terms| of each output */
+static void bs_ref(int64_t nb, const double *b, const double *q, const double *a, double *ref,
+                   double *mag)
+{
+    const long double pi4 = 4.0L * 3.141592653589793238462643383279503L;
+    long double acc[12] = {0}, am[12] = {0}, o[16];
+    int64_t j;
+    int i, m;
+    for (j = 0; j < nb; j++) {
+        const long double d[3] = {(long double)a[0] - b[3 * j], (long double)a[1] - b[3 * j + 1],
+                                  (long double)a[2] - b[3 * j + 2]};
+        const long double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], r = sqrtl(r2);
+        const double *w = q + 3 * j;
+        if (r2 == 0.0L) continue;
+        pair(BS, d, w, o);
+        for (i = 0; i < 3; i++) { /* |a_nx d_px| + |a_px d_nx|, over r^3 */
+            const long double c = fabsl(w[(i + 1) % 3] * d[(i + 2) % 3]) +
+                                  fabsl(w[(i + 2) % 3] * d[(i + 1) % 3]);
+            acc[i] += o[i];
+            am[i] += c / (pi4 * r2 * r);
+            for (m = 0; m < 3; m++) {
+                acc[3 + 3 * i + m] += o[3 + 3 * i + m];
+                am[3 + 3 * i + m] += (i == m ? 0.0L : fabsl(w[3 - i - m])) / (pi4 * r2 * r) +
+                                     3.0L * c * fabsl(d[m]) / (pi4 * r2 * r2 * r);
+            }
+        }
+    }
+    for (m = 0; m < 12; m++) ref[m] = (double)acc[m], mag[m] = (double)am[m];
+}
+
+/* The other hooks against their kernel's eval (checked against the
+ * formulas by the FMM cases below), summed in long double: out_k = sum_j
+ * sum_s k_ks(d_j) q_js; the error relative to the sum over j of the
+ * largest |k_ts q_js| (the scale of a pair's terms: an entry of eval's
+ * matrix can be a small difference that the hook forms from its terms, as
+ * a_k (1 - 3 d_k^2 / r^2) of the velocity gradient's diagonal) */
+typedef void (*eval_fn)(const double *, double, double, double, double *);
+static eval_fn ev;
+static int ev_qd, ev_td;
+static void eval_ref(int64_t nb, const double *b, const double *q, const double *a, double *ref,
+                     double *mag)
+{
+    static const double prm[4] = {MU, 0, 0, 0};
+    long double acc[16] = {0}, am[16] = {0};
+    double k[128];
+    int64_t j;
+    int t, s;
+    for (j = 0; j < nb; j++) {
+        long double big = 0.0L;
+        ev(prm, a[0] - b[3 * j], a[1] - b[3 * j + 1], a[2] - b[3 * j + 2], k);
+        for (t = 0; t < ev_td; t++)
+            for (s = 0; s < ev_qd; s++) {
+                const long double v = (long double)k[t * ev_qd + s] * q[ev_qd * j + s];
+                acc[t] += v;
+                big = fabsl(v) > big ? fabsl(v) : big;
+            }
+        for (t = 0; t < ev_td; t++) am[t] += big;
+    }
+    for (t = 0; t < 16; t++) ref[t] = (double)acc[t], mag[t] = (double)am[t];
+}
+#define HOOK(name, qd, td)                                                                     \
+    do {                                                                                       \
+        static const double prm[4] = {MU, 0, 0, 0};                                            \
+        ev = kifmm_kernel_##name##_eval, ev_qd = qd, ev_td = td;                               \
+        t_check_hooks(#name, qd, td, prm, kifmm_kernel_##name##_p2p,                           \
+                      kifmm_kernel_##name##_p2pf, eval_ref);                                   \
+    } while (0)
+
+int main(void)
+{
+    static const char *dists[3] = {"cube", "sphere", "clustered"};
+    int d, sep;
+    t_group("one-way hooks of biot_savart, biot_savart_grad");
+    CHECK((kifmm_kernel_biot_savart_HAS & KIFMM_HAS_P2P) &&
+              (kifmm_kernel_biot_savart_grad_HAS & KIFMM_HAS_P2PF),
+          "the hooks are announced");
+    t_check_hooks("biot_savart", 3, 3, NULL, kifmm_kernel_biot_savart_p2p,
+                  kifmm_kernel_biot_savart_p2pf, bs_ref);
+    t_check_hooks("biot_savart_grad", 3, 12, NULL, kifmm_kernel_biot_savart_grad_p2p,
+                  kifmm_kernel_biot_savart_grad_p2pf, bs_ref);
+    t_group("one-way hooks of the Stokes family and of the surface kernels");
+    CHECK((kifmm_kernel_stokes_pvel_HAS & KIFMM_HAS_P2P) && (kifmm_kernel_stokes_dl_HAS & KIFMM_HAS_P2PF) &&
+              (kifmm_kernel_stokes_grad_HAS & KIFMM_HAS_P2P),
+          "the hooks are announced");
+    HOOK(stokes_pvel, 3, 4);
+    HOOK(stokes_grad, 3, 12);
+    HOOK(stokes_dl, 9, 3);
+    HOOK(_stokes_pvel_qc, 3, 4);
+    HOOK(_stokes_pvel_st, 4, 4);
+    HOOK(_stokes_dl_st, 4, 3);
+    HOOK(_stokes_dl_qc, 9, 4);
+    HOOK(_laplace3, 3, 3);
+    for (d = 0; d < 3; d++)
+        for (sep = 0; sep < 2; sep++) {
+            char name[64];
+            snprintf(name, sizeof name, "%s, %s targets", dists[d], sep ? "separate" : "the source");
+            t_group(name);
+            check_case(dists[d], sep);
+        }
+    return t_finish();
+}
