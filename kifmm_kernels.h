@@ -466,12 +466,16 @@ static inline void kifmm_kernel__stokeslet(const double *d, double c, double ir2
         for (j = 0; j < 3; j++) k[i * ld + j] = c * d[i] * d[j] * ir2 + (i == j ? c : 0.0);
 }
 
-/* 1 / r, 1 / r^2 of d, and 0 for d = 0 or not finite */
-static inline int kifmm_kernel__inv(const double *d, double *inv, double *ir2)
+/* The start of a kernel matrix of n entries: d = (dx, dy, dz), 1 / r and
+ * 1 / r^2, k zeroed; 0 (k left zero) for d = 0 or not finite */
+static inline int kifmm_kernel__begin(double dx, double dy, double dz, int n, double *d,
+                                      double *inv, double *ir2, double *k)
 {
-    const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    const double r2 = dx * dx + dy * dy + dz * dz;
+    d[0] = dx, d[1] = dy, d[2] = dz;
     *inv = 1.0 / sqrt(r2);
     *ir2 = *inv * *inv;
+    kifmm_kernel__zero(n, k);
     return r2 > 0.0 && *inv > 0.0;
 }
 
@@ -486,13 +490,9 @@ static inline int kifmm_kernel__inv(const double *d, double *inv, double *ir2)
 static inline void kifmm_kernel_stokes_grad_eval(const double *param, double dx, double dy,
                                                  double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2, c, c3;
+    double d[3], inv, ir2, c, c3;
     int i, j, m;
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
-        kifmm_kernel__zero(36, k);
-        return;
-    }
+    if (!kifmm_kernel__begin(dx, dy, dz, 36, d, &inv, &ir2, k)) return;
     c = 0.5 * KIFMM_INV_4PI / param[0] * inv; /* 1 / (8 pi mu r) */
     c3 = c * ir2;
     kifmm_kernel__stokeslet(d, c, ir2, 3, k);
@@ -513,11 +513,9 @@ static inline void kifmm_kernel_stokes_grad_eval(const double *param, double dx,
 static inline void kifmm_kernel__stokes_pl_eval(const double *param, double dx, double dy,
                                                 double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2;
+    double d[3], inv, ir2;
     (void)param;
-    kifmm_kernel__zero(16, k);
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) return;
+    if (!kifmm_kernel__begin(dx, dy, dz, 16, d, &inv, &ir2, k)) return;
     k[0] = KIFMM_INV_4PI * inv;
     kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI * inv, ir2, 4, k + 5);
 }
@@ -536,13 +534,9 @@ static inline void kifmm_kernel__stokes_pl_eval(const double *param, double dx, 
 /* k rows p, u; cols f; u with viscosity mu (or 1 in the check kernel) */
 static inline void kifmm_kernel__pvel(double mu, double dx, double dy, double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2;
+    double d[3], inv, ir2;
     int j;
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
-        kifmm_kernel__zero(12, k);
-        return;
-    }
+    if (!kifmm_kernel__begin(dx, dy, dz, 12, d, &inv, &ir2, k)) return;
     for (j = 0; j < 3; j++) k[j] = KIFMM_INV_4PI * inv * ir2 * d[j];
     kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI / mu * inv, ir2, 3, k + 3);
 }
@@ -568,10 +562,8 @@ static inline void kifmm_kernel__stokes_pvel_qc_eval(const double *param, double
 static inline void kifmm_kernel__stokes_pvel_st_eval(const double *param, double dx, double dy,
                                                      double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2;
-    kifmm_kernel__zero(16, k);
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) return;
+    double d[3], inv, ir2;
+    if (!kifmm_kernel__begin(dx, dy, dz, 16, d, &inv, &ir2, k)) return;
     k[0] = KIFMM_INV_4PI * inv;
     kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI / param[0] * inv, ir2, 4, k + 5);
 }
@@ -606,13 +598,9 @@ static inline void kifmm_kernel__stresslet(const double *d, double c, int ld, do
 static inline void kifmm_kernel_stokes_dl_eval(const double *param, double dx, double dy,
                                                double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2;
+    double d[3], inv, ir2;
     (void)param;
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
-        kifmm_kernel__zero(27, k);
-        return;
-    }
+    if (!kifmm_kernel__begin(dx, dy, dz, 27, d, &inv, &ir2, k)) return;
     kifmm_kernel__stresslet(d, -3.0 * KIFMM_INV_4PI * inv * ir2 * ir2, 9, k);
 }
 /* its check kernel: q_j n_k -> (phi, u - grad phi), phi = (q . n) / (4 pi
@@ -624,12 +612,10 @@ static inline void kifmm_kernel_stokes_dl_eval(const double *param, double dx, d
 static inline void kifmm_kernel__stokes_dl_qc_eval(const double *param, double dx, double dy,
                                                    double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2;
+    double d[3], inv, ir2;
     int i;
     (void)param;
-    kifmm_kernel__zero(36, k);
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) return;
+    if (!kifmm_kernel__begin(dx, dy, dz, 36, d, &inv, &ir2, k)) return;
     kifmm_kernel__stresslet(d, -3.0 * KIFMM_INV_4PI * inv * ir2 * ir2, 9, k + 9);
     for (i = 0; i < 3; i++) {
         k[4 * i] = KIFMM_INV_4PI * inv;
@@ -645,14 +631,10 @@ static inline void kifmm_kernel__stokes_dl_qc_eval(const double *param, double d
 static inline void kifmm_kernel__stokes_dl_st_eval(const double *param, double dx, double dy,
                                                    double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2;
+    double d[3], inv, ir2;
     int i;
     (void)param;
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
-        kifmm_kernel__zero(12, k);
-        return;
-    }
+    if (!kifmm_kernel__begin(dx, dy, dz, 12, d, &inv, &ir2, k)) return;
     for (i = 0; i < 3; i++) k[4 * i] = -KIFMM_INV_4PI * inv * ir2 * d[i];
     kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI * inv, ir2, 4, k + 1);
 }
@@ -673,24 +655,18 @@ static inline void kifmm_kernel__stokes_dl_st_eval(const double *param, double d
 static inline void kifmm_kernel__laplace3_eval(const double *param, double dx, double dy,
                                                double dz, double *k)
 {
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2;
+    double d[3], inv, ir2;
     (void)param;
-    kifmm_kernel__zero(9, k);
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) return;
+    if (!kifmm_kernel__begin(dx, dy, dz, 9, d, &inv, &ir2, k)) return;
     k[0] = k[4] = k[8] = KIFMM_INV_4PI * inv;
 }
 /* rows of u (3) and, with the gradient, du_i/dy_j (9) of a x d / (4 pi r^3) */
 static inline void kifmm_kernel__bs_eval(double dx, double dy, double dz, int grad, double *k)
 {
     static const int nx[3] = {1, 2, 0}, px[3] = {2, 0, 1}; /* (a x d)_i = a_nx d_px - a_px d_nx */
-    const double d[3] = {dx, dy, dz};
-    double inv, ir2, c3, e[3][3] = {{0.0}}; /* e[i][l] = eps_ilm d_m */
+    double d[3], inv, ir2, c3, e[3][3] = {{0.0}}; /* e[i][l] = eps_ilm d_m */
     int i, j, l;
-    if (!kifmm_kernel__inv(d, &inv, &ir2)) {
-        kifmm_kernel__zero(grad ? 36 : 9, k);
-        return;
-    }
+    if (!kifmm_kernel__begin(dx, dy, dz, grad ? 36 : 9, d, &inv, &ir2, k)) return;
     c3 = KIFMM_INV_4PI * inv * ir2;
     for (i = 0; i < 3; i++) {
         e[i][nx[i]] = d[px[i]];
