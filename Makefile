@@ -8,7 +8,7 @@
 #   make custom     build and run examples/custom_kernel.c (a kernel written in
 #                   the example file, checked against direct summation)
 #   make double_layer  build and run examples/double_layer.c (the Laplace
-#                   double layer of a unit density on a sphere: -1 inside, 0 outside)
+#                   double layer of a unit density on a sphere: -1 inside, -1/2 on, 0 outside)
 #   make examples   build the examples into build/
 #   make deps       check the compilers, OpenMP and BLAS/LAPACKE headers;
 #                   installs the Debian packages when run as root

@@ -14,8 +14,11 @@
  * the `laplace_dipole` kernel. The program evaluates it at targets inside
  * (radius 0.1 to 0.7) and outside (1.4 to 3), prints the errors against -1
  * and 0, and returns nonzero if the RMS error is above 1e-5 (order >= 6) or
- * 1e-3. On the surface itself the rule needs a singular correction (the
- * FMM gives the sum without the node's own term), so it is not checked.
+ * 1e-3. On the surface the integrand is singular at the target; at the
+ * poles (0, 0, +-1) it is mu / (8 pi |x - y|), and |x - y| = 2 sin(theta /
+ * 2) or 2 cos(theta / 2) cancels against dA = sin(theta) dtheta dphi, so a
+ * Gauss-Legendre rule in theta (not cos theta) integrates it to rounding:
+ * the poles are checked against -1/2 with a second set of nodes.
  */
 #include <math.h>
 #include <stdint.h>
@@ -70,6 +73,48 @@ static void random_point(uint64_t *s, double r0, double r1, double *p)
     for (k = 0; k < 3; k++) p[k] = u[k] * len;
 }
 
+/* nt x 2 nt nodes y of the unit sphere with dipoles v = w n (mu = 1);
+ * Gauss-Legendre in cos(theta) (in_theta = 0) or in theta (1) */
+static void sphere_nodes(int nt, int in_theta, const double *gx, const double *gw, double *y,
+                         double *v)
+{
+    const int np = 2 * nt;
+    int i, j, k;
+    for (i = 0; i < nt; i++)
+        for (j = 0; j < np; j++) {
+            const int64_t a = (int64_t)i * np + j;
+            const double th = in_theta ? 0.5 * PI * (gx[i] + 1.0) : acos(gx[i]);
+            const double ph = 2.0 * PI * j / np;
+            /* dA = d(cos theta) dphi, or sin(theta) dtheta dphi */
+            const double w = (in_theta ? 0.5 * PI * sin(th) : 1.0) * gw[i] * 2.0 * PI / np;
+            y[3 * a] = sin(th) * cos(ph);
+            y[3 * a + 1] = sin(th) * sin(ph);
+            y[3 * a + 2] = cos(th);
+            /* mu = 1, outward normal = the position on the unit sphere */
+            for (k = 0; k < 3; k++) v[3 * a + k] = w * y[3 * a + k];
+        }
+}
+
+/* The largest error against -1/2 at the two poles (nodes in theta) */
+static double on_surface(int nt, int order, const double *gx, const double *gw, double *y,
+                         double *v)
+{
+    const double pole[6] = {0.0, 0.0, 1.0, 0.0, 0.0, -1.0};
+    double u[2] = {0.0, 0.0};
+    kifmm_laplace_dipole *h = NULL;
+    kifmm_opts o = {0};
+    int rc;
+    sphere_nodes(nt, 1, gx, gw, y, v);
+    o.order = order;
+    rc = kifmm_laplace_dipole_create(&h, &o, (int64_t)nt * 2 * nt, y, 2, pole);
+    if (rc == KIFMM_SUCCESS) rc = kifmm_laplace_dipole_evaluate(h, v, u);
+    kifmm_laplace_dipole_destroy(h);
+    if (rc != KIFMM_SUCCESS) return HUGE_VAL;
+    printf("  on S (the poles): %.9f %.9f, error against -1/2: %.2e %.2e\n", u[0], u[1],
+           fabs(u[0] + 0.5), fabs(u[1] + 0.5));
+    return fabs(u[0] + 0.5) > fabs(u[1] + 0.5) ? fabs(u[0] + 0.5) : fabs(u[1] + 0.5);
+}
+
 int main(int argc, char **argv)
 {
     const int nt = argc > 1 ? atoi(argv[1]) : 64, order = argc > 2 ? atoi(argv[2]) : 6;
@@ -78,29 +123,17 @@ int main(int argc, char **argv)
     double *ct = malloc(sizeof(double) * (size_t)nt), *wt = malloc(sizeof(double) * (size_t)nt);
     double *y = malloc(sizeof(double) * 3 * (size_t)ns), *v = malloc(sizeof(double) * 3 * (size_t)ns);
     double *x = malloc(sizeof(double) * 3 * ntrg), *u = malloc(sizeof(double) * ntrg);
-    double ein = 0.0, eout = 0.0, mean = 0.0, bound = order >= 6 ? 1e-5 : 1e-3;
+    double ein = 0.0, eout = 0.0, eon, mean = 0.0, bound = order >= 6 ? 1e-5 : 1e-3;
     uint64_t seed = 2026;
     kifmm_laplace_dipole *h = NULL;
     kifmm_opts o = {0};
-    int i, j, rc;
+    int i, rc;
     if (nt < 2 || !ct || !wt || !y || !v || !x || !u) {
         fprintf(stderr, "usage: %s [n_theta >= 2] [order]\n", argv[0]);
         return 2;
     }
     gauss_legendre(nt, ct, wt);
-    for (i = 0; i < nt; i++)
-        for (j = 0; j < np; j++) {
-            const int64_t a = (int64_t)i * np + j;
-            const double st = sqrt(1.0 - ct[i] * ct[i]), ph = 2.0 * PI * j / np;
-            const double w = wt[i] * 2.0 * PI / np; /* dA = d(cos theta) d phi */
-            y[3 * a] = st * cos(ph);
-            y[3 * a + 1] = st * sin(ph);
-            y[3 * a + 2] = ct[i];
-            /* mu = 1, outward normal = the position on the unit sphere */
-            v[3 * a] = w * y[3 * a];
-            v[3 * a + 1] = w * y[3 * a + 1];
-            v[3 * a + 2] = w * y[3 * a + 2];
-        }
+    sphere_nodes(nt, 0, ct, wt, y, v);
     for (i = 0; i < ntrg; i++)
         random_point(&seed, i < ntrg / 2 ? 0.1 : 1.4, i < ntrg / 2 ? 0.7 : 3.0, x + 3 * i);
     o.order = order;
@@ -124,13 +157,15 @@ int main(int argc, char **argv)
     printf("  inside  (%d targets): mean %.9f, RMS error against -1: %.2e\n", ntrg / 2,
            mean, ein);
     printf("  outside (%d targets): RMS error against 0: %.2e\n", ntrg / 2, eout);
-    printf("  %s (bound %.0e)\n", ein <= bound && eout <= bound ? "ok" : "FAILED", bound);
     kifmm_laplace_dipole_destroy(h);
+    eon = on_surface(nt, order, ct, wt, y, v);
+    printf("  %s (bound %.0e)\n", ein <= bound && eout <= bound && eon <= bound ? "ok" : "FAILED",
+           bound);
     free(ct);
     free(wt);
     free(y);
     free(v);
     free(x);
     free(u);
-    return ein <= bound && eout <= bound ? 0 : 1;
+    return ein <= bound && eout <= bound && eon <= bound ? 0 : 1;
 }
