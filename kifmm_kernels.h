@@ -410,7 +410,7 @@ static inline void kifmm_kernel__yuk_cd(const double *param, double dx, double d
 #define kifmm_kernel_yukawa_cd_TRG_DIM 1
 #define kifmm_kernel_yukawa_cd_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_cd_DEGREE 0
-#define kifmm_kernel_yukawa_cd_HAS (KIFMM_HAS_SETUP)
+#define kifmm_kernel_yukawa_cd_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P) /* hook below */
 #define kifmm_kernel_yukawa_cd_setup kifmm_kernel__positive_setup
 #define kifmm_kernel_yukawa_cd_EQUIV yukawa
 #define kifmm_kernel_yukawa_cd_SURFACE yukawa
@@ -425,7 +425,7 @@ static inline void kifmm_kernel_yukawa_cd_eval(const double *param, double dx, d
 #define kifmm_kernel_yukawa_cd_grad_TRG_DIM 4
 #define kifmm_kernel_yukawa_cd_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_cd_grad_DEGREE 0
-#define kifmm_kernel_yukawa_cd_grad_HAS (KIFMM_HAS_SETUP)
+#define kifmm_kernel_yukawa_cd_grad_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P) /* hook below */
 #define kifmm_kernel_yukawa_cd_grad_setup kifmm_kernel__positive_setup
 #define kifmm_kernel_yukawa_cd_grad_EQUIV yukawa
 #define kifmm_kernel_yukawa_cd_grad_USE_EQUIV 1
@@ -3205,7 +3205,33 @@ KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LC
         o1 = FMADD(LOAD((q) + (SB)), inv, o1);                                                 \
         o2 = FMADD(LOAD((q) + 2 * (SB)), inv, o2);                                             \
     }
+/* A pair of yukawa_cd (ROWS 1) or yukawa_cd_grad (ROWS 4), times 4 pi, in
+ * double (EXPN(y) = exp(-y) over the build's vectors), lambda = param[0]:
+ * with e = exp(-lambda r), c1 = e (1 + lambda r) / r^3 and c3 = e (3 + 3
+ * lambda r + lambda^2 r^2) / r^5: potential q e / r + (v . d) c1, gradient
+ * v c1 - d (q c1 + (v . d) c3). Lanes with 1 / r = 0 give r = 0, e = 1 and
+ * every term 0. */
+#define KIFMM_KERNEL__YCD_PAIR(ROWS, EXPN, U2, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB,  \
+                               MUL, FMADD, FNMADD)                                             \
+    {                                                                                          \
+        const V qc = LOAD(q), v0 = LOAD((q) + (SB)), v1 = LOAD((q) + 2 * (SB));                \
+        const V v2 = LOAD((q) + 3 * (SB)), i2 = MUL(inv, inv);                                 \
+        const V lr = MUL(SET1((T)param[0]), MUL(FMADD(dz, dz, FMADD(dy, dy, MUL(dx, dx))), inv)); \
+        const V ei = MUL(EXPN(lr), inv), one = SET1((T)1);                                     \
+        const V c1 = MUL(MUL(ei, i2), FMADD(one, lr, one));                                    \
+        const V vd = FMADD(dz, v2, FMADD(dy, v1, MUL(dx, v0)));                                \
+        o0 = FMADD(vd, c1, FMADD(qc, ei, o0));                                                 \
+        if ((ROWS) > 1) {                                                                      \
+            const V c3 = MUL(MUL(ei, MUL(i2, i2)),                                             \
+                             FMADD(lr, FMADD(one, lr, SET1((T)3)), SET1((T)3)));               \
+            const V m = FMADD(vd, c3, MUL(qc, c1));                                            \
+            o1 = FNMADD(dx, m, FMADD(v0, c1, o1));                                             \
+            o2 = FNMADD(dy, m, FMADD(v1, c1, o2));                                             \
+            o3 = FNMADD(dz, m, FMADD(v2, c1, o3));                                             \
+        }                                                                                      \
+    }
 #if defined(__AVX512F__)
+#define KIFMM_KERNEL__EXPN kifmm_kernel__expn8
 #define KIFMM_KERNEL__OW_D(QD, TD, PAIR, P1, P2, P3)                                            \
     KIFMM_KERNEL__OW_BODY(double, __m512d, 8, _mm512_set1_pd, _mm512_setzero_pd(),             \
                           _mm512_load_pd, _mm512_sub_pd, _mm512_mul_pd, _mm512_fmadd_pd,       \
@@ -3217,6 +3243,7 @@ KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LC
                           _mm512_fnmadd_ps, KIFMM_KERNEL__SRINV16, kifmm_kernel__hsum16, QD,   \
                           TD, PAIR, P1, P2, P3)
 #elif defined(__AVX2__) && defined(__FMA__)
+#define KIFMM_KERNEL__EXPN kifmm_kernel__expn4
 #define KIFMM_KERNEL__OW_D(QD, TD, PAIR, P1, P2, P3)                                            \
     KIFMM_KERNEL__OW_BODY(double, __m256d, 4, _mm256_set1_pd, _mm256_setzero_pd(),             \
                           _mm256_load_pd, _mm256_sub_pd, _mm256_mul_pd, _mm256_fmadd_pd,       \
@@ -3228,6 +3255,7 @@ KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LC
                           _mm256_fnmadd_ps, kifmm_kernel__srinv8f, kifmm_kernel__shsum8f, QD,  \
                           TD, PAIR, P1, P2, P3)
 #else
+#define KIFMM_KERNEL__EXPN kifmm_kernel__expn1
 #define KIFMM_KERNEL__OW_D(QD, TD, PAIR, P1, P2, P3)                                            \
     KIFMM_KERNEL__OW_BODY(double, double, 1, KIFMM_KERNEL__S_SET1, 0.0, KIFMM_KERNEL__S_LOAD,   \
                           KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, KIFMM_KERNEL__S_FMADD,     \
@@ -3252,6 +3280,10 @@ KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_cd_hess, 4, 10, KIFMM_KERNEL__LAP_PAI
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel_biot_savart, 3, 3, KIFMM_KERNEL__BS_PAIR, 0, 0, 0)
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel_biot_savart_grad, 3, 12, KIFMM_KERNEL__BS_PAIR, 1, 0, 0)
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel__laplace3, 3, 3, KIFMM_KERNEL__L3_PAIR, 0, 0, 0)
+KIFMM_KERNEL__OW_P2P(kifmm_kernel_yukawa_cd_p2p, double,
+                     KIFMM_KERNEL__OW_D(4, 1, KIFMM_KERNEL__YCD_PAIR, 1, KIFMM_KERNEL__EXPN, 0))
+KIFMM_KERNEL__OW_P2P(kifmm_kernel_yukawa_cd_grad_p2p, double,
+                     KIFMM_KERNEL__OW_D(4, 4, KIFMM_KERNEL__YCD_PAIR, 4, KIFMM_KERNEL__EXPN, 0))
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel_stokes_pvel, 3, 4, KIFMM_KERNEL__PVEL_PAIR, 1, 0, 0)
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_pvel_qc, 3, 4, KIFMM_KERNEL__PVEL_PAIR, 0, 0, 0)
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_pvel_st, 4, 4, KIFMM_KERNEL__PLST_PAIR, 0, 0, 0)
@@ -3271,6 +3303,8 @@ KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_dl_qc, 9, 4, KIFMM_KERNEL__DL_PAIR, 1
 #undef KIFMM_KERNEL__DL_PAIR
 #undef KIFMM_KERNEL__PLST_PAIR
 #undef KIFMM_KERNEL__L3_PAIR
+#undef KIFMM_KERNEL__YCD_PAIR
+#undef KIFMM_KERNEL__EXPN
 #undef KIFMM_KERNEL__LAP_PAIR
 #undef KIFMM_KERNEL__OW_BODY
 #define KIFMM_KERNEL__OW_HAS (KIFMM_HAS_P2P | KIFMM_HAS_P2PF)

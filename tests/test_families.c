@@ -293,10 +293,11 @@ static void bs_ref(int64_t nb, const double *b, const double *q, const double *a
 typedef void (*eval_fn)(const double *, double, double, double, double *);
 static eval_fn ev;
 static int ev_qd, ev_td;
+static double ev_param[4];
 static void eval_ref(int64_t nb, const double *b, const double *q, const double *a, double *ref,
                      double *mag)
 {
-    static const double prm[4] = {MU, 0, 0, 0};
+    const double *prm = ev_param;
     long double acc[16] = {0}, am[16] = {0};
     double k[128];
     int64_t j;
@@ -314,12 +315,15 @@ static void eval_ref(int64_t nb, const double *b, const double *q, const double 
     }
     for (t = 0; t < 16; t++) ref[t] = (double)acc[t], mag[t] = (double)am[t];
 }
-#define HOOK(name, qd, td)                                                                     \
+/* bound 1e-14 in double; for Yukawa plus the conditioning of exp(-lambda r)
+ * in r (lambda r times the 3 ulp by which the hook's r = r^2 / r and
+ * eval's sqrt may differ), r up to sqrt(3) here */
+#define HOOK(name, qd, td) HOOK_P(name, qd, td, MU, 1e-14, kifmm_kernel_##name##_p2pf)
+#define HOOK_P(name, qd, td, p0, bound, hf)                                                    \
     do {                                                                                       \
-        static const double prm[4] = {MU, 0, 0, 0};                                            \
+        ev_param[0] = p0;                                                                      \
         ev = kifmm_kernel_##name##_eval, ev_qd = qd, ev_td = td;                               \
-        t_check_hooks(#name, qd, td, prm, kifmm_kernel_##name##_p2p,                           \
-                      kifmm_kernel_##name##_p2pf, eval_ref);                                   \
+        t_check_hooks(#name, qd, td, ev_param, bound, kifmm_kernel_##name##_p2p, hf, eval_ref); \
     } while (0)
 
 int main(void)
@@ -330,9 +334,9 @@ int main(void)
     CHECK((kifmm_kernel_biot_savart_HAS & KIFMM_HAS_P2P) &&
               (kifmm_kernel_biot_savart_grad_HAS & KIFMM_HAS_P2PF),
           "the hooks are announced");
-    t_check_hooks("biot_savart", 3, 3, NULL, kifmm_kernel_biot_savart_p2p,
+    t_check_hooks("biot_savart", 3, 3, NULL, 1e-14, kifmm_kernel_biot_savart_p2p,
                   kifmm_kernel_biot_savart_p2pf, bs_ref);
-    t_check_hooks("biot_savart_grad", 3, 12, NULL, kifmm_kernel_biot_savart_grad_p2p,
+    t_check_hooks("biot_savart_grad", 3, 12, NULL, 1e-14, kifmm_kernel_biot_savart_grad_p2p,
                   kifmm_kernel_biot_savart_grad_p2pf, bs_ref);
     t_group("one-way hooks of the Stokes family and of the surface kernels");
     CHECK((kifmm_kernel_stokes_pvel_HAS & KIFMM_HAS_P2P) && (kifmm_kernel_stokes_dl_HAS & KIFMM_HAS_P2PF) &&
@@ -346,6 +350,12 @@ int main(void)
     HOOK(_stokes_dl_st, 4, 3);
     HOOK(_stokes_dl_qc, 9, 4);
     HOOK(_laplace3, 3, 3);
+    t_group("one-way hooks of yukawa_cd, yukawa_cd_grad (double)");
+    CHECK((kifmm_kernel_yukawa_cd_grad_HAS & KIFMM_HAS_P2P) && (kifmm_kernel_yukawa_cd_HAS & KIFMM_HAS_P2P),
+          "the hooks are announced");
+    HOOK_P(yukawa_cd, 4, 1, LAMBDA, 1e-14 + 7e-16 * LAMBDA * 1.7321, NULL);
+    HOOK_P(yukawa_cd_grad, 4, 4, LAMBDA, 1e-14 + 7e-16 * LAMBDA * 1.7321, NULL);
+    HOOK_P(yukawa_cd_grad, 4, 4, 40.0, 1e-14 + 7e-16 * 40.0 * 1.7321, NULL); /* exp to 1e-30 */
     for (d = 0; d < 3; d++)
         for (sep = 0; sep < 2; sep++) {
             char name[64];

@@ -254,7 +254,7 @@ static void check_hooks(const char *name, int ch, int dip, int td, t_hook_d hd, 
 {
     hook_ch = ch;
     hook_dip = dip;
-    t_check_hooks(name, ch + 3 * dip, td, NULL, hd, hf, hook_ref);
+    t_check_hooks(name, ch + 3 * dip, td, NULL, 1e-14, hd, hf, hook_ref);
 }
 
 int main(void)
