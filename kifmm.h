@@ -3415,8 +3415,6 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, int m2l, kifm
     return rc;
 }
 
-/* Build one level's operators in double and keep them in the instance's
- * precision, counted in c->held. */
 /* c->fft.nz[ab] = 1 for the kernel components ab with a nonzero value in
  * the spectra khat (kifmm__build_m2l_fft's layout) */
 KIFMM__FN void KIFMM__F(__m2l_nonzero)(KIFMM_NAME *c, const double *khat)
@@ -3431,6 +3429,8 @@ KIFMM__FN void KIFMM__F(__m2l_nonzero)(KIFMM_NAME *c, const double *khat)
                 c->fft.nz[ab] = 1;
 }
 
+/* Build one level's operators in double and keep them in the instance's
+ * precision, counted in c->held. */
 KIFMM__FN int KIFMM__F(__ops_make)(KIFMM_NAME *c, double r, int m2l, KIFMM__F(__ops) *out)
 {
     const size_t ne = (size_t)c->surf.ne, nc = (size_t)c->surf.nc;
@@ -3452,8 +3452,10 @@ KIFMM__FN int KIFMM__F(__ops_make)(KIFMM_NAME *c, double r, int m2l, KIFMM__F(__
         if (o.conv && !(out->conv = KIFMM__F(__own)(held, &o.conv, nc * ne))) rc = KIFMM_ERR_NOMEM;
         if (o.m2l && !(out->m2l = KIFMM__F(__own)(held, &o.m2l, (size_t)o.kd * KIFMM__NT * ne)))
             rc = KIFMM_ERR_NOMEM;
-        if (o.khat) *held += kifmm__size(o.khat);
-        if (o.khat) KIFMM__F(__m2l_nonzero)(c, o.khat);
+        if (o.khat) {
+            *held += kifmm__size(o.khat);
+            KIFMM__F(__m2l_nonzero)(c, o.khat);
+        }
         out->khat = o.khat;
         o.khat = NULL;
         if (!out->ut_up || !out->vs_up || !out->ut_dn || !out->vs_dn || !out->m2m || !out->l2l)

@@ -162,6 +162,34 @@ static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx,
     k[3] = g * dz;
 }
 
+/* k[0 .. n) = 0 */
+static inline void kifmm_kernel__zero(int n, double *k)
+{
+    int i;
+    for (i = 0; i < n; i++) k[i] = 0.0;
+}
+/* k[i * ld + j] (i, j < 3) = c (delta_ij + d_i d_j / r^2), c = 1 / (8 pi mu r) */
+static inline void kifmm_kernel__stokeslet(const double *d, double c, double ir2, int ld,
+                                           double *k)
+{
+    int i, j;
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) k[i * ld + j] = c * d[i] * d[j] * ir2 + (i == j ? c : 0.0);
+}
+
+/* The start of a kernel matrix of n entries: d = (dx, dy, dz), 1 / r and
+ * 1 / r^2, k zeroed; 0 (k left zero) for d = 0 or not finite */
+static inline int kifmm_kernel__begin(double dx, double dy, double dz, int n, double *d,
+                                      double *inv, double *ir2, double *k)
+{
+    const double r2 = dx * dx + dy * dy + dz * dz;
+    d[0] = dx, d[1] = dy, d[2] = dz;
+    *inv = 1.0 / sqrt(r2);
+    *ir2 = *inv * *inv;
+    kifmm_kernel__zero(n, k);
+    return r2 > 0.0 && *inv > 0.0;
+}
+
 /* stokes: the Stokeslet, velocity u_i(y) = sum_j G_ij(y - x) f_j with
  * G_ij(d) = (delta_ij / r + d_i d_j / r^3) / (8 pi mu), viscosity
  * mu = param[0] in [1e-150, 1e150] (0 = the default, 1). Densities are forces (3 per
@@ -176,20 +204,9 @@ static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx,
 static inline void kifmm_kernel_stokes_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
 {
-    double r2 = dx * dx + dy * dy + dz * dz, d[3], inv, c, c3;
-    int i, j;
-    if (!(r2 > 0.0)) {
-        for (i = 0; i < 9; i++) k[i] = 0.0;
-        return;
-    }
-    inv = 1.0 / sqrt(r2);
-    c = 0.5 * KIFMM_INV_4PI / param[0] * inv; /* 1 / (8 pi mu r) */
-    c3 = c * inv * inv;
-    d[0] = dx;
-    d[1] = dy;
-    d[2] = dz;
-    for (i = 0; i < 3; i++)
-        for (j = 0; j < 3; j++) k[3 * i + j] = c3 * d[i] * d[j] + (i == j ? c : 0.0);
+    double d[3], inv, ir2;
+    if (!kifmm_kernel__begin(dx, dy, dz, 9, d, &inv, &ir2, k)) return;
+    kifmm_kernel__stokeslet(d, 0.5 * KIFMM_INV_4PI / param[0] * inv, ir2, 3, k);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -256,12 +273,6 @@ static inline void kifmm_kernel__lap_dipole(const double *d, const double *c, in
         }
     }
 }
-/* k[rows x cols] = 0 */
-static inline void kifmm_kernel__zero(int n, double *k)
-{
-    int i;
-    for (i = 0; i < n; i++) k[i] = 0.0;
-}
 
 /* k = the kernel matrix of charges (ch), dipoles (dip) or both, `rows`
  * outputs (1, 4 or 10), row by row: column 0 the charge's, then the
@@ -298,7 +309,7 @@ static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx
 #define kifmm_kernel_laplace_dipole_SRC_DIM 3
 #define kifmm_kernel_laplace_dipole_TRG_DIM 1
 #define kifmm_kernel_laplace_dipole_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_dipole_HAS KIFMM_KERNEL__LCD_HAS /* below */
+#define kifmm_kernel_laplace_dipole_HAS KIFMM_KERNEL__OW_HAS /* below */
 #define kifmm_kernel_laplace_dipole_DEGREE (-2)
 #define kifmm_kernel_laplace_dipole_EQUIV laplace
 #define kifmm_kernel_laplace_dipole_SURFACE laplace
@@ -313,7 +324,7 @@ static inline void kifmm_kernel_laplace_dipole_eval(const double *param, double 
 #define kifmm_kernel_laplace_dipole_grad_SRC_DIM 3
 #define kifmm_kernel_laplace_dipole_grad_TRG_DIM 4
 #define kifmm_kernel_laplace_dipole_grad_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_dipole_grad_HAS KIFMM_KERNEL__LCD_HAS /* below */
+#define kifmm_kernel_laplace_dipole_grad_HAS KIFMM_KERNEL__OW_HAS /* below */
 #define kifmm_kernel_laplace_dipole_grad_DEGREE (-2)
 #define kifmm_kernel_laplace_dipole_grad_EQUIV laplace
 #define kifmm_kernel_laplace_dipole_grad_SURFACE laplace_grad
@@ -329,7 +340,7 @@ static inline void kifmm_kernel_laplace_dipole_grad_eval(const double *param, do
 #define kifmm_kernel_laplace_cd_SRC_DIM 4
 #define kifmm_kernel_laplace_cd_TRG_DIM 1
 #define kifmm_kernel_laplace_cd_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_cd_HAS KIFMM_KERNEL__LCD_HAS /* below */
+#define kifmm_kernel_laplace_cd_HAS KIFMM_KERNEL__OW_HAS /* below */
 #define kifmm_kernel_laplace_cd_DEGREE (-1)
 #define kifmm_kernel_laplace_cd_EQUIV laplace
 #define kifmm_kernel_laplace_cd_SURFACE laplace
@@ -344,7 +355,7 @@ static inline void kifmm_kernel_laplace_cd_eval(const double *param, double dx, 
 #define kifmm_kernel_laplace_cd_grad_SRC_DIM 4
 #define kifmm_kernel_laplace_cd_grad_TRG_DIM 4
 #define kifmm_kernel_laplace_cd_grad_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_cd_grad_HAS KIFMM_KERNEL__LCD_HAS /* below */
+#define kifmm_kernel_laplace_cd_grad_HAS KIFMM_KERNEL__OW_HAS /* below */
 #define kifmm_kernel_laplace_cd_grad_DEGREE (-1)
 #define kifmm_kernel_laplace_cd_grad_EQUIV laplace
 #define kifmm_kernel_laplace_cd_grad_USE_EQUIV 1 /* 4 x 4, yet not its own surface kernel */
@@ -385,17 +396,13 @@ static inline void kifmm_kernel_laplace_cd_hess_eval(const double *param, double
 static inline void kifmm_kernel__yuk_cd(const double *param, double dx, double dy, double dz,
                                         int rows, double *k)
 {
-    const double r2 = dx * dx + dy * dy + dz * dz, r = sqrt(r2), lr = param[0] * r;
-    const double d[3] = {dx, dy, dz};
-    double e, c1, c3;
+    double d[3], inv, ir2, lr, e, c1, c3;
     int m;
-    if (!(r2 > 0.0) || !(r > 0.0) || !(r2 < DBL_MAX)) {
-        kifmm_kernel__zero(4 * rows, k);
-        return;
-    }
-    e = KIFMM_INV_4PI * exp(-lr) / r;        /* G */
-    c1 = e * (1.0 + lr) / r2;                /* (1 + lambda r) G / r^2 */
-    c3 = e * (3.0 + lr * (3.0 + lr)) / (r2 * r2);
+    if (!kifmm_kernel__begin(dx, dy, dz, 4 * rows, d, &inv, &ir2, k)) return;
+    lr = param[0] / inv;
+    e = KIFMM_INV_4PI * exp(-lr) * inv;      /* G */
+    c1 = e * (1.0 + lr) * ir2;               /* (1 + lambda r) G / r^2 */
+    c3 = e * (3.0 + lr * (3.0 + lr)) * ir2 * ir2;
     k[0] = e;
     for (m = 0; m < 3; m++) k[1 + m] = c1 * d[m];
     for (m = 0; m < 3 && rows > 1; m++) {
@@ -456,28 +463,6 @@ static inline void kifmm_kernel_yukawa_cd_grad_eval(const double *param, double 
  * a Laplace charge to each surface point, 4 components (c, f) whose check
  * potentials are (phi, u) = (c / (4 pi r), G f), with mu = 1 on the
  * surfaces so that no viscosity puts the two blocks apart in scale. */
-
-/* k[i * ld + j] (i, j < 3) = c (delta_ij + d_i d_j / r^2), c = 1 / (8 pi mu r) */
-static inline void kifmm_kernel__stokeslet(const double *d, double c, double ir2, int ld,
-                                           double *k)
-{
-    int i, j;
-    for (i = 0; i < 3; i++)
-        for (j = 0; j < 3; j++) k[i * ld + j] = c * d[i] * d[j] * ir2 + (i == j ? c : 0.0);
-}
-
-/* The start of a kernel matrix of n entries: d = (dx, dy, dz), 1 / r and
- * 1 / r^2, k zeroed; 0 (k left zero) for d = 0 or not finite */
-static inline int kifmm_kernel__begin(double dx, double dy, double dz, int n, double *d,
-                                      double *inv, double *ir2, double *k)
-{
-    const double r2 = dx * dx + dy * dy + dz * dz;
-    d[0] = dx, d[1] = dy, d[2] = dz;
-    *inv = 1.0 / sqrt(r2);
-    *ir2 = *inv * *inv;
-    kifmm_kernel__zero(n, k);
-    return r2 > 0.0 && *inv > 0.0;
-}
 
 /* stokes_grad: forces -> velocity (3) and its gradient (9, du_i/dy_j at 3 + 3 i + j) */
 #define kifmm_kernel_stokes_grad_SRC_DIM 3
@@ -2869,117 +2854,8 @@ KIFMM_KERNEL__YUKAWA_P2PS(kifmm_kernel_yukawa_grad_p2ps, 1)
 #undef KIFMM_KERNEL__ADD_A2
 
 /* ------------------------------------------------------------------------ */
-/* Laplace charge and dipole hooks (laplace_dipole, laplace_dipole_grad,    */
-/* laplace_cd, laplace_cd_grad): one-way, double and float                 */
-/* ------------------------------------------------------------------------ */
-/* outa_i += s sum_j q_j / r + v_j . d / r^3 and, with the gradient,
- * += s sum_j (v_j - d (q_j + 3 v_j . d / r^2)) / r^3, s = scale / (4 pi),
- * d = a_i - b_j; densities per source (q, v) (CH = 1) or v alone (CH = 0).
- * The sources come in blocks of KIFMM_KERNEL__SSB points copied once into
- * structure-of-arrays on the stack (the densities arrive interleaved);
- * lanes past a block's end get 1 / r = 0. One body over the build's vectors,
- * as the Stokes hooks (AVX-512, AVX2 + FMA, portable C). */
-#define KIFMM_KERNEL__LCD_BODY(T, V, W, SET1, ZERO, LOAD, SUB, MUL, FMADD, FNMADD, RINVM, HSUM,   \
-                               CH, GRAD)                                                        \
-    {                                                                                          \
-        enum { SB_ = KIFMM_KERNEL__SSB, NB_ = KIFMM_KERNEL__SSB / (W), QD_ = (CH) + 3 };        \
-        const T s = (T)((double)scale * KIFMM_INV_4PI);                                        \
-        V vx[NB_], vy[NB_], vz[NB_], vq[4 * NB_];                                              \
-        T *px = (T *)vx, *py = (T *)vy, *pz = (T *)vz, *pq = (T *)vq;                          \
-        int64_t i, j, j0, jb, k;                                                               \
-        (void)param;                                                                           \
-        for (j0 = 0; j0 < nb; j0 += SB_) {                                                     \
-            jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;                                       \
-            for (k = 0; k < SB_; k++) { /* q, v_x, v_y, v_z, SB_ apart */                      \
-                const int in = k < jb;                                                         \
-                const T *qk = qb + QD_ * (j0 + k);                                             \
-                px[k] = in ? bx[j0 + k] : (T)0;                                                \
-                py[k] = in ? by[j0 + k] : (T)0;                                                \
-                pz[k] = in ? bz[j0 + k] : (T)0;                                                \
-                pq[k] = in && (CH) ? qk[0] : (T)0;                                             \
-                pq[SB_ + k] = in ? qk[CH] : (T)0;                                              \
-                pq[2 * SB_ + k] = in ? qk[(CH) + 1] : (T)0;                                    \
-                pq[3 * SB_ + k] = in ? qk[(CH) + 2] : (T)0;                                    \
-            }                                                                                  \
-            for (i = 0; i < na; i++) {                                                         \
-                const V X = SET1(ax[i]), Y = SET1(ay[i]), Z = SET1(az[i]), three = SET1((T)3); \
-                V p = ZERO, g0 = ZERO, g1 = ZERO, g2 = ZERO;                                   \
-                for (j = 0; j < jb; j += (W)) {                                                \
-                    const V dx = SUB(X, LOAD(px + j)), dy = SUB(Y, LOAD(py + j));              \
-                    const V dz = SUB(Z, LOAD(pz + j));                                         \
-                    const V inv = RINVM(FMADD(dz, dz, FMADD(dy, dy, MUL(dx, dx))), jb - j);    \
-                    const V i2 = MUL(inv, inv), i3 = MUL(inv, i2), q = LOAD(pq + j);           \
-                    const V v0 = LOAD(pq + SB_ + j), v1 = LOAD(pq + 2 * SB_ + j);              \
-                    const V v2 = LOAD(pq + 3 * SB_ + j);                                       \
-                    const V vd = FMADD(dz, v2, FMADD(dy, v1, MUL(dx, v0)));                    \
-                    p = FMADD(vd, i3, (CH) ? FMADD(q, inv, p) : p);                            \
-                    if (GRAD) { /* m = (q + 3 v . d / r^2) / r^3 */                            \
-                        const V m = MUL(i3, FMADD(MUL(three, vd), i2, q));                     \
-                        g0 = FNMADD(dx, m, FMADD(v0, i3, g0));                                 \
-                        g1 = FNMADD(dy, m, FMADD(v1, i3, g1));                                 \
-                        g2 = FNMADD(dz, m, FMADD(v2, i3, g2));                                 \
-                    }                                                                          \
-                }                                                                              \
-                outa[((GRAD) ? 4 : 1) * i] += s * HSUM(p);                                     \
-                if (GRAD) {                                                                    \
-                    outa[4 * i + 1] += s * HSUM(g0);                                           \
-                    outa[4 * i + 2] += s * HSUM(g1);                                           \
-                    outa[4 * i + 3] += s * HSUM(g2);                                           \
-                }                                                                              \
-            }                                                                                  \
-        }                                                                                      \
-    }
-#if defined(__AVX512F__)
-#define KIFMM_KERNEL__LCD_D(C, G)                                                              \
-    KIFMM_KERNEL__LCD_BODY(double, __m512d, 8, _mm512_set1_pd, _mm512_setzero_pd(),            \
-                           _mm512_load_pd, _mm512_sub_pd, _mm512_mul_pd, _mm512_fmadd_pd,      \
-                           _mm512_fnmadd_pd, KIFMM_KERNEL__SRINV8, kifmm_kernel__hsum8, C, G)
-#define KIFMM_KERNEL__LCD_F(C, G)                                                              \
-    KIFMM_KERNEL__LCD_BODY(float, __m512, 16, _mm512_set1_ps, _mm512_setzero_ps(),             \
-                           _mm512_load_ps, _mm512_sub_ps, _mm512_mul_ps, _mm512_fmadd_ps,      \
-                           _mm512_fnmadd_ps, KIFMM_KERNEL__SRINV16, kifmm_kernel__hsum16, C, G)
-#elif defined(__AVX2__) && defined(__FMA__)
-#define KIFMM_KERNEL__LCD_D(C, G)                                                              \
-    KIFMM_KERNEL__LCD_BODY(double, __m256d, 4, _mm256_set1_pd, _mm256_setzero_pd(),            \
-                           _mm256_load_pd, _mm256_sub_pd, _mm256_mul_pd, _mm256_fmadd_pd,      \
-                           _mm256_fnmadd_pd, kifmm_kernel__srinv4, kifmm_kernel__shsum4, C, G)
-#define KIFMM_KERNEL__LCD_F(C, G)                                                              \
-    KIFMM_KERNEL__LCD_BODY(float, __m256, 8, _mm256_set1_ps, _mm256_setzero_ps(),              \
-                           _mm256_load_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_fmadd_ps,      \
-                           _mm256_fnmadd_ps, kifmm_kernel__srinv8f, kifmm_kernel__shsum8f, C, G)
-#else
-#define KIFMM_KERNEL__LCD_D(C, G)                                                              \
-    KIFMM_KERNEL__LCD_BODY(double, double, 1, KIFMM_KERNEL__S_SET1, 0.0, KIFMM_KERNEL__S_LOAD,  \
-                           KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, KIFMM_KERNEL__S_FMADD,    \
-                           KIFMM_KERNEL__S_FNMADD, kifmm_kernel__srinv1, KIFMM_KERNEL__S_SET1, \
-                           C, G)
-#define KIFMM_KERNEL__LCD_F(C, G)                                                              \
-    KIFMM_KERNEL__LCD_BODY(float, float, 1, KIFMM_KERNEL__S_SET1, 0.0f, KIFMM_KERNEL__S_LOAD,   \
-                           KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, KIFMM_KERNEL__S_FMADD,    \
-                           KIFMM_KERNEL__S_FNMADD, kifmm_kernel__srinv1f, KIFMM_KERNEL__S_SET1,\
-                           C, G)
-#endif
-#define KIFMM_KERNEL__LCD_P2P(name, T, BODY)                                                   \
-    static inline void name(const double *param, const T *ax, const T *ay, const T *az,        \
-                            int64_t na, const T *bx, const T *by, const T *bz, const T *qb,    \
-                            int64_t nb, T scale, T *outa)                                      \
-        BODY
-KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_dipole_p2p, double, KIFMM_KERNEL__LCD_D(0, 0))
-KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_dipole_grad_p2p, double, KIFMM_KERNEL__LCD_D(0, 1))
-KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_p2p, double, KIFMM_KERNEL__LCD_D(1, 0))
-KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2p, double, KIFMM_KERNEL__LCD_D(1, 1))
-KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_dipole_p2pf, float, KIFMM_KERNEL__LCD_F(0, 0))
-KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_dipole_grad_p2pf, float, KIFMM_KERNEL__LCD_F(0, 1))
-KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_p2pf, float, KIFMM_KERNEL__LCD_F(1, 0))
-KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LCD_F(1, 1))
-#undef KIFMM_KERNEL__LCD_P2P
-#undef KIFMM_KERNEL__LCD_D
-#undef KIFMM_KERNEL__LCD_F
-#undef KIFMM_KERNEL__LCD_BODY
-#define KIFMM_KERNEL__LCD_HAS (KIFMM_HAS_P2P | KIFMM_HAS_P2PF)
-
-/* ------------------------------------------------------------------------ */
-/* One-way hooks of the Laplace family and of Biot-Savart                   */
+/* One-way hooks of the Laplace family (charges, dipoles, Hessians), of the */
+/* Yukawa dipole kernels, of the Stokes family and of Biot-Savart           */
 /* ------------------------------------------------------------------------ */
 /* outa[i * TD + k] += scale / (4 pi) sum_j (terms of pair (i, j))_k: the
  * sources in blocks of KIFMM_KERNEL__SSB points copied once into
@@ -3037,7 +2913,7 @@ KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LC
 #define KIFMM_KERNEL__LAP_PAIR(CH, DIP, ROWS, T, V, dx, dy, dz, inv, q, SB, SET1, LOAD, SUB,    \
                                MUL, FMADD, FNMADD)                                             \
     {                                                                                          \
-        const V i2 = MUL(inv, inv), i3 = MUL(inv, i2), i5 = MUL(i3, i2);                      \
+        const V i2 = MUL(inv, inv), i3 = MUL(inv, i2);                                         \
         const V qc = (CH) ? LOAD(q) : SET1((T)0);                                              \
         const V v0 = (DIP) ? LOAD(q + (CH) * SB) : SET1((T)0);                                 \
         const V v1 = (DIP) ? LOAD(q + ((CH) + 1) * SB) : SET1((T)0);                           \
@@ -3045,12 +2921,12 @@ KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LC
         const V vd = (DIP) ? FMADD(dz, v2, FMADD(dy, v1, MUL(dx, v0))) : v0;                   \
         o0 = (DIP) ? FMADD(vd, i3, (CH) ? FMADD(qc, inv, o0) : o0) : FMADD(qc, inv, o0); \
         if ((ROWS) > 1) {                                                                      \
-            const V t3 = MUL(SET1((T)3), i5);                                                  \
-            const V m1 = (DIP) ? FMADD(t3, vd, MUL(qc, i3)) : MUL(qc, i3);                     \
+            const V m1 = (DIP) ? MUL(i3, FMADD(MUL(SET1((T)3), vd), i2, qc)) : MUL(qc, i3);    \
             o1 = FNMADD(dx, m1, (DIP) ? FMADD(v0, i3, o1) : o1);                         \
             o2 = FNMADD(dy, m1, (DIP) ? FMADD(v1, i3, o2) : o2);                         \
             o3 = FNMADD(dz, m1, (DIP) ? FMADD(v2, i3, o3) : o3);                         \
             if ((ROWS) > 4) {                                                                  \
+                const V i5 = MUL(i3, i2), t3 = MUL(SET1((T)3), i5);                            \
                 const V m2 = (DIP) ? MUL(i5, FMADD(MUL(SET1((T)15), vd), i2, MUL(SET1((T)3), qc))) \
                                    : MUL(MUL(SET1((T)3), qc), i5);                             \
                 const V mx = MUL(m2, dx), my = MUL(m2, dy);                                    \
@@ -3275,6 +3151,10 @@ KIFMM_KERNEL__LCD_P2P(kifmm_kernel_laplace_cd_grad_p2pf, float, KIFMM_KERNEL__LC
 #define KIFMM_KERNEL__OW_BOTH(name, QD, TD, PAIR, P1, P2, P3)                                  \
     KIFMM_KERNEL__OW_P2P(name##_p2p, double, KIFMM_KERNEL__OW_D(QD, TD, PAIR, P1, P2, P3))    \
     KIFMM_KERNEL__OW_P2P(name##_p2pf, float, KIFMM_KERNEL__OW_F(QD, TD, PAIR, P1, P2, P3))
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_dipole, 3, 1, KIFMM_KERNEL__LAP_PAIR, 0, 1, 1)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_dipole_grad, 3, 4, KIFMM_KERNEL__LAP_PAIR, 0, 1, 4)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_cd, 4, 1, KIFMM_KERNEL__LAP_PAIR, 1, 1, 1)
+KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_cd_grad, 4, 4, KIFMM_KERNEL__LAP_PAIR, 1, 1, 4)
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_hess, 1, 10, KIFMM_KERNEL__LAP_PAIR, 1, 0, 10)
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel_laplace_cd_hess, 4, 10, KIFMM_KERNEL__LAP_PAIR, 1, 1, 10)
 KIFMM_KERNEL__OW_BOTH(kifmm_kernel_biot_savart, 3, 3, KIFMM_KERNEL__BS_PAIR, 0, 0, 0)
