@@ -3420,13 +3420,16 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, double r, int m2l, kifm
 KIFMM__FN void KIFMM__F(__m2l_nonzero)(KIFMM_NAME *c, const double *khat)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const size_t n = (size_t)c->fft.plan.nfp * KIFMM__NT;
-    size_t ft;
-    int ab;
-    for (ft = 0; ft < n; ft++)
-        for (ab = 0; ab < SD2; ab++)
-            if (khat[(ft * SD2 + ab) * 2] != 0.0 || khat[(ft * SD2 + ab) * 2 + 1] != 0.0)
-                c->fft.nz[ab] = 1;
+    const size_t n = (size_t)c->fft.plan.nfp * KIFMM__NT * SD2;
+    size_t f;
+    int ab, left = 0;
+    if (SD2 == 1) return; /* one block: always multiplied */
+    for (ab = 0; ab < SD2; ab++) left += !c->fft.nz[ab];
+    for (f = 0; f < n && left > 0; f++) /* f = (frequency 316 + t) SD2 + ab */
+        if (!c->fft.nz[f % SD2] && (khat[2 * f] != 0.0 || khat[2 * f + 1] != 0.0)) {
+            c->fft.nz[f % SD2] = 1;
+            left--;
+        }
 }
 
 /* Build one level's operators in double and keep them in the instance's
