@@ -1861,7 +1861,7 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
  * their own: SD forward and SD inverse transforms per parent, SD^2 times
  * the scalar products. Below, p is the lattice order q. */
 #define KIFMM__FFT_F 4 /* frequencies per chunk (the AVX2 product kernels assume 4) */
-#define KIFMM__FFT_KB_MB 24 /* the products' blocks are kept if they fit in this */
+#define KIFMM__FFT_KB_MB 8 /* the products' blocks are kept if they fit in this */
 KIFMM__STATIC_ASSERT(KIFMM__FFT_F == 4, fft_product_kernels_take_4_frequencies_per_chunk);
 
 typedef struct kifmm__fft {
@@ -3480,19 +3480,20 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
 #if KIFMM__FFT
 /* The products' blocks of every chunk (kifmm__fft_blocks), built once when
  * all of them fit in KIFMM__FFT_KB_MB (float spectra, one set of operators:
- * 5.6 MiB at p = 4, 16 MiB at p = 6) or take no more than one expansion
- * array of the handle (double spectra at p = 8: 72 MiB, kept from about 1M
- * points on); otherwise the products build each chunk's blocks once per
- * slab. */
+ * 5.6 MiB at p = 4); otherwise the products build each chunk's blocks once
+ * per slab, in the thread's cache. Kept blocks larger than that are read
+ * from memory by every task: uniform points, 2 threads, M2L by chunks
+ * against kept blocks: the same at p = 4 and 5 (kept: less memory, no slab
+ * outputs), 0.68 against 0.81 s at p = 6 (16 MiB, 1M points; 0.07 against
+ * 0.08 s at 200k), 3.3 against 4.8 s at p = 8 (72 MiB, 2M points). */
 KIFMM__FN int KIFMM__F(__keep_blocks)(KIFMM_NAME *c)
 {
     const kifmm__fft *pl = &c->fft.plan;
     const size_t per = KIFMM__FFT_KBN, all = per * (size_t)pl->nchunk;
     const size_t bytes = all * (pl->single ? sizeof(float) : sizeof(double));
-    const size_t one = (size_t)c->tree.nbox * (size_t)c->surf.ne * sizeof(KIFMM__R);
     int tvm[27 * 64], n = 0, l;
     for (l = 0; l < c->ops.n; l++) n += c->ops.at[l].khat != NULL;
-    if (n == 0 || (bytes * (size_t)n > (size_t)KIFMM__FFT_KB_MB << 20 && bytes * (size_t)n > one))
+    if (n == 0 || bytes * (size_t)n > (size_t)KIFMM__FFT_KB_MB << 20)
         return KIFMM_SUCCESS;
     kifmm__fft_tvmap(tvm);
     for (l = 0; l < c->ops.n; l++) {
