@@ -54,8 +54,10 @@ extern "C++" {
  * vectors (N), mutual (S: both directions between two sets of points), and
  * mutual for several vectors (SN); and a map from the caller's densities to
  * the ones the kernel is linear in (DENSITY: kifmm_kernel_NAME_DENSITY_DIM
- * and kifmm_kernel_NAME_density(param, in, out), stokes_dl). A misspelt bit
- * stops the build. */
+ * and kifmm_kernel_NAME_density(param, in, out), stokes_dl); and RADIAL, a
+ * one-component kernel that depends on |d| alone (laplace, yukawa), whose
+ * M2L spectra are then built for 16 transfer vectors and turned to the other
+ * 300 by the cube's symmetries. A misspelt bit stops the build. */
 #define KIFMM_HAS_SETUP 1
 #define KIFMM_HAS_P2P 2
 #define KIFMM_HAS_P2PF 4
@@ -66,7 +68,8 @@ extern "C++" {
 #define KIFMM_HAS_P2PSN 128
 #define KIFMM_HAS_P2PSNF 256
 #define KIFMM_HAS_DENSITY 512
-#define KIFMM_HAS_ALL 1023
+#define KIFMM_HAS_RADIAL 1024
+#define KIFMM_HAS_ALL 2047
 
 /* laplace: phi(y) = q / (4 pi |y - x|). */
 #define kifmm_kernel_laplace_SRC_DIM 1
@@ -127,7 +130,7 @@ static inline int kifmm_kernel__viscosity_setup(const double *in, double *out)
 #define kifmm_kernel_yukawa_TRG_DIM 1
 #define kifmm_kernel_yukawa_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_DEGREE 0
-#define kifmm_kernel_yukawa_HAS KIFMM_KERNEL__YUKAWA_HAS /* below */
+#define kifmm_kernel_yukawa_HAS (KIFMM_KERNEL__YUKAWA_HAS | KIFMM_HAS_RADIAL) /* below */
 #define kifmm_kernel_yukawa_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
@@ -3198,7 +3201,7 @@ KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_dl_qc, 9, 4, KIFMM_KERNEL__DL_PAIR, 1
 #else
 #define KIFMM_KERNEL__LAPLACE_HAS (KIFMM_HAS_P2P)
 #endif
-#define kifmm_kernel_laplace_HAS KIFMM_KERNEL__LAPLACE_HAS
+#define kifmm_kernel_laplace_HAS (KIFMM_KERNEL__LAPLACE_HAS | KIFMM_HAS_RADIAL)
 #define kifmm_kernel_laplace_grad_HAS KIFMM_KERNEL__LAPLACE_HAS
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
