@@ -1,0 +1,128 @@
+/* tests/ewald.h - Ewald sums, the references of the periodic tests
+ *
+ * t_ewald_laplace: the potential of charges q_j at x_j and all their images
+ * x_j + n L (n in Z^3, a cubic cell of side L) under K = 1 / (4 pi r), and
+ * its gradient with respect to the target, at nt targets: out[4 i] the
+ * potential, out[4 i + 1 .. 3] the gradient. Conventions:
+ *   - tin-foil (conducting) boundary: the reciprocal sum leaves out k = 0,
+ *     so no term depends on the dipole moment of the cell;
+ *   - a nonzero total charge Q gets a uniform neutralising background of
+ *     density -Q / L^3 (its potential, -Q / (4 alpha^2 L^3) after the
+ *     splitting, makes the sum independent of alpha);
+ *   - so the potential has zero mean over the cell;
+ *   - a target at a source's position leaves that source's own term (n = 0)
+ *     out; its images stay.
+ * Split at alpha: real space sum_{j, n} q_j erfc(alpha r) / (4 pi r) over
+ * r = |x - x_j - n L| < rc, erfc(alpha rc) ~ tol; reciprocal space
+ * (1 / L^3) sum_{k != 0} exp(-k^2 / (4 alpha^2)) / k^2 Re(S(k) e^{i k.x}),
+ * S(k) = sum_j q_j e^{-i k.x_j}, k = 2 pi m / L, |m_a| <= mmax. The sums
+ * run in long double. Written from the formulas (Ewald 1921; e.g. Frenkel
+ * and Smit, Understanding Molecular Simulation, ch. 12, with 1 / (4 pi r)
+ * in place of 1 / r). */
+#ifndef KIFMM_TESTS_EWALD_H
+#define KIFMM_TESTS_EWALD_H
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#define T_EW_PI 3.141592653589793238462643383279503L
+
+/* alpha * L and the reach of both sums for a relative accuracy tol */
+typedef struct {
+    double alpha, rc;
+    int mmax, nimg; /* |m_a| <= mmax; real-space images |n_a| <= nimg */
+} t_ewald_split;
+
+static t_ewald_split t_ewald_plan(double L, double aL, double tol)
+{
+    t_ewald_split s;
+    const double x = sqrt(-log(tol)); /* erfc(x) ~ exp(-x^2) / (x sqrt(pi)) */
+    s.alpha = aL / L;
+    s.rc = (x + 0.5) / s.alpha;
+    s.mmax = (int)ceil(2.0 * s.alpha * (x + 0.5) * L / (2.0 * (double)T_EW_PI)) + 1;
+    s.nimg = (int)ceil(s.rc / L) + 1;
+    return s;
+}
+
+static void t_ewald_laplace_split(int64_t ns, const double *xs, const double *q, int64_t nt,
+                                  const double *xt, double L, t_ewald_split sp, double *out)
+{
+    const long double a = sp.alpha, V = (long double)L * L * L, four_pi = 4.0L * T_EW_PI;
+    const int mm = sp.mmax, nm = 2 * mm + 1;
+    long double Q = 0.0L;
+    long double *sr = (long double *)calloc((size_t)nm * nm * nm, sizeof(long double));
+    long double *si = (long double *)calloc((size_t)nm * nm * nm, sizeof(long double));
+    int64_t i, j;
+    int mx, my, mz, nx, ny, nz, d;
+    for (j = 0; j < ns; j++) Q += q[j];
+    /* structure factors S(m) = sum_j q_j e^{-i k.x_j} */
+    for (j = 0; j < ns; j++)
+        for (mx = -mm; mx <= mm; mx++)
+            for (my = -mm; my <= mm; my++)
+                for (mz = -mm; mz <= mm; mz++) {
+                    const long double ph = 2.0L * T_EW_PI / L *
+                                           (mx * (long double)xs[3 * j] + my * (long double)xs[3 * j + 1] +
+                                            mz * (long double)xs[3 * j + 2]);
+                    const size_t at = ((size_t)(mx + mm) * nm + (size_t)(my + mm)) * nm + (size_t)(mz + mm);
+                    sr[at] += q[j] * cosl(ph);
+                    si[at] -= q[j] * sinl(ph);
+                }
+    for (i = 0; i < nt; i++) {
+        const double *x = xt + 3 * i;
+        long double p = 0.0L, g[3] = {0.0L, 0.0L, 0.0L};
+        /* real space */
+        for (j = 0; j < ns; j++)
+            for (nx = -sp.nimg; nx <= sp.nimg; nx++)
+                for (ny = -sp.nimg; ny <= sp.nimg; ny++)
+                    for (nz = -sp.nimg; nz <= sp.nimg; nz++) {
+                        const long double dv[3] = {(long double)x[0] - xs[3 * j] - (long double)nx * L,
+                                                   (long double)x[1] - xs[3 * j + 1] - (long double)ny * L,
+                                                   (long double)x[2] - xs[3 * j + 2] - (long double)nz * L};
+                        const long double r2 = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
+                        long double r, e, c;
+                        if (r2 == 0.0L) { /* the target's own source: its smeared part */
+                            p -= q[j] * 2.0L * a / sqrtl(T_EW_PI) / four_pi;
+                            continue;
+                        }
+                        if (r2 >= (long double)sp.rc * sp.rc) continue;
+                        r = sqrtl(r2);
+                        e = erfcl(a * r) / r;
+                        c = (e + 2.0L * a / sqrtl(T_EW_PI) * expl(-a * a * r2)) / r2;
+                        p += q[j] * e / four_pi;
+                        for (d = 0; d < 3; d++) g[d] -= q[j] * c * dv[d] / four_pi;
+                    }
+        /* reciprocal space */
+        for (mx = -mm; mx <= mm; mx++)
+            for (my = -mm; my <= mm; my++)
+                for (mz = -mm; mz <= mm; mz++) {
+                    const size_t at = ((size_t)(mx + mm) * nm + (size_t)(my + mm)) * nm + (size_t)(mz + mm);
+                    const long double kx = 2.0L * T_EW_PI / L * mx, ky = 2.0L * T_EW_PI / L * my;
+                    const long double kz = 2.0L * T_EW_PI / L * mz, k2 = kx * kx + ky * ky + kz * kz;
+                    long double w, ph, re, im;
+                    if (mx == 0 && my == 0 && mz == 0) continue;
+                    w = expl(-k2 / (4.0L * a * a)) / k2 / V;
+                    ph = kx * x[0] + ky * x[1] + kz * x[2];
+                    re = sr[at] * cosl(ph) - si[at] * sinl(ph); /* Re(S e^{i k.x}) */
+                    im = sr[at] * sinl(ph) + si[at] * cosl(ph);
+                    p += w * re;
+                    g[0] -= w * kx * im;
+                    g[1] -= w * ky * im;
+                    g[2] -= w * kz * im;
+                }
+        p -= Q / (4.0L * a * a * V); /* the background */
+        out[4 * i] = (double)p;
+        for (d = 0; d < 3; d++) out[4 * i + 1 + d] = (double)g[d];
+    }
+    free(sr);
+    free(si);
+}
+
+/* The sums at the default split (alpha L = 5, relative accuracy 1e-15). */
+static void t_ewald_laplace(int64_t ns, const double *xs, const double *q, int64_t nt,
+                            const double *xt, double L, double *out)
+{
+    t_ewald_laplace_split(ns, xs, q, nt, xt, L, t_ewald_plan(L, 5.0, 1e-15), out);
+}
+
+#endif

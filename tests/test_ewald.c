@@ -1,0 +1,180 @@
+/* test_ewald.c - the Ewald reference of the periodic tests (tests/ewald.h)
+ * against what does not come from it: published lattice constants (the
+ * NaCl Madelung constant, the simple cubic lattice in a neutralising
+ * background), the independence of its split alpha, the periodicity of
+ * the result, and direct sums over the image lattice in growing cubes for a
+ * cell without charge or dipole moment. */
+#include "kifmm.h"
+
+#include "ewald.h"
+#include "test.h"
+
+#define PI4 (4.0 * 3.14159265358979323846)
+
+static double max_abs(int n, const double *v)
+{
+    double m = 0.0;
+    int i;
+    for (i = 0; i < n; i++) m = fabs(v[i]) > m ? fabs(v[i]) : m;
+    return m;
+}
+
+/* the largest |a - b| over n values of stride 4 from offset k, over the
+ * largest |b| of them */
+static double rel_diff(int n, const double *a, const double *b, int k, int kn)
+{
+    double num = 0.0, den = 0.0;
+    int i, c;
+    for (i = 0; i < n; i++)
+        for (c = k; c < k + kn; c++) {
+            num = fabs(a[4 * i + c] - b[4 * i + c]) > num ? fabs(a[4 * i + c] - b[4 * i + c]) : num;
+            den = fabs(b[4 * i + c]) > den ? fabs(b[4 * i + c]) : den;
+        }
+    return num / den;
+}
+
+/* NaCl, side 1: Na at the face centres and corner, Cl at the edge centres
+ * and body centre; at a Na site, -M / (4 pi r0) with r0 = 1/2 and M the
+ * Madelung constant 1.747564594633182... (rock salt), and no field. */
+static void test_madelung(void)
+{
+    static const double x[24] = {0, 0, 0, 0, .5, .5, .5, 0, .5, .5, .5, 0,
+                                 .5, 0, 0, 0, .5, 0, 0, 0, .5, .5, .5, .5};
+    static const double q[8] = {1, 1, 1, 1, -1, -1, -1, -1};
+    const double M = 1.7475645946331821906;
+    double out[8];
+    t_ewald_laplace(8, x, q, 2, x, 1.0, out);
+    CHECK_ERR(fabs(out[0] + M / (PI4 * 0.5)) / (M / (PI4 * 0.5)), 1e-13,
+              "NaCl: potential at a Na site against the Madelung constant");
+    CHECK_ERR(max_abs(3, out + 1) / (M / (PI4 * 0.5)), 1e-13, "NaCl: no field at a Na site");
+    CHECK_ERR(fabs(out[4] - out[0]) / (M / (PI4 * 0.5)), 1e-13,
+              "NaCl: the same potential at every Na site");
+}
+
+/* One unit charge per cell of side L in a neutralising background: at the
+ * charge, its images and the background give -xi / (4 pi L), xi =
+ * 2.837297479480619... (the simple cubic Wigner lattice constant, the
+ * finite-size correction of Ewald sums for a single ion). */
+static void test_wigner(void)
+{
+    const double xi = 2.8372974794806195, L = 2.5, x[3] = {0.3, 1.1, 2.0}, q = 1.0;
+    double out[4];
+    t_ewald_laplace(1, x, &q, 1, x, L, out);
+    CHECK_ERR(fabs(out[0] + xi / (PI4 * L)) / (xi / (PI4 * L)), 1e-13,
+              "one charge, background: potential at the charge against the cubic lattice constant");
+}
+
+/* 40 charges (not neutral), 12 targets (4 at sources): two splits agree;
+ * shifting everything by a vector and wrapping the sources leaves all as it
+ * is. */
+static void test_split_and_shift(void)
+{
+    enum { NS = 40, NT = 12 };
+    const double L = 1.3;
+    t_rng r = t_rng_seed(41);
+    double xs[3 * NS], q[NS], xt[3 * NT], a[4 * NT], b[4 * NT], xs2[3 * NS], xt2[3 * NT],
+        sh[3] = {0.71, -2.2, 0.05};
+    int i, k;
+    for (i = 0; i < 3 * NS; i++) xs[i] = t_uniform(&r, 0.0, L);
+    for (i = 0; i < NS; i++) q[i] = t_uniform(&r, -1.0, 1.0);
+    for (i = 0; i < 3 * NT; i++) xt[i] = i < 12 ? xs[i + 30] : t_uniform(&r, 0.0, L);
+    t_ewald_laplace_split(NS, xs, q, NT, xt, L, t_ewald_plan(L, 4.0, 1e-15), a);
+    t_ewald_laplace_split(NS, xs, q, NT, xt, L, t_ewald_plan(L, 7.5, 1e-15), b);
+    CHECK_ERR(rel_diff(NT, a, b, 0, 1), 1e-12, "alpha L 4 against 7.5: potential, net charge %.2f",
+              0.0);
+    CHECK_ERR(rel_diff(NT, a, b, 1, 3), 1e-12, "alpha L 4 against 7.5: gradient");
+    for (i = 0; i < NS; i++)
+        for (k = 0; k < 3; k++) {
+            double v = fmod(xs[3 * i + k] + sh[k], L);
+            xs2[3 * i + k] = v < 0 ? v + L : v;
+        }
+    for (i = 0; i < NT; i++)
+        for (k = 0; k < 3; k++) xt2[3 * i + k] = xt[3 * i + k] + sh[k];
+    for (i = 0; i < 4; i++) /* targets at sources stay at them */
+        for (k = 0; k < 3; k++) xt2[3 * i + k] = xs2[3 * (i + 10) + k];
+    t_ewald_laplace(NS, xs2, q, NT, xt2, L, b);
+    CHECK_ERR(rel_diff(NT, b, a, 0, 1), 1e-12, "shifted by (%.2f, %.2f, %.2f), sources wrapped: potential",
+              sh[0], sh[1], sh[2]);
+    CHECK_ERR(rel_diff(NT, b, a, 1, 3), 1e-12, "shifted: gradient");
+}
+
+/* The sums over the images in cubes |n|_max <= R of a neutral cell
+ * without dipole moment, at the targets (interleaved as the Ewald sums). */
+static void cube_sums(int ns, const double *xs, const double *q, int nt, const double *xt,
+                      double L, int R, double *out)
+{
+    int i, j, k, nx, ny, nz;
+    for (i = 0; i < nt; i++) {
+        long double p = 0, g[3] = {0, 0, 0};
+        for (j = 0; j < ns; j++)
+            for (nx = -R; nx <= R; nx++)
+                for (ny = -R; ny <= R; ny++)
+                    for (nz = -R; nz <= R; nz++) {
+                        const long double d[3] = {xt[3 * i] - xs[3 * j] - (long double)nx * L,
+                                                  xt[3 * i + 1] - xs[3 * j + 1] - (long double)ny * L,
+                                                  xt[3 * i + 2] - xs[3 * j + 2] - (long double)nz * L};
+                        const long double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+                        const long double rr = sqrtl(r2);
+                        p += q[j] / rr;
+                        for (k = 0; k < 3; k++) g[k] -= q[j] * d[k] / (r2 * rr);
+                    }
+        out[4 * i] = (double)(p / PI4);
+        for (k = 0; k < 3; k++) out[4 * i + 1 + k] = (double)(g[k] / PI4);
+    }
+}
+
+/* Neutral, without dipole moment (pairs mirrored through the cell's
+ * centre): the cube sums converge to the tin-foil field and, up to one
+ * constant (which depends on how the lattice is summed), potential, with
+ * errors a / R^2 + b / R^3 + ... (measured for the field: 5.1e-5, 1.4e-5,
+ * 3.5e-6 at R = 8, 16, 32; 1.9e-5 and 2.5e-6 after removing R^-2 from 8
+ * and 16, 16 and 32), which Richardson's extrapolation over R = 8, 16, 32
+ * removes to 1e-8. */
+static void test_direct_lattice(void)
+{
+    enum { NH = 6, NS = 2 * NH, NT = 5 };
+    const double L = 1.0;
+    t_rng r = t_rng_seed(43);
+    double xs[3 * NS], q[NS], xt[3 * NT], ew[4 * NT], d8[4 * NT], d16[4 * NT], d32[4 * NT];
+    double ex[4 * NT];
+    double qs = 0.0, off;
+    int i, k;
+    for (i = 0; i < NH; i++) {
+        q[i] = q[i + NH] = t_uniform(&r, -1.0, 1.0);
+        qs += 2.0 * q[i];
+        for (k = 0; k < 3; k++) {
+            xs[3 * i + k] = t_uniform(&r, 0.05, 0.95);
+            xs[3 * (i + NH) + k] = L - xs[3 * i + k];
+        }
+    }
+    q[0] -= qs / 2.0; /* neutral, and still mirrored */
+    q[NH] -= qs / 2.0;
+    for (i = 0; i < 3 * NT; i++) xt[i] = t_uniform(&r, 0.1, 0.9);
+    t_ewald_laplace(NS, xs, q, NT, xt, L, ew);
+    cube_sums(NS, xs, q, NT, xt, L, 8, d8);
+    cube_sums(NS, xs, q, NT, xt, L, 16, d16);
+    cube_sums(NS, xs, q, NT, xt, L, 32, d32);
+    for (i = 0; i < 4 * NT; i++) {
+        const double t1 = (4.0 * d16[i] - d8[i]) / 3.0, t2 = (4.0 * d32[i] - d16[i]) / 3.0;
+        ex[i] = (8.0 * t2 - t1) / 7.0;
+    }
+    off = ex[0] - ew[0];
+    for (i = 0; i < NT; i++) ex[4 * i] -= off;
+    printf("  |n| <= 32 alone: field %.2e\n", rel_diff(NT, d32, ew, 1, 3));
+    CHECK_ERR(rel_diff(NT, ex, ew, 1, 3), 1e-7,
+              "cube sums, |n| <= 8, 16, 32 extrapolated, against Ewald: field (no charge, no dipole)");
+    CHECK_ERR(rel_diff(NT, ex, ew, 0, 1), 1e-7,
+              "the same: potential up to one constant (%.4f)", off);
+}
+
+int main(void)
+{
+    t_group("Ewald sums against lattice constants");
+    test_madelung();
+    test_wigner();
+    t_group("Ewald sums: split, periodicity");
+    test_split_and_shift();
+    t_group("Ewald sums against direct lattice sums");
+    test_direct_lattice();
+    return t_finish();
+}
