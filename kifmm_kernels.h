@@ -1387,6 +1387,14 @@ static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const flo
     STORE(o, FMADD(w0, dx0, FMADD(w1, dx1, LOAD(o))));                                         \
     STORE(o + (SB), FMADD(w0, dy0, FMADD(w1, dy1, LOAD(o + (SB)))));                           \
     STORE(o + 2 * (SB), FMADD(w0, dz0, FMADD(w1, dz1, LOAD(o + 2 * (SB)))))
+/* A's two points' gradient sums -= w0 d0 and w1 d1 */
+#define KIFMM_KERNEL__SUB_A2(w0, w1, FNMADD)                                                   \
+    a1 = FNMADD(w0, dx0, a1);                                                                  \
+    a2 = FNMADD(w0, dy0, a2);                                                                  \
+    a3 = FNMADD(w0, dz0, a3);                                                                  \
+    c1 = FNMADD(w1, dx1, c1);                                                                  \
+    c2 = FNMADD(w1, dy1, c2);                                                                  \
+    c3 = FNMADD(w1, dz1, c3)
 #define KIFMM_KERNEL__ADD_A2(RED2, HSUM, GRAD)                                                 \
     if (GRAD) {                                                                                \
         RED2(a0, a1, a2, a3, c0, c1, c2, c3, s, outa + 4 * i, i1 > i);                         \
@@ -2030,12 +2038,7 @@ KIFMM_KERNEL__P2PN_F(1)
         a0 = ADD(a0, qb0);                                                                     \
         c0 = ADD(c0, qb1);                                                                     \
         STORE(pb + j, ADD(LOAD(pb + j), ADD(qa0, qa1)));                                       \
-        a1 = FNMADD(qb30, dx0, a1);                                                            \
-        a2 = FNMADD(qb30, dy0, a2);                                                            \
-        a3 = FNMADD(qb30, dz0, a3);                                                            \
-        c1 = FNMADD(qb31, dx1, c1);                                                            \
-        c2 = FNMADD(qb31, dy1, c2);                                                            \
-        c3 = FNMADD(qb31, dz1, c3);                                                            \
+        KIFMM_KERNEL__SUB_A2(qb30, qb31, FNMADD);                                              \
         KIFMM_KERNEL__ADD_B3(o, qa30, qa31, SB, LOAD, STORE, FMADD);                           \
     }
 #define KIFMM_KERNEL__P2PS_BODY(T, V, W, GEOMV, MASK, SET1, ZERO, LOADU, STOREU, ADD, MUL, \
@@ -2770,12 +2773,7 @@ static inline double kifmm_kernel__far2(const double *lo, const double *hi, doub
             const V f1 = MUL(e1, MUL(inv1, inv1)), g1 = FMADD(lr1, f1, f1);                    \
             const V gb0 = MUL(q, g0), gb1 = MUL(q, g1);                                        \
             const V ga0 = MUL(QA0, g0), ga1 = MUL(QA1, g1);                                    \
-            a1 = FNMADD(gb0, dx0, a1);                                                         \
-            a2 = FNMADD(gb0, dy0, a2);                                                         \
-            a3 = FNMADD(gb0, dz0, a3);                                                         \
-            c1 = FNMADD(gb1, dx1, c1);                                                         \
-            c2 = FNMADD(gb1, dy1, c2);                                                         \
-            c3 = FNMADD(gb1, dz1, c3);                                                         \
+            KIFMM_KERNEL__SUB_A2(gb0, gb1, FNMADD);                                            \
             if (MUTUAL) {                                                                      \
                 KIFMM_KERNEL__ADD_B3(po + SB_ + j, ga0, ga1, SB_, LOAD, STORE, FMADD);         \
             }                                                                                  \
@@ -2906,6 +2904,7 @@ KIFMM_KERNEL__YUKAWA_P2PS(kifmm_kernel_yukawa_grad_p2ps, 1)
 #undef KIFMM_KERNEL__YUKAWA_PASS
 #undef KIFMM_KERNEL__ADD_B3
 #undef KIFMM_KERNEL__ADD_A2
+#undef KIFMM_KERNEL__SUB_A2
 
 /* ------------------------------------------------------------------------ */
 /* One-way hooks of the Laplace family (charges, dipoles, Hessians), of the */

@@ -201,6 +201,27 @@ static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de
     free(spec); free(prod); free(work); free(chk); free(m); free(m8);
 }
 
+/* Sources in the box at transfer vector d from the target box (centre ctr,
+ * half-width r), P2M, M2L by FFT, the downward solve, evaluated at targets
+ * in the target box: the relative error against the direct sum. x, q, y,
+ * pot, ue, de, pe keep this case's values. */
+static double m2l_case(const kifmm_laplace *c, t_rng *g, const int *d, const double *ctr, double r,
+                       int ns, int ny, double *x, double *q, double *y, double *pot, double *ue,
+                       double *de, double *pe)
+{
+    double cs[3];
+    int k;
+    for (k = 0; k < 3; k++) cs[k] = ctr[k] + 2 * r * d[k];
+    points_in_box(g, ns, cs, r, x);
+    t_gen_charges(g, ns, q, -1, 1);
+    points_in_box(g, ny, ctr, r, y);
+    p2m(c, cs, r, ns, x, q, ue);
+    kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, c->surf.ao * r, pe);
+    m2l_fft(c, kifmm__transfer_index(d[0], d[1], d[2]), ue, de);
+    eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
+    return rel_err_at(ny, y, pot, ns, x, q);
+}
+
 static void test_downward(int p)
 {
     kifmm_laplace *h = handle(p);
@@ -227,17 +248,8 @@ static void test_downward(int p)
      * solve, evaluate at targets inside the target box */
     for (k = 0; k < 4; k++) {
         const int *d = vecs[k];
-        double cs[3] = {ctr[0] + 2 * r * d[0], ctr[1] + 2 * r * d[1], ctr[2] + 2 * r * d[2]};
         tv = kifmm__transfer_index(d[0], d[1], d[2]);
-        points_in_box(&g, ns, cs, r, x);
-        t_gen_charges(&g, ns, q, -1, 1);
-        points_in_box(&g, ny, ctr, r, y);
-        p2m(c, cs, r, ns, x, q, ue);
-        kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, c->surf.ao * r, pe);
-        /* FFT path */
-        m2l_fft(c, tv, ue, de);
-        eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
-        CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
+        CHECK_ERR(m2l_case(c, &g, d, ctr, r, ns, ny, x, q, y, pot, ue, de, pe), bound_for(p),
                   "M2L (FFT) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
         /* dense path: the stored matrices include the first factor of the
          * solve; its downward equivalent surface has its own radius (hd->surf.ao:
@@ -264,17 +276,9 @@ static void test_downward(int p)
         int wd[3] = {0, 0, 0};
         for (tv = 0; tv < KIFMM__NT; tv++) {
             int d[3];
-            double cs[3], e;
+            double e;
             kifmm__transfer_vector(tv, d);
-            for (k = 0; k < 3; k++) cs[k] = ctr[k] + 2 * r * d[k];
-            points_in_box(&g, ns, cs, r, x);
-            t_gen_charges(&g, ns, q, -1, 1);
-            points_in_box(&g, ny, ctr, r, y);
-            p2m(c, cs, r, ns, x, q, ue);
-            kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, c->surf.ao * r, pe);
-            m2l_fft(c, tv, ue, de);
-            eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
-            e = rel_err_at(ny, y, pot, ns, x, q);
+            e = m2l_case(c, &g, d, ctr, r, ns, ny, x, q, y, pot, ue, de, pe);
             if (!(e <= worst)) {
                 worst = e;
                 memcpy(wd, d, sizeof wd);
