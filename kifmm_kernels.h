@@ -2731,16 +2731,24 @@ KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2psf, float, KIFMM_KERNEL__STOKES
  * block's farthest corner, every lambda r of the pass is below YSHORT and
  * exp(-lambda r) is its Taylor series to degree 7 (EXPS: the remainder, y^8
  * / 8!, is below 3e-17 of the result), without the range reduction, the
- * table and the scaling: 7 instead of 17 vector operations per exp. This is
- * the near field of boxes small against the screening length 1 / lambda
- * (clustered points, deep levels); one core, 64 x 512 pairs in a cube of
- * side 0.01, lambda 1, yukawa_grad one-way: 1.56 -> 1.21 ns per pair with
- * AVX-512, 3.19 -> 1.94 with AVX2 (unchanged, 1.56, in a cube of side 1). */
+ * table and the scaling: 7 instead of 17 vector operations per exp; below
+ * KIFMM_KERNEL__YMID, to degree 10 (EXPM: y^11 / 11! < 3e-18). This is the
+ * near field of boxes small against the screening length 1 / lambda (at
+ * lambda 1: 1M uniform points, clustered points, deep levels); one core,
+ * 64 x 512 pairs, lambda 1, yukawa_grad one-way: in a cube of side 0.01,
+ * 1.56 -> 1.21 ns per pair with AVX-512, 3.19 -> 1.94 with AVX2; side 0.05,
+ * 1.56 -> 1.35 and 3.19 -> 2.20; side 1, 1.56 (the full exp). */
 #define KIFMM_KERNEL__YSHORT 0.03125
+#define KIFMM_KERNEL__YMID 0.125
 #define KIFMM_KERNEL__EXPS(FNMADD, SET1, y)                                                     \
     FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(SET1(1.0 / 5040.0), y, SET1(1.0 / 720.0)), \
     y, SET1(1.0 / 120.0)), y, SET1(1.0 / 24.0)), y, SET1(1.0 / 6.0)), y, SET1(0.5)), y,         \
     SET1(1.0)), y, SET1(1.0))
+#define KIFMM_KERNEL__EXPM(FNMADD, SET1, y)                                                     \
+    FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(                      \
+    SET1(1.0 / 3628800.0), y, SET1(1.0 / 362880.0)), y, SET1(1.0 / 40320.0)), y,                \
+    SET1(1.0 / 5040.0)), y, SET1(1.0 / 720.0)), y, SET1(1.0 / 120.0)), y, SET1(1.0 / 24.0)), y,  \
+    SET1(1.0 / 6.0)), y, SET1(0.5)), y, SET1(1.0)), y, SET1(1.0))
 /* The squared distance from (x, y, z) to the farthest corner of the box
  * [lo, hi] */
 static inline double kifmm_kernel__far2(const double *lo, const double *hi, double x, double y,
@@ -2780,10 +2788,11 @@ static inline double kifmm_kernel__far2(const double *lo, const double *hi, doub
         }                                                                                      \
     }
 #define KIFMM_KERNEL__YUKAWA_BODY(V, W, SET1, ZERO, LOAD, STORE, SUB, MUL, FMADD, FNMADD,        \
-                                  RINVM, EXPNV, EXPS, HSUM, RED2, GRAD, MUTUAL)                 \
+                                  RINVM, EXPNV, EXPS, EXPM, HSUM, RED2, GRAD, MUTUAL)           \
     {                                                                                          \
         enum { SB_ = KIFMM_KERNEL__SSB, NB_ = KIFMM_KERNEL__SSB / (W), TD_ = (GRAD) ? 4 : 1 };  \
         const double s = scale * KIFMM_INV_4PI, ys = KIFMM_KERNEL__YSHORT / param[0];          \
+        const double ym = KIFMM_KERNEL__YMID / param[0];                                       \
         const V lam = SET1(param[0]);                                                          \
         V vx[NB_], vy[NB_], vz[NB_], vq[NB_], vo[TD_ * NB_];                                   \
         double *px = (double *)vx, *py = (double *)vy, *pz = (double *)vz;                     \
@@ -2818,10 +2827,15 @@ static inline double kifmm_kernel__far2(const double *lo, const double *hi, doub
                 const V QA1 = (MUTUAL) && i1 > i ? SET1(qa[i1]) : ZERO;                        \
                 V a0 = ZERO, a1 = ZERO, a2 = ZERO, a3 = ZERO;                                  \
                 V c0 = ZERO, c1 = ZERO, c2 = ZERO, c3 = ZERO;                                  \
-                if (kifmm_kernel__far2(lo, hi, ax[i], ay[i], az[i]) <= ys * ys &&              \
-                    kifmm_kernel__far2(lo, hi, ax[i1], ay[i1], az[i1]) <= ys * ys) {           \
+                const double f0 = kifmm_kernel__far2(lo, hi, ax[i], ay[i], az[i]);            \
+                const double f1 = kifmm_kernel__far2(lo, hi, ax[i1], ay[i1], az[i1]);          \
+                const double fm = f0 > f1 ? f0 : f1;                                           \
+                if (fm <= ys * ys) {                                                           \
                     KIFMM_KERNEL__YUKAWA_PASS(V, W, LOAD, STORE, SUB, MUL, FMADD, FNMADD, RINVM, \
                                               EXPS, GRAD, MUTUAL)                              \
+                } else if (fm <= ym * ym) {                                                    \
+                    KIFMM_KERNEL__YUKAWA_PASS(V, W, LOAD, STORE, SUB, MUL, FMADD, FNMADD, RINVM, \
+                                              EXPM, GRAD, MUTUAL)                              \
                 } else {                                                                       \
                     KIFMM_KERNEL__YUKAWA_PASS(V, W, LOAD, STORE, SUB, MUL, FMADD, FNMADD, RINVM, \
                                               EXPNV, GRAD, MUTUAL)                             \
@@ -2837,15 +2851,19 @@ static inline double kifmm_kernel__far2(const double *lo, const double *hi, doub
     KIFMM_KERNEL__YUKAWA_BODY(__m512d, 8, _mm512_set1_pd, _mm512_setzero_pd(), _mm512_load_pd,  \
                               _mm512_store_pd, _mm512_sub_pd, _mm512_mul_pd, _mm512_fmadd_pd,  \
                               _mm512_fnmadd_pd, KIFMM_KERNEL__SRINV8, kifmm_kernel__expn8,     \
-                              KIFMM_KERNEL__EXPS8, kifmm_kernel__hsum8, kifmm_kernel__red8x8, G, M)
+                              KIFMM_KERNEL__EXPS8, KIFMM_KERNEL__EXPM8, kifmm_kernel__hsum8,   \
+                              kifmm_kernel__red8x8, G, M)
 #define KIFMM_KERNEL__EXPS8(y) KIFMM_KERNEL__EXPS(_mm512_fnmadd_pd, _mm512_set1_pd, y)
+#define KIFMM_KERNEL__EXPM8(y) KIFMM_KERNEL__EXPM(_mm512_fnmadd_pd, _mm512_set1_pd, y)
 #elif defined(__AVX2__) && defined(__FMA__)
 #define KIFMM_KERNEL__YUKAWA_D(G, M)                                                              \
     KIFMM_KERNEL__YUKAWA_BODY(__m256d, 4, _mm256_set1_pd, _mm256_setzero_pd(), _mm256_load_pd,  \
                               _mm256_store_pd, _mm256_sub_pd, _mm256_mul_pd, _mm256_fmadd_pd,  \
                               _mm256_fnmadd_pd, kifmm_kernel__srinv4, kifmm_kernel__expn4,     \
-                              KIFMM_KERNEL__EXPS4, kifmm_kernel__shsum4, kifmm_kernel__red2, G, M)
+                              KIFMM_KERNEL__EXPS4, KIFMM_KERNEL__EXPM4, kifmm_kernel__shsum4,  \
+                              kifmm_kernel__red2, G, M)
 #define KIFMM_KERNEL__EXPS4(y) KIFMM_KERNEL__EXPS(_mm256_fnmadd_pd, _mm256_set1_pd, y)
+#define KIFMM_KERNEL__EXPM4(y) KIFMM_KERNEL__EXPM(_mm256_fnmadd_pd, _mm256_set1_pd, y)
 #else
 #define KIFMM_KERNEL__S_FNMADD(a, b, c) ((c) - (a) * (b))
 static inline double kifmm_kernel__expn1(double y) { return exp(-y); }
@@ -2870,8 +2888,9 @@ static inline void kifmm_kernel__sred2(double a0, double a1, double a2, double a
                               KIFMM_KERNEL__S_STORE, KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, \
                               KIFMM_KERNEL__S_FMADD, KIFMM_KERNEL__S_FNMADD,                   \
                               kifmm_kernel__srinv1, kifmm_kernel__expn1, KIFMM_KERNEL__EXPS1,  \
-                              KIFMM_KERNEL__S_SET1, kifmm_kernel__sred2, G, M)
+                              KIFMM_KERNEL__EXPM1, KIFMM_KERNEL__S_SET1, kifmm_kernel__sred2, G, M)
 #define KIFMM_KERNEL__EXPS1(y) KIFMM_KERNEL__EXPS(KIFMM_KERNEL__S_FNMADD, KIFMM_KERNEL__S_SET1, y)
+#define KIFMM_KERNEL__EXPM1(y) KIFMM_KERNEL__EXPM(KIFMM_KERNEL__S_FNMADD, KIFMM_KERNEL__S_SET1, y)
 #endif
 #define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | KIFMM_HAS_P2PS)
 /* The one-way hooks run the mutual body without B's sums (targets as A). */

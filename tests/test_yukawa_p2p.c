@@ -20,10 +20,10 @@ static void exp_vec(const double *x, double *y)
 {
     _mm512_storeu_pd(y, kifmm_kernel__expn8(_mm512_sub_pd(_mm512_setzero_pd(), _mm512_loadu_pd(x))));
 }
-static void exps_vec(const double *x, double *y) /* the short series, exp(-x) */
+static void exps_vec(const double *x, double *y, int mid) /* the short series, exp(-x) */
 {
     const __m512d v = _mm512_loadu_pd(x);
-    _mm512_storeu_pd(y, KIFMM_KERNEL__EXPS8(v));
+    _mm512_storeu_pd(y, mid ? KIFMM_KERNEL__EXPM8(v) : KIFMM_KERNEL__EXPS8(v));
 }
 #elif defined(__AVX2__) && defined(__FMA__)
 #define BODY "AVX2 + FMA"
@@ -32,10 +32,10 @@ static void exp_vec(const double *x, double *y)
 {
     _mm256_storeu_pd(y, kifmm_kernel__expn4(_mm256_sub_pd(_mm256_setzero_pd(), _mm256_loadu_pd(x))));
 }
-static void exps_vec(const double *x, double *y)
+static void exps_vec(const double *x, double *y, int mid)
 {
     const __m256d v = _mm256_loadu_pd(x);
-    _mm256_storeu_pd(y, KIFMM_KERNEL__EXPS4(v));
+    _mm256_storeu_pd(y, mid ? KIFMM_KERNEL__EXPM4(v) : KIFMM_KERNEL__EXPS4(v));
 }
 #else
 #define BODY "portable C"
@@ -102,23 +102,28 @@ static void test_exp(void)
         CHECK(bad == 0, "special arguments: 0, -0, -tiny, the subnormal edge, below it, -inf, NaN "
                         "(%d wrong)", bad);
     }
-    /* the short series of the hooks' small lambda r, on [0, YSHORT] */
-    worst = 0.0;
-    for (i = 0; i < n / 4; i += VW) {
-        for (k = 0; k < VW; k++)
-            x[k] = i < n / 8 ? ldexp(1.0 + t_rand01(&r), -(int)((i / VW) % 50) - 6)
-                             : KIFMM_KERNEL__YSHORT * t_rand01(&r);
-        if (i == 0) x[0] = 0.0, x[1] = KIFMM_KERNEL__YSHORT;
-        exps_vec(x, y);
-        for (k = 0; k < VW; k++) {
-            const double u = ulps(y[k], exp(-x[k]));
-            if (u > worst) {
-                worst = u;
-                at = x[k];
+    /* the series of the hooks' small lambda r: degree 7 on [0, YSHORT],
+     * degree 10 on [0, YMID] */
+    for (e = 0; e < 2; e++) {
+        const double top = e ? KIFMM_KERNEL__YMID : KIFMM_KERNEL__YSHORT;
+        worst = 0.0;
+        for (i = 0; i < n / 4; i += VW) {
+            for (k = 0; k < VW; k++)
+                x[k] = i < n / 8 ? ldexp(1.0 + t_rand01(&r), -(int)((i / VW) % 50) - 6) * top * 16.0
+                                 : top * t_rand01(&r);
+            if (i == 0) x[0] = 0.0, x[1] = top;
+            exps_vec(x, y, e);
+            for (k = 0; k < VW; k++) {
+                const double u = ulps(y[k], exp(-x[k]));
+                if (u > worst) {
+                    worst = u;
+                    at = x[k];
+                }
             }
         }
+        CHECK_ERR(worst, 2.0, "series of degree %d on [0, %g], largest error in ulp (at y = %.17g)",
+                  e ? 10 : 7, top, at);
     }
-    CHECK_ERR(worst, 2.0, "short series on [0, 1/32], largest error in ulp (at y = %.17g)", at);
 }
 
 #endif
@@ -178,9 +183,10 @@ static void worst_rel(int64_t n, const double *out, const long double *ro, const
 static void test_hook(const char *name, hook_fn one, mutual_fn mut, int td)
 {
     static const int64_t sizes[] = {0, 1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 63, 64, 65, 129};
-    /* 1e-3 and 0.015: every pass by the short series (lambda times the
-     * farthest distance, sqrt(3), below 1/32); 1 and up: the full exp */
-    static const double lams[] = {1e-3, 0.015, 1.0, 30.0, 1e3};
+    /* 1e-3 and 0.015: every pass by the series of degree 7 (lambda times
+     * the farthest distance, sqrt(3), below 1/32); 0.05: of degree 10 (below
+     * 1/8) or 7; 1 and up: the full exp */
+    static const double lams[] = {1e-3, 0.015, 0.05, 1.0, 30.0, 1e3};
     const int nsz = (int)(sizeof sizes / sizeof sizes[0]);
     t_rng r = t_rng_seed(mut ? 12 : 11);
     int a, b, l, k, guards = 1;
