@@ -3712,7 +3712,8 @@ KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const
 /* Scale-invariant kernels: one set at half-width 1, rescaled per level.
  * Others: one set per level that uses operators (levels 2 and deeper), their
  * kernel values built side by side (Yukawa, p = 6, 1M clustered points, 10
- * levels, 2 threads: operators 0.16 -> 0.09 s). Only what the tree uses: none
+ * levels, 2 threads: operators 0.16 -> 0.11 s, 0.05 s with the symmetries of
+ * c2e_solve and KIFMM__RADIAL). Only what the tree uses: none
  * for a tree of fewer than 3 levels (a direct sum), and the M2L's only for
  * levels with boxes that have V lists. */
 KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
