@@ -1757,14 +1757,19 @@ KIFMM__FN int32_t *kifmm__active(const kifmm__tree *t, size_t *held)
 KIFMM__FN int kifmm__surf_count(int p) { return 6 * (p - 1) * (p - 1) + 2; }
 
 /* The surface grid points on [-1, 1]^3, structure of arrays (x[n], y[n], z[n]). */
+/* Is lattice point (i, j, k) of an order-p cube lattice on its surface? */
+KIFMM__FN int kifmm__surf_on(int p, int i, int j, int k)
+{
+    return i == 0 || i == p - 1 || j == 0 || j == p - 1 || k == 0 || k == p - 1;
+}
+
 KIFMM__FN void kifmm__surf_unit(int p, double *s)
 {
     int n = kifmm__surf_count(p), c = 0, i, j, k;
     for (i = 0; i < p; i++)
         for (j = 0; j < p; j++)
             for (k = 0; k < p; k++) {
-                if (i != 0 && i != p - 1 && j != 0 && j != p - 1 && k != 0 && k != p - 1)
-                    continue;
+                if (!kifmm__surf_on(p, i, j, k)) continue;
                 s[c] = -1.0 + 2.0 * i / (p - 1);
                 s[n + c] = -1.0 + 2.0 * j / (p - 1);
                 s[2 * n + c] = -1.0 + 2.0 * k / (p - 1);
@@ -1784,7 +1789,7 @@ KIFMM__FN int kifmm__surf_mirror(int p, int m, int *map)
                 for (k = 0; k < p; k++) {
                     const int mi = m & 4 ? p - 1 - i : i, mj = m & 2 ? p - 1 - j : j;
                     const int mk = m & 1 ? p - 1 - k : k;
-                    if (i != 0 && i != p - 1 && j != 0 && j != p - 1 && k != 0 && k != p - 1)
+                    if (!kifmm__surf_on(p, i, j, k))
                         continue;
                     if (pass == 0) at[(i * p + j) * p + k] = c++;
                     else map[c++] = at[(mi * p + mj) * p + mk];
@@ -1947,8 +1952,7 @@ KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p, size_t *held)
     for (i = 0; i < p; i++)
         for (j = 0; j < p; j++)
             for (k = 0; k < p; k++) {
-                if (i != 0 && i != p - 1 && j != 0 && j != p - 1 && k != 0 && k != p - 1)
-                    continue;
+                if (!kifmm__surf_on(p, i, j, k)) continue;
                 pl->ijk[3 * c] = i; pl->ijk[3 * c + 1] = j; pl->ijk[3 * c + 2] = k;
                 c++;
             }

@@ -2731,7 +2731,7 @@ KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2psf, float, KIFMM_KERNEL__STOKES
  * block's farthest corner, every lambda r of the pass is below YSHORT and
  * exp(-lambda r) is its Taylor series to degree 7 (EXPS: the remainder, y^8
  * / 8!, is below 3e-17 of the result), without the range reduction, the
- * table and the scaling: 7 instead of 17 vector operations per exp; below
+ * table and the scaling: 7 instead of 18 vector operations per exp; below
  * KIFMM_KERNEL__YMID, to degree 10 (EXPM: y^11 / 11! < 3e-18). This is the
  * near field of boxes small against the screening length 1 / lambda (at
  * lambda 1: 1M uniform points, clustered points, deep levels); one core,
@@ -2740,15 +2740,17 @@ KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2psf, float, KIFMM_KERNEL__STOKES
  * 1.56 -> 1.35 and 3.19 -> 2.20; side 1, 1.56 (the full exp). */
 #define KIFMM_KERNEL__YSHORT 0.03125
 #define KIFMM_KERNEL__YMID 0.125
-#define KIFMM_KERNEL__EXPS(FNMADD, SET1, y)                                                     \
-    FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(SET1(1.0 / 5040.0), y, SET1(1.0 / 720.0)), \
-    y, SET1(1.0 / 120.0)), y, SET1(1.0 / 24.0)), y, SET1(1.0 / 6.0)), y, SET1(0.5)), y,         \
+/* sum_k (-y)^k / k! by Horner's rule from degree 6 down, c7 the terms
+ * from degree 7 up (over y^7) */
+#define KIFMM_KERNEL__EXP6(FNMADD, SET1, y, c7)                                                 \
+    FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(c7, y, SET1(1.0 / 720.0)), y,              \
+    SET1(1.0 / 120.0)), y, SET1(1.0 / 24.0)), y, SET1(1.0 / 6.0)), y, SET1(0.5)), y,            \
     SET1(1.0)), y, SET1(1.0))
+#define KIFMM_KERNEL__EXPS(FNMADD, SET1, y) KIFMM_KERNEL__EXP6(FNMADD, SET1, y, SET1(1.0 / 5040.0))
 #define KIFMM_KERNEL__EXPM(FNMADD, SET1, y)                                                     \
-    FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(                      \
-    SET1(1.0 / 3628800.0), y, SET1(1.0 / 362880.0)), y, SET1(1.0 / 40320.0)), y,                \
-    SET1(1.0 / 5040.0)), y, SET1(1.0 / 720.0)), y, SET1(1.0 / 120.0)), y, SET1(1.0 / 24.0)), y,  \
-    SET1(1.0 / 6.0)), y, SET1(0.5)), y, SET1(1.0)), y, SET1(1.0))
+    KIFMM_KERNEL__EXP6(FNMADD, SET1, y,                                                         \
+                       FNMADD(FNMADD(FNMADD(SET1(1.0 / 3628800.0), y, SET1(1.0 / 362880.0)), y, \
+                                     SET1(1.0 / 40320.0)), y, SET1(1.0 / 5040.0)))
 /* The squared distance from (x, y, z) to the farthest corner of the box
  * [lo, hi] */
 static inline double kifmm_kernel__far2(const double *lo, const double *hi, double x, double y,
