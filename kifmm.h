@@ -183,7 +183,17 @@ extern "C++" {
     X(KIFMM_ERR_INTERNAL, -11, "an internal limit was exceeded (please report)")              \
     X(KIFMM_ERR_KERNEL, -12,                                                                  \
       "the kernel gave a NaN or infinite value on the expansion surfaces (check its "         \
-      "parameters)")
+      "parameters)")                                                                          \
+    X(KIFMM_ERR_PERIOD, -13,                                                                  \
+      "opts.period: a period is negative or not finite, the periodic directions have "        \
+      "different periods, or the points span more than the period in a free direction")      \
+    X(KIFMM_ERR_PERIODIC, -14,                                                                \
+      "these periodic boundaries are not supported for this kernel: one or two periodic "     \
+      "directions need a scale-invariant or decaying kernel, three a decaying one "          \
+      "(docs/api.md)")                                                                        \
+    X(KIFMM_ERR_NEUTRAL, -15,                                                                 \
+      "with these periodic directions and this kernel the densities must sum to zero "        \
+      "(docs/api.md, \"Periodic boundaries\")")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -212,6 +222,10 @@ typedef struct kifmm_opts {
     int nthreads;           /* OpenMP threads, 1..KIFMM_MAX_THREADS; 0 =
                                omp_get_max_threads(); always 1 without OpenMP */
     double kernel_param[4]; /* kernel parameters; 0 = the kernel's default */
+    double period[3];       /* 0: free space in that direction (the default); L > 0:
+                               periodic with period L, the unit cell [0, L) (points
+                               outside it are wrapped in); every periodic direction
+                               has the same L (docs/api.md, "Periodic boundaries") */
 } kifmm_opts;
 
 /* What a handle is made of and where the last evaluation spent its time. */
@@ -445,6 +459,8 @@ KIFMM__FN int kifmm__default_leaf(int order, int multi)
 KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, kifmm_opts *out)
 {
     kifmm_opts o;
+    double L = 0.0;
+    int d;
     if (in) o = *in;
     else memset(&o, 0, sizeof o);
     if (o.order == 0) o.order = KIFMM_DEFAULT_ORDER;
@@ -454,6 +470,11 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, kifmm_opts *o
     if (o.max_depth < 0 || o.max_depth > KIFMM_MAX_DEPTH) return KIFMM_ERR_DEPTH;
     if (o.max_depth == 0) o.max_depth = KIFMM_DEFAULT_DEPTH;
     if (o.nthreads < 0 || o.nthreads > KIFMM_MAX_THREADS) return KIFMM_ERR_NTHREADS;
+    for (d = 0; d < 3; d++) {
+        if (!(o.period[d] >= 0.0 && o.period[d] <= DBL_MAX)) return KIFMM_ERR_PERIOD;
+        if (o.period[d] > 0.0 && L > 0.0 && o.period[d] != L) return KIFMM_ERR_PERIOD;
+        if (o.period[d] > 0.0) L = o.period[d];
+    }
 #ifdef _OPENMP
     if (o.nthreads == 0) o.nthreads = omp_get_max_threads();
     if (o.nthreads > KIFMM_MAX_THREADS) o.nthreads = KIFMM_MAX_THREADS;
@@ -851,6 +872,8 @@ typedef struct kifmm__tree {
     double *src, *trg;       /* sorted points, structure of arrays (x | y | z) */
     int64_t *sperm, *tperm;  /* sorted position -> caller's index */
     int same;                /* targets are the sources: trg = src, tperm = sperm */
+    int per[3], periodic;    /* per[d]: periodic in direction d (period: width);
+                                periodic: any of them */
     double origin[3];        /* shift of each axis: the root's centre where that is
                                 exact, else 0 (see kifmm__tree_bounds) */
     double lo[3], width;     /* root cube: lower corner relative to origin, and edge */
@@ -868,6 +891,8 @@ typedef struct kifmm__tree {
     int64_t *s0, *s1, *t0, *t1;   /* point ranges of each box */
     int32_t *uo, *u, *vo, *v, *wo, *w, *xo, *x; /* lists, offsets per box (v: NULL
                                                    unless built with V entries) */
+    unsigned char *us, *ws, *xs;  /* periodic trees: the image of each U, W, X entry
+                                     (kifmm__shift_code), else NULL */
     uint16_t *vt;                 /* transfer vector index of each V entry (or NULL) */
     int32_t *m2lo, *m2l;          /* per level: boxes with targets and a V list */
     int32_t *leaves;              /* leaves with targets, in Morton order */
@@ -882,7 +907,7 @@ KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
     void *p[] = {t->src, t->same ? NULL : t->trg, t->sperm, t->same ? NULL : t->tperm,
                  t->key, t->child, t->parent, t->anchor, t->lev, t->dsrc, t->inner,
                  t->s0, t->s1, t->t0, t->t1, t->uo, t->u, t->vo, t->v, t->wo, t->w,
-                 t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves};
+                 t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves, t->us, t->ws, t->xs};
     size_t i;
     for (i = 0; i < sizeof p / sizeof p[0]; i++) kifmm__free(p[i]);
     memset(t, 0, sizeof *t);
@@ -915,17 +940,56 @@ KIFMM__FN int32_t kifmm__find_cover(const kifmm__tree *t, int l, uint64_t key)
     return -1;
 }
 
-/* Do boxes a and b touch or overlap (closed cubes)? */
-KIFMM__FN int kifmm__adjacent(const kifmm__tree *t, int32_t a, int32_t b)
+/* The first level with expansions: 2 in free space (boxes of levels 0 and 1
+ * have no well-separated boxes), 0 in a periodic tree (the root's far field
+ * comes from the images beyond its neighbours). */
+KIFMM__FN int kifmm__lmin(const kifmm__tree *t) { return t->periodic ? 0 : 2; }
+
+/* Images of the unit cell: a code s = 9 (sx + 1) + 3 (sy + 1) + (sz + 1) for the
+ * shift (sx, sy, sz) of one cell width, each -1, 0 or 1; 13 is no shift. */
+#define KIFMM__NOSHIFT 13
+KIFMM__FN int kifmm__shift_code(const int *s) { return 9 * (s[0] + 1) + 3 * (s[1] + 1) + s[2] + 1; }
+
+KIFMM__FN void kifmm__shift_of(int code, int *s)
 {
-    int sa = KIFMM__D - t->lev[a], sb = KIFMM__D - t->lev[b], d;
+    s[0] = code / 9 - 1;
+    s[1] = code / 3 % 3 - 1;
+    s[2] = code % 3 - 1;
+}
+
+/* Do box a and the image s (a shift code) of box b touch or overlap (closed
+ * cubes)? Coordinates in units of the finest level (2^20 per cell width, so
+ * an image's fit in int32). */
+KIFMM__FN int kifmm__adjacent_s(const kifmm__tree *t, int32_t a, int32_t b, int s)
+{
+    int sa = KIFMM__D - t->lev[a], sb = KIFMM__D - t->lev[b], d, sh[3];
     const int32_t *xa = t->anchor + 3 * (size_t)a, *xb = t->anchor + 3 * (size_t)b;
+    kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++) {
         int32_t a0 = xa[d] << sa, a1 = (xa[d] + 1) << sa;
-        int32_t b0 = xb[d] << sb, b1 = (xb[d] + 1) << sb;
+        int32_t b0 = (xb[d] << sb) + (sh[d] << KIFMM__D), b1 = ((xb[d] + 1) << sb) + (sh[d] << KIFMM__D);
         if (a0 > b1 || b0 > a1) return 0;
     }
     return 1;
+}
+
+/* Do boxes a and b touch or overlap (closed cubes)? */
+KIFMM__FN int kifmm__adjacent(const kifmm__tree *t, int32_t a, int32_t b)
+{
+    return kifmm__adjacent_s(t, a, b, KIFMM__NOSHIFT);
+}
+
+/* Anchor coordinate x of level l (side 2^l boxes) in direction d, wrapped
+ * into the cell if d is periodic (*s gets the shift, in cell widths); -1 if
+ * it lies outside the cell in a free direction. */
+KIFMM__FN int64_t kifmm__wrap(const kifmm__tree *t, int d, int l, int64_t x, int *s)
+{
+    const int64_t side = (int64_t)1 << l;
+    *s = 0;
+    if (x >= 0 && x < side) return x;
+    if (!t->per[d]) return -1;
+    *s = x < 0 ? -1 : 1;
+    return x - *s * side;
 }
 
 KIFMM__FN void kifmm__box_center(const kifmm__tree *t, int32_t b, double *c, double *half)
@@ -980,6 +1044,16 @@ KIFMM__FN void kifmm__keys_unique(kifmm__keys *k)
     k->n = m;
 }
 
+/* Coordinate v of direction d in the tree's frame: relative to t->origin, or
+ * in a periodic direction wrapped into the cell [0, width). */
+KIFMM__FN double kifmm__coord(const kifmm__tree *t, double v, int d)
+{
+    double w;
+    if (!t->per[d]) return v - t->origin[d];
+    w = v - t->width * floor(v / t->width);
+    return w >= 0.0 && w < t->width ? w : 0.0; /* rounding can give width itself */
+}
+
 /* Sort one point set by key: sorted SoA coordinates relative to t->origin,
  * permutation, keys. Every later step works in these coordinates: a cloud
  * far from the caller's origin keeps the digits of its own size (surface
@@ -999,7 +1073,7 @@ KIFMM__FN int kifmm__sort_points(kifmm__tree *t, int64_t n, const double *xyz, d
         int64_t a[3];
         int d;
         for (d = 0; d < 3; d++) {
-            double f = ((xyz[3 * i + d] - t->origin[d]) - t->lo[d]) * scale;
+            double f = (kifmm__coord(t, xyz[3 * i + d], d) - t->lo[d]) * scale;
             a[d] = f <= 0.0 ? 0 : (f >= (double)maxi ? maxi : (int64_t)f);
         }
         (*keys)[i] = kifmm__encode(a[0], a[1], a[2]);
@@ -1010,12 +1084,39 @@ KIFMM__FN int kifmm__sort_points(kifmm__tree *t, int64_t n, const double *xyz, d
     KIFMM__OMP(parallel for schedule(static) num_threads(nth))
     for (int64_t i = 0; i < n; i++) {
         int d;
-        for (d = 0; d < 3; d++) (*out)[d * n + i] = xyz[3 * (*perm)[i] + d] - t->origin[d];
+        for (d = 0; d < 3; d++) (*out)[d * n + i] = kifmm__coord(t, xyz[3 * (*perm)[i] + d], d);
     }
     return KIFMM_SUCCESS;
 }
 
 /* ---- building the tree: bounds, sort, refine, balance, layout ------------ */
+
+/* Step 1 with periodic directions: the root is the unit cell, [0, L) in a
+ * periodic direction; in a free one the points must span less than L, and
+ * the root is centred on them there (shifted as below). */
+KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const double *src,
+                                          int64_t nt, const double *trg, int nth)
+{
+    (void)nth; /* used by the OpenMP pragmas only */
+    const double half = 0.5 * t->width;
+    int d;
+    for (d = 0; d < 3; d++) {
+        double mn = HUGE_VAL, mx = -HUGE_VAL, c;
+        t->origin[d] = t->lo[d] = 0.0;
+        if (t->per[d]) continue;
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
+        for (int64_t i = 0; i < ns + nt; i++) {
+            const double v = i < ns ? src[3 * i + d] : trg[3 * (i - ns) + d];
+            mn = v < mn ? v : mn;
+            mx = v > mx ? v : mx;
+        }
+        if (!(0.5 * (mx - mn) * (1.0 + 1e-10) < half)) return KIFMM_ERR_PERIOD;
+        c = 0.5 * (mn + mx);
+        t->origin[d] = fabs(c) >= 2.0 * half ? c : 0.0;
+        t->lo[d] = (c - t->origin[d]) - half;
+    }
+    return KIFMM_SUCCESS;
+}
 
 /* Step 1, the root cube: the smallest cube around every source and target,
  * padded so that no point sits on its outer faces. Each axis is shifted by
@@ -1025,12 +1126,13 @@ KIFMM__FN int kifmm__sort_points(kifmm__tree *t, int64_t n, const double *xyz, d
  * coordinates, whose differences are exact for nearby points, and the cloud
  * is within a width of the origin anyway, so surfaces lose at most a bit or
  * two there. */
-KIFMM__FN void kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
-                                  const double *trg, int nth)
+KIFMM__FN int kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
+                                 const double *trg, int nth)
 {
     (void)nth; /* used by the OpenMP pragmas only */
     double lo[3], hi[3], half = 0.0;
     int d;
+    if (t->periodic) return kifmm__tree_bounds_periodic(t, ns, src, nt, trg, nth);
     for (d = 0; d < 3; d++) {
         double mn = HUGE_VAL, mx = -HUGE_VAL;
         KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
@@ -1052,6 +1154,7 @@ KIFMM__FN void kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src,
         t->lo[d] = (c - t->origin[d]) - half;
     }
     t->width = 2.0 * half;
+    return KIFMM_SUCCESS;
 }
 
 /* Step 2, the points sorted by key (kifmm__sort_points): when the targets
@@ -1124,18 +1227,21 @@ KIFMM__FN int kifmm__tree_refine(const kifmm__tree *t, const uint64_t *skey, con
 /* For the 27 neighbours of the child j of in[l - 1] (j in 0 .. 8 n), the key
  * of the grandparent (level l - 2) it needs split, or UINT64_MAX where it is
  * already split or outside the cube; into need[27 j ..]. */
-KIFMM__FN void kifmm__balance_needs(const kifmm__keys *in, int l, int64_t j, uint64_t *need)
+KIFMM__FN void kifmm__balance_needs(const kifmm__tree *t, const kifmm__keys *in, int l,
+                                    int64_t j, uint64_t *need)
 {
-    const int64_t side = (int64_t)1 << l, n0 = in[l - 2].n;
+    const int64_t n0 = in[l - 2].n;
     int64_t a[3];
-    int dx, dy, dz, m = 0;
+    int dx, dy, dz, m = 0, s;
     kifmm__decode(in[l - 1].a[j >> 3] << 3 | (uint64_t)(j & 7), a);
     for (dx = -1; dx <= 1; dx++)
         for (dy = -1; dy <= 1; dy++)
             for (dz = -1; dz <= 1; dz++) {
-                const int64_t x = a[0] + dx, y = a[1] + dy, z = a[2] + dz;
+                /* neighbours across a periodic face wrap */
+                const int64_t x = kifmm__wrap(t, 0, l, a[0] + dx, &s), y = kifmm__wrap(t, 1, l, a[1] + dy, &s);
+                const int64_t z = kifmm__wrap(t, 2, l, a[2] + dz, &s);
                 uint64_t g = UINT64_MAX;
-                if (x >= 0 && y >= 0 && z >= 0 && x < side && y < side && z < side) {
+                if (x >= 0 && y >= 0 && z >= 0) {
                     int64_t pos;
                     g = kifmm__encode(x, y, z) >> 6;
                     pos = kifmm__lower_bound(in[l - 2].a, n0, g);
@@ -1149,7 +1255,7 @@ KIFMM__FN void kifmm__balance_needs(const kifmm__keys *in, int l, int64_t j, uin
  * l must lie in a box of level l - 1, i.e. its grandparent must split.
  * Missing grandparents are marked in parallel (one flag per box of level l
  * and neighbour), then appended in order. */
-KIFMM__FN int kifmm__tree_balance(kifmm__keys *in, int deepest, int nth)
+KIFMM__FN int kifmm__tree_balance(const kifmm__tree *t, kifmm__keys *in, int deepest, int nth)
 {
     (void)nth; /* used by the OpenMP pragmas only */
     int l, rc = KIFMM_SUCCESS;
@@ -1160,7 +1266,7 @@ KIFMM__FN int kifmm__tree_balance(kifmm__keys *in, int deepest, int nth)
         if (!need) return KIFMM_ERR_NOMEM;
         /* each j writes its own 27 entries of need */
         KIFMM__OMP(parallel for schedule(static) num_threads(nth))
-        for (int64_t jj = 0; jj < nb8; jj++) kifmm__balance_needs(in, l, jj, need);
+        for (int64_t jj = 0; jj < nb8; jj++) kifmm__balance_needs(t, in, l, jj, need);
         for (j = 0; j < 27 * nb8 && !rc; j++)
             if (need[j] != UINT64_MAX) rc = kifmm__keys_push(&in[l - 2], need[j]);
         kifmm__free(need);
@@ -1271,7 +1377,8 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists); /* >>lists
  * holds more than `leaf` sources or targets, 2:1 balance, layout, then the
  * interaction lists (kifmm__tree_lists, with V entries if vlists). */
 KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
-                                const double *trg, int leaf, int maxdepth, int nth, int vlists)
+                                const double *trg, int leaf, int maxdepth, int nth, int vlists,
+                                const double *period)
 {
     uint64_t *skey = NULL, *tkey = NULL;
     kifmm__keys in[KIFMM__D + 1];
@@ -1280,12 +1387,17 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     memset(t, 0, sizeof *t);
     t->ns = ns;
     t->nt = nt;
-    kifmm__tree_bounds(t, ns, src, nt, trg, nth);
-    rc = kifmm__tree_sort(t, ns, src, nt, trg, nth, &skey, &tkey);
+    for (l = 0; l < 3 && period; l++)
+        if (period[l] > 0.0) {
+            t->per[l] = t->periodic = 1;
+            t->width = period[l];
+        }
+    rc = kifmm__tree_bounds(t, ns, src, nt, trg, nth);
+    if (!rc) rc = kifmm__tree_sort(t, ns, src, nt, trg, nth, &skey, &tkey);
     if (!rc) rc = kifmm__tree_refine(t, skey, tkey, leaf, maxdepth, nth, in);
     for (l = 0; l <= KIFMM__D; l++)
         if (in[l].n > 0) deepest = l + 1;
-    if (!rc) rc = kifmm__tree_balance(in, deepest, nth);
+    if (!rc) rc = kifmm__tree_balance(t, in, deepest, nth);
     if (!rc) rc = kifmm__tree_layout(t, in, deepest, skey, tkey, nth);
     if (!rc) rc = kifmm__tree_lists(t, nth, vlists);
     for (l = 0; l <= KIFMM__D; l++) kifmm__free(in[l].a);
@@ -1331,46 +1443,59 @@ KIFMM__FN void kifmm__transfer_vector(int t, int *d)
 
 /* ---- the interaction lists of one box ----------------------------------- */
 
+/* The lists of one box: entries with their images (shift codes; all
+ * KIFMM__NOSHIFT in free space) and the V entries' transfer vectors. */
 typedef struct {
     int32_t u[KIFMM__MAXU], v[KIFMM__MAXV], w[KIFMM__MAXW], x[KIFMM__MAXX];
+    unsigned char us[KIFMM__MAXU], ws[KIFMM__MAXW], xs[KIFMM__MAXX];
     uint16_t vt[KIFMM__MAXV];
     int nu, nv, nw, nx, overflow;
 } kifmm__lists;
 
-KIFMM__FN void kifmm__add(int32_t *list, int *n, int cap, int32_t b, int *overflow, int dedupe)
+/* Append image s of box b to a list (and its shifts sh), once if dedupe. */
+KIFMM__FN void kifmm__add(int32_t *list, unsigned char *sh, int *n, int cap, int32_t b, int s,
+                          int *overflow, int dedupe)
 {
     int i;
     if (dedupe)
         for (i = 0; i < *n; i++)
-            if (list[i] == b) return;
+            if (list[i] == b && sh[i] == s) return;
     if (*n >= cap) { *overflow = 1; return; }
+    sh[*n] = (unsigned char)s;
     list[(*n)++] = b;
 }
 
-/* U and W of leaf b from box c, a colleague of b or a descendant of one:
- * adjacent leaves go to U, adjacent internal boxes are opened, and boxes not
- * adjacent to b (whose parent is) go to W. */
-KIFMM__FN void kifmm__collect_uw(const kifmm__tree *t, int32_t b, int32_t c, kifmm__lists *L)
+/* U and W of leaf b from image s of box c, a colleague of b or a
+ * descendant of one: adjacent leaves go to U, adjacent internal boxes are
+ * opened, and boxes not adjacent to b (whose parent is) go to W. */
+KIFMM__FN void kifmm__collect_uw(const kifmm__tree *t, int32_t b, int32_t c, int s, kifmm__lists *L)
 {
     if (t->s1[c] == t->s0[c]) return;
-    if (kifmm__adjacent(t, b, c)) {
+    if (kifmm__adjacent_s(t, b, c, s)) {
         int o;
         if (t->child[c] < 0) {
-            kifmm__add(L->u, &L->nu, KIFMM__MAXU, c, &L->overflow, 0);
+            kifmm__add(L->u, L->us, &L->nu, KIFMM__MAXU, c, s, &L->overflow, 0);
             return;
         }
-        for (o = 0; o < 8; o++) kifmm__collect_uw(t, b, t->child[c] + o, L);
+        for (o = 0; o < 8; o++) kifmm__collect_uw(t, b, t->child[c] + o, s, L);
     } else {
-        kifmm__add(L->w, &L->nw, KIFMM__MAXW, c, &L->overflow, 0);
+        kifmm__add(L->w, L->ws, &L->nw, KIFMM__MAXW, c, s, &L->overflow, 0);
     }
 }
 
-/* The box of level l at anchor (x, y, z), or -1 outside the cube. */
-KIFMM__FN int32_t kifmm__box_at(const kifmm__tree *t, int l, int64_t x, int64_t y, int64_t z,
-                                uint64_t *k)
+/* The box of level l at anchor a + (dx, dy, dz), wrapped across periodic
+ * faces (*s: the image's shift code): its index, -1 if none of level l is
+ * there (*k: the key to look for a coarser one), -2 outside the cell in a
+ * free direction. */
+KIFMM__FN int32_t kifmm__box_at(const kifmm__tree *t, int l, const int64_t *a, int dx, int dy,
+                                int dz, uint64_t *k, int *s)
 {
-    const int64_t side = (int64_t)1 << l;
-    if (x < 0 || y < 0 || z < 0 || x >= side || y >= side || z >= side) return -2;
+    int sh[3];
+    const int64_t x = kifmm__wrap(t, 0, l, a[0] + dx, &sh[0]);
+    const int64_t y = kifmm__wrap(t, 1, l, a[1] + dy, &sh[1]);
+    const int64_t z = kifmm__wrap(t, 2, l, a[2] + dz, &sh[2]);
+    if (x < 0 || y < 0 || z < 0) return -2;
+    *s = kifmm__shift_code(sh);
     *k = kifmm__encode(x, y, z);
     return kifmm__find(t, l, *k);
 }
@@ -1380,21 +1505,21 @@ KIFMM__FN int32_t kifmm__box_at(const kifmm__tree *t, int l, int64_t x, int64_t 
 KIFMM__FN void kifmm__near_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L)
 {
     const int l = kifmm__level_of(t, b);
-    const int32_t *a = t->anchor + 3 * (size_t)b;
-    int dx, dy, dz;
+    const int32_t *ab = t->anchor + 3 * (size_t)b;
+    const int64_t a[3] = {ab[0], ab[1], ab[2]};
+    int dx, dy, dz, s = KIFMM__NOSHIFT;
     for (dx = -1; dx <= 1; dx++)
         for (dy = -1; dy <= 1; dy++)
             for (dz = -1; dz <= 1; dz++) {
                 uint64_t k = 0;
-                int32_t c = kifmm__box_at(t, l, (int64_t)a[0] + dx, (int64_t)a[1] + dy,
-                                          (int64_t)a[2] + dz, &k);
+                int32_t c = kifmm__box_at(t, l, a, dx, dy, dz, &k, &s);
                 if (c >= 0) {
-                    kifmm__collect_uw(t, b, c, L);
+                    kifmm__collect_uw(t, b, c, s, L);
                 } else if (c == -1) {
                     /* inside a coarser leaf, which touches b */
                     c = kifmm__find_cover(t, l, k);
                     if (c >= 0 && t->s1[c] > t->s0[c])
-                        kifmm__add(L->u, &L->nu, KIFMM__MAXU, c, &L->overflow, 1);
+                        kifmm__add(L->u, L->us, &L->nu, KIFMM__MAXU, c, s, &L->overflow, 1);
                 }
             }
 }
@@ -1405,31 +1530,35 @@ KIFMM__FN void kifmm__near_lists(const kifmm__tree *t, int32_t b, kifmm__lists *
 KIFMM__FN void kifmm__far_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L)
 {
     const int l = kifmm__level_of(t, b);
-    const int32_t *a = t->anchor + 3 * (size_t)b;
-    int dx, dy, dz, o;
+    const int32_t *ab = t->anchor + 3 * (size_t)b;
+    const int64_t a[3] = {ab[0], ab[1], ab[2]}, pa[3] = {a[0] >> 1, a[1] >> 1, a[2] >> 1};
+    const int64_t side = (int64_t)1 << l;
+    int dx, dy, dz, o, s = KIFMM__NOSHIFT, sh[3];
     for (dx = -1; dx <= 1; dx++)
         for (dy = -1; dy <= 1; dy++)
             for (dz = -1; dz <= 1; dz++) {
                 uint64_t k = 0;
-                int32_t c = kifmm__box_at(t, l - 1, (int64_t)(a[0] >> 1) + dx,
-                                          (int64_t)(a[1] >> 1) + dy, (int64_t)(a[2] >> 1) + dz, &k);
+                int32_t c = kifmm__box_at(t, l - 1, pa, dx, dy, dz, &k, &s);
                 if (c == -2) continue;
+                kifmm__shift_of(s, sh);
                 if (c >= 0 && t->child[c] >= 0) {
                     for (o = 0; o < 8; o++) {
-                        const int32_t s = t->child[c] + o;
-                        const int32_t *sa = t->anchor + 3 * (size_t)s;
-                        if (t->s1[s] == t->s0[s] || kifmm__adjacent(t, b, s)) continue;
+                        const int32_t v = t->child[c] + o;
+                        const int32_t *va = t->anchor + 3 * (size_t)v;
+                        if (t->s1[v] == t->s0[v] || kifmm__adjacent_s(t, b, v, s)) continue;
                         if (L->nv >= KIFMM__MAXV) { L->overflow = 1; continue; }
-                        L->vt[L->nv] = (uint16_t)kifmm__transfer_index(sa[0] - a[0], sa[1] - a[1],
-                                                                       sa[2] - a[2]);
-                        L->v[L->nv++] = s;
+                        /* the transfer vector to the image */
+                        L->vt[L->nv] = (uint16_t)kifmm__transfer_index(
+                            (int)(va[0] + sh[0] * side - a[0]), (int)(va[1] + sh[1] * side - a[1]),
+                            (int)(va[2] + sh[2] * side - a[2]));
+                        L->v[L->nv++] = v;
                     }
                     continue;
                 }
                 /* a leaf of the parent's level or coarser: X if apart from b */
                 if (c < 0) c = kifmm__find_cover(t, l - 1, k);
-                if (c >= 0 && t->s1[c] > t->s0[c] && !kifmm__adjacent(t, b, c))
-                    kifmm__add(L->x, &L->nx, KIFMM__MAXX, c, &L->overflow, 1);
+                if (c >= 0 && t->s1[c] > t->s0[c] && !kifmm__adjacent_s(t, b, c, s))
+                    kifmm__add(L->x, L->xs, &L->nx, KIFMM__MAXX, c, s, &L->overflow, 1);
             }
 }
 
@@ -1444,41 +1573,43 @@ KIFMM__FN void kifmm__box_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L
 
 /* ---- the lists of all boxes ----------------------------------------------- */
 
-/* The lists of a range of boxes, appended in box order: U, V, W, X (and the
- * transfer vectors of V), growing by doubling. */
+/* The lists of a range of boxes, appended in box order: U, V, W, X, with
+ * the transfer vectors of V (vt) and, in periodic trees, the shift codes of
+ * U, W and X (sh[j]), growing by doubling. */
 typedef struct {
     int32_t *a[4];
     uint16_t *vt;
+    unsigned char *sh[4];
     size_t n[4], cap[4];
     int fail;
 } kifmm__lbuf;
 
+/* Grow array *p of n elements of size sz to cap of them; 0 if out of memory. */
+KIFMM__FN int kifmm__grow(void **p, size_t n, size_t cap, size_t sz)
+{
+    void *a = kifmm__alloc(cap, sz);
+    if (!a) return 0;
+    if (n) memcpy(a, *p, n * sz);
+    kifmm__free(*p);
+    *p = a;
+    return 1;
+}
+
 KIFMM__FN void kifmm__lbuf_put(kifmm__lbuf *B, int j, const int32_t *src, int cnt,
-                               const uint16_t *vt)
+                               const uint16_t *vt, const unsigned char *sh)
 {
     if (B->fail || cnt == 0) return;
     if (B->n[j] + (size_t)cnt > B->cap[j]) {
         size_t cap = 2 * (B->n[j] + (size_t)cnt) + 256;
-        int32_t *a = (int32_t *)kifmm__alloc(cap, sizeof(int32_t));
-        uint16_t *v = j == 1 ? (uint16_t *)kifmm__alloc(cap, sizeof(uint16_t)) : NULL;
-        if (!a || (j == 1 && !v)) {
-            kifmm__free(a);
-            kifmm__free(v);
-            B->fail = 1;
-            return;
-        }
-        if (B->n[j]) memcpy(a, B->a[j], B->n[j] * sizeof(int32_t));
-        kifmm__free(B->a[j]);
-        B->a[j] = a;
-        if (j == 1) {
-            if (B->n[j]) memcpy(v, B->vt, B->n[j] * sizeof(uint16_t));
-            kifmm__free(B->vt);
-            B->vt = v;
-        }
+        int ok = kifmm__grow((void **)&B->a[j], B->n[j], cap, sizeof(int32_t));
+        if (ok && vt) ok = kifmm__grow((void **)&B->vt, B->n[j], cap, sizeof(uint16_t));
+        if (ok && sh) ok = kifmm__grow((void **)&B->sh[j], B->n[j], cap, 1);
+        if (!ok) { B->fail = 1; return; }
         B->cap[j] = cap;
     }
     memcpy(B->a[j] + B->n[j], src, (size_t)cnt * sizeof(int32_t));
-    if (j == 1) memcpy(B->vt + B->n[j], vt, (size_t)cnt * sizeof(uint16_t));
+    if (vt) memcpy(B->vt + B->n[j], vt, (size_t)cnt * sizeof(uint16_t));
+    if (sh) memcpy(B->sh[j] + B->n[j], sh, (size_t)cnt);
     B->n[j] += (size_t)cnt;
 }
 
@@ -1535,10 +1666,10 @@ KIFMM__FN int kifmm__lists_collect(kifmm__tree *t, int nth, int vlists, int32_t 
             t->vo[c + 1] = L.nv;
             t->wo[c + 1] = L.nw;
             t->xo[c + 1] = L.nx;
-            kifmm__lbuf_put(&buf[k], 0, L.u, L.nu, NULL);
-            if (vlists) kifmm__lbuf_put(&buf[k], 1, L.v, L.nv, L.vt);
-            kifmm__lbuf_put(&buf[k], 2, L.w, L.nw, NULL);
-            kifmm__lbuf_put(&buf[k], 3, L.x, L.nx, NULL);
+            kifmm__lbuf_put(&buf[k], 0, L.u, L.nu, NULL, t->periodic ? L.us : NULL);
+            if (vlists) kifmm__lbuf_put(&buf[k], 1, L.v, L.nv, L.vt, NULL);
+            kifmm__lbuf_put(&buf[k], 2, L.w, L.nw, NULL, t->periodic ? L.ws : NULL);
+            kifmm__lbuf_put(&buf[k], 3, L.x, L.nx, NULL, t->periodic ? L.xs : NULL);
         }
     }
     return overflow;
@@ -1551,6 +1682,7 @@ KIFMM__FN int kifmm__lists_assemble(kifmm__tree *t, int nth, int vlists, int32_t
     (void)nth; /* used by the OpenMP pragmas only */
     const int32_t nb = t->nbox;
     int32_t *off[4], *dst[4], b;
+    unsigned char *sdst[4];
     int j;
     off[0] = t->uo; off[1] = t->vo; off[2] = t->wo; off[3] = t->xo;
     for (j = 0; j < 4; j++)
@@ -1563,14 +1695,23 @@ KIFMM__FN int kifmm__lists_assemble(kifmm__tree *t, int nth, int vlists, int32_t
     t->w = (int32_t *)kifmm__take(&t->held, (size_t)t->wo[nb] + 1, sizeof(int32_t));
     t->x = (int32_t *)kifmm__take(&t->held, (size_t)t->xo[nb] + 1, sizeof(int32_t));
     if (!t->u || (vlists && (!t->v || !t->vt)) || !t->w || !t->x) return KIFMM_ERR_NOMEM;
+    if (t->periodic) {
+        t->us = (unsigned char *)kifmm__take(&t->held, (size_t)t->uo[nb] + 1, 1);
+        t->ws = (unsigned char *)kifmm__take(&t->held, (size_t)t->wo[nb] + 1, 1);
+        t->xs = (unsigned char *)kifmm__take(&t->held, (size_t)t->xo[nb] + 1, 1);
+        if (!t->us || !t->ws || !t->xs) return KIFMM_ERR_NOMEM;
+    }
     dst[0] = t->u; dst[1] = t->v; dst[2] = t->w; dst[3] = t->x;
+    sdst[0] = t->us; sdst[1] = NULL; sdst[2] = t->ws; sdst[3] = t->xs;
     /* chunk k copies into its own boxes' ranges */
     KIFMM__OMP(parallel for schedule(static) num_threads(nth))
     for (int32_t k = 0; k < nk; k++) {
         const int32_t b0 = (int32_t)((int64_t)nb * k / nk);
         int m;
-        for (m = 0; m < 4; m++)
+        for (m = 0; m < 4; m++) {
             if (buf[k].n[m]) memcpy(dst[m] + off[m][b0], buf[k].a[m], buf[k].n[m] * sizeof(int32_t));
+            if (buf[k].n[m] && sdst[m]) memcpy(sdst[m] + off[m][b0], buf[k].sh[m], buf[k].n[m]);
+        }
         if (buf[k].n[1]) memcpy(t->vt + t->vo[b0], buf[k].vt, buf[k].n[1] * sizeof(uint16_t));
     }
     return KIFMM_SUCCESS;
@@ -1587,9 +1728,10 @@ KIFMM__FN void kifmm__tree_dsrc(kifmm__tree *t, int64_t xdirect)
 {
     int32_t b;
     for (b = 0; b < t->nbox; b++) {
-        int fresh = t->vo[b + 1] > t->vo[b] ||
+        /* a periodic tree's root gets the far images' field */
+        int fresh = t->vo[b + 1] > t->vo[b] || (t->periodic && b == 0) ||
                     (t->xo[b + 1] > t->xo[b] && t->t1[b] - t->t0[b] >= xdirect);
-        if (b < t->loff[2 < t->nlev ? 2 : t->nlev]) t->dsrc[b] = -1;
+        if (b < t->loff[kifmm__lmin(t) < t->nlev ? kifmm__lmin(t) : t->nlev]) t->dsrc[b] = -1;
         else if (fresh) t->dsrc[b] = b;
         else t->dsrc[b] = t->dsrc[t->parent[b]];
     }
@@ -1654,7 +1796,10 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
         if (buf[k].fail) rc = KIFMM_ERR_NOMEM;
     if (!rc) rc = kifmm__lists_assemble(t, nth, vlists, nk, buf);
     for (k = 0; k < nk; k++) {
-        for (j = 0; j < 4; j++) kifmm__free(buf[k].a[j]);
+        for (j = 0; j < 4; j++) {
+            kifmm__free(buf[k].a[j]);
+            kifmm__free(buf[k].sh[j]);
+        }
         kifmm__free(buf[k].vt);
     }
     kifmm__free(buf);
@@ -1682,15 +1827,14 @@ KIFMM__FN int kifmm__colleagues(const kifmm__tree *t, int nth, size_t *held, int
         KIFMM__OMP(parallel for schedule(static) num_threads(nth))
         for (int32_t i = 0; i < ni; i++) {
             int32_t p = t->inner[i], m = 0;
-            int l = t->lev[p], o;
-            int64_t side = (int64_t)1 << l;
-            const int32_t *a = t->anchor + 3 * (size_t)p;
+            int l = t->lev[p], o, s;
+            const int32_t *ap = t->anchor + 3 * (size_t)p;
+            const int64_t a[3] = {ap[0], ap[1], ap[2]};
             for (o = 0; o < 27; o++) {
-                int64_t x = a[0] + o / 9 - 1, y = a[1] + o / 3 % 3 - 1, z = a[2] + o % 3 - 1;
-                int32_t q;
-                if (o == 13 || x < 0 || y < 0 || z < 0 || x >= side || y >= side || z >= side)
-                    continue;
-                q = kifmm__find(t, l, kifmm__encode(x, y, z));
+                /* o: the offset code; across a periodic face the colleague is
+                 * a wrapped box's image, the offset that of the image */
+                uint64_t k = 0;
+                int32_t q = o == 13 ? -2 : kifmm__box_at(t, l, a, o / 9 - 1, o / 3 % 3 - 1, o % 3 - 1, &k, &s);
                 if (q < 0 || t->child[q] < 0) continue;
                 if (pass == 1) {
                     cj[co[i] + m] = (t->child[q] - t->loff[l + 1]) / 8;
@@ -1895,6 +2039,134 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
     memset(o, 0, sizeof *o);
 }
 
+
+// >>lattice
+
+/* ---- periodic trees: the far images ------------------------------------- */
+
+/* A periodic tree's field from the images of the cell beyond its 26
+ * neighbours (which the lists reach: the root's colleagues are its images),
+ * as one operator T from the root's upward equivalent density to its
+ * downward check potential, built from the kernel alone by recursion over
+ * super-cells of 3 x 3 x 3 cells (3 or 3 x 3 along fewer periodic
+ * directions). With a cell of half-width h and its super-cell of 3 h:
+ *   C: the cell's density -> the super-cell's (the 27 copies summed, M2M),
+ *   A: the super-cell's 26 images next to it -> the cell's check potential,
+ *      after C (their M2L),
+ *   B: the super-cell's local expansion -> the cell's check potential (L2L),
+ * and T(h) = A + B T(3 h) C: the images beyond the neighbours are the
+ * super-cell's neighbours and, beyond those, its own far images. A kernel
+ * of degree a has T(3 h) = 3^a T(h), and T is the fixed point of that map,
+ * converging by about 1/3 per step; T of any other kernel is the sum of
+ * its terms level by level while they matter (a Yukawa kernel's vanish
+ * once lambda h reaches some tens). For scale-invariant kernels the
+ * monopole (the densities' sum per component) is projected out: its image
+ * sums diverge (docs/api.md: the densities must then sum to zero). */
+typedef struct {
+    int nc, ne, sd;
+    double *a, *b, *c;   /* nc x ne, nc x nc, ne x ne (column major) */
+    double *e;           /* scale-invariant kernels: ne x SD, the density of a
+                            unit point source at the centre, with S e = I */
+    double *mu;          /* SD x QD: the densities' sum per component of a unit
+                            point source of each kind (kernel component) */
+} kifmm__lat;
+
+KIFMM__FN void kifmm__lat_free(kifmm__lat *L)
+{
+    kifmm__free(L->a);
+    kifmm__free(L->b);
+    kifmm__free(L->c);
+    kifmm__free(L->e);
+    kifmm__free(L->mu);
+    memset(L, 0, sizeof *L);
+}
+
+/* The image offsets of the 3 x 3 x 3 block of cells (ring 0) or of its
+ * boundary (ring 1), along the periodic directions only: m[3 i ..]; returns
+ * their number. */
+KIFMM__FN int kifmm__lat_offsets(const kifmm__tree *t, int ring, int *m)
+{
+    int n = 0, i, j, k;
+    for (i = -1; i <= 1; i++)
+        for (j = -1; j <= 1; j++)
+            for (k = -1; k <= 1; k++) {
+                if ((i && !t->per[0]) || (j && !t->per[1]) || (k && !t->per[2])) continue;
+                if (ring && !i && !j && !k) continue;
+                m[3 * n] = i;
+                m[3 * n + 1] = j;
+                m[3 * n + 2] = k;
+                n++;
+            }
+    return n;
+}
+
+/* x (rows x cols, column major, SD-component columns) minus the part along
+ * e: x - (x e) S, where S sums a density's components (x P, P = I - e S). */
+KIFMM__FN void kifmm__lat_project(double *x, int rows, int ne, int sd, const double *e)
+{
+    double *xe = (double *)kifmm__alloc((size_t)rows * sd, sizeof(double));
+    int i, j;
+    if (!xe) return; /* checked by the caller's allocation of the same size */
+    kifmm__gemm(0, 0, rows, sd, ne, 1.0, x, rows, e, ne, 0.0, xe, rows);
+    for (j = 0; j < ne; j++)
+        for (i = 0; i < rows; i++) x[i + (size_t)j * rows] -= xe[i + (size_t)(j % sd) * rows];
+    kifmm__free(xe);
+}
+
+/* Square matrix inverse in place by Gauss-Jordan without pivoting (the small
+ * SD x SD S e, close to the identity). */
+KIFMM__FN void kifmm__small_inverse(double *a, int n)
+{
+    int i, j, k;
+    for (k = 0; k < n; k++) {
+        const double p = a[k + k * n];
+        a[k + k * n] = 1.0;
+        for (j = 0; j < n; j++) a[k + j * n] /= p;
+        for (i = 0; i < n; i++) {
+            const double f = a[i + k * n];
+            if (i == k) continue;
+            a[i + k * n] = 0.0;
+            for (j = 0; j < n; j++) a[i + j * n] -= f * a[k + j * n];
+        }
+    }
+}
+
+/* e S x subtracted from x (ne x cols): P x, P = I - e S. */
+KIFMM__FN void kifmm__lat_project_left(double *x, int ne, int cols, int sd, const double *e)
+{
+    double sx[9];
+    int i, j, b;
+    for (j = 0; j < cols; j++) {
+        double *xj = x + (size_t)j * ne;
+        for (b = 0; b < sd; b++) sx[b] = 0.0;
+        for (i = 0; i < ne; i++) sx[i % sd] += xj[i];
+        for (i = 0; i < ne; i++)
+            for (b = 0; b < sd; b++) xj[i] -= e[i + (size_t)b * ne] * sx[b];
+    }
+}
+
+/* Each column of x (nc x cols) minus its mean per component: no constant
+ * field left on the check surface. */
+KIFMM__FN void kifmm__lat_no_constant(double *x, int nc, int cols, int sd)
+{
+    double m[9];
+    int i, j, b;
+    for (j = 0; j < cols; j++) {
+        double *xj = x + (size_t)j * nc;
+        for (b = 0; b < sd; b++) m[b] = 0.0;
+        for (i = 0; i < nc; i++) m[i % sd] += xj[i];
+        for (i = 0; i < nc; i++) xj[i] -= m[i % sd] * sd / nc;
+    }
+}
+
+/* max |x_i| over n values */
+KIFMM__FN double kifmm__max_abs(const double *x, size_t n)
+{
+    double m = 0.0;
+    size_t i;
+    for (i = 0; i < n; i++) m = fabs(x[i]) > m ? fabs(x[i]) : m;
+    return m;
+}
 
 // >>fft
 
@@ -3047,6 +3319,11 @@ struct KIFMM_NAME {
         float *foutf;          /* without kept blocks: products of a slab's target */
         double *foutd;         /* parents (slots of them), chunk-major; or NULL */
     } fft;
+    struct {                   /* periodic trees: the far images (kifmm__lat) */
+        KIFMM__R *t;           /* root density -> root check vector (nc x ne) */
+        double *mu;            /* scale-invariant kernels: SD x QD monopole map, and */
+        int neutral;           /* whether the densities must sum to zero */
+    } lat;
     struct {                   /* the mutual near field (sources = targets) */
         int32_t *chunk;        /* chunks of leaves, or NULL */
         int nchunk;
@@ -3055,6 +3332,7 @@ struct KIFMM_NAME {
         KIFMM__F(__work) *w;   /* grows to the largest nrhs evaluated (<= RHS_MAX) */
         KIFMM__R *scratch;     /* per thread: see __scratch_per */
         size_t fpts;           /* points of the float instances' frame buffers */
+        size_t ipts;           /* points of the periodic trees' image buffers */
         KIFMM__R *gbuf;        /* column GEMM passes: see __gbuf_per */
         size_t gbuf_n;
         int32_t *act;          /* boxes of each level the solves visit (kifmm__active) */
@@ -3275,7 +3553,7 @@ KIFMM__FN int KIFMM__F(__surf_kmat)(const KIFMM_NAME *c, const double *uc, int n
  * every operator of the level is zero (ranks 0) and its far field, smaller
  * still, is dropped. Here the two matrices (kernel values only, so that
  * levels can build them side by side); their pseudo-inverses in c2e_solve. */
-KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, double ao, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
     const size_t nn = (size_t)c->surf.nc * (size_t)c->surf.ne;
@@ -3285,15 +3563,15 @@ KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, kifmm__ops 
     o->kup = (double *)kifmm__alloc(nn, sizeof(double));
     o->kdn = (double *)kifmm__alloc(nn, sizeof(double));
     if (!o->kup || !o->kdn) return KIFMM_ERR_NOMEM;
-    rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r,
-                               c->surf.unit_e, c->surf.nse, zero, c->surf.ai * r, 1.0, o->kup,
+    rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, ao * r, c->surf.unit_e,
+                               c->surf.nse, zero, c->surf.ai * r, 1.0, o->kup,
                                (size_t)c->surf.nc, &big);
     if (rc) return rc;
     o->sigma = big >= KIFMM__TINY ? 1.0 / big : 0.0;
     for (i = 0; i < nn; i++) o->kup[i] *= o->sigma;
     return KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ai * r,
-                                 c->surf.unit_e, c->surf.nse, zero, c->surf.ao * r, o->sigma,
-                                 o->kdn, (size_t)c->surf.nc, NULL);
+                                 c->surf.unit_e, c->surf.nse, zero, ao * r, o->sigma, o->kdn,
+                                 (size_t)c->surf.nc, NULL);
 }
 
 /* The two pseudo-inverses of those matrices (which they destroy). With the
@@ -3584,7 +3862,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
 KIFMM__FN int KIFMM__F(__ops_kernels)(const KIFMM_NAME *c, double r, int m2l, int nth,
                                       kifmm__ops *o)
 {
-    int rc = KIFMM__F(__c2e_kernels)(c, r, o);
+    int rc = KIFMM__F(__c2e_kernels)(c, r, c->surf.ao, o);
     if (!rc) rc = KIFMM__F(__build_m2m_l2l)(c, r, o);
 #if KIFMM__FFT
     if (!rc && m2l) rc = KIFMM__F(__build_m2l_fft)(c, r, nth, o);
@@ -3714,7 +3992,8 @@ KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const
 }
 
 /* Scale-invariant kernels: one set at half-width 1, rescaled per level.
- * Others: one set per level that uses operators (levels 2 and deeper), their
+ * Others: one set per level that uses operators (levels 2 and deeper, all
+ * in a periodic tree), their
  * kernel values built side by side (Yukawa, p = 6, 1M clustered points, 10
  * levels, 2 threads: operators 0.16 -> 0.11 s, 0.05 s with the symmetries of
  * c2e_solve and KIFMM__RADIAL). Only what the tree uses: none
@@ -3723,7 +4002,7 @@ KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const
 KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 {
     const kifmm__tree *t = &c->tree;
-    const int n = KIFMM__SI ? 1 : t->nlev, l0 = KIFMM__SI ? 0 : 2;
+    const int n = KIFMM__SI ? 1 : t->nlev, l0 = KIFMM__SI ? 0 : kifmm__lmin(t);
     kifmm__ops *o = (kifmm__ops *)kifmm__calloc((size_t)n, sizeof(kifmm__ops));
     double *r = (double *)kifmm__alloc((size_t)n, sizeof(double));
     int *m2l = (int *)kifmm__calloc((size_t)n, sizeof(int)), *rcs = (int *)kifmm__calloc((size_t)n, sizeof(int));
@@ -3731,10 +4010,10 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
     c->ops.n = n;
     c->ops.at = (KIFMM__F(__ops) *)kifmm__takez(&c->held, (size_t)n, sizeof(KIFMM__F(__ops)));
     if (!c->ops.at || !o || !r || !m2l || !rcs) rc = KIFMM_ERR_NOMEM;
-    for (l = 2; l < t->nlev && !rc; l++) m2l[KIFMM__SI ? 0 : l] |= t->m2lo[l + 1] > t->m2lo[l];
+    for (l = 1; l < t->nlev && !rc; l++) m2l[KIFMM__SI ? 0 : l] |= t->m2lo[l + 1] > t->m2lo[l];
     for (l = l0; l < n && !rc; l++) r[l] = KIFMM__SI ? 1.0 : 0.5 * t->width / (double)((int64_t)1 << l);
-    if (!rc && t->nlev > 2) KIFMM__F(__ops_levels)(c, l0, n, r, m2l, o, rcs);
-    for (l = l0; l < n && t->nlev > 2 && !rc; l++) {
+    if (!rc && t->nlev > kifmm__lmin(t)) KIFMM__F(__ops_levels)(c, l0, n, r, m2l, o, rcs);
+    for (l = l0; l < n && t->nlev > kifmm__lmin(t) && !rc; l++) {
         rc = rcs[l];
         if (!rc) rc = KIFMM__F(__ops_solves)(c, r[l], m2l[l], &o[l]);
         if (!rc) rc = KIFMM__F(__ops_keep)(c, &o[l], &c->ops.at[l]);
@@ -3747,6 +4026,347 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 #if KIFMM__FFT
     if (!rc) rc = KIFMM__F(__keep_blocks)(c);
 #endif
+    return rc;
+}
+
+/* ---- periodic trees: the far images' operator (see kifmm__lat) ----------- */
+
+/* out (nc x ne) = the sum over image offsets m[3 i ..] (nm of them) of
+ * K(check surface at radius crad <- equivalent surface at radius erad and
+ * centre 2 sp m). */
+KIFMM__FN int KIFMM__F(__lat_kmat)(const KIFMM_NAME *c, double crad, double erad, double sp,
+                                   const int *m, int nm, double *out)
+{
+    const double zero[3] = {0.0, 0.0, 0.0};
+    const size_t nn = (size_t)c->surf.nc * c->surf.ne;
+    double *k = (double *)kifmm__alloc(nn, sizeof(double));
+    int i, rc = k ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    size_t j;
+    memset(out, 0, nn * sizeof(double));
+    for (i = 0; i < nm && !rc; i++) {
+        const double ec[3] = {2.0 * sp * m[3 * i], 2.0 * sp * m[3 * i + 1], 2.0 * sp * m[3 * i + 2]};
+        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, crad, c->surf.unit_e,
+                                   c->surf.nse, ec, erad, 1.0, k, (size_t)c->surf.nc, NULL);
+        for (j = 0; j < nn && !rc; j++) out[j] += k[j];
+    }
+    kifmm__free(k);
+    return rc;
+}
+
+/* The sum over the images n of a cell of half-width h in the super-cell's
+ * neighbours (2 <= |n| <= 4 along the periodic directions, 0 along the
+ * others; 702 of them with three) of K(d - 2 h n), for the offsets d
+ * between two order-q lattices on the surface of radius ai h: at the
+ * (2q - 1)^3 lattice offsets, gs[e SD^2 + ab]. */
+KIFMM__FN int KIFMM__F(__lat_ring_sums)(const KIFMM_NAME *c, double h, int q, double *gs)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const int w = 2 * q - 1;
+    const double g = 2.0 * c->surf.ai * h / (q - 1);
+    int bad = 0;
+    /* each offset e writes its own sum */
+    KIFMM__OMP(parallel for schedule(dynamic, 16) num_threads(c->opts.nthreads) reduction(| : bad))
+    for (int64_t e = 0; e < (int64_t)w * w * w; e++) {
+        const double d0 = g * (double)(e / (w * w) - (q - 1)), d1 = g * (double)(e / w % w - (q - 1));
+        const double d2 = g * (double)(e % w - (q - 1));
+        double kv[SD2], acc[SD2];
+        int n0, n1, n2, ab;
+        for (ab = 0; ab < SD2; ab++) acc[ab] = 0.0;
+        for (n0 = -4; n0 <= 4; n0++)
+            for (n1 = -4; n1 <= 4; n1++)
+                for (n2 = -4; n2 <= 4; n2++) {
+                    if ((n0 && !c->tree.per[0]) || (n1 && !c->tree.per[1]) || (n2 && !c->tree.per[2]))
+                        continue;
+                    if (n0 * n0 < 4 && n1 * n1 < 4 && n2 * n2 < 4) continue;
+                    KIFMM__R_(SC, _eval)(c->opts.kernel_param, d0 - 2.0 * h * n0, d1 - 2.0 * h * n1,
+                                         d2 - 2.0 * h * n2, kv);
+                    for (ab = 0; ab < SD2; ab++) acc[ab] += kv[ab];
+                }
+        for (ab = 0; ab < SD2; ab++) {
+            bad |= !(fabs(acc[ab]) <= DBL_MAX);
+            gs[e * SD2 + ab] = acc[ab];
+        }
+    }
+    return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
+}
+
+#if !KIFMM__FFT
+/* The same pair by pair (the dense M2L's check surfaces have order p + 1). */
+KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, double *a)
+{
+    const int nc = c->surf.nc, ne = c->surf.ne;
+    double *k = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    int m[3 * 729], nm = 0, n0, n1, n2, rc;
+    size_t i;
+    for (n0 = -4; n0 <= 4; n0++)
+        for (n1 = -4; n1 <= 4; n1++)
+            for (n2 = -4; n2 <= 4; n2++) {
+                if ((n0 && !c->tree.per[0]) || (n1 && !c->tree.per[1]) || (n2 && !c->tree.per[2]))
+                    continue;
+                if (n0 * n0 < 4 && n1 * n1 < 4 && n2 * n2 < 4) continue;
+                m[3 * nm] = n0;
+                m[3 * nm + 1] = n1;
+                m[3 * nm++ + 2] = n2;
+            }
+    rc = k ? KIFMM__F(__lat_kmat)(c, c->surf.ai * h, c->surf.ai * h, h, m, nm, k) : KIFMM_ERR_NOMEM;
+    for (i = 0; i < (size_t)nc * ne && !rc; i++) a[i] = k[i];
+    kifmm__free(k);
+    return rc;
+}
+#endif
+
+/* a (nc x ne) = K(the cell's check surface <- its images' equivalent
+ * surfaces) summed over the images in the super-cell's neighbours, through
+ * the sums per lattice offset (__lat_ring_sums) on the check surface's
+ * lattice: directly when the equivalent surface lies on it (check order
+ * p), else for densities on the check lattice, moved there by the FFT
+ * M2L's fit conv (kifmm__ops), whose lattice density has the same field. */
+KIFMM__FN int KIFMM__F(__lat_ring)(const KIFMM_NAME *c, double h, double *a)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const int q = c->opts.order + c->surf.cdiff, w = 2 * q - 1, nsc = c->surf.nsc, nc = c->surf.nc;
+    int *ix = (int *)kifmm__alloc((size_t)3 * nsc, sizeof(int)), i, j, a0, b0, rc;
+    double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
+    double *acc = c->surf.cdiff ? (double *)kifmm__alloc((size_t)nc * nc, sizeof(double)) : a;
+    kifmm__ops o;
+    memset(&o, 0, sizeof o);
+    rc = ix && gs && acc ? KIFMM__F(__lat_ring_sums)(c, h, q, gs) : KIFMM_ERR_NOMEM;
+    for (i = 0; i < nsc && !rc; i++) /* lattice indices 0 .. q - 1 */
+        for (j = 0; j < 3; j++) ix[3 * i + j] = (int)lround(0.5 * (c->surf.unit_c[j * nsc + i] + 1.0) * (q - 1));
+    for (j = 0; j < nsc && !rc; j++)
+        for (i = 0; i < nsc; i++) {
+            const int *xc = ix + 3 * i, *xe = ix + 3 * j;
+            const int64_t e = ((int64_t)(xc[0] - xe[0] + q - 1) * w + (xc[1] - xe[1] + q - 1)) * w +
+                              (xc[2] - xe[2] + q - 1);
+            for (a0 = 0; a0 < KIFMM__SD; a0++)
+                for (b0 = 0; b0 < KIFMM__SD; b0++)
+                    acc[(size_t)(i * KIFMM__SD + a0) + (size_t)(j * KIFMM__SD + b0) * nc] =
+                        gs[e * SD2 + a0 * KIFMM__SD + b0];
+        }
+#if KIFMM__FFT
+    if (!rc && c->surf.cdiff) rc = KIFMM__F(__build_conv)(c, h, &o);
+    if (!rc && c->surf.cdiff)
+        kifmm__gemm(0, 0, nc, c->surf.ne, nc, 1.0, acc, nc, o.conv, nc, 0.0, a, nc);
+#else
+    if (!rc && c->surf.cdiff) rc = KIFMM__F(__lat_ring_pairs)(c, h, a);
+#endif
+    kifmm__ops_free(&o);
+    if (acc != a) kifmm__free(acc);
+    kifmm__free(gs);
+    kifmm__free(ix);
+    return rc;
+}
+
+/* The densities (ne x QD) of unit point sources of each kind at the cell's
+ * centre, from the super-cell's solve o at half-width H: e (ne x SD, the
+ * surface kernel's, normalised so that S e = I) and mu = S (those of the
+ * kernel's own kinds, SD x QD). Scale-invariant kernels only, whose
+ * densities do not depend on the size. */
+KIFMM__FN int KIFMM__F(__lat_centre)(const KIFMM_NAME *c, const kifmm__ops *o, double H,
+                                     kifmm__lat *L)
+{
+    const int nc = c->surf.nc, ne = c->surf.ne, nsc = c->surf.nsc;
+    double *pc = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
+    double *k = (double *)kifmm__alloc((size_t)nc * (KIFMM__SD + KIFMM__QD), sizeof(double));
+    double *t = (double *)kifmm__alloc((size_t)o->ku * (KIFMM__SD + KIFMM__QD) + 1, sizeof(double));
+    double *x = (double *)kifmm__alloc((size_t)ne * (KIFMM__SD + KIFMM__QD), sizeof(double));
+    double kv[KIFMM__SD * (KIFMM__SD > KIFMM__QD ? KIFMM__SD : KIFMM__QD)], se[81];
+    const double zero[3] = {0.0, 0.0, 0.0};
+    int i, a, s, b, rc = KIFMM_SUCCESS;
+    L->e = (double *)kifmm__alloc((size_t)ne * KIFMM__SD, sizeof(double));
+    L->mu = (double *)kifmm__alloc((size_t)KIFMM__SD * KIFMM__QD, sizeof(double));
+    if (!pc || !k || !t || !x || !L->e || !L->mu) { rc = KIFMM_ERR_NOMEM; goto done; }
+    kifmm__surf_place(c->surf.unit_c, nsc, zero, c->surf.ao * H, pc);
+    for (i = 0; i < nsc; i++) {
+        KIFMM__R_(SC, _eval)(c->opts.kernel_param, pc[i], pc[nsc + i], pc[2 * nsc + i], kv);
+        for (a = 0; a < KIFMM__SD; a++)
+            for (s = 0; s < KIFMM__SD; s++) k[i * KIFMM__SD + a + (size_t)s * nc] = kv[a * KIFMM__SD + s];
+        KIFMM__R_(QC, _eval)(c->opts.kernel_param, pc[i], pc[nsc + i], pc[2 * nsc + i], kv);
+        for (a = 0; a < KIFMM__SD; a++)
+            for (s = 0; s < KIFMM__QD; s++)
+                k[i * KIFMM__SD + a + (size_t)(KIFMM__SD + s) * nc] = kv[a * KIFMM__QD + s];
+    }
+    kifmm__gemm(0, 0, o->ku, KIFMM__SD + KIFMM__QD, nc, 1.0, o->ut_up, o->ku, k, nc, 0.0, t, o->ku);
+    kifmm__gemm(0, 0, ne, KIFMM__SD + KIFMM__QD, o->ku, o->sigma, o->vs_up, ne, t, o->ku, 0.0, x, ne);
+    for (s = 0; s < KIFMM__SD * KIFMM__SD; s++) se[s] = 0.0;
+    for (s = 0; s < KIFMM__SD; s++)
+        for (i = 0; i < ne; i++) se[i % KIFMM__SD + s * KIFMM__SD] += x[i + (size_t)s * ne];
+    kifmm__small_inverse(se, KIFMM__SD);
+    kifmm__gemm(0, 0, ne, KIFMM__SD, KIFMM__SD, 1.0, x, ne, se, KIFMM__SD, 0.0, L->e, ne);
+    for (s = 0; s < KIFMM__QD; s++) {
+        double m[KIFMM__SD];
+        for (b = 0; b < KIFMM__SD; b++) m[b] = 0.0;
+        for (i = 0; i < ne; i++) m[i % KIFMM__SD] += x[i + (size_t)(KIFMM__SD + s) * ne];
+        /* a kind without a monopole (a dipole) sums to rounding: 0 */
+        for (b = 0; b < KIFMM__SD; b++) L->mu[b + s * KIFMM__SD] = fabs(m[b]) > 1e-6 ? m[b] : 0.0;
+    }
+done:
+    kifmm__free(pc);
+    kifmm__free(k);
+    kifmm__free(t);
+    kifmm__free(x);
+    return rc;
+}
+
+/* A, B and C of the recursion for a cell of half-width h (kifmm__lat), and
+ * (want_e) the centre's densities. */
+KIFMM__FN int KIFMM__F(__lat_level)(const KIFMM_NAME *c, double h, int want_e, kifmm__lat *L)
+{
+    const int nc = c->surf.nc, ne = c->surf.ne, big = nc > ne ? nc : ne;
+    const double H = 3.0 * h, ai = c->surf.ai, ao = c->surf.ao;
+    const int zero[3] = {0, 0, 0};
+    int m[27 * 3], nm, rc;
+    kifmm__ops o;
+    double *k = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    double *t = (double *)kifmm__alloc((size_t)big * big, sizeof(double));
+    memset(&o, 0, sizeof o);
+    L->nc = nc;
+    L->ne = ne;
+    L->sd = KIFMM__SD;
+    if (!L->a) L->a = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    if (!L->b) L->b = (double *)kifmm__alloc((size_t)nc * nc, sizeof(double));
+    if (!L->c) L->c = (double *)kifmm__alloc((size_t)ne * ne, sizeof(double));
+    rc = k && t && L->a && L->b && L->c ? KIFMM__F(__c2e_kernels)(c, H, ao, &o) : KIFMM_ERR_NOMEM;
+    if (!rc) rc = KIFMM__F(__c2e_solve)(c, &o);
+    /* C: the 27 (9, 3) cells' densities -> the super-cell's check -> density */
+    nm = kifmm__lat_offsets(&c->tree, 0, m);
+    if (!rc) rc = KIFMM__F(__lat_kmat)(c, ao * H, ai * h, h, m, nm, k);
+    if (!rc) {
+        kifmm__gemm(0, 0, o.ku, ne, nc, 1.0, o.ut_up, o.ku, k, nc, 0.0, t, o.ku);
+        kifmm__gemm(0, 0, ne, ne, o.ku, o.sigma, o.vs_up, ne, t, o.ku, 0.0, L->c, ne);
+    }
+    /* A: the cell's images in the super-cell's neighbours -> its check
+     * potential (each at least one cell apart: the M2L's geometry) */
+    if (!rc) rc = KIFMM__F(__lat_ring)(c, h, L->a);
+    /* B: the super-cell's check potential -> its density -> the cell's check */
+    if (!rc) rc = KIFMM__F(__lat_kmat)(c, ai * h, ao * H, H, zero, 1, k);
+    if (!rc) {
+        kifmm__gemm(0, 0, nc, o.kd, ne, 1.0, k, nc, o.vs_dn, ne, 0.0, t, nc);
+        kifmm__gemm(0, 0, nc, nc, o.kd, o.sigma, t, nc, o.ut_dn, o.kd, 0.0, L->b, nc);
+    }
+    if (!rc && want_e) rc = KIFMM__F(__lat_centre)(c, &o, H, L);
+    kifmm__ops_free(&o);
+    kifmm__free(k);
+    kifmm__free(t);
+    return rc;
+}
+
+/* T of a scale-invariant kernel of degree a at half-width 1: the fixed point
+ * of T = A P + 3^a B T P C P (P = I - e S: no monopole), with no constant
+ * field (noconst: three periodic directions, where the dipoles' images
+ * would otherwise grow a constant by 3 per step, and the constant is set
+ * by the zero mean). */
+KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, int noconst, double *T)
+{
+    const int nc = L->nc, ne = L->ne, sd = L->sd;
+    const double beta = pow(3.0, c->ops.degree);
+    double *x = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    double *y = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    int it;
+    if (!x || !y) {
+        kifmm__free(x);
+        kifmm__free(y);
+        return KIFMM_ERR_NOMEM;
+    }
+    kifmm__lat_project(L->a, nc, ne, sd, L->e);
+    kifmm__lat_project(L->c, ne, ne, sd, L->e);
+    kifmm__lat_project_left(L->c, ne, ne, sd, L->e);
+    if (noconst) kifmm__lat_no_constant(L->a, nc, ne, sd);
+    memcpy(T, L->a, (size_t)nc * ne * sizeof(double));
+    for (it = 0; it < 200; it++) {
+        double d = 0.0, big;
+        size_t i;
+        kifmm__gemm(0, 0, nc, ne, ne, 1.0, T, nc, L->c, ne, 0.0, x, nc);
+        memcpy(y, L->a, (size_t)nc * ne * sizeof(double));
+        kifmm__gemm(0, 0, nc, ne, nc, beta, L->b, nc, x, nc, 1.0, y, nc);
+        if (noconst) kifmm__lat_no_constant(y, nc, ne, sd);
+        for (i = 0; i < (size_t)nc * ne; i++) {
+            d = fabs(y[i] - T[i]) > d ? fabs(y[i] - T[i]) : d;
+            T[i] = y[i];
+        }
+        big = kifmm__max_abs(T, (size_t)nc * ne);
+        if (it > 2 && d <= 1e-16 * big) break;
+    }
+    kifmm__free(x);
+    kifmm__free(y);
+    return KIFMM_SUCCESS;
+}
+
+/* T of any other kernel at the root's half-width h: the sum over levels j of
+ * B_0 .. B_(j-1) A_j C_(j-1) .. C_0, with the operators of each super-cell
+ * size, until a level's term is below 1e-17 of the sum (a Yukawa kernel
+ * at lambda = 1e-3 / h: 12 levels); KIFMM_ERR_PERIODIC if 20 levels do not
+ * get there (a kernel that does not decay). */
+KIFMM__FN int KIFMM__F(__lat_sum)(const KIFMM_NAME *c, double h, double *T)
+{
+    const int nc = c->surf.nc, ne = c->surf.ne;
+    double *bacc = (double *)kifmm__calloc((size_t)nc * nc, sizeof(double));
+    double *cacc = (double *)kifmm__calloc((size_t)ne * ne, sizeof(double));
+    double *x = (double *)kifmm__alloc((size_t)nc * (nc > ne ? nc : ne), sizeof(double));
+    double *y = (double *)kifmm__alloc((size_t)(nc > ne ? nc : ne) * (nc > ne ? nc : ne), sizeof(double));
+    kifmm__lat L;
+    int j, i, rc = bacc && cacc && x && y ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    memset(&L, 0, sizeof L);
+    memset(T, 0, (size_t)nc * ne * sizeof(double));
+    for (i = 0; i < nc && !rc; i++) bacc[i + (size_t)i * nc] = 1.0;
+    for (i = 0; i < ne && !rc; i++) cacc[i + (size_t)i * ne] = 1.0;
+    for (j = 0; !rc; j++, h *= 3.0) {
+        double tb, sb;
+        if (j == 20) { rc = KIFMM_ERR_PERIODIC; break; }
+        if ((rc = KIFMM__F(__lat_level)(c, h, 0, &L))) break;
+        kifmm__gemm(0, 0, nc, ne, ne, 1.0, L.a, nc, cacc, ne, 0.0, x, nc);
+        kifmm__gemm(0, 0, nc, ne, nc, 1.0, bacc, nc, x, nc, 1.0, T, nc);
+        kifmm__gemm(0, 0, nc, ne, nc, 1.0, bacc, nc, x, nc, 0.0, y, nc);
+        tb = kifmm__max_abs(y, (size_t)nc * ne);
+        sb = kifmm__max_abs(T, (size_t)nc * ne);
+        if (j > 0 && tb <= 1e-17 * sb) break;
+        if (sb == 0.0 && j > 0) break; /* nothing reaches past the neighbours */
+        kifmm__gemm(0, 0, nc, nc, nc, 1.0, bacc, nc, L.b, nc, 0.0, y, nc);
+        memcpy(bacc, y, (size_t)nc * nc * sizeof(double));
+        kifmm__gemm(0, 0, ne, ne, ne, 1.0, L.c, ne, cacc, ne, 0.0, y, ne);
+        memcpy(cacc, y, (size_t)ne * ne * sizeof(double));
+    }
+    kifmm__lat_free(&L);
+    kifmm__free(bacc);
+    kifmm__free(cacc);
+    kifmm__free(x);
+    kifmm__free(y);
+    return rc;
+}
+
+/* The periodic tree's far-image operator, in the instance's precision,
+ * times the root's check scale: c->lat.t (nc x ne); and for scale-invariant
+ * kernels the monopole map c->lat.mu. */
+KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
+{
+    const size_t nn = (size_t)c->surf.nc * c->surf.ne;
+    const double h0 = 0.5 * c->tree.width;
+    double *T = (double *)kifmm__alloc(nn, sizeof(double)), s0;
+    kifmm__lat L;
+    size_t i;
+    int rc = T ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, d, np = 0;
+    memset(&L, 0, sizeof L);
+    for (d = 0; d < 3; d++) np += c->tree.per[d];
+    /* three periodic directions of a scale-invariant kernel need the
+     * conventions of docs/api.md (the shape term, zero mean, the
+     * neutralising background), not in this version */
+    if (!rc && KIFMM__SI && np == 3) rc = KIFMM_ERR_PERIODIC;
+    if (!rc && KIFMM__SI) {
+        rc = KIFMM__F(__lat_level)(c, 1.0, 1, &L);
+        if (!rc) rc = KIFMM__F(__lat_fixed)(c, &L, np == 3, T);
+        if (!rc) {
+            c->lat.mu = L.mu;
+            L.mu = NULL;
+            c->held += kifmm__size(c->lat.mu);
+        }
+    } else if (!rc) {
+        rc = KIFMM__F(__lat_sum)(c, h0, T);
+    }
+    s0 = c->ops.at[0].sigma; /* the root's check scale: see __level_scale */
+    for (i = 0; i < nn && !rc; i++) T[i] *= s0;
+    if (!rc && !(c->lat.t = KIFMM__F(__own)(&c->held, &T, nn))) rc = KIFMM_ERR_NOMEM;
+    kifmm__free(T);
+    kifmm__lat_free(&L);
     return rc;
 }
 
@@ -3916,10 +4536,12 @@ KIFMM__FN KIFMM__R *KIFMM__F(__gbuf)(const KIFMM_NAME *c)
 }
 
 /* Values per thread of the scratch: three surfaces of max(nsc, nse)
- * points, then (float instances) a frame of c->work.fpts points. */
+ * points, then (float instances) a frame of c->work.fpts points, then
+ * (periodic trees) the image of a box's sources, c->work.ipts points. */
 KIFMM__FN size_t KIFMM__F(__scratch_per)(const KIFMM_NAME *c)
 {
-    return 9 * (size_t)(c->surf.nsc > c->surf.nse ? c->surf.nsc : c->surf.nse) + 3 * c->work.fpts;
+    return 9 * (size_t)(c->surf.nsc > c->surf.nse ? c->surf.nsc : c->surf.nse) +
+           3 * c->work.fpts + 3 * c->work.ipts;
 }
 
 /* The calling thread's scratch (see __scratch_per). */
@@ -3932,6 +4554,26 @@ KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
 KIFMM__FN KIFMM__R *KIFMM__F(__framebuf)(const KIFMM_NAME *c)
 {
     return KIFMM__F(__scratch)(c) + 9 * (size_t)(c->surf.nsc > c->surf.nse ? c->surf.nsc : c->surf.nse);
+}
+
+/* The sources of box a moved by image s (a shift code) into the thread's
+ * image buffer (structure of arrays, its count apart); the sorted sources
+ * themselves for s = KIFMM__NOSHIFT. *ld: values per coordinate. */
+KIFMM__FN const KIFMM__R *KIFMM__F(__image)(const KIFMM_NAME *c, int32_t a, int s, size_t *ld)
+{
+    const kifmm__tree *t = &c->tree;
+    const int64_t s0 = t->s0[a], n = t->s1[a] - s0;
+    KIFMM__R *buf = KIFMM__F(__framebuf)(c) + 3 * c->work.fpts;
+    int64_t i;
+    int d, sh[3];
+    *ld = (size_t)t->ns;
+    if (s == KIFMM__NOSHIFT) return c->pts.src + s0;
+    kifmm__shift_of(s, sh);
+    for (d = 0; d < 3; d++)
+        for (i = 0; i < n; i++)
+            buf[(size_t)d * n + i] = (KIFMM__R)((double)c->pts.src[(size_t)d * t->ns + s0 + i] + sh[d] * t->width);
+    *ld = (size_t)n;
+    return buf;
 }
 
 /* The n points of a sorted set from position p0 on (structure of arrays,
@@ -4489,19 +5131,24 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
 }
 #endif
 
-/* out += the field, at nt targets, of the sources of box a (vector r's
- * outputs from out + r old on). */
+/* out += the field, at nt targets, of the sources of image s of box a
+ * (vector r's outputs from out + r old on). */
 KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                        int32_t a, const KIFMM__R *tx, const KIFMM__R *ty,
-                                        const KIFMM__R *tz, int64_t nt, KIFMM__R *out,
-                                        size_t old)
+                                        int32_t a, int s, const KIFMM__R *tx,
+                                        const KIFMM__R *ty, const KIFMM__R *tz, int64_t nt,
+                                        KIFMM__R *out, size_t old)
 {
     const kifmm__tree *t = &c->tree;
-    int64_t s0 = t->s0[a];
-    KIFMM__F(__p2p_qt)(c->opts.kernel_param, tx, ty, tz, nt, c->pts.src + s0, c->pts.src + t->ns + s0,
-                    c->pts.src + 2 * t->ns + s0, w->qs + s0 * KIFMM__QD, t->s1[a] - s0, nrhs,
-                    (size_t)t->ns * KIFMM__QD, 1.0, out, old);
+    const int64_t s0 = t->s0[a];
+    size_t ld;
+    const KIFMM__R *xs = KIFMM__F(__image)(c, a, s, &ld);
+    KIFMM__F(__p2p_qt)(c->opts.kernel_param, tx, ty, tz, nt, xs, xs + ld, xs + 2 * ld,
+                       w->qs + s0 * KIFMM__QD, t->s1[a] - s0, nrhs, (size_t)t->ns * KIFMM__QD,
+                       1.0, out, old);
 }
+
+/* The shift code of entry e of a list with shifts sh (NULL: free space). */
+#define KIFMM__SH(sh, e) ((sh) ? (int)(sh)[e] : KIFMM__NOSHIFT)
 
 /* Box b with fewer targets than check points: its X sources go straight to
  * its targets (only this task writes them; the leaves' pass runs after the
@@ -4515,8 +5162,9 @@ KIFMM__FN void KIFMM__F(__x_direct)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     const size_t old = w->outs ? (size_t)t->nt * KIFMM__TD : (size_t)ntb * KIFMM__TD;
     int32_t e;
     for (e = t->xo[b]; e < t->xo[b + 1]; e++)
-        KIFMM__F(__from_sources)(c, w, nrhs, t->x[e], c->pts.trg + tb0, c->pts.trg + t->nt + tb0,
-                                 c->pts.trg + 2 * t->nt + tb0, ntb, o, old);
+        KIFMM__F(__from_sources)(c, w, nrhs, t->x[e], KIFMM__SH(t->xs, e), c->pts.trg + tb0,
+                                 c->pts.trg + t->nt + tb0, c->pts.trg + 2 * t->nt + tb0, ntb, o,
+                                 old);
     if (!w->outs) KIFMM__F(__put)(c, w, nrhs, tb0, ntb, o, old);
 }
 
@@ -4530,7 +5178,7 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
 {
     const kifmm__tree *t = &c->tree;
     const double zero[3] = {0.0, 0.0, 0.0};
-    const int32_t a = l >= 3 ? t->dsrc[t->parent[b]] : -1;
+    const int32_t a = l >= 1 ? t->dsrc[t->parent[b]] : -1;
     const int nsc = c->surf.nsc, nse = c->surf.nse;
     KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (nsc > nse ? nsc : nse);
     double ctr[3], half;
@@ -4549,11 +5197,17 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     for (e = t->xo[b]; e < t->xo[b + 1] && t->t1[b] - t->t0[b] >= nsc; e++) {
         const int32_t xb = t->x[e];
         const int64_t s0 = t->s0[xb];
-        double fc[3];
+        double fc[3], cs[3];
         size_t ld = (size_t)t->ns;
         const KIFMM__R *xs;
-        memcpy(fc, ctr, sizeof fc);
+        int sh[3], d;
+        /* image s of the X box: the box's frame (float) or its check surface
+         * (double) moved by -s instead */
+        kifmm__shift_of(KIFMM__SH(t->xs, e), sh);
+        for (d = 0; d < 3; d++) fc[d] = cs[d] = ctr[d] - sh[d] * t->width;
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
+        if (!KIFMM__FLOAT && t->periodic)
+            KIFMM__F(__place)(c->surf.unit_c, nsc, cs, c->surf.ai * half, pc);
         KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, xs, xs + ld,
                            xs + 2 * ld, w->qs + s0 * KIFMM__QD, t->s1[xb] - s0, nrhs,
                            (size_t)t->ns * KIFMM__QD, scale, chk, cst);
@@ -4584,6 +5238,17 @@ KIFMM__FN void KIFMM__F(__m2l_solve)(KIFMM_NAME *c, const KIFMM__F(__work) *w, i
     c->stats.t_l2l += (t1 - t0) + (kifmm__now() - t2);
 }
 
+/* A periodic tree's root: its check vectors from the far images, through
+ * the operator of __lattice_build. */
+KIFMM__FN void KIFMM__F(__lattice_apply)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
+{
+    const size_t per = (size_t)c->tree.nbox * (size_t)c->surf.ne;
+    int r;
+    for (r = 0; r < nrhs; r++)
+        KIFMM__F(__gemm)(c->surf.nc, 1, c->surf.ne, c->lat.t, c->surf.nc, w->ue + r * per,
+                         c->surf.ne, 0, w->chk + (size_t)r * c->surf.nc, c->surf.nc);
+}
+
 /* Downward pass at level l: L2L from the parents, X sources and far
  * ancestors per box (__x_direct, __p2l_box; a box served by an ancestor's
  * expansion does not refit), then the M2L and the solve. Timed as L2L (with
@@ -4594,7 +5259,8 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
     const size_t cst = (size_t)KIFMM__LVL(c, l) * c->surf.nc;
     const double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now();
     double t1;
-    if (l >= 3) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
+    if (l > kifmm__lmin(t)) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
+    else if (l == 0) KIFMM__F(__lattice_apply)(c, w, nrhs); /* the far images */
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
     t1 = kifmm__now();
     /* box b writes its own check vectors and its own targets' outputs */
@@ -4618,18 +5284,20 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
 // >>leaves
 
 /* out += the field, at nt targets (coordinates in the frame centred at fc,
- * see __frame), of densities (vector stride nbox ne) on the surface of box a
- * (radius alpha half-widths); pe holds the placed surface; vector r's
- * outputs from out + r old on. */
+ * see __frame), of densities (vector stride nbox ne) on the surface of
+ * image s of box a (radius alpha half-widths); pe holds the placed surface;
+ * vector r's outputs from out + r old on. */
 KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                        int32_t a, double alpha, const KIFMM__R *dens,
+                                        int32_t a, int s, double alpha, const KIFMM__R *dens,
                                         const double *fc, const KIFMM__R *tx,
                                         const KIFMM__R *ty, const KIFMM__R *tz, int64_t nt,
                                         KIFMM__R *pe, KIFMM__R *out, size_t old)
 {
     double ctr[3], half;
+    int sh[3], d;
     kifmm__box_center(&c->tree, a, ctr, &half);
-    kifmm__sub3(ctr, fc, ctr); /* in the targets' frame */
+    kifmm__shift_of(s, sh);
+    for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree.width - fc[d]; /* in the targets' frame */
     KIFMM__F(__place)(c->surf.unit_e, c->surf.nse, ctr, alpha * half, pe);
     KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + c->surf.nse, pe + 2 * c->surf.nse, dens, c->surf.nse,
                     nrhs, (size_t)c->tree.nbox * c->surf.ne, 1.0, out, old);
@@ -4637,31 +5305,34 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
 }
 
 #if KIFMM__MUTUAL
-/* Both directions between the sorted points [a0, a0 + na) and [b0, b0 +
- * nb) (the sources are the targets), outputs at oa and ob (vector stride
- * old), through the kernel's mutual hooks. */
+/* Both directions between the points of leaf a and those of image s of
+ * leaf b (the sources are the targets; a != b), outputs at oa and ob
+ * (vector stride old), through the kernel's mutual hooks. */
 KIFMM__FN void KIFMM__F(__p2p_pair)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                    int64_t a0, int64_t na, int64_t b0, int64_t nb, KIFMM__R *oa,
-                                    KIFMM__R *ob, size_t old)
+                                    int32_t a, int32_t b, int s, KIFMM__R *oa, KIFMM__R *ob,
+                                    size_t old)
 {
-    const size_t n = (size_t)c->tree.ns, qld = n * KIFMM__QD;
-    const KIFMM__R *s = c->pts.src, *qa = w->qs + a0 * KIFMM__QD, *qb = w->qs + b0 * KIFMM__QD;
+    const kifmm__tree *t = &c->tree;
+    const size_t n = (size_t)t->ns, qld = n * KIFMM__QD;
+    const int64_t a0 = t->s0[a], na = t->s1[a] - a0, b0 = t->s0[b], nb = t->s1[b] - b0;
+    const KIFMM__R *x = c->pts.src + a0, *qa = w->qs + a0 * KIFMM__QD, *qb = w->qs + b0 * KIFMM__QD;
     const double *prm = c->opts.kernel_param;
+    size_t lb;
+    const KIFMM__R *y = KIFMM__F(__image)(c, b, s, &lb);
     int r;
     if (nrhs == 1) {
-        KIFMM__HOOK(QT, p2ps)(prm, s + a0, s + n + a0, s + 2 * n + a0, qa, na, s + b0, s + n + b0,
-                              s + 2 * n + b0, qb, nb, (KIFMM__R)1, oa, ob);
+        KIFMM__HOOK(QT, p2ps)(prm, x, x + n, x + 2 * n, qa, na, y, y + lb, y + 2 * lb, qb, nb,
+                              (KIFMM__R)1, oa, ob);
         return;
     }
 #if KIFMM__HAS_QT & KIFMM__B_P2PSN
     (void)r;
-    KIFMM__HOOK(QT, p2psn)(prm, s + a0, s + n + a0, s + 2 * n + a0, qa, na, s + b0, s + n + b0,
-                           s + 2 * n + b0, qb, nb, nrhs, qld, (KIFMM__R)1, oa, ob, old);
+    KIFMM__HOOK(QT, p2psn)(prm, x, x + n, x + 2 * n, qa, na, y, y + lb, y + 2 * lb, qb, nb, nrhs,
+                           qld, (KIFMM__R)1, oa, ob, old);
 #else
     for (r = 0; r < nrhs; r++)
-        KIFMM__HOOK(QT, p2ps)(prm, s + a0, s + n + a0, s + 2 * n + a0, qa + r * qld, na, s + b0,
-                              s + n + b0, s + 2 * n + b0, qb + r * qld, nb, (KIFMM__R)1,
-                              oa + r * old, ob + r * old);
+        KIFMM__HOOK(QT, p2ps)(prm, x, x + n, x + 2 * n, qa + r * qld, na, y, y + lb, y + 2 * lb,
+                              qb + r * qld, nb, (KIFMM__R)1, oa + r * old, ob + r * old);
 #endif
 }
 #endif
@@ -4684,17 +5355,18 @@ KIFMM__FN void KIFMM__F(__p2p_u)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     int32_t e;
     for (e = t->uo[b]; e < t->uo[b + 1]; e++) {
         const int32_t a = t->u[e];
+        const int s = KIFMM__SH(t->us, e);
 #if KIFMM__MUTUAL
         const int64_t ta = t->t0[a];
         if (a != b && ta >= lo && ta < hi) {
-            /* sources are the targets: s0 = t0, src = trg */
+            /* sources are the targets: s0 = t0, src = trg; a's entry for b
+             * has the opposite image */
             if (ta > t0)
-                KIFMM__F(__p2p_pair)(c, w, nrhs, t0, ntb, ta, t->t1[a] - ta, out,
-                                     ob + (ta - base) * KIFMM__TD, old);
+                KIFMM__F(__p2p_pair)(c, w, nrhs, b, a, s, out, ob + (ta - base) * KIFMM__TD, old);
             continue;
         }
 #endif
-        KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
+        KIFMM__F(__from_sources)(c, w, nrhs, a, s, tx, ty, tz, ntb, out, old);
     }
     (void)lo;
     (void)hi;
@@ -4723,16 +5395,17 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
         xf = KIFMM__F(__frame)(c->pts.trg, &ld, t0, ntb, fc, KIFMM__F(__framebuf)(c));
     }
     if (t->dsrc[b] >= 0)
-        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], c->surf.ao,
+        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__NOSHIFT, c->surf.ao,
                                  w->de + (size_t)t->dsrc[b] * c->surf.ne, fc, xf, xf + ld,
                                  xf + 2 * ld, ntb, pe, out, old);
     c1 = kifmm__now();
     for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
         const int32_t a = t->w[e];
+        const int s = KIFMM__SH(t->ws, e);
         if (t->s1[a] - t->s0[a] <= c->surf.nse)
-            KIFMM__F(__from_sources)(c, w, nrhs, a, tx, ty, tz, ntb, out, old);
+            KIFMM__F(__from_sources)(c, w, nrhs, a, s, tx, ty, tz, ntb, out, old);
         else
-            KIFMM__F(__from_surface)(c, w, nrhs, a, c->surf.ai,
+            KIFMM__F(__from_surface)(c, w, nrhs, a, s, c->surf.ai,
                                      w->ue + (size_t)a * c->surf.ne, fc, xf, xf + ld, xf + 2 * ld,
                                      ntb, pe, out, old);
     }
@@ -4893,6 +5566,8 @@ KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->fft.loc); kifmm__free(h->fft.need); kifmm__free(h->fft.cjl);
     kifmm__free(h->fft.sch);
     kifmm__free(h->near.chunk);
+    kifmm__free(h->lat.t);
+    kifmm__free(h->lat.mu);
     kifmm__free(h);
 }
 
@@ -4981,7 +5656,7 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
         for (int64_t i = 0; i < 3 * nt; i++) g[i] = trg[i];
     }
     rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads,
-                           !KIFMM__FFT);
+                           !KIFMM__FFT, o->period);
     kifmm__free(s);
     if (!same) kifmm__free(g);
     if (rc) return rc;
@@ -4997,7 +5672,7 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
     if (!c->pts.src || !c->pts.trg) return KIFMM_ERR_NOMEM;
 #else
     rc = kifmm__tree_build(&c->tree, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads,
-                           !KIFMM__FFT);
+                           !KIFMM__FFT, o->period);
     if (rc) return rc;
     c->pts.src = c->tree.src;
     c->pts.trg = c->tree.trg;
@@ -5013,9 +5688,11 @@ KIFMM__FN int KIFMM__F(__plan_buffers)(KIFMM_NAME *h)
 {
     const size_t nth = (size_t)h->opts.nthreads;
     h->work.fpts = KIFMM__FLOAT ? (size_t)kifmm__max_leaf(&h->tree) : 0;
+    h->work.ipts = h->tree.periodic ? (size_t)kifmm__max_leaf(&h->tree) : 0;
+    if (h->tree.periodic && h->work.ipts < (size_t)h->surf.nse) h->work.ipts = (size_t)h->surf.nse;
     h->work.scratch = (KIFMM__R *)kifmm__take(&h->held, nth * KIFMM__F(__scratch_per)(h),
                                               sizeof(KIFMM__R));
-    h->work.gbuf_n = h->tree.nlev > 2 ? (KIFMM__GC_FAST ? nth : 1) * KIFMM__F(__gbuf_per)(h) : 0;
+    h->work.gbuf_n = h->tree.nlev > kifmm__lmin(&h->tree) ? (KIFMM__GC_FAST ? nth : 1) * KIFMM__F(__gbuf_per)(h) : 0;
     h->work.gbuf = (KIFMM__R *)kifmm__take(&h->held, h->work.gbuf_n, sizeof(KIFMM__R));
     return h->work.scratch && h->work.gbuf ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
 }
@@ -5045,7 +5722,7 @@ KIFMM__FN int KIFMM__F(__plan_slabs)(KIFMM_NAME *h, size_t esz)
     const kifmm__tree *t = &h->tree;
     size_t *held = &h->held;
     int32_t l, i, m = 1, mc = 1;
-    for (l = 1; l + 1 < t->nlev; l++) {
+    for (l = kifmm__lmin(t) > 0 ? 1 : 0; l + 1 < t->nlev; l++) {
         if (t->ioff[l + 1] - t->ioff[l] > m) m = t->ioff[l + 1] - t->ioff[l];
         if (h->fft.co[t->ioff[l + 1]] - h->fft.co[t->ioff[l]] > mc)
             mc = h->fft.co[t->ioff[l + 1]] - h->fft.co[t->ioff[l]];
@@ -5206,6 +5883,8 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
 #endif
         if (!rc && KIFMM__MUTUAL && h->tree.same) rc = KIFMM__F(__pair_plan)(h);
         if (!rc) rc = KIFMM__F(__precompute)(h);
+        if (!rc && h->tree.periodic) rc = KIFMM__F(__lattice_build)(h);
+        h->lat.neutral = h->tree.periodic && KIFMM__SI;
 #if KIFMM__FFT
         if (!rc) rc = KIFMM__F(__plan_fout)(h);
 #endif
@@ -5301,8 +5980,8 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     KIFMM__F(__gather_densities)(h, w, nr, d);
     w->dst = o;
     memset(w->outs ? w->outs : w->dst, 0, (size_t)nr * oper * sizeof(KIFMM__R));
-    for (l = t->nlev - 1; l >= 2; l--) KIFMM__F(__upward)(h, w, nr, l);
-    for (l = 2; l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
+    for (l = t->nlev - 1; l >= kifmm__lmin(t); l--) KIFMM__F(__upward)(h, w, nr, l);
+    for (l = kifmm__lmin(t); l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
     KIFMM__F(__leaves)(h, w, nr);
     w->dst = NULL;
     if (!w->outs) return;
@@ -5316,6 +5995,41 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     }
 }
 
+/* Periodic trees of scale-invariant kernels: KIFMM_ERR_NEUTRAL unless every
+ * vector's densities sum to zero per surface component (through lat.mu: a
+ * dipole's kinds carry none), to 1e-10 (float: 1e-4) of the sum of their
+ * magnitudes. */
+KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIFMM__R *d)
+{
+    const kifmm__tree *t = &h->tree;
+    const double tol = KIFMM__FLOAT ? 1e-4 : 1e-10;
+    int r, b, bad = 0;
+    if (!h->lat.neutral) return KIFMM_SUCCESS;
+    for (r = 0; r < nrhs; r++) {
+        double q[KIFMM__SD], m[KIFMM__SD];
+        for (b = 0; b < KIFMM__SD; b++) q[b] = m[b] = 0.0;
+        for (int64_t i = 0; i < t->ns; i++) {
+            const KIFMM__R *in = d + (size_t)r * t->ns * KIFMM__UD + (size_t)i * KIFMM__UD;
+            double lin[KIFMM__QD];
+            int k;
+#if KIFMM__HAS_QT & KIFMM_HAS_DENSITY
+            double u[KIFMM__UD];
+            for (k = 0; k < KIFMM__UD; k++) u[k] = (double)in[k];
+            KIFMM__K(_density)(h->opts.kernel_param, u, lin);
+#else
+            for (k = 0; k < KIFMM__QD; k++) lin[k] = (double)in[k];
+#endif
+            for (b = 0; b < KIFMM__SD; b++)
+                for (k = 0; k < KIFMM__QD; k++) {
+                    q[b] += h->lat.mu[b + k * KIFMM__SD] * lin[k];
+                    m[b] += fabs(h->lat.mu[b + k * KIFMM__SD] * lin[k]);
+                }
+        }
+        for (b = 0; b < KIFMM__SD; b++) bad |= !(fabs(q[b]) <= tol * m[b]);
+    }
+    return bad ? KIFMM_ERR_NEUTRAL : KIFMM_SUCCESS;
+}
+
 KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
                                         KIFMM__R *out)
 {
@@ -5324,6 +6038,7 @@ KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R 
     int r0, nr, cap, rc;
     double t0;
     if (KIFMM__F(__eval_check)(h, nrhs, densities, out, &rc)) return rc;
+    if ((rc = KIFMM__F(__check_neutral)(h, nrhs, densities))) return rc;
     qper = (size_t)h->tree.ns * KIFMM__UD;
     oper = (size_t)h->tree.nt * KIFMM__TD;
     cap = nrhs < KIFMM__RHS_MAX ? nrhs : KIFMM__RHS_MAX;

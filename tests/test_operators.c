@@ -348,7 +348,7 @@ static void test_tree(const char *name, int64_t n, const double *xyz, int leaf)
     /* the handle's tree again, with its V entries (the FFT M2L keeps only
      * their counts): the same builder, the same options */
     CHECK(kifmm__tree_build(&tree, n, xyz, n, xyz, h->opts.leaf_size, h->opts.max_depth,
-                            h->opts.nthreads, 1) == 0,
+                            h->opts.nthreads, 1, NULL) == 0,
           "tree with V entries, %s", name);
     CHECK(tree.nbox == h->tree.nbox && tree.nlev == h->tree.nlev &&
               !memcmp(tree.vo, h->tree.vo, ((size_t)tree.nbox + 1) * sizeof(int32_t)) &&
