@@ -4002,7 +4002,7 @@ KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const
 KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 {
     const kifmm__tree *t = &c->tree;
-    const int n = KIFMM__SI ? 1 : t->nlev, l0 = KIFMM__SI ? 0 : kifmm__lmin(t);
+    const int n = KIFMM__SI ? 1 : (t->nlev > 1 ? t->nlev : 1), l0 = KIFMM__SI ? 0 : kifmm__lmin(t);
     kifmm__ops *o = (kifmm__ops *)kifmm__calloc((size_t)n, sizeof(kifmm__ops));
     double *r = (double *)kifmm__alloc((size_t)n, sizeof(double));
     int *m2l = (int *)kifmm__calloc((size_t)n, sizeof(int)), *rcs = (int *)kifmm__calloc((size_t)n, sizeof(int));

@@ -34,7 +34,7 @@ typedef struct {
     int mmax, nimg; /* |m_a| <= mmax; real-space images |n_a| <= nimg */
 } t_ewald_split;
 
-static t_ewald_split t_ewald_plan(double L, double aL, double tol)
+static inline t_ewald_split t_ewald_plan(double L, double aL, double tol)
 {
     t_ewald_split s;
     const double x = sqrt(-log(tol)); /* erfc(x) ~ exp(-x^2) / (x sqrt(pi)) */
@@ -45,7 +45,7 @@ static t_ewald_split t_ewald_plan(double L, double aL, double tol)
     return s;
 }
 
-static void t_ewald_laplace_split(int64_t ns, const double *xs, const double *q, int64_t nt,
+static inline void t_ewald_laplace_split(int64_t ns, const double *xs, const double *q, int64_t nt,
                                   const double *xt, double L, t_ewald_split sp, double *out)
 {
     const long double a = sp.alpha, V = (long double)L * L * L, four_pi = 4.0L * T_EW_PI;
@@ -119,10 +119,85 @@ static void t_ewald_laplace_split(int64_t ns, const double *xs, const double *q,
 }
 
 /* The sums at the default split (alpha L = 5, relative accuracy 1e-15). */
-static void t_ewald_laplace(int64_t ns, const double *xs, const double *q, int64_t nt,
+static inline void t_ewald_laplace(int64_t ns, const double *xs, const double *q, int64_t nt,
                             const double *xt, double L, double *out)
 {
     t_ewald_laplace_split(ns, xs, q, nt, xt, L, t_ewald_plan(L, 5.0, 1e-15), out);
+}
+
+/* t_ewald2d_laplace: the potential, under K = 1 / (4 pi r), of charges q_j
+ * at x_j summing to zero and all their images x_j + (n1 L, n2 L, 0) (a
+ * square cell of side L, periodic in x and y, free in z), at nt targets
+ * (out[i]); a target at a source's position leaves that source's own term
+ * out. Ewald's split for two periodic directions (Parry 1975; e.g. Frenkel
+ * and Smit, ch. 12, or Grzybowski et al. 2000), at alpha: real space
+ * sum erfc(alpha r) / r over in-plane images within rc; reciprocal space
+ * (pi / A) sum_{k != 0} cos(k.rho) / |k| [e^{|k| z} erfc(|k| / (2 alpha) +
+ * alpha z) + e^{-|k| z} erfc(|k| / (2 alpha) - alpha z)] with rho, z the
+ * in-plane and normal parts of the offset, k = 2 pi m / L; and the k = 0
+ * term of a neutral cell, -(2 pi / A) [z erf(alpha z) + e^{-alpha^2 z^2} /
+ * (alpha sqrt(pi))]. The sums run in long double. */
+static inline void t_ewald2d_split(int64_t ns, const double *xs, const double *q, int64_t nt,
+                            const double *xt, double L, t_ewald_split sp, double *out)
+{
+    const long double a = sp.alpha, A = (long double)L * L, pi = T_EW_PI;
+    const long double spi = sqrtl(pi);
+    long double *br = (long double *)calloc((size_t)2 * sp.mmax * sp.mmax + 1, sizeof(long double));
+    long double *cx = (long double *)calloc((size_t)4 * (sp.mmax + 1), sizeof(long double));
+    long double *sx = cx + sp.mmax + 1, *cy = sx + sp.mmax + 1, *sy = cy + sp.mmax + 1;
+    int64_t i, j;
+    for (i = 0; i < nt; i++) {
+        long double p = 0.0L;
+        for (j = 0; j < ns; j++) {
+            const long double dx = (long double)xt[3 * i] - xs[3 * j];
+            const long double dy = (long double)xt[3 * i + 1] - xs[3 * j + 1];
+            const long double z = (long double)xt[3 * i + 2] - xs[3 * j + 2];
+            long double s = 0.0L;
+            int n1, n2;
+            for (n1 = -sp.nimg; n1 <= sp.nimg; n1++)
+                for (n2 = -sp.nimg; n2 <= sp.nimg; n2++) {
+                    const long double ux = dx + n1 * (long double)L, uy = dy + n2 * (long double)L;
+                    const long double r = sqrtl(ux * ux + uy * uy + z * z);
+                    if (r == 0.0L) s -= 2.0L * a / spi; /* the source's own term left out */
+                    else if (r < sp.rc) s += erfcl(a * r) / r;
+                }
+            /* cos(k.rho) from the cosines and sines of each direction; the
+             * bracket depends on |k| alone: once per n1^2 + n2^2 */
+            for (n1 = 0; n1 <= 2 * sp.mmax * sp.mmax; n1++) br[n1] = -1.0L;
+            for (n1 = 0; n1 <= sp.mmax; n1++) {
+                cx[n1] = cosl(2.0L * pi * n1 * dx / L);
+                sx[n1] = sinl(2.0L * pi * n1 * dx / L);
+                cy[n1] = cosl(2.0L * pi * n1 * dy / L);
+                sy[n1] = sinl(2.0L * pi * n1 * dy / L);
+            }
+            for (n1 = -sp.mmax; n1 <= sp.mmax; n1++)
+                for (n2 = -sp.mmax; n2 <= sp.mmax; n2++) {
+                    const int kk = n1 * n1 + n2 * n2, m1 = n1 < 0 ? -n1 : n1, m2 = n2 < 0 ? -n2 : n2;
+                    const long double sg = (n1 < 0) == (n2 < 0) ? 1.0L : -1.0L;
+                    if (kk == 0) continue;
+                    if (br[kk] < 0.0L) {
+                        const long double k = 2.0L * pi * sqrtl((long double)kk) / L;
+                        br[kk] = pi / A / k *
+                                 (expl(k * z) * erfcl(k / (2.0L * a) + a * z) +
+                                  expl(-k * z) * erfcl(k / (2.0L * a) - a * z));
+                    }
+                    /* cos(u + v) = cos u cos v - sin u sin v, sines odd in n */
+                    s += br[kk] * (cx[m1] * cy[m2] - sg * sx[m1] * sy[m2]);
+                }
+            s -= 2.0L * pi / A * (z * erfl(a * z) + expl(-a * a * z * z) / (a * spi));
+            p += q[j] * s;
+        }
+        out[i] = (double)(p / (4.0L * pi));
+    }
+    free(br);
+    free(cx);
+}
+
+/* The sums at the default split (alpha L = 5, relative accuracy 1e-15). */
+static inline void t_ewald2d_laplace(int64_t ns, const double *xs, const double *q, int64_t nt,
+                              const double *xt, double L, double *out)
+{
+    t_ewald2d_split(ns, xs, q, nt, xt, L, t_ewald_plan(L, 5.0, 1e-15), out);
 }
 
 #endif

@@ -1,0 +1,356 @@
+/* test_periodic.c - periodic boundaries (opts.period) against references
+ * computed here, never by the library:
+ *   - Yukawa in one, two and three periodic directions: direct sums over
+ *     the image lattice, |n| <= N, converged (the sum at N - 2 agrees to
+ *     1e-11);
+ *   - Laplace with one periodic direction, neutral charges: direct sums over
+ *     N images either side, extrapolated in N (the error of the symmetric
+ *     sum runs in 1/N^2, 1/N^4, ...; the last extrapolation step must move
+ *     it by less than 1e-10);
+ *   - Laplace with two periodic directions, neutral charges: Ewald's sum
+ *     for two periodic directions (tests/ewald.h), checked here against
+ *     two of its own splits and against direct sums over growing squares;
+ * on points spread over the cell, crowding one face, crowding one corner
+ * (given partly outside the cell, so that they wrap), far from the origin,
+ * and with separate targets (crowding a face or corner, the sources spread
+ * over the cell); relative L2 error at p = 6 at
+ * most 1e-5 and at p = 10 at most 1e-8, the issue's bounds. And the errors:
+ * bad periods, points wider than the period in a free direction, net
+ * charge where it must be zero (out untouched), three periodic directions
+ * of a scale-invariant kernel. */
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa
+#include "kifmm.h"
+#define KIFMM_REAL float
+#include "kifmm.h"
+
+#include "ewald.h"
+#include "test.h"
+
+#define PI4 (4.0 * T_PI)
+
+#ifdef KIFMM_TEST_QUICK
+#define NPTS 500
+#else
+#define NPTS 1000
+#endif
+#define NCHK 12 /* targets checked against each reference */
+
+/* ---- point sets, in or around the unit cell [0, 1)^3 --------------------- */
+
+enum { UNIFORM, FACE, CORNER, FAR };
+static const char *set_name[] = {"uniform", "face", "corner", "far from the origin"};
+
+/* set k of n points: uniform; crowding the face x = 0 from both sides
+ * (x in [-0.04, 0.04], given so: they wrap); crowding the corner 0 from all
+ * sides; uniform moved by 1000 periods along the periodic directions of
+ * mask pm. A free direction keeps its points in [0, 1) (crowding: in [0,
+ * 0.08]), so that sources and targets together span less than the period. */
+static void gen_set(t_rng *r, int k, int pm, int64_t n, double *x)
+{
+    int64_t i;
+    int d;
+    for (i = 0; i < n; i++)
+        for (d = 0; d < 3; d++) {
+            double v = t_rand01(r);
+            if ((k == FACE && d == 0) || k == CORNER)
+                v = t_uniform(r, -0.04, 0.04) + (pm >> d & 1 ? 0.0 : 0.04);
+            if (k == FAR && (pm >> d & 1)) v += 1000.0 * (d == 1 ? -2 : d + 1);
+            x[3 * i + d] = v;
+        }
+}
+
+/* n charges in [-0.5, 0.5], made to sum to zero (neutral) or not */
+static void gen_q(t_rng *r, int64_t n, double *q, int neutral)
+{
+    double m = 0.0;
+    int64_t i;
+    for (i = 0; i < n; i++) m += (q[i] = t_rand01(r) - 0.5);
+    for (i = 0; i < n && neutral; i++) q[i] -= m / (double)n;
+}
+
+/* the checked targets: NCHK spread over the nt */
+static int64_t chk_index(int c, int64_t nt) { return (int64_t)c * nt / NCHK; }
+
+/* relative L2 difference of out (stride 1) at the checked targets and ref */
+static double rel_l2(int64_t nt, const double *out, const double *ref)
+{
+    double e = 0.0, s = 0.0;
+    int c;
+    for (c = 0; c < NCHK; c++) {
+        const double d = out[chk_index(c, nt)] - ref[c];
+        e += d * d;
+        s += ref[c] * ref[c];
+    }
+    return sqrt(e / s);
+}
+
+/* ---- references ----------------------------------------------------------- */
+
+/* sum over the images |n_a| <= N along the periodic directions of pm of
+ * q_j K(t - x_j - n), K = exp(-lam r) / (4 pi r) (lam = 0: 1 / (4 pi r)),
+ * the source's own term left out; each image's sum in double, their sum in
+ * long double */
+static double image_sum(int pm, int N, double lam, int64_t ns, const double *xs, const double *q,
+                        const double *t)
+{
+    const int n0 = pm & 1 ? N : 0, n1 = pm & 2 ? N : 0, n2 = pm & 4 ? N : 0;
+    long double s = 0.0L;
+    int a, b, c;
+    int64_t j;
+    for (a = -n0; a <= n0; a++)
+        for (b = -n1; b <= n1; b++)
+            for (c = -n2; c <= n2; c++) {
+                double cell = 0.0; /* one image of the cell, in double */
+                for (j = 0; j < ns; j++) {
+                    const double dx = t[0] - xs[3 * j] - a, dy = t[1] - xs[3 * j + 1] - b;
+                    const double dz = t[2] - xs[3 * j + 2] - c, rr = sqrt(dx * dx + dy * dy + dz * dz);
+                    if (rr == 0.0) continue;
+                    cell += q[j] * (lam > 0.0 ? exp(-lam * rr) : 1.0) / rr;
+                }
+                s += cell;
+            }
+    return (double)(s / (long double)PI4);
+}
+
+/* Yukawa references at the checked targets, converged in N: ref[c];
+ * returns the largest relative change from N - 2 to N */
+static double ref_yukawa(int pm, int N, double lam, int64_t ns, const double *xs, const double *q,
+                         int64_t nt, const double *xt, double *ref)
+{
+    double ch = 0.0, big = 0.0;
+    int c;
+    for (c = 0; c < NCHK; c++) {
+        const double *t = xt + 3 * chk_index(c, nt);
+        const double lo = image_sum(pm, N - 2, lam, ns, xs, q, t);
+        ref[c] = image_sum(pm, N, lam, ns, xs, q, t);
+        ch = fabs(ref[c] - lo) > ch ? fabs(ref[c] - lo) : ch;
+        big = fabs(ref[c]) > big ? fabs(ref[c]) : big;
+    }
+    return ch / big;
+}
+
+/* one periodic direction, Laplace, neutral charges: the symmetric sums at
+ * N0, 2 N0, 4 N0, 8 N0 extrapolated (Richardson, powers 2, 4, 6); returns
+ * the largest relative change of the last step */
+static double ref_laplace1d(int pm, int N0, int64_t ns, const double *xs, const double *q,
+                            int64_t nt, const double *xt, double *ref)
+{
+    double ch = 0.0, big = 0.0;
+    int c, k, m;
+    for (c = 0; c < NCHK; c++) {
+        const double *t = xt + 3 * chk_index(c, nt);
+        double R[4][4];
+        for (k = 0; k < 4; k++) R[k][0] = image_sum(pm, N0 << k, 0.0, ns, xs, q, t);
+        for (m = 1; m < 4; m++)
+            for (k = m; k < 4; k++) {
+                const double f = pow(4.0, m);
+                R[k][m] = (f * R[k][m - 1] - R[k - 1][m - 1]) / (f - 1.0);
+            }
+        ref[c] = R[3][3];
+        ch = fabs(R[3][3] - R[3][2]) > ch ? fabs(R[3][3] - R[3][2]) : ch;
+        big = fabs(ref[c]) > big ? fabs(ref[c]) : big;
+    }
+    return ch / big;
+}
+
+/* two periodic directions (x and y), Laplace, neutral charges: Ewald */
+static void ref_laplace2d(int64_t ns, const double *xs, const double *q, int64_t nt,
+                          const double *xt, double *ref)
+{
+    double t[3 * NCHK];
+    int c;
+    for (c = 0; c < NCHK; c++) memcpy(t + 3 * c, xt + 3 * chk_index(c, nt), 3 * sizeof(double));
+    t_ewald2d_laplace(ns, xs, q, NCHK, t, 1.0, ref);
+}
+
+/* ---- the cases ---------------------------------------------------------- */
+
+static kifmm_opts popts(int order, int pm)
+{
+    kifmm_opts o;
+    int d;
+    memset(&o, 0, sizeof o);
+    o.order = order;
+    for (d = 0; d < 3; d++) o.period[d] = pm >> d & 1 ? 1.0 : 0.0;
+    return o;
+}
+
+static double bound_for(int p) { return p >= 10 ? 1e-8 : 1e-5; }
+
+/* one case: kernel (0 Laplace, else Yukawa with that lambda), periodic
+ * mask, point set, separate targets or not, order; the reference by kind */
+static void run_case(double lam, int pm, int set, int sep, int p, int N)
+{
+    const int64_t ns = NPTS, nt = sep ? NPTS / 2 : NPTS;
+    t_rng r = t_rng_seed(0x9e37ULL + (uint64_t)(pm * 131 + set * 17 + sep * 7 + (lam > 0)));
+    double *xs = t_doubles(3 * ns), *q = t_doubles(ns), *xt = sep ? t_doubles(3 * nt) : xs;
+    double *out = t_doubles(nt), ref[NCHK], conv = 0.0, err = 1.0;
+    kifmm_opts o = popts(p, pm);
+    int rc;
+    gen_set(&r, sep ? UNIFORM : set, pm, ns, xs);
+    if (sep) gen_set(&r, set, pm, nt, xt);
+    gen_q(&r, ns, q, lam == 0.0);
+    if (lam > 0.0) {
+        kifmm_yukawa *h = NULL;
+        o.kernel_param[0] = lam;
+        rc = kifmm_yukawa_create(&h, &o, ns, xs, nt, xt);
+        if (!rc) rc = kifmm_yukawa_evaluate(h, q, out);
+        kifmm_yukawa_destroy(h);
+        conv = ref_yukawa(pm, N, lam, ns, xs, q, nt, xt, ref);
+        CHECK(conv <= 1e-11, "Yukawa image sums converged at N = %d: change %.1e", N, conv);
+    } else {
+        kifmm_laplace *h = NULL;
+        rc = kifmm_laplace_create(&h, &o, ns, xs, nt, xt);
+        if (!rc) rc = kifmm_laplace_evaluate(h, q, out);
+        kifmm_laplace_destroy(h);
+        if (pm == 3) {
+            ref_laplace2d(ns, xs, q, nt, xt, ref);
+        } else {
+            conv = ref_laplace1d(pm, N, ns, xs, q, nt, xt, ref);
+            CHECK(conv <= 1e-10, "extrapolated image sums converged: change %.1e", conv);
+        }
+    }
+    CHECK(rc == KIFMM_SUCCESS, "create and evaluate: %s", kifmm_strerror(rc));
+    if (!rc) err = rel_l2(nt, out, ref);
+    CHECK_ERR(err, bound_for(p), "%s, period mask %d, %s%s, p = %d", lam > 0 ? "yukawa" : "laplace",
+              pm, set_name[set], sep ? ", separate targets" : "", p);
+    free(xs);
+    free(q);
+    free(out);
+    if (sep) free(xt);
+}
+
+/* the 2-D Ewald reference: two splits agree, and direct sums over squares of
+ * growing side approach it (their error runs in 1 / N) */
+static void test_ewald2d(void)
+{
+    enum { N = 200 };
+    t_rng r = t_rng_seed(77);
+    double x[3 * N], q[N], a[NCHK], b[NCHK], t[3 * NCHK], e32 = 0.0, e64 = 0.0, ex = 0.0, s = 0.0;
+    int c;
+    gen_set(&r, UNIFORM, 3, N, x);
+    gen_q(&r, N, q, 1);
+    for (c = 0; c < NCHK; c++) memcpy(t + 3 * c, x + 3 * chk_index(c, N), 3 * sizeof(double));
+    t_ewald2d_split(N, x, q, NCHK, t, 1.0, t_ewald_plan(1.0, 4.0, 1e-16), a);
+    t_ewald2d_split(N, x, q, NCHK, t, 1.0, t_ewald_plan(1.0, 7.0, 1e-16), b);
+    CHECK(t_rel_diff(NCHK, a, 1, b, 1) <= 1e-14, "2-D Ewald: two splits agree (%.1e)",
+          t_rel_diff(NCHK, a, 1, b, 1));
+    for (c = 0; c < NCHK; c++) {
+        const double s32 = image_sum(3, 32, 0.0, N, x, q, t + 3 * c);
+        const double s64 = image_sum(3, 64, 0.0, N, x, q, t + 3 * c);
+        e32 += (s32 - a[c]) * (s32 - a[c]);
+        e64 += (s64 - a[c]) * (s64 - a[c]);
+        ex += (2.0 * s64 - s32 - a[c]) * (2.0 * s64 - s32 - a[c]);
+        s += a[c] * a[c];
+    }
+    e32 = sqrt(e32 / s);
+    e64 = sqrt(e64 / s);
+    ex = sqrt(ex / s);
+    CHECK(e64 < 0.6 * e32 && ex <= 1e-4,
+          "2-D Ewald: direct sums over squares approach it as 1/N (N = 32: %.1e, 64: %.1e, "
+          "extrapolated: %.1e)",
+          e32, e64, ex);
+}
+
+/* float instance: the same case in float, to its own resolution */
+static void test_float(void)
+{
+    const int64_t n = NPTS;
+    t_rng r = t_rng_seed(5);
+    double *x = t_doubles(3 * n), *q = t_doubles(n), ref[NCHK], *o = t_doubles(n);
+    float *xf = (float *)t_malloc_or_die((size_t)n * 3 * sizeof(float));
+    float *qf = (float *)t_malloc_or_die((size_t)n * sizeof(float));
+    float *of = (float *)t_malloc_or_die((size_t)n * sizeof(float));
+    kifmm_opts op = popts(4, 1);
+    kifmm_laplacef *h = NULL;
+    int64_t i;
+    int rc;
+    gen_set(&r, FACE, 1, n, x);
+    for (i = 0; i < 3 * n; i++) x[i] = (double)(xf[i] = (float)x[i]);
+    gen_q(&r, n, q, 1);
+    for (i = 0; i < n; i++) q[i] = (double)(qf[i] = (float)q[i]);
+    rc = kifmm_laplacef_create(&h, &op, n, xf, n, xf);
+    if (!rc) rc = kifmm_laplacef_evaluate(h, qf, of);
+    kifmm_laplacef_destroy(h);
+    for (i = 0; i < n; i++) o[i] = of[i];
+    ref_laplace1d(1, 100, n, x, q, n, x, ref);
+    CHECK(rc == KIFMM_SUCCESS, "float create and evaluate: %s", kifmm_strerror(rc));
+    CHECK_ERR(rc ? 1.0 : rel_l2(n, o, ref), 1e-3, "float laplace, period x, face, p = 4");
+    free(x);
+    free(q);
+    free(o);
+    free(xf);
+    free(qf);
+    free(of);
+}
+
+static void test_errors(void)
+{
+    const int64_t n = 64;
+    t_rng r = t_rng_seed(9);
+    double x[3 * 64], q[64], out[64];
+    kifmm_opts o = popts(4, 1);
+    kifmm_laplace *h = NULL;
+    int i, rc;
+    gen_set(&r, UNIFORM, 1, n, x);
+    gen_q(&r, n, q, 0);
+    o.period[0] = -1.0;
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == KIFMM_ERR_PERIOD && !h, "negative period");
+    o.period[0] = NAN;
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == KIFMM_ERR_PERIOD && !h, "NaN period");
+    o.period[0] = INFINITY;
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == KIFMM_ERR_PERIOD && !h, "infinite period");
+    o.period[0] = 1.0;
+    o.period[1] = 2.0;
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == KIFMM_ERR_PERIOD && !h, "unequal periods");
+    o.period[1] = 0.0;
+    x[4] = 1.5; /* y spans 1.5 periods: free directions must fit in one */
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == KIFMM_ERR_PERIOD && !h,
+          "a free direction wider than the period");
+    x[4] = 0.5;
+    o.period[1] = o.period[2] = 1.0;
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == KIFMM_ERR_PERIODIC && !h,
+          "three periodic directions of Laplace: not supported, said so");
+    o.period[1] = o.period[2] = 0.0;
+    rc = kifmm_laplace_create(&h, &o, n, x, n, x);
+    CHECK(rc == KIFMM_SUCCESS, "create, one periodic direction");
+    for (i = 0; i < n; i++) out[i] = 123.0;
+    rc = kifmm_laplace_evaluate(h, q, out);
+    for (i = 0; i < n && out[i] == 123.0; i++) {}
+    CHECK(rc == KIFMM_ERR_NEUTRAL && i == n, "net charge, one periodic direction: %s, out untouched",
+          kifmm_strerror(rc));
+    gen_q(&r, n, q, 1);
+    CHECK(kifmm_laplace_evaluate(h, q, out) == KIFMM_SUCCESS, "the same handle, neutral charges");
+    kifmm_laplace_destroy(h);
+}
+
+int main(void)
+{
+    static const int pms[] = {1, 2, 3, 5, 7};
+    int k, s;
+    t_group("errors");
+    test_errors();
+    t_group("2-D Ewald reference");
+    test_ewald2d();
+    t_group("Yukawa, lambda 3: every set of periodic directions, p = 6");
+    for (k = 0; k < 5; k++) run_case(pms[k] == 7 ? 4.0 : 3.0, pms[k], UNIFORM, 0, 6, pms[k] == 7 ? 10 : 14);
+    t_group("Yukawa: crowded faces and corners, far from the origin, separate targets");
+    for (s = FACE; s <= FAR; s++) run_case(3.0, 3, s, 0, 6, 14);
+    run_case(4.0, 7, CORNER, 1, 6, 10);
+    run_case(1.0, 1, FACE, 1, 6, 44);
+    run_case(3.0, 3, UNIFORM, 1, 6, 14);
+    t_group("Laplace, one periodic direction, neutral charges");
+    for (s = UNIFORM; s <= FAR; s++) run_case(0.0, s == CORNER ? 4 : s == FAR ? 2 : 1, s, 0, 6, 100);
+    run_case(0.0, 2, UNIFORM, 1, 6, 100);
+    t_group("Laplace, two periodic directions (x, y), neutral charges");
+    for (s = UNIFORM; s <= FAR; s++) run_case(0.0, 3, s, 0, 6, 0);
+    run_case(0.0, 3, FACE, 1, 6, 0);
+    t_group("p = 10");
+    run_case(4.0, 7, FACE, 0, 10, 10);
+    run_case(0.0, 1, CORNER, 0, 10, 100);
+    run_case(0.0, 3, FACE, 1, 10, 0);
+    t_group("float");
+    test_float();
+    return t_finish();
+}
