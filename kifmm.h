@@ -91,7 +91,12 @@
  *   Functions are ordinary functions with real line numbers; only a few
  *   SIMD micro-kernels are macros (each under 40 lines).
  *
- *   DOES NOT DO: complex kernels (Helmholtz), periodic boundaries, MPI.
+ *   PERIODIC BOUNDARIES: opts.period (docs/api.md): one, two or three periodic
+ *   directions for decaying kernels (Yukawa), one or two for scale-invariant
+ *   ones with densities that sum to zero.
+ *
+ *   DOES NOT DO: complex kernels (Helmholtz), three periodic directions for
+ *   scale-invariant kernels (yet), MPI.
  *
  *   Documentation: docs/api.md (functions, options, errors, limits),
  *   docs/algorithm.md (how the method maps to this file), docs/kernels.md

@@ -284,6 +284,28 @@ else
     FAILED="$FAILED kernels/build"
 fi
 
+# ---------------------------------------------------------------- periodic boundaries
+# the same uniform points in the unit cell, free space and periodic (bench/bench_periodic.c)
+echo
+echo "== periodic boundaries against free space, uniform points, p = 6, ${OMP_NUM_THREADS} threads"
+# shellcheck disable=SC2086
+if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. bench/bench_periodic.c \
+        -o "$OUT/bench_periodic" -llapacke -lopenblas -lm; then
+    for n in $KNS; do
+        wait_quiet
+        echo "N = $n"
+        if run_measured "$OUT/bench_periodic" "$n" 6 --repeat 3 > "$OUT/.prows"; then
+            sed "/^kernel/!s/\$/    $BG/" "$OUT/.prows"
+        else
+            echo "periodic $n: FAILED"
+            FAILED="$FAILED periodic/$n"
+        fi
+    done
+else
+    echo "bench_periodic: build failed"
+    FAILED="$FAILED periodic/build"
+fi
+
 # ---------------------------------------------------------------- FMM3D table
 if [ -n "$PY" ]; then
     echo
