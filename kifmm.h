@@ -953,6 +953,8 @@ KIFMM__FN int kifmm__lmin(const kifmm__tree *t) { return t->periodic ? 0 : 2; }
 /* Images of the unit cell: a code s = 9 (sx + 1) + 3 (sy + 1) + (sz + 1) for the
  * shift (sx, sy, sz) of one cell width, each -1, 0 or 1; 13 is no shift. */
 #define KIFMM__NOSHIFT 13
+/* The shift code of entry e of a list with shifts sh (NULL: free space). */
+#define KIFMM__SH(sh, e) ((sh) ? (int)(sh)[e] : KIFMM__NOSHIFT)
 KIFMM__FN int kifmm__shift_code(const int *s) { return 9 * (s[0] + 1) + 3 * (s[1] + 1) + s[2] + 1; }
 
 KIFMM__FN void kifmm__shift_of(int code, int *s)
@@ -2107,15 +2109,16 @@ KIFMM__FN int kifmm__lat_offsets(const kifmm__tree *t, int ring, int *m)
 
 /* x (rows x cols, column major, SD-component columns) minus the part along
  * e: x - (x e) S, where S sums a density's components (x P, P = I - e S). */
-KIFMM__FN void kifmm__lat_project(double *x, int rows, int ne, int sd, const double *e)
+KIFMM__FN int kifmm__lat_project(double *x, int rows, int ne, int sd, const double *e)
 {
     double *xe = (double *)kifmm__alloc((size_t)rows * sd, sizeof(double));
     int i, j;
-    if (!xe) return; /* checked by the caller's allocation of the same size */
+    if (!xe) return KIFMM_ERR_NOMEM;
     kifmm__gemm(0, 0, rows, sd, ne, 1.0, x, rows, e, ne, 0.0, xe, rows);
     for (j = 0; j < ne; j++)
         for (i = 0; i < rows; i++) x[i + (size_t)j * rows] -= xe[i + (size_t)(j % sd) * rows];
     kifmm__free(xe);
+    return KIFMM_SUCCESS;
 }
 
 /* Square matrix inverse in place by Gauss-Jordan without pivoting (the small
@@ -4268,13 +4271,12 @@ KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, int noco
     double *x = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
     double *y = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
     int it;
-    if (!x || !y) {
+    if (!x || !y || kifmm__lat_project(L->a, nc, ne, sd, L->e) ||
+        kifmm__lat_project(L->c, ne, ne, sd, L->e)) {
         kifmm__free(x);
         kifmm__free(y);
         return KIFMM_ERR_NOMEM;
     }
-    kifmm__lat_project(L->a, nc, ne, sd, L->e);
-    kifmm__lat_project(L->c, ne, ne, sd, L->e);
     kifmm__lat_project_left(L->c, ne, ne, sd, L->e);
     if (noconst) kifmm__lat_no_constant(L->a, nc, ne, sd);
     memcpy(T, L->a, (size_t)nc * ne * sizeof(double));
@@ -5152,8 +5154,6 @@ KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__wo
                        1.0, out, old);
 }
 
-/* The shift code of entry e of a list with shifts sh (NULL: free space). */
-#define KIFMM__SH(sh, e) ((sh) ? (int)(sh)[e] : KIFMM__NOSHIFT)
 
 /* Box b with fewer targets than check points: its X sources go straight to
  * its targets (only this task writes them; the leaves' pass runs after the

@@ -202,6 +202,10 @@ static void test_invalid_inputs(const t_api *api, const double *x)
     free(y);
 }
 
+/* periodic directions (mask) of the next test_many_ run: with them, create
+ * also builds the far images' operator (levels of super-cells) */
+static int many_period;
+
 /* Create under failing allocation for an instance P with real type R
  * (non-scale-invariant operators per level, float arrays), then
  * evaluate_many: growing the workspace for 3 vectors fails cleanly (NOMEM,
@@ -215,6 +219,7 @@ static void test_invalid_inputs(const t_api *api, const double *x)
         P *h = NULL;                                                                         \
         long k, bad = 0, untouched_bad = 0, live_before;                                     \
         int rc = KIFMM_ERR_NOMEM, i;                                                         \
+        for (i = 0; i < 3; i++) o.period[i] = many_period >> i & 1 ? 1.0 : 0.0;             \
         for (i = 0; i < 3 * N; i++) xr[i] = (R)x[i];                                         \
         for (i = 0; i < 3 * N * (SD); i++) q[i] = (R)((i % 7) - 3);                          \
         for (k = 0; k < MAX_K; k++) {                                                        \
@@ -279,6 +284,10 @@ int main(void)
     t_group("per-level operators, float, and evaluate_many's workspace");
     test_many_kifmm_yukawa(x);
     test_many_kifmm_stokesf(x);
+    t_group("periodic boundaries: the same, three periodic directions");
+    many_period = 7;
+    test_many_kifmm_yukawa(x);
+    many_period = 0;
 
     free(x);
     free(q);
