@@ -2088,17 +2088,19 @@ KIFMM__FN void kifmm__lat_free(kifmm__lat *L)
     memset(L, 0, sizeof *L);
 }
 
-/* The image offsets of the 3 x 3 x 3 block of cells (ring 0) or of its
- * boundary (ring 1), along the periodic directions only: m[3 i ..]; returns
- * their number. */
-KIFMM__FN int kifmm__lat_offsets(const kifmm__tree *t, int ring, int *m)
+/* Image offsets n along the periodic directions only (0 along the free
+ * ones), into m[3 i ..] (up to 729 of them); returns their number. kind 0:
+ * the 3 x 3 x 3 block of cells, |n| <= 1; kind 1: the cell's images in its
+ * super-cell's neighbours, 2 <= |n| <= 4 (max norm). */
+KIFMM__FN int kifmm__lat_offsets(const kifmm__tree *t, int kind, int *m)
 {
+    const int r = kind ? 4 : 1;
     int n = 0, i, j, k;
-    for (i = -1; i <= 1; i++)
-        for (j = -1; j <= 1; j++)
-            for (k = -1; k <= 1; k++) {
+    for (i = -r; i <= r; i++)
+        for (j = -r; j <= r; j++)
+            for (k = -r; k <= r; k++) {
                 if ((i && !t->per[0]) || (j && !t->per[1]) || (k && !t->per[2])) continue;
-                if (ring && !i && !j && !k) continue;
+                if (kind && i * i < 4 && j * j < 4 && k * k < 4) continue;
                 m[3 * n] = i;
                 m[3 * n + 1] = j;
                 m[3 * n + 2] = k;
@@ -2139,31 +2141,23 @@ KIFMM__FN void kifmm__small_inverse(double *a, int n)
     }
 }
 
-/* e S x subtracted from x (ne x cols): P x, P = I - e S. */
-KIFMM__FN void kifmm__lat_project_left(double *x, int ne, int cols, int sd, const double *e)
+/* P x for each column of x (n x cols): x - e S x, S summing each of the sd
+ * components over the points (e: n x sd with S e = I). With e NULL, e the
+ * constant field per component (each column minus its mean per component:
+ * no constant left on a check surface). */
+KIFMM__FN void kifmm__lat_project_left(double *x, int n, int cols, int sd, const double *e)
 {
     double sx[9];
     int i, j, b;
     for (j = 0; j < cols; j++) {
-        double *xj = x + (size_t)j * ne;
+        double *xj = x + (size_t)j * n;
         for (b = 0; b < sd; b++) sx[b] = 0.0;
-        for (i = 0; i < ne; i++) sx[i % sd] += xj[i];
-        for (i = 0; i < ne; i++)
-            for (b = 0; b < sd; b++) xj[i] -= e[i + (size_t)b * ne] * sx[b];
-    }
-}
-
-/* Each column of x (nc x cols) minus its mean per component: no constant
- * field left on the check surface. */
-KIFMM__FN void kifmm__lat_no_constant(double *x, int nc, int cols, int sd)
-{
-    double m[9];
-    int i, j, b;
-    for (j = 0; j < cols; j++) {
-        double *xj = x + (size_t)j * nc;
-        for (b = 0; b < sd; b++) m[b] = 0.0;
-        for (i = 0; i < nc; i++) m[i % sd] += xj[i];
-        for (i = 0; i < nc; i++) xj[i] -= m[i % sd] * sd / nc;
+        for (i = 0; i < n; i++) sx[i % sd] += xj[i];
+        for (i = 0; i < n; i++) {
+            if (!e) xj[i] -= sx[i % sd] * sd / n;
+            else
+                for (b = 0; b < sd; b++) xj[i] -= e[i + (size_t)b * n] * sx[b];
+        }
     }
 }
 
@@ -4071,25 +4065,21 @@ KIFMM__FN int KIFMM__F(__lat_ring_sums)(const KIFMM_NAME *c, double h, int q, do
     enum { SD2 = KIFMM__SD * KIFMM__SD };
     const int w = 2 * q - 1;
     const double g = 2.0 * c->surf.ai * h / (q - 1);
-    int bad = 0;
+    int bad = 0, m[3 * 729];
+    const int nm = kifmm__lat_offsets(&c->tree, 1, m);
     /* each offset e writes its own sum */
     KIFMM__OMP(parallel for schedule(dynamic, 16) num_threads(c->opts.nthreads) reduction(| : bad))
     for (int64_t e = 0; e < (int64_t)w * w * w; e++) {
         const double d0 = g * (double)(e / (w * w) - (q - 1)), d1 = g * (double)(e / w % w - (q - 1));
         const double d2 = g * (double)(e % w - (q - 1));
         double kv[SD2], acc[SD2];
-        int n0, n1, n2, ab;
+        int i, ab;
         for (ab = 0; ab < SD2; ab++) acc[ab] = 0.0;
-        for (n0 = -4; n0 <= 4; n0++)
-            for (n1 = -4; n1 <= 4; n1++)
-                for (n2 = -4; n2 <= 4; n2++) {
-                    if ((n0 && !c->tree.per[0]) || (n1 && !c->tree.per[1]) || (n2 && !c->tree.per[2]))
-                        continue;
-                    if (n0 * n0 < 4 && n1 * n1 < 4 && n2 * n2 < 4) continue;
-                    KIFMM__R_(SC, _eval)(c->opts.kernel_param, d0 - 2.0 * h * n0, d1 - 2.0 * h * n1,
-                                         d2 - 2.0 * h * n2, kv);
-                    for (ab = 0; ab < SD2; ab++) acc[ab] += kv[ab];
-                }
+        for (i = 0; i < nm; i++) {
+            KIFMM__R_(SC, _eval)(c->opts.kernel_param, d0 - 2.0 * h * m[3 * i],
+                                 d1 - 2.0 * h * m[3 * i + 1], d2 - 2.0 * h * m[3 * i + 2], kv);
+            for (ab = 0; ab < SD2; ab++) acc[ab] += kv[ab];
+        }
         for (ab = 0; ab < SD2; ab++) {
             bad |= !(fabs(acc[ab]) <= DBL_MAX);
             gs[e * SD2 + ab] = acc[ab];
@@ -4104,18 +4094,9 @@ KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, double *
 {
     const int nc = c->surf.nc, ne = c->surf.ne;
     double *k = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
-    int m[3 * 729], nm = 0, n0, n1, n2, rc;
+    int m[3 * 729], rc;
+    const int nm = kifmm__lat_offsets(&c->tree, 1, m);
     size_t i;
-    for (n0 = -4; n0 <= 4; n0++)
-        for (n1 = -4; n1 <= 4; n1++)
-            for (n2 = -4; n2 <= 4; n2++) {
-                if ((n0 && !c->tree.per[0]) || (n1 && !c->tree.per[1]) || (n2 && !c->tree.per[2]))
-                    continue;
-                if (n0 * n0 < 4 && n1 * n1 < 4 && n2 * n2 < 4) continue;
-                m[3 * nm] = n0;
-                m[3 * nm + 1] = n1;
-                m[3 * nm++ + 2] = n2;
-            }
     rc = k ? KIFMM__F(__lat_kmat)(c, c->surf.ai * h, c->surf.ai * h, h, m, nm, k) : KIFMM_ERR_NOMEM;
     for (i = 0; i < (size_t)nc * ne && !rc; i++) a[i] = k[i];
     kifmm__free(k);
@@ -4278,7 +4259,7 @@ KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, int noco
         return KIFMM_ERR_NOMEM;
     }
     kifmm__lat_project_left(L->c, ne, ne, sd, L->e);
-    if (noconst) kifmm__lat_no_constant(L->a, nc, ne, sd);
+    if (noconst) kifmm__lat_project_left(L->a, nc, ne, sd, NULL);
     memcpy(T, L->a, (size_t)nc * ne * sizeof(double));
     for (it = 0; it < 200; it++) {
         double d = 0.0, big;
@@ -4286,7 +4267,7 @@ KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, int noco
         kifmm__gemm(0, 0, nc, ne, ne, 1.0, T, nc, L->c, ne, 0.0, x, nc);
         memcpy(y, L->a, (size_t)nc * ne * sizeof(double));
         kifmm__gemm(0, 0, nc, ne, nc, beta, L->b, nc, x, nc, 1.0, y, nc);
-        if (noconst) kifmm__lat_no_constant(y, nc, ne, sd);
+        if (noconst) kifmm__lat_project_left(y, nc, ne, sd, NULL);
         for (i = 0; i < (size_t)nc * ne; i++) {
             d = fabs(y[i] - T[i]) > d ? fabs(y[i] - T[i]) : d;
             T[i] = y[i];
