@@ -23,6 +23,8 @@
 #include "kifmm.h"
 #define KIFMM_REAL float
 #include "kifmm.h"
+#define KIFMM_KERNEL stokes
+#include "kifmm.h"
 
 #include "ewald.h"
 #include "test.h"
@@ -253,6 +255,69 @@ static void test_ewald2d(void)
           e32, e64, ex);
 }
 
+/* the Stokeslet summed over images n along x, |n| <= N, at t: u[3] */
+static void stokes_images(int N, int64_t ns, const double *xs, const double *f, const double *t,
+                          double *u)
+{
+    long double s[3] = {0.0L, 0.0L, 0.0L};
+    int a, k;
+    int64_t j;
+    for (a = -N; a <= N; a++)
+        for (j = 0; j < ns; j++) {
+            const double d[3] = {t[0] - xs[3 * j] - a, t[1] - xs[3 * j + 1], t[2] - xs[3 * j + 2]};
+            const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], r = sqrt(r2);
+            const double df = d[0] * f[3 * j] + d[1] * f[3 * j + 1] + d[2] * f[3 * j + 2];
+            if (r2 == 0.0) continue;
+            for (k = 0; k < 3; k++) s[k] += (f[3 * j + k] / r + d[k] * df / (r2 * r)) / (2.0 * PI4);
+        }
+    for (k = 0; k < 3; k++) u[k] = (double)s[k];
+}
+
+/* Stokes (mu 1), periodic along x, forces summing to zero: against the
+ * image sums at 100, 200, 400, 800 images either side, extrapolated in
+ * 1/N^2 as for Laplace; and a net force: KIFMM_ERR_NEUTRAL */
+static void test_stokes(void)
+{
+    const int64_t n = NPTS / 2;
+    t_rng r = t_rng_seed(11);
+    double *x = t_doubles(3 * n), *f = t_doubles(3 * n), *o = t_doubles(3 * n), m[3] = {0, 0, 0};
+    double e = 0.0, s = 0.0, ch = 0.0;
+    kifmm_opts op = popts(6, 1);
+    kifmm_stokes *h = NULL;
+    int64_t i;
+    int c, k, a, d, rc;
+    gen_set(&r, FACE, 1, n, x);
+    for (i = 0; i < 3 * n; i++) m[i % 3] += (f[i] = t_rand01(&r) - 0.5);
+    f[0] += 1.0; /* a net force first */
+    rc = kifmm_stokes_create(&h, &op, n, x, n, x);
+    CHECK(rc == KIFMM_SUCCESS, "stokes, period x: create");
+    CHECK(kifmm_stokes_evaluate(h, f, o) == KIFMM_ERR_NEUTRAL, "stokes, a net force: refused");
+    f[0] -= 1.0;
+    for (i = 0; i < 3 * n; i++) f[i] -= m[i % 3] / (double)n;
+    rc = kifmm_stokes_evaluate(h, f, o);
+    kifmm_stokes_destroy(h);
+    for (c = 0; c < NCHK; c++) {
+        const int64_t t = chk_index(c, n);
+        double R[4][4][3];
+        for (k = 0; k < 4; k++) stokes_images(100 << k, n, x, f, x + 3 * t, R[k][0]);
+        for (a = 1; a < 4; a++)
+            for (k = a; k < 4; k++)
+                for (d = 0; d < 3; d++)
+                    R[k][a][d] = (pow(4.0, a) * R[k][a - 1][d] - R[k - 1][a - 1][d]) / (pow(4.0, a) - 1.0);
+        for (d = 0; d < 3; d++) {
+            e += (o[3 * t + d] - R[3][3][d]) * (o[3 * t + d] - R[3][3][d]);
+            ch += (R[3][3][d] - R[3][2][d]) * (R[3][3][d] - R[3][2][d]);
+            s += R[3][3][d] * R[3][3][d];
+        }
+    }
+    CHECK(sqrt(ch / s) <= 1e-10, "Stokes image sums converged: change %.1e", sqrt(ch / s));
+    CHECK(rc == KIFMM_SUCCESS, "stokes evaluate: %s", kifmm_strerror(rc));
+    CHECK_ERR(rc ? 1.0 : sqrt(e / s), 1e-5, "stokes, period x, face, zero net force, p = 6");
+    free(x);
+    free(f);
+    free(o);
+}
+
 /* float instance: the same case in float, to its own resolution */
 static void test_float(void)
 {
@@ -350,6 +415,8 @@ int main(void)
     run_case(4.0, 7, FACE, 0, 10, 10);
     run_case(0.0, 1, CORNER, 0, 10, 100);
     run_case(0.0, 3, FACE, 1, 10, 0);
+    t_group("Stokes");
+    test_stokes();
     t_group("float");
     test_float();
     return t_finish();
