@@ -974,7 +974,8 @@ KIFMM__FN int kifmm__adjacent_s(const kifmm__tree *t, int32_t a, int32_t b, int 
     kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++) {
         int32_t a0 = xa[d] << sa, a1 = (xa[d] + 1) << sa;
-        int32_t b0 = (xb[d] << sb) + (sh[d] << KIFMM__D), b1 = ((xb[d] + 1) << sb) + (sh[d] << KIFMM__D);
+        const int32_t img = sh[d] * ((int32_t)1 << KIFMM__D); /* the image's offset */
+        int32_t b0 = (xb[d] << sb) + img, b1 = ((xb[d] + 1) << sb) + img;
         if (a0 > b1 || b0 > a1) return 0;
     }
     return 1;
