@@ -1099,29 +1099,45 @@ KIFMM__FN int kifmm__sort_points(kifmm__tree *t, int64_t n, const double *xyz, d
 
 /* ---- building the tree: bounds, sort, refine, balance, layout ------------ */
 
+/* The smallest and largest coordinate d over the sources and targets. */
+KIFMM__FN void kifmm__extent(int64_t ns, const double *src, int64_t nt, const double *trg, int d,
+                             int nth, double *lo, double *hi)
+{
+    double mn = HUGE_VAL, mx = -HUGE_VAL;
+    (void)nth; /* used by the OpenMP pragmas only */
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
+    for (int64_t i = 0; i < ns + nt; i++) {
+        const double v = i < ns ? src[3 * i + d] : trg[3 * (i - ns) + d];
+        mn = v < mn ? v : mn;
+        mx = v > mx ? v : mx;
+    }
+    *lo = mn;
+    *hi = mx;
+}
+
+/* The root's axis d centred at c with half-width half, shifted by the
+ * centre where that is exact (see kifmm__tree_bounds). */
+KIFMM__FN void kifmm__centre_axis(kifmm__tree *t, int d, double c, double half)
+{
+    t->origin[d] = fabs(c) >= 2.0 * half ? c : 0.0;
+    t->lo[d] = (c - t->origin[d]) - half;
+}
+
 /* Step 1 with periodic directions: the root is the unit cell, [0, L) in a
  * periodic direction; in a free one the points must span less than L, and
  * the root is centred on them there (shifted as below). */
 KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const double *src,
                                           int64_t nt, const double *trg, int nth)
 {
-    (void)nth; /* used by the OpenMP pragmas only */
     const double half = 0.5 * t->width;
     int d;
     for (d = 0; d < 3; d++) {
-        double mn = HUGE_VAL, mx = -HUGE_VAL, c;
+        double mn, mx;
         t->origin[d] = t->lo[d] = 0.0;
         if (t->per[d]) continue;
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
-        for (int64_t i = 0; i < ns + nt; i++) {
-            const double v = i < ns ? src[3 * i + d] : trg[3 * (i - ns) + d];
-            mn = v < mn ? v : mn;
-            mx = v > mx ? v : mx;
-        }
+        kifmm__extent(ns, src, nt, trg, d, nth, &mn, &mx);
         if (!(0.5 * (mx - mn) * (1.0 + 1e-10) < half)) return KIFMM_ERR_PERIOD;
-        c = 0.5 * (mn + mx);
-        t->origin[d] = fabs(c) >= 2.0 * half ? c : 0.0;
-        t->lo[d] = (c - t->origin[d]) - half;
+        kifmm__centre_axis(t, d, 0.5 * (mn + mx), half);
     }
     return KIFMM_SUCCESS;
 }
@@ -1137,30 +1153,15 @@ KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const doub
 KIFMM__FN int kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
                                  const double *trg, int nth)
 {
-    (void)nth; /* used by the OpenMP pragmas only */
     double lo[3], hi[3], half = 0.0;
     int d;
     if (t->periodic) return kifmm__tree_bounds_periodic(t, ns, src, nt, trg, nth);
-    for (d = 0; d < 3; d++) {
-        double mn = HUGE_VAL, mx = -HUGE_VAL;
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx))
-        for (int64_t i = 0; i < ns + nt; i++) {
-            const double v = i < ns ? src[3 * i + d] : trg[3 * (i - ns) + d];
-            mn = v < mn ? v : mn;
-            mx = v > mx ? v : mx;
-        }
-        lo[d] = mn;
-        hi[d] = mx;
-    }
+    for (d = 0; d < 3; d++) kifmm__extent(ns, src, nt, trg, d, nth, &lo[d], &hi[d]);
     for (d = 0; d < 3; d++)
         if (0.5 * (hi[d] - lo[d]) > half) half = 0.5 * (hi[d] - lo[d]);
     if (!(half > 0.0)) half = 0.5;
     half *= 1.0 + 1e-10;
-    for (d = 0; d < 3; d++) {
-        const double c = 0.5 * (lo[d] + hi[d]);
-        t->origin[d] = fabs(c) >= 2.0 * half ? c : 0.0;
-        t->lo[d] = (c - t->origin[d]) - half;
-    }
+    for (d = 0; d < 3; d++) kifmm__centre_axis(t, d, 0.5 * (lo[d] + hi[d]), half);
     t->width = 2.0 * half;
     return KIFMM_SUCCESS;
 }
@@ -2058,12 +2059,14 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
  * downward check potential, built from the kernel alone by recursion over
  * super-cells of 3 x 3 x 3 cells (3 or 3 x 3 along fewer periodic
  * directions). With a cell of half-width h and its super-cell of 3 h:
- *   C: the cell's density -> the super-cell's (the 27 copies summed, M2M),
- *   A: the super-cell's 26 images next to it -> the cell's check potential,
- *      after C (their M2L),
- *   B: the super-cell's local expansion -> the cell's check potential (L2L),
- * and T(h) = A + B T(3 h) C: the images beyond the neighbours are the
- * super-cell's neighbours and, beyond those, its own far images. A kernel
+ *   A: the cell's own images in the super-cell's 26 neighbours (2 <= |n|
+ *      <= 4: each at least a cell apart, the M2L's geometry) -> the cell's
+ *      check potential, summed directly;
+ *   C: the cell's density -> the super-cell's (the 27 copies summed, M2M);
+ *   B: the super-cell's local expansion -> the cell's check potential (L2L);
+ * and T(h) = A + B T(3 h) C: the images beyond the neighbours are those in
+ * the super-cell's neighbours and, beyond those, the super-cell's own far
+ * images. A kernel
  * of degree a has T(3 h) = 3^a T(h), and T is the fixed point of that map,
  * converging by about 1/3 per step; T of any other kernel is the sum of
  * its terms level by level while they matter (a Yukawa kernel's vanish
@@ -2143,9 +2146,7 @@ KIFMM__FN void kifmm__small_inverse(double *a, int n)
 }
 
 /* P x for each column of x (n x cols): x - e S x, S summing each of the sd
- * components over the points (e: n x sd with S e = I). With e NULL, e the
- * constant field per component (each column minus its mean per component:
- * no constant left on a check surface). */
+ * components over the points (e: n x sd with S e = I). */
 KIFMM__FN void kifmm__lat_project_left(double *x, int n, int cols, int sd, const double *e)
 {
     double sx[9];
@@ -2154,11 +2155,8 @@ KIFMM__FN void kifmm__lat_project_left(double *x, int n, int cols, int sd, const
         double *xj = x + (size_t)j * n;
         for (b = 0; b < sd; b++) sx[b] = 0.0;
         for (i = 0; i < n; i++) sx[i % sd] += xj[i];
-        for (i = 0; i < n; i++) {
-            if (!e) xj[i] -= sx[i % sd] * sd / n;
-            else
-                for (b = 0; b < sd; b++) xj[i] -= e[i + (size_t)b * n] * sx[b];
-        }
+        for (i = 0; i < n; i++)
+            for (b = 0; b < sd; b++) xj[i] -= e[i + (size_t)b * n] * sx[b];
     }
 }
 
@@ -4242,11 +4240,11 @@ KIFMM__FN int KIFMM__F(__lat_level)(const KIFMM_NAME *c, double h, int want_e, k
 }
 
 /* T of a scale-invariant kernel of degree a at half-width 1: the fixed point
- * of T = A P + 3^a B T P C P (P = I - e S: no monopole), with no constant
- * field (noconst: three periodic directions, where the dipoles' images
- * would otherwise grow a constant by 3 per step, and the constant is set
- * by the zero mean). */
-KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, int noconst, double *T)
+ * of T = A P + 3^a B T P C P (P = I - e S: no monopole). With one or two
+ * periodic directions every other mode contracts or stays put (dipole to
+ * constant: 1/3 or 1 per step); with three, the dipoles' images would grow
+ * a constant by 3 per step, one reason those wait (see __lattice_build). */
+KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, double *T)
 {
     const int nc = L->nc, ne = L->ne, sd = L->sd;
     const double beta = pow(3.0, c->ops.degree);
@@ -4260,7 +4258,6 @@ KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, int noco
         return KIFMM_ERR_NOMEM;
     }
     kifmm__lat_project_left(L->c, ne, ne, sd, L->e);
-    if (noconst) kifmm__lat_project_left(L->a, nc, ne, sd, NULL);
     memcpy(T, L->a, (size_t)nc * ne * sizeof(double));
     for (it = 0; it < 200; it++) {
         double d = 0.0, big;
@@ -4268,7 +4265,6 @@ KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, int noco
         kifmm__gemm(0, 0, nc, ne, ne, 1.0, T, nc, L->c, ne, 0.0, x, nc);
         memcpy(y, L->a, (size_t)nc * ne * sizeof(double));
         kifmm__gemm(0, 0, nc, ne, nc, beta, L->b, nc, x, nc, 1.0, y, nc);
-        if (noconst) kifmm__lat_project_left(y, nc, ne, sd, NULL);
         for (i = 0; i < (size_t)nc * ne; i++) {
             d = fabs(y[i] - T[i]) > d ? fabs(y[i] - T[i]) : d;
             T[i] = y[i];
@@ -4304,8 +4300,8 @@ KIFMM__FN int KIFMM__F(__lat_sum)(const KIFMM_NAME *c, double h, double *T)
         if (j == 20) { rc = KIFMM_ERR_PERIODIC; break; }
         if ((rc = KIFMM__F(__lat_level)(c, h, 0, &L))) break;
         kifmm__gemm(0, 0, nc, ne, ne, 1.0, L.a, nc, cacc, ne, 0.0, x, nc);
-        kifmm__gemm(0, 0, nc, ne, nc, 1.0, bacc, nc, x, nc, 1.0, T, nc);
-        kifmm__gemm(0, 0, nc, ne, nc, 1.0, bacc, nc, x, nc, 0.0, y, nc);
+        kifmm__gemm(0, 0, nc, ne, nc, 1.0, bacc, nc, x, nc, 0.0, y, nc); /* the level's term */
+        for (i = 0; i < nc * ne; i++) T[i] += y[i];
         tb = kifmm__max_abs(y, (size_t)nc * ne);
         sb = kifmm__max_abs(T, (size_t)nc * ne);
         if (j > 0 && tb <= 1e-17 * sb) break;
@@ -4342,7 +4338,7 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
     if (!rc && KIFMM__SI && np == 3) rc = KIFMM_ERR_PERIODIC;
     if (!rc && KIFMM__SI) {
         rc = KIFMM__F(__lat_level)(c, 1.0, 1, &L);
-        if (!rc) rc = KIFMM__F(__lat_fixed)(c, &L, np == 3, T);
+        if (!rc) rc = KIFMM__F(__lat_fixed)(c, &L, T);
         if (!rc) {
             c->lat.mu = L.mu;
             L.mu = NULL;
@@ -5930,6 +5926,21 @@ KIFMM__FN int KIFMM__F(__eval_grow)(KIFMM_NAME *h, int cap)
 
 /* The densities of nr vectors in sorted order, each sorted source writing
  * its own (through the kernel's _density map, if it has one). */
+/* The QD densities the kernel is linear in, from one source's UD values
+ * (through the kernel's _density map, if it has one). */
+KIFMM__FN void KIFMM__F(__density_of)(const KIFMM_NAME *h, const KIFMM__R *in, double *lin)
+{
+    int k;
+#if KIFMM__HAS_QT & KIFMM_HAS_DENSITY
+    double u[KIFMM__UD];
+    for (k = 0; k < KIFMM__UD; k++) u[k] = (double)in[k];
+    KIFMM__K(_density)(h->opts.kernel_param, u, lin);
+#else
+    (void)h;
+    for (k = 0; k < KIFMM__QD; k++) lin[k] = (double)in[k];
+#endif
+}
+
 KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work) *w, int nr,
                                             const KIFMM__R *d)
 {
@@ -5939,16 +5950,10 @@ KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work
     for (int64_t i = 0; i < t->ns; i++) {
         int k, r;
         for (r = 0; r < nr; r++) {
-            const KIFMM__R *in = d + r * uper + t->sperm[i] * KIFMM__UD;
             KIFMM__R *q = w->qs + r * qper + i * KIFMM__QD;
-#if KIFMM__HAS_QT & KIFMM_HAS_DENSITY
-            double u[KIFMM__UD], lin[KIFMM__QD];
-            for (k = 0; k < KIFMM__UD; k++) u[k] = (double)in[k];
-            KIFMM__K(_density)(h->opts.kernel_param, u, lin);
+            double lin[KIFMM__QD];
+            KIFMM__F(__density_of)(h, d + r * uper + t->sperm[i] * KIFMM__UD, lin);
             for (k = 0; k < KIFMM__QD; k++) q[k] = (KIFMM__R)lin[k];
-#else
-            for (k = 0; k < KIFMM__QD; k++) q[k] = in[k];
-#endif
         }
     }
 }
@@ -5996,16 +6001,9 @@ KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIF
         double q[KIFMM__SD], m[KIFMM__SD];
         for (b = 0; b < KIFMM__SD; b++) q[b] = m[b] = 0.0;
         for (int64_t i = 0; i < t->ns; i++) {
-            const KIFMM__R *in = d + (size_t)r * t->ns * KIFMM__UD + (size_t)i * KIFMM__UD;
             double lin[KIFMM__QD];
             int k;
-#if KIFMM__HAS_QT & KIFMM_HAS_DENSITY
-            double u[KIFMM__UD];
-            for (k = 0; k < KIFMM__UD; k++) u[k] = (double)in[k];
-            KIFMM__K(_density)(h->opts.kernel_param, u, lin);
-#else
-            for (k = 0; k < KIFMM__QD; k++) lin[k] = (double)in[k];
-#endif
+            KIFMM__F(__density_of)(h, d + (size_t)r * t->ns * KIFMM__UD + (size_t)i * KIFMM__UD, lin);
             for (b = 0; b < KIFMM__SD; b++)
                 for (k = 0; k < KIFMM__QD; k++) {
                     q[b] += h->lat.mu[b + k * KIFMM__SD] * lin[k];
