@@ -69,7 +69,31 @@ extern "C++" {
 #define KIFMM_HAS_P2PSNF 256
 #define KIFMM_HAS_DENSITY 512
 #define KIFMM_HAS_RADIAL 1024
-#define KIFMM_HAS_ALL 2047
+#define KIFMM_HAS_EWALD 2048
+#define KIFMM_HAS_BACKGROUND 4096
+#define KIFMM_HAS_ALL 8191
+
+/* Three periodic directions (docs/api.md) need two more hooks of a
+ * scale-invariant kernel. EWALD, on the surface kernel (SD x SD, k[a SD +
+ * b]): kifmm_kernel_NAME_ewald(param, alpha, part, x, y, z, k) splits the
+ * kernel G = R + S at alpha into a real-space part R (part
+ * KIFMM_EWALD_REAL, at the offset (x, y, z)) that decays like exp(-(alpha
+ * r)^2) and a smooth part S (KIFMM_EWALD_SMOOTH, finite at 0), gives S's
+ * Fourier transform at the wave vector (x, y, z) != 0 (KIFMM_EWALD_FOURIER,
+ * so that the lattice sum of G over a cell of volume V is sum_n R(d + n L)
+ * + (1 / V) sum_{k != 0} F(k) cos(k . d) + c0 / V) and c0 = -integral of R
+ * over space (KIFMM_EWALD_MEAN: the field then has zero mean over the
+ * cell). BACKGROUND, on the surface kernel and the kernel itself (rows as
+ * the kernel's outputs, columns as its densities): a particular field, a
+ * polynomial of degree <= 2 in d, of a unit density of each kind spread
+ * uniformly over space (laplace: |d|^2 / 6, as -lap (|d|^2 / 6) = -1; the
+ * Stokeslet's velocity: 0, a pressure gradient balances a uniform force),
+ * derived from it as the kernel is from its surface kernel. */
+#define KIFMM_EWALD_REAL 0
+#define KIFMM_EWALD_SMOOTH 1
+#define KIFMM_EWALD_FOURIER 2
+#define KIFMM_EWALD_MEAN 3
+#define KIFMM_KERNEL__PER (KIFMM_HAS_EWALD | KIFMM_HAS_BACKGROUND)
 
 /* laplace: phi(y) = q / (4 pi |y - x|). */
 #define kifmm_kernel_laplace_SRC_DIM 1
@@ -202,7 +226,8 @@ static inline int kifmm_kernel__begin(double dx, double dy, double dz, int n, do
 #define kifmm_kernel_stokes_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_DEGREE (-1)
 #define kifmm_kernel_stokes_HAS                                                           \
-    (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | KIFMM_HAS_P2PF | KIFMM_HAS_P2PS | KIFMM_HAS_P2PSF)
+    (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | KIFMM_HAS_P2PF | KIFMM_HAS_P2PS | KIFMM_HAS_P2PSF |       \
+     KIFMM_KERNEL__PER)
 #define kifmm_kernel_stokes_setup kifmm_kernel__viscosity_setup
 static inline void kifmm_kernel_stokes_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
@@ -298,7 +323,7 @@ static inline void kifmm_kernel__lap_eval(double dx, double dy, double dz, int c
 #define kifmm_kernel_laplace_hess_SRC_DIM 1
 #define kifmm_kernel_laplace_hess_TRG_DIM 10
 #define kifmm_kernel_laplace_hess_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_hess_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_laplace_hess_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_laplace_hess_DEGREE (-1)
 #define kifmm_kernel_laplace_hess_EQUIV laplace
 static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx, double dy,
@@ -312,7 +337,7 @@ static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx
 #define kifmm_kernel_laplace_dipole_SRC_DIM 3
 #define kifmm_kernel_laplace_dipole_TRG_DIM 1
 #define kifmm_kernel_laplace_dipole_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_dipole_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_laplace_dipole_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_laplace_dipole_DEGREE (-2)
 #define kifmm_kernel_laplace_dipole_EQUIV laplace
 #define kifmm_kernel_laplace_dipole_SURFACE laplace
@@ -327,7 +352,7 @@ static inline void kifmm_kernel_laplace_dipole_eval(const double *param, double 
 #define kifmm_kernel_laplace_dipole_grad_SRC_DIM 3
 #define kifmm_kernel_laplace_dipole_grad_TRG_DIM 4
 #define kifmm_kernel_laplace_dipole_grad_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_dipole_grad_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_laplace_dipole_grad_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_laplace_dipole_grad_DEGREE (-2)
 #define kifmm_kernel_laplace_dipole_grad_EQUIV laplace
 #define kifmm_kernel_laplace_dipole_grad_SURFACE laplace_grad
@@ -343,7 +368,7 @@ static inline void kifmm_kernel_laplace_dipole_grad_eval(const double *param, do
 #define kifmm_kernel_laplace_cd_SRC_DIM 4
 #define kifmm_kernel_laplace_cd_TRG_DIM 1
 #define kifmm_kernel_laplace_cd_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_cd_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_laplace_cd_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_laplace_cd_DEGREE (-1)
 #define kifmm_kernel_laplace_cd_EQUIV laplace
 #define kifmm_kernel_laplace_cd_SURFACE laplace
@@ -358,7 +383,7 @@ static inline void kifmm_kernel_laplace_cd_eval(const double *param, double dx, 
 #define kifmm_kernel_laplace_cd_grad_SRC_DIM 4
 #define kifmm_kernel_laplace_cd_grad_TRG_DIM 4
 #define kifmm_kernel_laplace_cd_grad_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_cd_grad_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_laplace_cd_grad_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_laplace_cd_grad_DEGREE (-1)
 #define kifmm_kernel_laplace_cd_grad_EQUIV laplace
 #define kifmm_kernel_laplace_cd_grad_USE_EQUIV 1 /* 4 x 4, yet not its own surface kernel */
@@ -375,7 +400,7 @@ static inline void kifmm_kernel_laplace_cd_grad_eval(const double *param, double
 #define kifmm_kernel_laplace_cd_hess_SRC_DIM 4
 #define kifmm_kernel_laplace_cd_hess_TRG_DIM 10
 #define kifmm_kernel_laplace_cd_hess_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_cd_hess_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_laplace_cd_hess_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_laplace_cd_hess_DEGREE (-1)
 #define kifmm_kernel_laplace_cd_hess_EQUIV laplace
 #define kifmm_kernel_laplace_cd_hess_SURFACE laplace_hess
@@ -473,7 +498,7 @@ static inline void kifmm_kernel_yukawa_cd_grad_eval(const double *param, double 
 #define kifmm_kernel_stokes_grad_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_grad_DEGREE (-1)
 #define kifmm_kernel_stokes_grad_EQUIV stokes
-#define kifmm_kernel_stokes_grad_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS) /* below */
+#define kifmm_kernel_stokes_grad_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_stokes_grad_setup kifmm_kernel__viscosity_setup
 static inline void kifmm_kernel_stokes_grad_eval(const double *param, double dx, double dy,
                                                  double dz, double *k)
@@ -498,6 +523,7 @@ static inline void kifmm_kernel_stokes_grad_eval(const double *param, double dx,
 #define kifmm_kernel__stokes_pl_TRG_DIM 4
 #define kifmm_kernel__stokes_pl_SCALE_INVARIANT 1
 #define kifmm_kernel__stokes_pl_DEGREE (-1)
+#define kifmm_kernel__stokes_pl_HAS KIFMM_KERNEL__PER
 static inline void kifmm_kernel__stokes_pl_eval(const double *param, double dx, double dy,
                                                 double dz, double *k)
 {
@@ -513,7 +539,7 @@ static inline void kifmm_kernel__stokes_pl_eval(const double *param, double dx, 
 #define kifmm_kernel_stokes_pvel_TRG_DIM 4
 #define kifmm_kernel_stokes_pvel_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_pvel_DEGREE (-1)
-#define kifmm_kernel_stokes_pvel_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS) /* below */
+#define kifmm_kernel_stokes_pvel_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_stokes_pvel_setup kifmm_kernel__viscosity_setup
 #define kifmm_kernel_stokes_pvel_EQUIV _stokes_pl
 #define kifmm_kernel_stokes_pvel_SURFACE _stokes_pvel_st
@@ -563,7 +589,7 @@ static inline void kifmm_kernel__stokes_pvel_st_eval(const double *param, double
 #define kifmm_kernel_stokes_dl_TRG_DIM 3
 #define kifmm_kernel_stokes_dl_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_dl_DEGREE (-2)
-#define kifmm_kernel_stokes_dl_HAS (KIFMM_HAS_DENSITY | KIFMM_KERNEL__OW_HAS) /* below */
+#define kifmm_kernel_stokes_dl_HAS (KIFMM_HAS_DENSITY | KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_stokes_dl_EQUIV _stokes_pl
 #define kifmm_kernel_stokes_dl_SURFACE _stokes_dl_st
 #define kifmm_kernel_stokes_dl_CHECK _stokes_dl_qc
@@ -635,7 +661,7 @@ static inline void kifmm_kernel__stokes_dl_st_eval(const double *param, double d
  * r^3 - 3 (a x d)_i d_j / r^5) / (4 pi) at [i * 3 + j]. The expansions are
  * those of the vector potential a / (4 pi r): three Laplace charges per
  * surface point (_laplace3). */
-#define kifmm_kernel__laplace3_HAS KIFMM_KERNEL__OW_HAS
+#define kifmm_kernel__laplace3_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_KERNEL__PER)
 #define kifmm_kernel__laplace3_SRC_DIM 3
 #define kifmm_kernel__laplace3_TRG_DIM 3
 #define kifmm_kernel__laplace3_SCALE_INVARIANT 1
@@ -673,7 +699,7 @@ static inline void kifmm_kernel__bs_eval(double dx, double dy, double dz, int gr
 #define kifmm_kernel_biot_savart_SRC_DIM 3
 #define kifmm_kernel_biot_savart_TRG_DIM 3
 #define kifmm_kernel_biot_savart_SCALE_INVARIANT 1
-#define kifmm_kernel_biot_savart_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_biot_savart_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_biot_savart_DEGREE (-2)
 #define kifmm_kernel_biot_savart_EQUIV _laplace3
 #define kifmm_kernel_biot_savart_USE_EQUIV 1
@@ -688,7 +714,7 @@ static inline void kifmm_kernel_biot_savart_eval(const double *param, double dx,
 #define kifmm_kernel_biot_savart_grad_SRC_DIM 3
 #define kifmm_kernel_biot_savart_grad_TRG_DIM 12
 #define kifmm_kernel_biot_savart_grad_SCALE_INVARIANT 1
-#define kifmm_kernel_biot_savart_grad_HAS KIFMM_KERNEL__OW_HAS /* below */
+#define kifmm_kernel_biot_savart_grad_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
 #define kifmm_kernel_biot_savart_grad_DEGREE (-2)
 #define kifmm_kernel_biot_savart_grad_EQUIV _laplace3
 static inline void kifmm_kernel_biot_savart_grad_eval(const double *param, double dx, double dy,
@@ -696,6 +722,204 @@ static inline void kifmm_kernel_biot_savart_grad_eval(const double *param, doubl
 {
     (void)param;
     kifmm_kernel__bs_eval(dx, dy, dz, 1, k);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Three periodic directions: Ewald splits and backgrounds                  */
+/* ------------------------------------------------------------------------ */
+/* The surface kernels' splits at alpha (KIFMM_HAS_EWALD, see the top of this
+ * file) and every scale-invariant kernel's background (KIFMM_HAS_BACKGROUND).
+ * 1 / (4 pi r) splits as erfc(alpha r) / (4 pi r) + erf(alpha r) / (4 pi
+ * r), the second transforming to exp(-k^2 / (4 alpha^2)) / k^2, and the
+ * first integrating to 1 / (4 alpha^2) (Ewald 1921). The Stokeslet
+ * (delta_ij / r + d_i d_j / r^3) = (delta_ij lap - d_i d_j) r splits with r
+ * = r erfc(alpha r) + r erf(alpha r) (Beenakker 1986): the smooth part
+ * transforms to (8 pi / k^4) (1 + k^2 / (4 alpha^2) + k^4 / (8 alpha^4))
+ * (k^2 delta_ij - k_i k_j) exp(-k^2 / (4 alpha^2)), the real part
+ * integrates to 0. */
+static inline double kifmm_kernel__lap_ewald(double alpha, int part, double x, double y, double z)
+{
+    const double r2 = x * x + y * y + z * z, r = sqrt(r2);
+    switch (part) {
+    case KIFMM_EWALD_REAL: return r > 0.0 ? KIFMM_INV_4PI * erfc(alpha * r) / r : 0.0;
+    case KIFMM_EWALD_SMOOTH:
+        return KIFMM_INV_4PI * (r > 0.0 ? erf(alpha * r) / r : 1.1283791670955126 * alpha);
+    case KIFMM_EWALD_FOURIER: return exp(-r2 / (4.0 * alpha * alpha)) / r2;
+    default: return -1.0 / (4.0 * alpha * alpha);
+    }
+}
+
+/* The Stokeslet's part times c into the 3 x 3 block k[i * ld + j]: a delta_ij
+ * + b d_i d_j / r^2 in real space, its transform at k = (x, y, z) */
+static inline void kifmm_kernel__stokes_ewald(double alpha, int part, double x, double y, double z,
+                                              double c, int ld, double *k)
+{
+    const double d[3] = {x, y, z}, r2 = x * x + y * y + z * z, r = sqrt(r2);
+    const double e = 1.1283791670955126 * alpha * exp(-alpha * alpha * r2), s = 2.0 * alpha * alpha * r2;
+    double a = 0.0, b = 0.0;
+    int i, j;
+    if (part == KIFMM_EWALD_REAL && r > 0.0) {
+        a = erfc(alpha * r) / r + (s - 3.0) * e;
+        b = erfc(alpha * r) / r + (1.0 - s) * e;
+    } else if (part == KIFMM_EWALD_SMOOTH) {
+        a = r > 0.0 ? erf(alpha * r) / r + (3.0 - s) * e : 4.0 * e;
+        b = r > 0.0 ? erf(alpha * r) / r - (1.0 - s) * e : 0.0;
+    } else if (part == KIFMM_EWALD_FOURIER) {
+        const double q = r2 / (4.0 * alpha * alpha);
+        a = 8.0 * 3.14159265358979323846 / (r2 * r2) * (1.0 + q + 2.0 * q * q) * exp(-q);
+        b = -a; /* (k^2 delta - k k) = k^2 (delta - k k / k^2) */
+        a *= r2;
+        b *= r2;
+    }
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) k[i * ld + j] = c * ((i == j ? a : 0.0) + (r2 > 0.0 ? b * d[i] * d[j] / r2 : 0.0));
+}
+
+static inline void kifmm_kernel_laplace_ewald(const double *param, double alpha, int part, double x,
+                                              double y, double z, double *k)
+{
+    (void)param;
+    k[0] = kifmm_kernel__lap_ewald(alpha, part, x, y, z);
+}
+static inline void kifmm_kernel_laplace_background(const double *param, double dx, double dy,
+                                                   double dz, double *k)
+{
+    (void)param;
+    k[0] = (dx * dx + dy * dy + dz * dz) / 6.0;
+}
+static inline void kifmm_kernel__laplace3_ewald(const double *param, double alpha, int part, double x,
+                                                double y, double z, double *k)
+{
+    (void)param;
+    kifmm_kernel__zero(9, k);
+    k[0] = k[4] = k[8] = kifmm_kernel__lap_ewald(alpha, part, x, y, z);
+}
+static inline void kifmm_kernel__laplace3_background(const double *param, double dx, double dy,
+                                                     double dz, double *k)
+{
+    (void)param;
+    kifmm_kernel__zero(9, k);
+    k[0] = k[4] = k[8] = (dx * dx + dy * dy + dz * dz) / 6.0;
+}
+static inline void kifmm_kernel_stokes_ewald(const double *param, double alpha, int part, double x,
+                                             double y, double z, double *k)
+{
+    kifmm_kernel__stokes_ewald(alpha, part, x, y, z, 0.5 * KIFMM_INV_4PI / param[0], 3, k);
+}
+static inline void kifmm_kernel__stokes_pl_ewald(const double *param, double alpha, int part, double x,
+                                                 double y, double z, double *k)
+{
+    (void)param;
+    kifmm_kernel__zero(16, k);
+    k[0] = kifmm_kernel__lap_ewald(alpha, part, x, y, z);
+    kifmm_kernel__stokes_ewald(alpha, part, x, y, z, 0.5 * KIFMM_INV_4PI, 4, k + 5);
+}
+static inline void kifmm_kernel__stokes_pl_background(const double *param, double dx, double dy,
+                                                      double dz, double *k)
+{
+    (void)param;
+    kifmm_kernel__zero(16, k);
+    k[0] = (dx * dx + dy * dy + dz * dz) / 6.0;
+}
+
+/* The Laplace family's (rows and columns as kifmm_kernel__lap_eval's): a
+ * charge's |d|^2 / 6, gradient d / 3, Hessian delta_ij / 3; a dipole v's
+ * v . grad_source of those, -v . d / 3, gradient -v / 3. */
+static inline void kifmm_kernel__lap_background(double dx, double dy, double dz, int ch, int dip,
+                                                int rows, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    const int ld = ch + 3 * dip;
+    int m, a;
+    kifmm_kernel__zero(rows * ld, k);
+    if (ch) {
+        k[0] = (dx * dx + dy * dy + dz * dz) / 6.0;
+        for (m = 0; m < 3 && rows > 1; m++) k[(1 + m) * ld] = d[m] / 3.0;
+        for (m = 0; m < 3 && rows > 4; m++) k[(4 + m) * ld] = 1.0 / 3.0;
+    }
+    for (a = 0; a < 3 && dip; a++) {
+        k[ch + a] = -d[a] / 3.0;
+        if (rows > 1) k[(1 + a) * ld + ch + a] = -1.0 / 3.0;
+    }
+}
+#define KIFMM_KERNEL__LAP_BG(name, ch, dip, rows)                                                \
+    static inline void kifmm_kernel_##name##_background(const double *param, double dx, double dy, \
+                                                        double dz, double *k)                   \
+    {                                                                                           \
+        (void)param;                                                                            \
+        kifmm_kernel__lap_background(dx, dy, dz, ch, dip, rows, k);                             \
+    }
+KIFMM_KERNEL__LAP_BG(laplace_grad, 1, 0, 4)
+KIFMM_KERNEL__LAP_BG(laplace_hess, 1, 0, 10)
+KIFMM_KERNEL__LAP_BG(laplace_dipole, 0, 1, 1)
+KIFMM_KERNEL__LAP_BG(laplace_dipole_grad, 0, 1, 4)
+KIFMM_KERNEL__LAP_BG(laplace_cd, 1, 1, 1)
+KIFMM_KERNEL__LAP_BG(laplace_cd_grad, 1, 1, 4)
+KIFMM_KERNEL__LAP_BG(laplace_cd_hess, 1, 1, 10)
+#undef KIFMM_KERNEL__LAP_BG
+
+/* The Stokes family: no velocity (nor its gradient) from a uniform force,
+ * which a pressure gradient balances; pressure -f . d / 3, the force's
+ * f . grad_source |d|^2 / 6 (as p = f . grad_source 1 / (4 pi r)); the
+ * double layer's flux (q . n) as a Laplace charge's gradient: (q . n) d / 3. */
+static inline void kifmm_kernel_stokes_background(const double *param, double dx, double dy,
+                                                  double dz, double *k)
+{
+    (void)param, (void)dx, (void)dy, (void)dz;
+    kifmm_kernel__zero(9, k);
+}
+static inline void kifmm_kernel_stokes_grad_background(const double *param, double dx, double dy,
+                                                       double dz, double *k)
+{
+    (void)param, (void)dx, (void)dy, (void)dz;
+    kifmm_kernel__zero(36, k);
+}
+static inline void kifmm_kernel_stokes_pvel_background(const double *param, double dx, double dy,
+                                                       double dz, double *k)
+{
+    (void)param;
+    kifmm_kernel__zero(12, k);
+    k[0] = -dx / 3.0, k[1] = -dy / 3.0, k[2] = -dz / 3.0;
+}
+static inline void kifmm_kernel_stokes_dl_background(const double *param, double dx, double dy,
+                                                     double dz, double *k)
+{
+    const double d[3] = {dx, dy, dz};
+    int i, j;
+    (void)param;
+    kifmm_kernel__zero(27, k);
+    for (i = 0; i < 3; i++)
+        for (j = 0; j < 3; j++) k[i * 9 + 4 * j] = d[i] / 3.0;
+}
+
+/* Biot-Savart: the curl of the vector potential's a |d|^2 / 6: (d x a) / 3,
+ * gradient d(d x a)_i / dy_j = eps_ijl a_l / 3 */
+static inline void kifmm_kernel__bs_background(double dx, double dy, double dz, int grad, double *k)
+{
+    static const int nx[3] = {1, 2, 0}, px[3] = {2, 0, 1}; /* (d x a)_i = d_nx a_px - d_px a_nx */
+    const double d[3] = {dx, dy, dz};
+    int i, j;
+    kifmm_kernel__zero(grad ? 36 : 9, k);
+    for (i = 0; i < 3; i++) {
+        k[3 * i + px[i]] = d[nx[i]] / 3.0;
+        k[3 * i + nx[i]] = -d[px[i]] / 3.0;
+        for (j = 0; j < 3 && grad; j++) {
+            k[3 * (3 + 3 * i + j) + px[i]] = j == nx[i] ? 1.0 / 3.0 : 0.0;
+            k[3 * (3 + 3 * i + j) + nx[i]] = j == px[i] ? -1.0 / 3.0 : 0.0;
+        }
+    }
+}
+static inline void kifmm_kernel_biot_savart_background(const double *param, double dx, double dy,
+                                                       double dz, double *k)
+{
+    (void)param;
+    kifmm_kernel__bs_background(dx, dy, dz, 0, k);
+}
+static inline void kifmm_kernel_biot_savart_grad_background(const double *param, double dx,
+                                                            double dy, double dz, double *k)
+{
+    (void)param;
+    kifmm_kernel__bs_background(dx, dy, dz, 1, k);
 }
 
 /* ------------------------------------------------------------------------ */
@@ -3272,8 +3496,8 @@ KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_dl_qc, 9, 4, KIFMM_KERNEL__DL_PAIR, 1
 #else
 #define KIFMM_KERNEL__LAPLACE_HAS (KIFMM_HAS_P2P)
 #endif
-#define kifmm_kernel_laplace_HAS (KIFMM_KERNEL__LAPLACE_HAS | KIFMM_HAS_RADIAL)
-#define kifmm_kernel_laplace_grad_HAS KIFMM_KERNEL__LAPLACE_HAS
+#define kifmm_kernel_laplace_HAS (KIFMM_KERNEL__LAPLACE_HAS | KIFMM_HAS_RADIAL | KIFMM_KERNEL__PER)
+#define kifmm_kernel_laplace_grad_HAS (KIFMM_KERNEL__LAPLACE_HAS | KIFMM_HAS_BACKGROUND)
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
 #pragma GCC diagnostic pop
