@@ -3169,6 +3169,14 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
  * spectra of the 316 transfer vectors are those of 16, turned, and the M2M
  * and L2L of the 8 octants those of one, mirrored. */
 #define KIFMM__RADIAL (KIFMM__SD == 1 && (KIFMM__HAS_SC & KIFMM_HAS_RADIAL) != 0)
+/* Three periodic directions of a scale-invariant kernel: its surface
+ * kernel's Ewald split and the background of it and of the kernel. */
+#if KIFMM__SI && (KIFMM__HAS_SC & KIFMM_HAS_EWALD) && (KIFMM__HAS_SC & KIFMM_HAS_BACKGROUND) && \
+    (KIFMM__HAS_QT & KIFMM_HAS_BACKGROUND)
+#define KIFMM__EWALD 1
+#else
+#define KIFMM__EWALD 0
+#endif
 
 /* The hook bits of this precision: one-way, many-vector, mutual, mutual
  * many-vector; and the suffix of the hooks' names. */
@@ -3324,6 +3332,8 @@ struct KIFMM_NAME {
         KIFMM__R *t;           /* root density -> root check vector (nc x ne) */
         double *mu;            /* scale-invariant kernels: SD x QD monopole map, and */
         int neutral;           /* whether the densities must sum to zero */
+        double *bq;            /* three periodic directions of a scale-invariant kernel:
+                                  the background's quadratic (__background_fit) */
     } lat;
     struct {                   /* the mutual near field (sources = targets) */
         int32_t *chunk;        /* chunks of leaves, or NULL */
@@ -4030,6 +4040,113 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
     return rc;
 }
 
+#if KIFMM__EWALD
+/* ---- three periodic directions: the far images by Ewald sums ------------- */
+
+/* The surface kernel's lattice sum over a cubic cell of side L, split at
+ * alpha = 4 / L (the kernel's _ewald hook, kifmm_kernels.h): real space to
+ * alpha r = 6.5 and Fourier space to k^2 / (4 alpha^2) = 46 (the terms left
+ * out below 1e-18 of the sum), the wave vectors k = 2 pi m / L of one half
+ * space (cos(k . d) is even in k) with their coefficients times 2 / V. */
+typedef struct {
+    double L, alpha, rc, c0[KIFMM__SD * KIFMM__SD];
+    int nk, *m;  /* nk wave vectors, m[3 i ..] */
+    double *f;   /* SD^2 per wave vector */
+} KIFMM__F(__ewald);
+
+KIFMM__FN int KIFMM__F(__ewald_plan)(const KIFMM_NAME *c, double L, KIFMM__F(__ewald) *e)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD, MM = 9 };
+    const double tp = 2.0 * 3.14159265358979323846 / L, V = L * L * L;
+    int i, j, k, ab;
+    e->L = L;
+    e->alpha = 4.0 / L;
+    e->rc = 6.5 / e->alpha;
+    e->nk = 0;
+    e->m = (int *)kifmm__alloc((size_t)3 * (2 * MM + 1) * (2 * MM + 1) * (2 * MM + 1), sizeof(int));
+    e->f = (double *)kifmm__alloc((size_t)SD2 * (2 * MM + 1) * (2 * MM + 1) * (2 * MM + 1), sizeof(double));
+    if (!e->m || !e->f) return KIFMM_ERR_NOMEM;
+    KIFMM__R_(SC, _ewald)(c->opts.kernel_param, e->alpha, KIFMM_EWALD_MEAN, 0.0, 0.0, 0.0, e->c0);
+    for (i = 0; i <= MM; i++)
+        for (j = -MM; j <= MM; j++)
+            for (k = -MM; k <= MM; k++) {
+                const double k2 = tp * tp * (double)(i * i + j * j + k * k);
+                if ((i == 0 && (j < 0 || (j == 0 && k <= 0))) || k2 > 184.0 * e->alpha * e->alpha)
+                    continue; /* the other half space, k = 0, or beyond the reach */
+                KIFMM__R_(SC, _ewald)(c->opts.kernel_param, e->alpha, KIFMM_EWALD_FOURIER, tp * i,
+                                      tp * j, tp * k, e->f + (size_t)e->nk * SD2);
+                for (ab = 0; ab < SD2; ab++) e->f[(size_t)e->nk * SD2 + ab] *= 2.0 / V;
+                e->m[3 * e->nk] = i, e->m[3 * e->nk + 1] = j, e->m[3 * e->nk + 2] = k;
+                e->nk++;
+            }
+    return KIFMM_SUCCESS;
+}
+
+/* gs[i SD^2 + ab] = the lattice sum of the surface kernel at the offsets
+ * d[3 i ..] (i < n) less the 27 nearest images (n in {-1, 0, 1}^3, which the
+ * lists reach) and less the background B(d) / V: the images at |n| >= 2 in
+ * real space, minus the smooth part of the near ones, the Fourier sum, the
+ * mean c0 / V. */
+KIFMM__FN int KIFMM__F(__ewald_far)(const KIFMM_NAME *c, const KIFMM__F(__ewald) *e, int64_t n,
+                                    const double *d, double *gs)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD, MM = 9 };
+    const double L = e->L, V = L * L * L, tp = 2.0 * 3.14159265358979323846 / L;
+    int bad = 0;
+    /* each offset writes its own sums */
+    KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads) reduction(| : bad))
+    for (int64_t i = 0; i < n; i++) {
+        const double *x = d + 3 * i;
+        const int ni = (int)ceil((e->rc + fabs(x[0]) + fabs(x[1]) + fabs(x[2])) / L);
+        double acc[SD2], kv[SD2], cs[3][2 * MM + 1][2];
+        int a, b, q, ab;
+        for (ab = 0; ab < SD2; ab++) acc[ab] = e->c0[ab] / V;
+        for (a = -ni; a <= ni; a++)
+            for (b = -ni; b <= ni; b++)
+                for (q = -ni; q <= ni; q++) {
+                    const double v0 = x[0] + L * a, v1 = x[1] + L * b, v2 = x[2] + L * q;
+                    const int near = a * a <= 1 && b * b <= 1 && q * q <= 1;
+                    if (!near && v0 * v0 + v1 * v1 + v2 * v2 >= e->rc * e->rc) continue;
+                    KIFMM__R_(SC, _ewald)(c->opts.kernel_param, e->alpha,
+                                          near ? KIFMM_EWALD_SMOOTH : KIFMM_EWALD_REAL, v0, v1, v2, kv);
+                    for (ab = 0; ab < SD2; ab++) acc[ab] += near ? -kv[ab] : kv[ab];
+                }
+        for (a = 0; a < 3; a++) /* e^{i k_a x_a} for m = -MM .. MM */
+            for (q = -MM; q <= MM; q++) {
+                cs[a][q + MM][0] = cos(tp * q * x[a]);
+                cs[a][q + MM][1] = sin(tp * q * x[a]);
+            }
+        for (q = 0; q < e->nk; q++) {
+            const double *p0 = cs[0][e->m[3 * q] + MM], *p1 = cs[1][e->m[3 * q + 1] + MM];
+            const double *p2 = cs[2][e->m[3 * q + 2] + MM];
+            const double re01 = p0[0] * p1[0] - p0[1] * p1[1], im01 = p0[0] * p1[1] + p0[1] * p1[0];
+            const double re = re01 * p2[0] - im01 * p2[1];
+            for (ab = 0; ab < SD2; ab++) acc[ab] += e->f[(size_t)q * SD2 + ab] * re;
+        }
+        KIFMM__R_(SC, _background)(c->opts.kernel_param, x[0], x[1], x[2], kv);
+        for (ab = 0; ab < SD2; ab++) {
+            gs[i * SD2 + ab] = acc[ab] - kv[ab] / V;
+            bad |= !(fabs(gs[i * SD2 + ab]) <= DBL_MAX);
+        }
+    }
+    return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
+}
+
+/* The far sums at offsets d (3 x n) for a cell of half-width h. */
+KIFMM__FN int KIFMM__F(__ewald_at)(const KIFMM_NAME *c, double h, int64_t n, const double *d, double *gs)
+{
+    KIFMM__F(__ewald) e;
+    int rc;
+    memset(&e, 0, sizeof e);
+    rc = KIFMM__F(__ewald_plan)(c, 2.0 * h, &e);
+    if (!rc) rc = KIFMM__F(__ewald_far)(c, &e, n, d, gs);
+    kifmm__free(e.m);
+    kifmm__free(e.f);
+    return rc;
+}
+
+#endif /* KIFMM__EWALD */
+
 /* ---- periodic trees: the far images' operator (see kifmm__lat) ----------- */
 
 /* out (nc x ne) = the sum over image offsets m[3 i ..] (nm of them) of
@@ -4088,40 +4205,93 @@ KIFMM__FN int KIFMM__F(__lat_ring_sums)(const KIFMM_NAME *c, double h, int q, do
 }
 
 #if !KIFMM__FFT
-/* The same pair by pair (the dense M2L's check surfaces have order p + 1). */
-KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, double *a)
+/* The same pair by pair (the dense M2L's check surfaces have order p + 1);
+ * ewald: the Ewald far sums (__ewald_at) instead. */
+KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, int ewald, double *a)
 {
-    const int nc = c->surf.nc, ne = c->surf.ne;
-    double *k = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
-    int m[3 * 729], rc;
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const int nc = c->surf.nc, ne = c->surf.ne, nsc = c->surf.nsc, nse = c->surf.nse;
+    const size_t np = (size_t)nsc * nse;
+    double *k = (double *)kifmm__alloc(ewald ? np * SD2 : (size_t)nc * ne, sizeof(double));
+    double *d = ewald ? (double *)kifmm__alloc(3 * np, sizeof(double)) : NULL;
+    int m[3 * 729], rc, i, j, a0, b0;
     const int nm = kifmm__lat_offsets(&c->tree, 1, m);
-    size_t i;
-    rc = k ? KIFMM__F(__lat_kmat)(c, c->surf.ai * h, c->surf.ai * h, h, m, nm, k) : KIFMM_ERR_NOMEM;
-    for (i = 0; i < (size_t)nc * ne && !rc; i++) a[i] = k[i];
+    size_t u;
+    if (!k || (ewald && !d)) rc = KIFMM_ERR_NOMEM;
+    else if (!ewald) rc = KIFMM__F(__lat_kmat)(c, c->surf.ai * h, c->surf.ai * h, h, m, nm, k);
+    else {
+        for (j = 0; j < nse; j++)
+            for (i = 0; i < nsc; i++)
+                for (a0 = 0; a0 < 3; a0++)
+                    d[3 * ((size_t)j * nsc + i) + a0] = c->surf.ai * h *
+                        (c->surf.unit_c[a0 * nsc + i] - c->surf.unit_e[a0 * nse + j]);
+#if KIFMM__EWALD
+        rc = KIFMM__F(__ewald_at)(c, h, (int64_t)np, d, k);
+#else
+        rc = KIFMM_ERR_PERIODIC;
+#endif
+    }
+    for (u = 0; u < (size_t)nc * ne && !rc && !ewald; u++) a[u] = k[u];
+    for (j = 0; j < nse && !rc && ewald; j++)
+        for (i = 0; i < nsc; i++)
+            for (a0 = 0; a0 < KIFMM__SD; a0++)
+                for (b0 = 0; b0 < KIFMM__SD; b0++)
+                    a[(size_t)(i * KIFMM__SD + a0) + (size_t)(j * KIFMM__SD + b0) * nc] =
+                        k[((size_t)j * nsc + i) * SD2 + a0 * KIFMM__SD + b0];
     kifmm__free(k);
+    kifmm__free(d);
     return rc;
 }
 #endif
 
+/* The Ewald far sums (__ewald_far) at the (2q - 1)^3 offsets between two
+ * order-q lattices on the surface of radius ai h, as __lat_ring_sums. */
+KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, double *gs)
+{
+#if KIFMM__EWALD
+    const int w = 2 * q - 1;
+    const double g = 2.0 * c->surf.ai * h / (q - 1);
+    double *d = (double *)kifmm__alloc((size_t)3 * w * w * w, sizeof(double));
+    int64_t e;
+    int rc;
+    if (!d) return KIFMM_ERR_NOMEM;
+    for (e = 0; e < (int64_t)w * w * w; e++) {
+        d[3 * e] = g * (double)(e / (w * w) - (q - 1));
+        d[3 * e + 1] = g * (double)(e / w % w - (q - 1));
+        d[3 * e + 2] = g * (double)(e % w - (q - 1));
+    }
+    rc = KIFMM__F(__ewald_at)(c, h, (int64_t)w * w * w, d, gs);
+    kifmm__free(d);
+    return rc;
+#else
+    (void)c, (void)h, (void)q, (void)gs;
+    return KIFMM_ERR_PERIODIC;
+#endif
+}
+
 /* a (nc x ne) = K(the cell's check surface <- its images' equivalent
- * surfaces) summed over the images in the super-cell's neighbours, through
- * the sums per lattice offset (__lat_ring_sums) on the check surface's
- * lattice: directly when the equivalent surface lies on it (check order
- * p), else for densities on the check lattice, moved there by the FFT
+ * surfaces) summed over the images in the super-cell's neighbours (ewald:
+ * the Ewald far sums, all images beyond the 26 neighbours), through the
+ * sums per lattice offset (__lat_ring_sums, __lat_ewald_sums) on the check
+ * surface's lattice: directly when the equivalent surface lies on it (check
+ * order p), else for densities on the check lattice, moved there by the FFT
  * M2L's fit conv (kifmm__ops), whose lattice density has the same field. */
-KIFMM__FN int KIFMM__F(__lat_ring)(const KIFMM_NAME *c, double h, double *a)
+KIFMM__FN int KIFMM__F(__lat_ring)(const KIFMM_NAME *c, double h, int ewald, double *a)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
     const int q = c->opts.order + c->surf.cdiff, w = 2 * q - 1, nsc = c->surf.nsc, nc = c->surf.nc;
     int *ix = (int *)kifmm__alloc((size_t)3 * nsc, sizeof(int)), i, j, a0, b0, rc;
     double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
     double *acc = c->surf.cdiff ? (double *)kifmm__alloc((size_t)nc * nc, sizeof(double)) : a;
+    const int pairs = c->surf.cdiff && !KIFMM__FFT; /* pair by pair, below */
     kifmm__ops o;
     memset(&o, 0, sizeof o);
-    rc = ix && gs && acc ? KIFMM__F(__lat_ring_sums)(c, h, q, gs) : KIFMM_ERR_NOMEM;
+    if (!ix || !gs || !acc) rc = KIFMM_ERR_NOMEM;
+    else if (pairs) rc = KIFMM_SUCCESS;
+    else rc = ewald ? KIFMM__F(__lat_ewald_sums)(c, h, q, gs) : KIFMM__F(__lat_ring_sums)(c, h, q, gs);
     for (i = 0; i < nsc && !rc; i++) /* lattice indices 0 .. q - 1 */
         for (j = 0; j < 3; j++) ix[3 * i + j] = (int)lround(0.5 * (c->surf.unit_c[j * nsc + i] + 1.0) * (q - 1));
-    for (j = 0; j < nsc && !rc; j++)
+    for (j = 0; j < nsc && !rc && !pairs; j++)
         for (i = 0; i < nsc; i++) {
             const int *xc = ix + 3 * i, *xe = ix + 3 * j;
             const int64_t e = ((int64_t)(xc[0] - xe[0] + q - 1) * w + (xc[1] - xe[1] + q - 1)) * w +
@@ -4136,7 +4306,7 @@ KIFMM__FN int KIFMM__F(__lat_ring)(const KIFMM_NAME *c, double h, double *a)
     if (!rc && c->surf.cdiff)
         kifmm__gemm(0, 0, nc, c->surf.ne, nc, 1.0, acc, nc, o.conv, nc, 0.0, a, nc);
 #else
-    if (!rc && c->surf.cdiff) rc = KIFMM__F(__lat_ring_pairs)(c, h, a);
+    if (!rc && c->surf.cdiff) rc = KIFMM__F(__lat_ring_pairs)(c, h, ewald, a);
 #endif
     kifmm__ops_free(&o);
     if (acc != a) kifmm__free(acc);
@@ -4225,7 +4395,7 @@ KIFMM__FN int KIFMM__F(__lat_level)(const KIFMM_NAME *c, double h, int want_e, k
     }
     /* A: the cell's images in the super-cell's neighbours -> its check
      * potential (each at least one cell apart: the M2L's geometry) */
-    if (!rc) rc = KIFMM__F(__lat_ring)(c, h, L->a);
+    if (!rc) rc = KIFMM__F(__lat_ring)(c, h, 0, L->a);
     /* B: the super-cell's check potential -> its density -> the cell's check */
     if (!rc) rc = KIFMM__F(__lat_kmat)(c, ai * h, ao * H, H, zero, 1, k);
     if (!rc) {
@@ -4319,6 +4489,62 @@ KIFMM__FN int KIFMM__F(__lat_sum)(const KIFMM_NAME *c, double h, double *T)
     return rc;
 }
 
+#if KIFMM__EWALD
+/* The uniform density's field of the kernel's outputs (its _background
+ * hook) as a quadratic about 0: bq[(t QD + b) 10 + j], j = 0 the value, 1 ..
+ * 3 the gradient, 4 .. 9 the second derivatives xx, yy, zz, xy, xz, yz;
+ * central differences of step 1 (exact for a quadratic). */
+KIFMM__FN int KIFMM__F(__background_fit)(KIFMM_NAME *c)
+{
+    enum { TQ = KIFMM__TD * KIFMM__QD };
+    static const int pq[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+    double b0[TQ], bp[TQ], bm[TQ], bpp[TQ], bpm[TQ], bmp[TQ], bmm[TQ], *bq;
+    const double *prm = c->opts.kernel_param;
+    int j, i;
+    bq = (double *)kifmm__alloc((size_t)TQ * 10, sizeof(double));
+    if (!bq) return KIFMM_ERR_NOMEM;
+    KIFMM__R_(QT, _background)(prm, 0.0, 0.0, 0.0, b0);
+    for (i = 0; i < TQ; i++) bq[10 * i] = b0[i];
+    for (j = 0; j < 3; j++) {
+        const double u[3] = {j == 0 ? 1.0 : 0.0, j == 1 ? 1.0 : 0.0, j == 2 ? 1.0 : 0.0};
+        KIFMM__R_(QT, _background)(prm, u[0], u[1], u[2], bp);
+        KIFMM__R_(QT, _background)(prm, -u[0], -u[1], -u[2], bm);
+        for (i = 0; i < TQ; i++) {
+            bq[10 * i + 1 + j] = 0.5 * (bp[i] - bm[i]);
+            bq[10 * i + 4 + j] = bp[i] - 2.0 * b0[i] + bm[i];
+        }
+    }
+    for (j = 3; j < 6; j++) {
+        double u[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
+        u[pq[j][0]] = 1.0, v[pq[j][1]] = 1.0;
+        KIFMM__R_(QT, _background)(prm, u[0] + v[0], u[1] + v[1], u[2] + v[2], bpp);
+        KIFMM__R_(QT, _background)(prm, u[0] - v[0], u[1] - v[1], u[2] - v[2], bpm);
+        KIFMM__R_(QT, _background)(prm, v[0] - u[0], v[1] - u[1], v[2] - u[2], bmp);
+        KIFMM__R_(QT, _background)(prm, -u[0] - v[0], -u[1] - v[1], -u[2] - v[2], bmm);
+        for (i = 0; i < TQ; i++) bq[10 * i + 4 + j] = 0.25 * (bpp[i] - bpm[i] - bmp[i] + bmm[i]);
+    }
+    c->lat.bq = bq;
+    c->held += kifmm__size(bq);
+    return KIFMM_SUCCESS;
+}
+
+/* Three periodic directions of a scale-invariant kernel: T at half-width 1
+ * from the Ewald sums (the field of the images beyond the 26 neighbours,
+ * less the background, which evaluate adds at the targets from the
+ * densities' moments: __background), and the background's quadratic. */
+KIFMM__FN int KIFMM__F(__lat_ewald)(KIFMM_NAME *c, double *T)
+{
+    int rc = KIFMM__F(__lat_ring)(c, 1.0, 1, T);
+    return rc ? rc : KIFMM__F(__background_fit)(c);
+}
+#else
+KIFMM__FN int KIFMM__F(__lat_ewald)(KIFMM_NAME *c, double *T)
+{
+    (void)c, (void)T;
+    return KIFMM_ERR_PERIODIC; /* the kernel has no Ewald split or background */
+}
+#endif
+
 /* The periodic tree's far-image operator, in the instance's precision,
  * times the root's check scale: c->lat.t (nc x ne); and for scale-invariant
  * kernels the monopole map c->lat.mu. */
@@ -4332,11 +4558,9 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
     int rc = T ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, d, np = 0;
     memset(&L, 0, sizeof L);
     for (d = 0; d < 3; d++) np += c->tree.per[d];
-    /* three periodic directions of a scale-invariant kernel need the
-     * conventions of docs/api.md (the shape term, zero mean, the
-     * neutralising background), not in this version */
-    if (!rc && KIFMM__SI && np == 3) rc = KIFMM_ERR_PERIODIC;
-    if (!rc && KIFMM__SI) {
+    if (!rc && KIFMM__SI && np == 3) {
+        rc = KIFMM__F(__lat_ewald)(c, T);
+    } else if (!rc && KIFMM__SI) {
         rc = KIFMM__F(__lat_level)(c, 1.0, 1, &L);
         if (!rc) rc = KIFMM__F(__lat_fixed)(c, &L, T);
         if (!rc) {
@@ -5476,6 +5700,68 @@ KIFMM__FN void KIFMM__F(__leaves)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
     c->stats.t_p2p += tu / c->opts.nthreads;
 }
 
+/* Three periodic directions of a scale-invariant kernel: the field of the
+ * densities' uniform background, (1 / V) sum_j B(x - y_j) q_j with B the
+ * kernel's quadratic (lat.bq), added at the targets. From the densities'
+ * moments about the cell's centre (per kind: sum q, sum q y, sum q y y^T),
+ * per output P(a) = P0 + P1 . a + a^T P2 a / 2 at a = x - centre. */
+KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
+{
+    static const int pq[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+    const kifmm__tree *t = &c->tree;
+    const double V = t->width * t->width * t->width;
+    const size_t qper = (size_t)t->ns * KIFMM__QD, oper = (size_t)t->nt * KIFMM__TD;
+    double cen[3];
+    int r, d;
+    for (d = 0; d < 3; d++) cen[d] = t->lo[d] + 0.5 * t->width;
+    for (r = 0; r < nrhs; r++) {
+        double mo[KIFMM__QD * 10], P[KIFMM__TD * 10];
+        int b, o, j;
+        memset(mo, 0, sizeof mo);
+        memset(P, 0, sizeof P);
+        for (int64_t i = 0; i < t->ns; i++) {
+            const double a[3] = {c->pts.src[i] - cen[0], c->pts.src[t->ns + i] - cen[1],
+                                 c->pts.src[2 * t->ns + i] - cen[2]};
+            for (b = 0; b < KIFMM__QD; b++) {
+                const double q = w->qs[r * qper + (size_t)i * KIFMM__QD + b];
+                mo[10 * b] += q;
+                for (j = 0; j < 3; j++) mo[10 * b + 1 + j] += q * a[j];
+                for (j = 0; j < 6; j++) mo[10 * b + 4 + j] += q * a[pq[j][0]] * a[pq[j][1]];
+            }
+        }
+        for (o = 0; o < KIFMM__TD; o++)
+            for (b = 0; b < KIFMM__QD; b++) {
+                const double *B = c->lat.bq + 10 * ((size_t)o * KIFMM__QD + b), *m = mo + 10 * b;
+                double *p = P + 10 * o;
+                p[0] += m[0] * B[0];
+                for (j = 0; j < 3; j++) p[0] -= m[1 + j] * B[1 + j];
+                for (j = 0; j < 6; j++) p[0] += (j < 3 ? 0.5 : 1.0) * m[4 + j] * B[4 + j];
+                for (j = 0; j < 3; j++) p[1 + j] += m[0] * B[1 + j];
+                for (j = 0; j < 6; j++) { /* - H M */
+                    p[1 + pq[j][0]] -= B[4 + j] * m[1 + pq[j][1]];
+                    if (j >= 3) p[1 + pq[j][1]] -= B[4 + j] * m[1 + pq[j][0]];
+                }
+                for (j = 0; j < 6; j++) p[4 + j] += m[0] * B[4 + j];
+            }
+        /* each sorted target i writes its own outputs */
+        KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
+        for (int64_t i = 0; i < t->nt; i++) {
+            const double a[3] = {c->pts.trg[i] - cen[0], c->pts.trg[t->nt + i] - cen[1],
+                                 c->pts.trg[2 * t->nt + i] - cen[2]};
+            KIFMM__R *out = w->outs ? w->outs + r * oper + (size_t)i * KIFMM__TD
+                                    : w->dst + r * oper + (size_t)t->tperm[i] * KIFMM__TD;
+            int k;
+            for (k = 0; k < KIFMM__TD; k++) {
+                const double *p = P + 10 * k;
+                const double v = p[0] + p[1] * a[0] + p[2] * a[1] + p[3] * a[2] +
+                                 0.5 * (p[4] * a[0] * a[0] + p[5] * a[1] * a[1] + p[6] * a[2] * a[2]) +
+                                 p[7] * a[0] * a[1] + p[8] * a[0] * a[2] + p[9] * a[1] * a[2];
+                out[k] += (KIFMM__R)(v / V);
+            }
+        }
+    }
+}
+
 /* The chunks of the mutual near field: the leaves in Morton order cut into
  * KIFMM__PAIR_CHUNKS chunks per thread of about equal estimated work (U
  * pairs counted half, and the surface evaluations). A pair of leaves in two
@@ -5551,6 +5837,7 @@ KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->near.chunk);
     kifmm__free(h->lat.t);
     kifmm__free(h->lat.mu);
+    kifmm__free(h->lat.bq);
     kifmm__free(h);
 }
 
@@ -5867,7 +6154,7 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
         if (!rc && KIFMM__MUTUAL && h->tree.same) rc = KIFMM__F(__pair_plan)(h);
         if (!rc) rc = KIFMM__F(__precompute)(h);
         if (!rc && h->tree.periodic) rc = KIFMM__F(__lattice_build)(h);
-        h->lat.neutral = h->tree.periodic && KIFMM__SI;
+        h->lat.neutral = h->tree.periodic && KIFMM__SI && !h->lat.bq;
 #if KIFMM__FFT
         if (!rc) rc = KIFMM__F(__plan_fout)(h);
 #endif
@@ -5975,6 +6262,7 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     for (l = t->nlev - 1; l >= kifmm__lmin(t); l--) KIFMM__F(__upward)(h, w, nr, l);
     for (l = kifmm__lmin(t); l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
     KIFMM__F(__leaves)(h, w, nr);
+    if (h->lat.bq) KIFMM__F(__background)(h, w, nr);
     w->dst = NULL;
     if (!w->outs) return;
     /* each sorted target i writes its own outputs */
@@ -6100,6 +6388,7 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 #undef KIFMM__SD
 #undef KIFMM__SI
 #undef KIFMM__RADIAL
+#undef KIFMM__EWALD
 #undef KIFMM__DEGREE
 #undef KIFMM__ROLE_QT
 #undef KIFMM__ROLE_SC
