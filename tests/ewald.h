@@ -45,6 +45,38 @@ static inline t_ewald_split t_ewald_plan(double L, double aL, double tol)
     return s;
 }
 
+/* Adds w[0 .. nw - 1] e^{-i k.x} (k = 2 pi m / L, |m_a| <= mm) to the
+ * structure factors (sr, si)[nw at + c], at = the index of m; the phases
+ * from one table of e^{-i k_a x_a} per axis. */
+static inline void t_ew_factor(const double *x, double L, int mm, const double *w, int nw,
+                               long double *sr, long double *si)
+{
+    const int nm = 2 * mm + 1;
+    long double *ec = (long double *)malloc(6 * (size_t)nm * sizeof(long double)), *es = ec + 3 * nm;
+    int a, mx, my, mz, c;
+    size_t at = 0;
+    for (a = 0; a < 3; a++)
+        for (mx = -mm; mx <= mm; mx++) {
+            const long double ph = 2.0L * T_EW_PI / L * mx * (long double)x[a];
+            ec[a * nm + mx + mm] = cosl(ph);
+            es[a * nm + mx + mm] = -sinl(ph);
+        }
+    for (mx = 0; mx < nm; mx++)
+        for (my = 0; my < nm; my++) {
+            const long double r1 = ec[mx] * ec[nm + my] - es[mx] * es[nm + my];
+            const long double i1 = ec[mx] * es[nm + my] + es[mx] * ec[nm + my];
+            for (mz = 0; mz < nm; mz++, at++) {
+                const long double re = r1 * ec[2 * nm + mz] - i1 * es[2 * nm + mz];
+                const long double im = r1 * es[2 * nm + mz] + i1 * ec[2 * nm + mz];
+                for (c = 0; c < nw; c++) {
+                    sr[nw * at + c] += w[c] * re;
+                    si[nw * at + c] += w[c] * im;
+                }
+            }
+        }
+    free(ec);
+}
+
 static inline void t_ewald_laplace_split(int64_t ns, const double *xs, const double *q, int64_t nt,
                                   const double *xt, double L, t_ewald_split sp, double *out)
 {
@@ -57,17 +89,7 @@ static inline void t_ewald_laplace_split(int64_t ns, const double *xs, const dou
     int mx, my, mz, nx, ny, nz, d;
     for (j = 0; j < ns; j++) Q += q[j];
     /* structure factors S(m) = sum_j q_j e^{-i k.x_j} */
-    for (j = 0; j < ns; j++)
-        for (mx = -mm; mx <= mm; mx++)
-            for (my = -mm; my <= mm; my++)
-                for (mz = -mm; mz <= mm; mz++) {
-                    const long double ph = 2.0L * T_EW_PI / L *
-                                           (mx * (long double)xs[3 * j] + my * (long double)xs[3 * j + 1] +
-                                            mz * (long double)xs[3 * j + 2]);
-                    const size_t at = ((size_t)(mx + mm) * nm + (size_t)(my + mm)) * nm + (size_t)(mz + mm);
-                    sr[at] += q[j] * cosl(ph);
-                    si[at] -= q[j] * sinl(ph);
-                }
+    for (j = 0; j < ns; j++) t_ew_factor(xs + 3 * j, L, mm, q + j, 1, sr, si);
     for (i = 0; i < nt; i++) {
         const double *x = xt + 3 * i;
         long double p = 0.0L, g[3] = {0.0L, 0.0L, 0.0L};
@@ -198,6 +220,85 @@ static inline void t_ewald2d_laplace(int64_t ns, const double *xs, const double 
                               const double *xt, double L, double *out)
 {
     t_ewald2d_split(ns, xs, q, nt, xt, L, t_ewald_plan(L, 5.0, 1e-15), out);
+}
+
+/* t_ewald_stokes: the velocity u_i = sum_j G_ij f_j, G = (delta_ij / r +
+ * d_i d_j / r^3) / (8 pi) (viscosity 1), of forces f_j at x_j and all their
+ * images in a cubic cell of side L, at nt targets (out[3 i ..]): Hasimoto's
+ * sum (Hasimoto 1959; the split as in Lindbo and Tornberg, J. Comput. Phys.
+ * 229, 2010): the Stokeslet (delta lap - grad grad) r with r = r erfc(xi r)
+ * - exp(-xi^2 r^2) / (xi sqrt(pi)) + [r erf(xi r) + exp(-xi^2 r^2) / (xi
+ * sqrt(pi))], real space
+ *   (erfc(xi r) / r - E) delta_ij + (erfc(xi r) / r + E) d_i d_j / r^2,
+ *   E = 2 xi / sqrt(pi) exp(-xi^2 r^2),
+ * Fourier space (1 / L^3) sum_{k != 0} 8 pi (1 / k^4 + 1 / (4 xi^2 k^2))
+ * (k^2 delta - k k) exp(-k^2 / (4 xi^2)) Re(S(k) e^{i k.x}). Conventions: a
+ * net force is balanced by a mean pressure gradient, the velocity has zero
+ * mean over the cell (the real part integrates to zero), a target at a
+ * source leaves that source's own term out (-4 xi / sqrt(pi) f / (8 pi),
+ * the smooth part's value at 0). */
+static inline void t_ewald_stokes_split(int64_t ns, const double *xs, const double *f, int64_t nt,
+                                        const double *xt, double L, t_ewald_split sp, double *out)
+{
+    const long double xi = sp.alpha, V = (long double)L * L * L, e8p = 8.0L * T_EW_PI;
+    const int mm = sp.mmax, nm = 2 * mm + 1;
+    const size_t nk = (size_t)nm * nm * nm;
+    long double *sr = (long double *)calloc(3 * nk, sizeof(long double));
+    long double *si = (long double *)calloc(3 * nk, sizeof(long double));
+    int64_t i, j;
+    int mx, my, mz, nx, ny, nz, a, b;
+    for (j = 0; j < ns; j++) t_ew_factor(xs + 3 * j, L, mm, f + 3 * j, 3, sr, si); /* S(m) */
+    for (i = 0; i < nt; i++) {
+        const double *x = xt + 3 * i;
+        long double u[3] = {0.0L, 0.0L, 0.0L};
+        for (j = 0; j < ns; j++)
+            for (nx = -sp.nimg; nx <= sp.nimg; nx++)
+                for (ny = -sp.nimg; ny <= sp.nimg; ny++)
+                    for (nz = -sp.nimg; nz <= sp.nimg; nz++) {
+                        const long double dv[3] = {(long double)x[0] - xs[3 * j] - (long double)nx * L,
+                                                   (long double)x[1] - xs[3 * j + 1] - (long double)ny * L,
+                                                   (long double)x[2] - xs[3 * j + 2] - (long double)nz * L};
+                        const long double r2 = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
+                        long double r, E, ca, cb, fd;
+                        if (r2 == 0.0L) { /* the target's own source */
+                            for (a = 0; a < 3; a++) u[a] -= 4.0L * xi / sqrtl(T_EW_PI) * f[3 * j + a] / e8p;
+                            continue;
+                        }
+                        if (r2 >= (long double)sp.rc * sp.rc) continue;
+                        r = sqrtl(r2);
+                        E = 2.0L * xi / sqrtl(T_EW_PI) * expl(-xi * xi * r2);
+                        ca = erfcl(xi * r) / r - E;
+                        cb = (erfcl(xi * r) / r + E) / r2;
+                        fd = dv[0] * f[3 * j] + dv[1] * f[3 * j + 1] + dv[2] * f[3 * j + 2];
+                        for (a = 0; a < 3; a++) u[a] += (ca * f[3 * j + a] + cb * dv[a] * fd) / e8p;
+                    }
+        for (mx = -mm; mx <= mm; mx++)
+            for (my = -mm; my <= mm; my++)
+                for (mz = -mm; mz <= mm; mz++) {
+                    const size_t at = ((size_t)(mx + mm) * nm + (size_t)(my + mm)) * nm + (size_t)(mz + mm);
+                    const long double k[3] = {2.0L * T_EW_PI / L * mx, 2.0L * T_EW_PI / L * my,
+                                              2.0L * T_EW_PI / L * mz};
+                    const long double k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
+                    long double w, ph, re[3];
+                    if (mx == 0 && my == 0 && mz == 0) continue;
+                    w = 8.0L * T_EW_PI * (1.0L / (k2 * k2) + 1.0L / (4.0L * xi * xi * k2)) *
+                        expl(-k2 / (4.0L * xi * xi)) / V / e8p;
+                    ph = k[0] * x[0] + k[1] * x[1] + k[2] * x[2];
+                    for (a = 0; a < 3; a++) re[a] = sr[3 * at + a] * cosl(ph) - si[3 * at + a] * sinl(ph);
+                    for (a = 0; a < 3; a++)
+                        for (b = 0; b < 3; b++) u[a] += w * ((a == b ? k2 : 0.0L) - k[a] * k[b]) * re[b];
+                }
+        for (a = 0; a < 3; a++) out[3 * i + a] = (double)u[a];
+    }
+    free(sr);
+    free(si);
+}
+
+/* The sums at the default split (xi L = 5, relative accuracy 1e-15). */
+static inline void t_ewald_stokes(int64_t ns, const double *xs, const double *f, int64_t nt,
+                                  const double *xt, double L, double *out)
+{
+    t_ewald_stokes_split(ns, xs, f, nt, xt, L, t_ewald_plan(L, 5.0, 1e-15), out);
 }
 
 #endif
