@@ -92,11 +92,12 @@
  *   SIMD micro-kernels are macros (each under 40 lines).
  *
  *   PERIODIC BOUNDARIES: opts.period (docs/api.md): one, two or three periodic
- *   directions for decaying kernels (Yukawa), one or two for scale-invariant
- *   ones with densities that sum to zero.
+ *   directions for decaying kernels (Yukawa); one or two for scale-invariant
+ *   ones with densities that sum to zero, three with Ewald's conventions
+ *   (tin-foil, zero mean, a neutralising background; Hasimoto for Stokes)
+ *   for kernels with the _ewald and _background hooks (every shipped one).
  *
- *   DOES NOT DO: complex kernels (Helmholtz), three periodic directions for
- *   scale-invariant kernels (yet), MPI.
+ *   DOES NOT DO: complex kernels (Helmholtz), MPI.
  *
  *   Documentation: docs/api.md (functions, options, errors, limits),
  *   docs/algorithm.md (how the method maps to this file), docs/kernels.md
@@ -193,9 +194,9 @@ extern "C++" {
       "opts.period: a period is negative or not finite, the periodic directions have "        \
       "different periods, or the points span more than the period in a free direction")      \
     X(KIFMM_ERR_PERIODIC, -14,                                                                \
-      "these periodic boundaries are not supported for this kernel: one or two periodic "     \
-      "directions need a scale-invariant or decaying kernel, three a decaying one "          \
-      "(docs/api.md)")                                                                        \
+      "these periodic boundaries are not supported for this kernel: periodic directions "     \
+      "need a scale-invariant or decaying kernel, and three of them for a scale-invariant "  \
+      "one its _ewald and _background hooks (docs/api.md)")                                  \
     X(KIFMM_ERR_NEUTRAL, -15,                                                                 \
       "with these periodic directions and this kernel the densities must sum to zero "        \
       "(docs/api.md, \"Periodic boundaries\")")
@@ -2056,7 +2057,9 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
 /* A periodic tree's field from the images of the cell beyond its 26
  * neighbours (which the lists reach: the root's colleagues are its images),
  * as one operator T from the root's upward equivalent density to its
- * downward check potential, built from the kernel alone by recursion over
+ * downward check potential (three periodic directions of a scale-invariant
+ * kernel: from Ewald sums, see __lat_ewald), otherwise built from the
+ * kernel alone by recursion over
  * super-cells of 3 x 3 x 3 cells (3 or 3 x 3 along fewer periodic
  * directions). With a cell of half-width h and its super-cell of 3 h:
  *   A: the cell's own images in the super-cell's 26 neighbours (2 <= |n|
