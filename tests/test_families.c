@@ -52,7 +52,7 @@
 #include "test.h"
 
 #ifdef KIFMM_TEST_QUICK
-#define N 4000
+#define N 2500
 #define QUICK 1
 #else
 #define N 12000
