@@ -45,6 +45,29 @@ static inline t_ewald_split t_ewald_plan(double L, double aL, double tol)
     return s;
 }
 
+/* The offsets x - y - n L over the split's block of images n (|n_a| <=
+ * nimg) that are shorter than rc, into dv[3 k ..] (room for (2 nimg + 1)^3);
+ * returns their number; *self is set if one of them is 0 (left out). */
+static inline int t_ew_near(const double *x, const double *y, double L, t_ewald_split sp,
+                            long double *dv, int *self)
+{
+    int nx, ny, nz, k = 0;
+    *self = 0;
+    for (nx = -sp.nimg; nx <= sp.nimg; nx++)
+        for (ny = -sp.nimg; ny <= sp.nimg; ny++)
+            for (nz = -sp.nimg; nz <= sp.nimg; nz++) {
+                const long double d0 = (long double)x[0] - y[0] - (long double)nx * L;
+                const long double d1 = (long double)x[1] - y[1] - (long double)ny * L;
+                const long double d2 = (long double)x[2] - y[2] - (long double)nz * L;
+                const long double r2 = d0 * d0 + d1 * d1 + d2 * d2;
+                if (r2 == 0.0L) *self = 1;
+                if (r2 == 0.0L || r2 >= (long double)sp.rc * sp.rc) continue;
+                dv[3 * k] = d0, dv[3 * k + 1] = d1, dv[3 * k + 2] = d2;
+                k++;
+            }
+    return k;
+}
+
 /* Adds w[0 .. nw - 1] e^{-i k.x} (k = 2 pi m / L, |m_a| <= mm) to the
  * structure factors (sr, si)[nw at + c], at = the index of m; the phases
  * from one table of e^{-i k_a x_a} per axis. */
@@ -86,7 +109,9 @@ static inline void t_ewald_laplace_split(int64_t ns, const double *xs, const dou
     long double *sr = (long double *)calloc((size_t)nm * nm * nm, sizeof(long double));
     long double *si = (long double *)calloc((size_t)nm * nm * nm, sizeof(long double));
     int64_t i, j;
-    int mx, my, mz, nx, ny, nz, d;
+    const size_t nb = (size_t)(2 * sp.nimg + 1) * (2 * sp.nimg + 1) * (2 * sp.nimg + 1);
+    long double *dv = (long double *)malloc(3 * nb * sizeof(long double));
+    int mx, my, mz, d;
     for (j = 0; j < ns; j++) Q += q[j];
     /* structure factors S(m) = sum_j q_j e^{-i k.x_j} */
     for (j = 0; j < ns; j++) t_ew_factor(xs + 3 * j, L, mm, q + j, 1, sr, si);
@@ -94,26 +119,18 @@ static inline void t_ewald_laplace_split(int64_t ns, const double *xs, const dou
         const double *x = xt + 3 * i;
         long double p = 0.0L, g[3] = {0.0L, 0.0L, 0.0L};
         /* real space */
-        for (j = 0; j < ns; j++)
-            for (nx = -sp.nimg; nx <= sp.nimg; nx++)
-                for (ny = -sp.nimg; ny <= sp.nimg; ny++)
-                    for (nz = -sp.nimg; nz <= sp.nimg; nz++) {
-                        const long double dv[3] = {(long double)x[0] - xs[3 * j] - (long double)nx * L,
-                                                   (long double)x[1] - xs[3 * j + 1] - (long double)ny * L,
-                                                   (long double)x[2] - xs[3 * j + 2] - (long double)nz * L};
-                        const long double r2 = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
-                        long double r, e, c;
-                        if (r2 == 0.0L) { /* the target's own source: its smeared part */
-                            p -= q[j] * 2.0L * a / sqrtl(T_EW_PI) / four_pi;
-                            continue;
-                        }
-                        if (r2 >= (long double)sp.rc * sp.rc) continue;
-                        r = sqrtl(r2);
-                        e = erfcl(a * r) / r;
-                        c = (e + 2.0L * a / sqrtl(T_EW_PI) * expl(-a * a * r2)) / r2;
-                        p += q[j] * e / four_pi;
-                        for (d = 0; d < 3; d++) g[d] -= q[j] * c * dv[d] / four_pi;
-                    }
+        for (j = 0; j < ns; j++) {
+            int self, k;
+            const int nk = t_ew_near(x, xs + 3 * j, L, sp, dv, &self);
+            if (self) p -= q[j] * 2.0L * a / sqrtl(T_EW_PI) / four_pi; /* its smeared part */
+            for (k = 0; k < nk; k++) {
+                const long double *v = dv + 3 * k, r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+                const long double r = sqrtl(r2), e = erfcl(a * r) / r;
+                const long double c = (e + 2.0L * a / sqrtl(T_EW_PI) * expl(-a * a * r2)) / r2;
+                p += q[j] * e / four_pi;
+                for (d = 0; d < 3; d++) g[d] -= q[j] * c * v[d] / four_pi;
+            }
+        }
         /* reciprocal space */
         for (mx = -mm; mx <= mm; mx++)
             for (my = -mm; my <= mm; my++)
@@ -138,6 +155,7 @@ static inline void t_ewald_laplace_split(int64_t ns, const double *xs, const dou
     }
     free(sr);
     free(si);
+    free(dv);
 }
 
 /* The sums at the default split (alpha L = 5, relative accuracy 1e-15). */
@@ -246,32 +264,26 @@ static inline void t_ewald_stokes_split(int64_t ns, const double *xs, const doub
     long double *sr = (long double *)calloc(3 * nk, sizeof(long double));
     long double *si = (long double *)calloc(3 * nk, sizeof(long double));
     int64_t i, j;
-    int mx, my, mz, nx, ny, nz, a, b;
+    const size_t nb = (size_t)(2 * sp.nimg + 1) * (2 * sp.nimg + 1) * (2 * sp.nimg + 1);
+    long double *dv = (long double *)malloc(3 * nb * sizeof(long double));
+    int mx, my, mz, a, b;
     for (j = 0; j < ns; j++) t_ew_factor(xs + 3 * j, L, mm, f + 3 * j, 3, sr, si); /* S(m) */
     for (i = 0; i < nt; i++) {
         const double *x = xt + 3 * i;
         long double u[3] = {0.0L, 0.0L, 0.0L};
-        for (j = 0; j < ns; j++)
-            for (nx = -sp.nimg; nx <= sp.nimg; nx++)
-                for (ny = -sp.nimg; ny <= sp.nimg; ny++)
-                    for (nz = -sp.nimg; nz <= sp.nimg; nz++) {
-                        const long double dv[3] = {(long double)x[0] - xs[3 * j] - (long double)nx * L,
-                                                   (long double)x[1] - xs[3 * j + 1] - (long double)ny * L,
-                                                   (long double)x[2] - xs[3 * j + 2] - (long double)nz * L};
-                        const long double r2 = dv[0] * dv[0] + dv[1] * dv[1] + dv[2] * dv[2];
-                        long double r, E, ca, cb, fd;
-                        if (r2 == 0.0L) { /* the target's own source */
-                            for (a = 0; a < 3; a++) u[a] -= 4.0L * xi / sqrtl(T_EW_PI) * f[3 * j + a] / e8p;
-                            continue;
-                        }
-                        if (r2 >= (long double)sp.rc * sp.rc) continue;
-                        r = sqrtl(r2);
-                        E = 2.0L * xi / sqrtl(T_EW_PI) * expl(-xi * xi * r2);
-                        ca = erfcl(xi * r) / r - E;
-                        cb = (erfcl(xi * r) / r + E) / r2;
-                        fd = dv[0] * f[3 * j] + dv[1] * f[3 * j + 1] + dv[2] * f[3 * j + 2];
-                        for (a = 0; a < 3; a++) u[a] += (ca * f[3 * j + a] + cb * dv[a] * fd) / e8p;
-                    }
+        for (j = 0; j < ns; j++) {
+            int self, k;
+            const int nk = t_ew_near(x, xs + 3 * j, L, sp, dv, &self);
+            for (a = 0; a < 3 && self; a++) /* the target's own source */
+                u[a] -= 4.0L * xi / sqrtl(T_EW_PI) * f[3 * j + a] / e8p;
+            for (k = 0; k < nk; k++) {
+                const long double *v = dv + 3 * k, r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+                const long double r = sqrtl(r2), E = 2.0L * xi / sqrtl(T_EW_PI) * expl(-xi * xi * r2);
+                const long double ca = erfcl(xi * r) / r - E, cb = (erfcl(xi * r) / r + E) / r2;
+                const long double fd = v[0] * f[3 * j] + v[1] * f[3 * j + 1] + v[2] * f[3 * j + 2];
+                for (a = 0; a < 3; a++) u[a] += (ca * f[3 * j + a] + cb * v[a] * fd) / e8p;
+            }
+        }
         for (mx = -mm; mx <= mm; mx++)
             for (my = -mm; my <= mm; my++)
                 for (mz = -mm; mz <= mm; mz++) {
@@ -292,6 +304,7 @@ static inline void t_ewald_stokes_split(int64_t ns, const double *xs, const doub
     }
     free(sr);
     free(si);
+    free(dv);
 }
 
 /* The sums at the default split (xi L = 5, relative accuracy 1e-15). */
