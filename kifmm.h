@@ -5708,30 +5708,41 @@ KIFMM__FN void KIFMM__F(__leaves)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
  * kernel's quadratic (lat.bq), added at the targets. From the densities'
  * moments about the cell's centre (per kind: sum q, sum q y, sum q y y^T),
  * per output P(a) = P0 + P1 . a + a^T P2 a / 2 at a = x - centre. */
+/* The moments of vector r's densities about cen: mo[10 b ..] = sum q_b, sum
+ * q_b y (3), sum q_b y y^T (xx, yy, zz, xy, xz, yz) per kind b. */
+KIFMM__FN void KIFMM__F(__moments)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int r,
+                                   const double *cen, double *mo)
+{
+    static const int pq[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
+    const int64_t ns = c->tree.ns;
+    int b, j;
+    memset(mo, 0, (size_t)KIFMM__QD * 10 * sizeof(double));
+    for (int64_t i = 0; i < ns; i++) {
+        const double a[3] = {c->pts.src[i] - cen[0], c->pts.src[ns + i] - cen[1],
+                             c->pts.src[2 * ns + i] - cen[2]};
+        for (b = 0; b < KIFMM__QD; b++) {
+            const double q = w->qs[(size_t)r * ns * KIFMM__QD + (size_t)i * KIFMM__QD + b];
+            mo[10 * b] += q;
+            for (j = 0; j < 3; j++) mo[10 * b + 1 + j] += q * a[j];
+            for (j = 0; j < 6; j++) mo[10 * b + 4 + j] += q * a[pq[j][0]] * a[pq[j][1]];
+        }
+    }
+}
+
 KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
 {
     static const int pq[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
     const kifmm__tree *t = &c->tree;
     const double V = t->width * t->width * t->width;
-    const size_t qper = (size_t)t->ns * KIFMM__QD, oper = (size_t)t->nt * KIFMM__TD;
+    const size_t oper = (size_t)t->nt * KIFMM__TD;
     double cen[3];
     int r, d;
     for (d = 0; d < 3; d++) cen[d] = t->lo[d] + 0.5 * t->width;
     for (r = 0; r < nrhs; r++) {
         double mo[KIFMM__QD * 10], P[KIFMM__TD * 10];
         int b, o, j;
-        memset(mo, 0, sizeof mo);
         memset(P, 0, sizeof P);
-        for (int64_t i = 0; i < t->ns; i++) {
-            const double a[3] = {c->pts.src[i] - cen[0], c->pts.src[t->ns + i] - cen[1],
-                                 c->pts.src[2 * t->ns + i] - cen[2]};
-            for (b = 0; b < KIFMM__QD; b++) {
-                const double q = w->qs[r * qper + (size_t)i * KIFMM__QD + b];
-                mo[10 * b] += q;
-                for (j = 0; j < 3; j++) mo[10 * b + 1 + j] += q * a[j];
-                for (j = 0; j < 6; j++) mo[10 * b + 4 + j] += q * a[pq[j][0]] * a[pq[j][1]];
-            }
-        }
+        KIFMM__F(__moments)(c, w, r, cen, mo);
         for (o = 0; o < KIFMM__TD; o++)
             for (b = 0; b < KIFMM__QD; b++) {
                 const double *B = c->lat.bq + 10 * ((size_t)o * KIFMM__QD + b), *m = mo + 10 * b;
