@@ -1729,17 +1729,18 @@ KIFMM__FN int kifmm__lists_assemble(kifmm__tree *t, int nth, int vlists, int32_t
 
 /* t->dsrc: a box refits a local expansion only where its own level brings
  * new far-field content: a V list, or an X list when the box holds at least
- * `xdirect` targets (boxes with fewer take their X sources directly).
+ * `xdirect` targets (boxes with fewer take their X sources directly), or,
+ * in a periodic tree, the far images (the root, and the boxes of level
+ * `flev`).
  * Elsewhere it keeps its ancestor's, which is evaluated directly: a refit
  * adds an error of the fit order relative to the whole local field on the
  * box's own scale, which along a chain of boxes down to an isolated cluster
  * would swamp its gradient. */
-KIFMM__FN void kifmm__tree_dsrc(kifmm__tree *t, int64_t xdirect)
+KIFMM__FN void kifmm__tree_dsrc(kifmm__tree *t, int64_t xdirect, int flev)
 {
     int32_t b;
     for (b = 0; b < t->nbox; b++) {
-        /* a periodic tree's root gets the far images' field */
-        int fresh = t->vo[b + 1] > t->vo[b] || (t->periodic && b == 0) ||
+        int fresh = t->vo[b + 1] > t->vo[b] || (t->periodic && (b == 0 || t->lev[b] == flev)) ||
                     (t->xo[b + 1] > t->xo[b] && t->t1[b] - t->t0[b] >= xdirect);
         if (b < t->loff[kifmm__lmin(t) < t->nlev ? kifmm__lmin(t) : t->nlev]) t->dsrc[b] = -1;
         else if (fresh) t->dsrc[b] = b;
@@ -1776,7 +1777,7 @@ KIFMM__FN int kifmm__lists_derived(kifmm__tree *t)
         else
             for (o = 7; o >= 0; o--) stk[sp++] = t->child[b] + o;
     }
-    kifmm__tree_dsrc(t, 0);
+    kifmm__tree_dsrc(t, 0, 0);
     return KIFMM_SUCCESS;
 }
 
@@ -2006,6 +2007,13 @@ KIFMM__FN int kifmm__check_diff(int p, int fft, int sd)
 #endif
 }
 
+/* Three periodic directions: the order of the far images' exchange about
+ * the root (__ewald_root) for expansions of order p. */
+#ifndef KIFMM_EWALD_RAISE
+#define KIFMM_EWALD_RAISE 2
+#endif
+KIFMM__FN int kifmm__ewald_order(int p) { return p + KIFMM_EWALD_RAISE; }
+
 KIFMM__FN double kifmm__alpha_outer(int diff, int sd)
 {
     return diff == 0 ? KIFMM__ALPHA_OUTER_SQUARE
@@ -2058,8 +2066,8 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
  * neighbours (which the lists reach: the root's colleagues are its images),
  * as one operator T from the root's upward equivalent density to its
  * downward check potential (three periodic directions of a scale-invariant
- * kernel: from Ewald sums, see __lat_ewald), otherwise built from the
- * kernel alone by recursion over
+ * kernel: from Ewald sums and between the boxes of level 1 instead, see
+ * __ewald_root), built from the kernel alone by recursion over
  * super-cells of 3 x 3 x 3 cells (3 or 3 x 3 along fewer periodic
  * directions). With a cell of half-width h and its super-cell of 3 h:
  *   A: the cell's own images in the super-cell's 26 neighbours (2 <= |n|
@@ -3275,6 +3283,8 @@ typedef struct {
     KIFMM__R *stack;         /* 316 ne x (M2L block columns) */
     KIFMM__R *m2l_out;       /* kd x (M2L block columns) */
     KIFMM__R *qs;            /* densities in sorted order */
+    KIFMM__R *lat;           /* three periodic directions: U's potentials, D's
+                                densities (__ewald_apply) */
     /* Outputs: either all of them in sorted order (outs), gathered into the
      * caller's order at the end; or, when that saves memory, each task sums
      * its targets in its thread's part of lbuf (lbuf_per values) and adds
@@ -3336,7 +3346,12 @@ struct KIFMM_NAME {
         double *mu;            /* scale-invariant kernels: SD x QD monopole map, and */
         int neutral;           /* whether the densities must sum to zero */
         double *bq;            /* three periodic directions of a scale-invariant kernel:
-                                  the background's quadratic (__background_fit) */
+                                  the background's quadratic (__background_fit), */
+        KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__ewald_root): its three
+                                  factors (zku x SD nzu, zkd x zku, SD nzd x zkd), */
+        KIFMM__R *zp;          /* and the points of U then D about the root's centre */
+        int nzu, nzd, zku, zkd; /* points of U and D; the factors' ranks */
+        int zl;                /* the level whose boxes it reaches (0 or 1) */
     } lat;
     struct {                   /* the mutual near field (sources = targets) */
         int32_t *chunk;        /* chunks of leaves, or NULL */
@@ -4208,42 +4223,12 @@ KIFMM__FN int KIFMM__F(__lat_ring_sums)(const KIFMM_NAME *c, double h, int q, do
 }
 
 #if !KIFMM__FFT
-/* The same pair by pair (the dense M2L's check surfaces have order p + 1);
- * ewald: the Ewald far sums (__ewald_at) instead. */
-KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, int ewald, double *a)
+/* The same pair by pair (the dense M2L's check surfaces have order p + 1). */
+KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, double *a)
 {
-    enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const int nc = c->surf.nc, ne = c->surf.ne, nsc = c->surf.nsc, nse = c->surf.nse;
-    const size_t np = (size_t)nsc * nse;
-    double *k = (double *)kifmm__alloc(ewald ? np * SD2 : (size_t)nc * ne, sizeof(double));
-    double *d = ewald ? (double *)kifmm__alloc(3 * np, sizeof(double)) : NULL;
-    int m[3 * 729], rc, i, j, a0, b0;
+    int m[3 * 729];
     const int nm = kifmm__lat_offsets(&c->tree, 1, m);
-    size_t u;
-    if (!k || (ewald && !d)) rc = KIFMM_ERR_NOMEM;
-    else if (!ewald) rc = KIFMM__F(__lat_kmat)(c, c->surf.ai * h, c->surf.ai * h, h, m, nm, k);
-    else {
-        for (j = 0; j < nse; j++)
-            for (i = 0; i < nsc; i++)
-                for (a0 = 0; a0 < 3; a0++)
-                    d[3 * ((size_t)j * nsc + i) + a0] = c->surf.ai * h *
-                        (c->surf.unit_c[a0 * nsc + i] - c->surf.unit_e[a0 * nse + j]);
-#if KIFMM__EWALD
-        rc = KIFMM__F(__ewald_at)(c, h, (int64_t)np, d, k);
-#else
-        rc = KIFMM_ERR_PERIODIC;
-#endif
-    }
-    for (u = 0; u < (size_t)nc * ne && !rc && !ewald; u++) a[u] = k[u];
-    for (j = 0; j < nse && !rc && ewald; j++)
-        for (i = 0; i < nsc; i++)
-            for (a0 = 0; a0 < KIFMM__SD; a0++)
-                for (b0 = 0; b0 < KIFMM__SD; b0++)
-                    a[(size_t)(i * KIFMM__SD + a0) + (size_t)(j * KIFMM__SD + b0) * nc] =
-                        k[((size_t)j * nsc + i) * SD2 + a0 * KIFMM__SD + b0];
-    kifmm__free(k);
-    kifmm__free(d);
-    return rc;
+    return KIFMM__F(__lat_kmat)(c, c->surf.ai * h, c->surf.ai * h, h, m, nm, a);
 }
 #endif
 
@@ -4272,49 +4257,63 @@ KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, d
 #endif
 }
 
-/* a (nc x ne) = K(the cell's check surface <- its images' equivalent
- * surfaces) summed over the images in the super-cell's neighbours (ewald:
- * the Ewald far sums, all images beyond the 26 neighbours), through the
- * sums per lattice offset (__lat_ring_sums, __lat_ewald_sums) on the check
- * surface's lattice: directly when the equivalent surface lies on it (check
- * order p), else for densities on the check lattice, moved there by the FFT
- * M2L's fit conv (kifmm__ops), whose lattice density has the same field. */
-KIFMM__FN int KIFMM__F(__lat_ring)(const KIFMM_NAME *c, double h, int ewald, double *a)
+/* a (SD n x SD n, leading dimension lda) from the sums per lattice offset gs
+ * (__lat_ring_sums, __lat_ewald_sums) for the n points of the order-q unit
+ * surface u, which lie on the order-q lattice: entry (i a, j b) is the sum
+ * at the offset of point i from point j. */
+KIFMM__FN int KIFMM__F(__lat_gather)(int q, const double *u, int n, const double *gs, double *a,
+                                     size_t lda)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const int q = c->opts.order + c->surf.cdiff, w = 2 * q - 1, nsc = c->surf.nsc, nc = c->surf.nc;
-    int *ix = (int *)kifmm__alloc((size_t)3 * nsc, sizeof(int)), i, j, a0, b0, rc;
-    double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
-    double *acc = c->surf.cdiff ? (double *)kifmm__alloc((size_t)nc * nc, sizeof(double)) : a;
-    const int pairs = c->surf.cdiff && !KIFMM__FFT; /* pair by pair, below */
-    kifmm__ops o;
-    memset(&o, 0, sizeof o);
-    if (!ix || !gs || !acc) rc = KIFMM_ERR_NOMEM;
-    else if (pairs) rc = KIFMM_SUCCESS;
-    else rc = ewald ? KIFMM__F(__lat_ewald_sums)(c, h, q, gs) : KIFMM__F(__lat_ring_sums)(c, h, q, gs);
-    for (i = 0; i < nsc && !rc; i++) /* lattice indices 0 .. q - 1 */
-        for (j = 0; j < 3; j++) ix[3 * i + j] = (int)lround(0.5 * (c->surf.unit_c[j * nsc + i] + 1.0) * (q - 1));
-    for (j = 0; j < nsc && !rc && !pairs; j++)
-        for (i = 0; i < nsc; i++) {
+    const int w = 2 * q - 1;
+    int *ix = (int *)kifmm__alloc((size_t)3 * n, sizeof(int)), i, j, a0, b0;
+    if (!ix) return KIFMM_ERR_NOMEM;
+    for (i = 0; i < n; i++) /* lattice indices 0 .. q - 1 */
+        for (j = 0; j < 3; j++) ix[3 * i + j] = (int)lround(0.5 * (u[j * n + i] + 1.0) * (q - 1));
+    for (j = 0; j < n; j++)
+        for (i = 0; i < n; i++) {
             const int *xc = ix + 3 * i, *xe = ix + 3 * j;
             const int64_t e = ((int64_t)(xc[0] - xe[0] + q - 1) * w + (xc[1] - xe[1] + q - 1)) * w +
                               (xc[2] - xe[2] + q - 1);
             for (a0 = 0; a0 < KIFMM__SD; a0++)
                 for (b0 = 0; b0 < KIFMM__SD; b0++)
-                    acc[(size_t)(i * KIFMM__SD + a0) + (size_t)(j * KIFMM__SD + b0) * nc] =
+                    a[(size_t)(i * KIFMM__SD + a0) + (size_t)(j * KIFMM__SD + b0) * lda] =
                         gs[e * SD2 + a0 * KIFMM__SD + b0];
         }
+    kifmm__free(ix);
+    return KIFMM_SUCCESS;
+}
+
+/* a (nc x ne) = K(the cell's check surface <- its images' equivalent
+ * surfaces) summed over the images in the super-cell's neighbours, through
+ * the sums per lattice offset (__lat_ring_sums) on the check surface's
+ * lattice: directly when the equivalent surface lies on it (check order
+ * p), else for densities on the check lattice, moved there by the FFT
+ * M2L's fit conv (kifmm__ops), whose lattice density has the same field. */
+KIFMM__FN int KIFMM__F(__lat_ring)(const KIFMM_NAME *c, double h, double *a)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const int q = c->opts.order + c->surf.cdiff, w = 2 * q - 1, nc = c->surf.nc;
+    double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
+    double *acc = c->surf.cdiff ? (double *)kifmm__alloc((size_t)nc * nc, sizeof(double)) : a;
+    const int pairs = c->surf.cdiff && !KIFMM__FFT; /* pair by pair, below */
+    int rc;
+    kifmm__ops o;
+    memset(&o, 0, sizeof o);
+    if (!gs || !acc) rc = KIFMM_ERR_NOMEM;
+    else if (pairs) rc = KIFMM_SUCCESS;
+    else rc = KIFMM__F(__lat_ring_sums)(c, h, q, gs);
+    if (!rc && !pairs) rc = KIFMM__F(__lat_gather)(q, c->surf.unit_c, c->surf.nsc, gs, acc, (size_t)nc);
 #if KIFMM__FFT
     if (!rc && c->surf.cdiff) rc = KIFMM__F(__build_conv)(c, h, &o);
     if (!rc && c->surf.cdiff)
         kifmm__gemm(0, 0, nc, c->surf.ne, nc, 1.0, acc, nc, o.conv, nc, 0.0, a, nc);
 #else
-    if (!rc && c->surf.cdiff) rc = KIFMM__F(__lat_ring_pairs)(c, h, ewald, a);
+    if (!rc && c->surf.cdiff) rc = KIFMM__F(__lat_ring_pairs)(c, h, a);
 #endif
     kifmm__ops_free(&o);
     if (acc != a) kifmm__free(acc);
     kifmm__free(gs);
-    kifmm__free(ix);
     return rc;
 }
 
@@ -4398,7 +4397,7 @@ KIFMM__FN int KIFMM__F(__lat_level)(const KIFMM_NAME *c, double h, int want_e, k
     }
     /* A: the cell's images in the super-cell's neighbours -> its check
      * potential (each at least one cell apart: the M2L's geometry) */
-    if (!rc) rc = KIFMM__F(__lat_ring)(c, h, 0, L->a);
+    if (!rc) rc = KIFMM__F(__lat_ring)(c, h, L->a);
     /* B: the super-cell's check potential -> its density -> the cell's check */
     if (!rc) rc = KIFMM__F(__lat_kmat)(c, ai * h, ao * H, H, zero, 1, k);
     if (!rc) {
@@ -4531,19 +4530,111 @@ KIFMM__FN int KIFMM__F(__background_fit)(KIFMM_NAME *c)
     return KIFMM_SUCCESS;
 }
 
-/* Three periodic directions of a scale-invariant kernel: T at half-width 1
- * from the Ewald sums (the field of the images beyond the 26 neighbours,
+/* The pseudo-inverse of K(check surface uc, nsc points at radius rc <-
+ * equivalent surface ue, nse points at radius re), both about 0 at
+ * half-width 1, as its two factors (kifmm__pinv) of K / big, *big the
+ * largest |entry|: K^+ = vs ut / big. */
+KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int nsc, double rc,
+                                    const double *ue, int nse, double re, double **ut, double **vs,
+                                    int *rank, double *big)
+{
+    const int nc = nsc * KIFMM__SD, ne = nse * KIFMM__SD;
+    const double zero[3] = {0.0, 0.0, 0.0};
+    double *k = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    int err;
+    size_t i;
+    if (!k) return KIFMM_ERR_NOMEM;
+    err = KIFMM__F(__surf_kmat)(c, uc, nsc, zero, rc, ue, nse, zero, re, 1.0, k, (size_t)nc, big);
+    if (!err && !(*big > 0.0)) err = KIFMM_ERR_KERNEL;
+    for (i = 0; i < (size_t)nc * ne && !err; i++) k[i] /= *big; /* entries of size 1 */
+    if (!err) err = kifmm__pinv(k, nc, ne, KIFMM__CUTOFF, ut, vs, rank);
+    kifmm__free(k);
+    return err;
+}
+
+/* Three periodic directions of a scale-invariant kernel. The far images
+ * (all of them beyond the 26 neighbours, from Ewald sums) reach every box of
+ * the cell; through the root's own expansions of order p (the operator T of
+ * the other periodic trees) their field would carry the root's truncation
+ * error, largest in the cell's corners. So they are exchanged with the
+ * boxes of level 1 (the root when it is a leaf), through surfaces about the
+ * root of order q = p + KIFMM_EWALD_RAISE (kifmm__ewald_order):
+ *   U: check surface at ao (order q + cd), the boxes' upward densities'
+ *      potentials there, directly (at evaluate);
+ *   E: equivalent surface at ai (order q), fitted to those: Kup^+;
+ *   G: the Ewald far sums between E's points (on the order-q lattice: at the
+ *      (2q - 1)^3 offsets, __lat_ewald_sums), E's images -> E's points;
+ *   D: equivalent surface at ao (order q - cd), fitted to that: Kdn^+;
+ * and D's field at the boxes' downward check surfaces (directly). Kept:
+ * Kdn^+ G Kup^+ (U -> D) as three factors, ut of Kup^+ (zu), the middle
+ * ut G vs (zm) and vs of Kdn^+ (zd), built at half-width 1 and scaled to
+ * the root's (h^-a for a kernel of degree a). Applied one after the other,
+ * each pseudo-inverse's rounding stays in the directions its other factor
+ * brings back (formed into one matrix, p = 10 lost all digits); and the
+ * placed points of U and D about the root's centre. */
+KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const int q = kifmm__ewald_order(c->opts.order), cd = kifmm__check_diff(q, 0, KIFMM__SD);
+    const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q), nd = kifmm__surf_count(q - cd);
+    const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD, md = nd * KIFMM__SD, w = 2 * q - 1;
+    const double ao = kifmm__alpha_outer(cd, KIFMM__SD), ai = c->surf.ai, h = 0.5 * c->tree.width;
+    const double zero[3] = {0.0, 0.0, 0.0};
+    double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne + nd), sizeof(double));
+    double *g = (double *)kifmm__alloc((size_t)me * me, sizeof(double));
+    double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
+    double *x = (double *)kifmm__alloc((size_t)me * me, sizeof(double)), *ue = uu + 3 * nu;
+    double *utu = NULL, *vsu = NULL, *utd = NULL, *vsd = NULL, *m = NULL, bu = 0.0, bd = 0.0;
+    int rc = uu && g && gs && x ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, ku = 0, kd = 0;
+    if (!rc) {
+        kifmm__surf_unit(q + cd, uu);
+        kifmm__surf_unit(q, ue);
+        kifmm__surf_unit(q - cd, ue + 3 * ne);
+        rc = KIFMM__F(__lat_ewald_sums)(c, 1.0, q, gs);
+    }
+    if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
+    if (!rc) rc = KIFMM__F(__ewald_fit)(c, uu, nu, ao, ue, ne, ai, &utu, &vsu, &ku, &bu);
+    if (!rc) rc = KIFMM__F(__ewald_fit)(c, ue, ne, ai, ue + 3 * ne, nd, ao, &utd, &vsd, &kd, &bd);
+    if (!rc && !(m = (double *)kifmm__alloc((size_t)kd * ku + 1, sizeof(double)))) rc = KIFMM_ERR_NOMEM;
+    if (!rc) {
+        kifmm__gemm(0, 0, me, ku, me, 1.0, g, me, vsu, me, 0.0, x, me);
+        kifmm__gemm(0, 0, kd, ku, me, pow(h, -c->ops.degree) / (bu * bd), utd, kd, x, me, 0.0, m, kd);
+        c->lat.nzu = nu, c->lat.nzd = nd, c->lat.zku = ku, c->lat.zkd = kd;
+        c->lat.zp = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * (nu + nd), sizeof(KIFMM__R));
+        c->lat.zu = KIFMM__F(__own)(&c->held, &utu, (size_t)ku * mu);
+        c->lat.zm = KIFMM__F(__own)(&c->held, &m, (size_t)kd * ku);
+        c->lat.zd = KIFMM__F(__own)(&c->held, &vsd, (size_t)md * kd);
+        if (!c->lat.zp || !c->lat.zu || !c->lat.zm || !c->lat.zd) rc = KIFMM_ERR_NOMEM;
+    }
+    if (!rc) {
+        KIFMM__F(__place)(uu, nu, zero, ao * h, c->lat.zp);
+        KIFMM__F(__place)(ue + 3 * ne, nd, zero, ao * h, c->lat.zp + 3 * nu);
+    }
+    kifmm__free(uu);
+    kifmm__free(g);
+    kifmm__free(gs);
+    kifmm__free(x);
+    kifmm__free(utu);
+    kifmm__free(vsu);
+    kifmm__free(utd);
+    kifmm__free(vsd);
+    kifmm__free(m);
+    return rc;
+}
+
+/* Three periodic directions of a scale-invariant kernel: the far images'
+ * exchange (__ewald_root; the field of the images beyond the 26 neighbours,
  * less the background, which evaluate adds at the targets from the
  * densities' moments: __background), and the background's quadratic. */
-KIFMM__FN int KIFMM__F(__lat_ewald)(KIFMM_NAME *c, double *T)
+KIFMM__FN int KIFMM__F(__lat_ewald)(KIFMM_NAME *c)
 {
-    int rc = KIFMM__F(__lat_ring)(c, 1.0, 1, T);
+    int rc = KIFMM__F(__ewald_root)(c);
     return rc ? rc : KIFMM__F(__background_fit)(c);
 }
 #else
-KIFMM__FN int KIFMM__F(__lat_ewald)(KIFMM_NAME *c, double *T)
+KIFMM__FN int KIFMM__F(__lat_ewald)(KIFMM_NAME *c)
 {
-    (void)c, (void)T;
+    (void)c;
     return KIFMM_ERR_PERIODIC; /* the kernel has no Ewald split or background */
 }
 #endif
@@ -4555,15 +4646,16 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
 {
     const size_t nn = (size_t)c->surf.nc * c->surf.ne;
     const double h0 = 0.5 * c->tree.width;
-    double *T = (double *)kifmm__alloc(nn, sizeof(double)), s0;
+    double *T, s0;
     kifmm__lat L;
     size_t i;
-    int rc = T ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, d, np = 0;
-    memset(&L, 0, sizeof L);
+    int rc, d, np = 0;
     for (d = 0; d < 3; d++) np += c->tree.per[d];
-    if (!rc && KIFMM__SI && np == 3) {
-        rc = KIFMM__F(__lat_ewald)(c, T);
-    } else if (!rc && KIFMM__SI) {
+    if (KIFMM__SI && np == 3) return KIFMM__F(__lat_ewald)(c); /* no T: see __ewald_root */
+    T = (double *)kifmm__alloc(nn, sizeof(double));
+    rc = T ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    memset(&L, 0, sizeof L);
+    if (!rc && KIFMM__SI) {
         rc = KIFMM__F(__lat_level)(c, 1.0, 1, &L);
         if (!rc) rc = KIFMM__F(__lat_fixed)(c, &L, T);
         if (!rc) {
@@ -4605,7 +4697,7 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
     if (!w) return;
     kifmm__free(w->ue); kifmm__free(w->de); kifmm__free(w->chk); kifmm__free(w->tmp);
     kifmm__free(w->stack); kifmm__free(w->m2l_out); kifmm__free(w->qs); kifmm__free(w->outs);
-    kifmm__free(w->lbuf);
+    kifmm__free(w->lbuf); kifmm__free(w->lat);
     kifmm__free(w);
 }
 
@@ -4708,6 +4800,9 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     w->de = (KIFMM__R *)kifmm__take(held, n * sz[0], sizeof(KIFMM__R));
     w->chk = (KIFMM__R *)kifmm__take(held, n * sz[1], sizeof(KIFMM__R));
     w->qs = (KIFMM__R *)kifmm__take(held, n * sz[3], sizeof(KIFMM__R));
+    if (c->lat.zu)
+        w->lat = (KIFMM__R *)kifmm__take(held, n * ((size_t)(c->lat.nzu + c->lat.nzd) * KIFMM__SD +
+                                         (size_t)c->lat.zku + (size_t)c->lat.zkd), sizeof(KIFMM__R));
     if (!KIFMM__FFT) {
         w->tmp = (KIFMM__R *)kifmm__take(held, n * sz[2], sizeof(KIFMM__R));
         w->stack = (KIFMM__R *)kifmm__take(held, (size_t)c->ops.m2l_cols * KIFMM__NT * (size_t)c->surf.ne,
@@ -4718,7 +4813,7 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     if (w->lbuf_per)
         w->lbuf = (KIFMM__R *)kifmm__take(held, (size_t)c->opts.nthreads * w->lbuf_per, sizeof(KIFMM__R));
     else w->outs = (KIFMM__R *)kifmm__take(held, n * sz[4], sizeof(KIFMM__R));
-    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf) ||
+    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf) || (c->lat.zu && !w->lat) ||
         (!KIFMM__FFT && (!w->tmp || !w->stack || !w->m2l_out))) {
         KIFMM__F(__work_free)(w);
         return NULL;
@@ -5459,6 +5554,58 @@ KIFMM__FN void KIFMM__F(__lattice_apply)(const KIFMM_NAME *c, const KIFMM__F(__w
                          c->surf.ne, 0, w->chk + (size_t)r * c->surf.nc, c->surf.nc);
 }
 
+/* Three periodic directions: the far images' field at the check surfaces of
+ * the boxes of level l = lat.zl, added (__ewald_root): the boxes' upward
+ * densities' potentials at U (each block of U's points its own rows), Z,
+ * then D's field at the boxes' check surfaces (each box its own). */
+KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                       int l)
+{
+    enum { BLK = 32 };
+    const kifmm__tree *t = &c->tree;
+    const int nu = c->lat.nzu, nd = c->lat.nzd, mu = nu * KIFMM__SD, md = nd * KIFMM__SD;
+    const size_t per = (size_t)t->nbox * (size_t)c->surf.ne, cst = (size_t)KIFMM__LVL(c, l) * c->surf.nc;
+    const double scale = KIFMM__F(__level_scale)(c, l);
+    const KIFMM__R *pu = c->lat.zp, *pd = c->lat.zp + 3 * (size_t)nu;
+    const int ku = c->lat.zku, kd = c->lat.zkd;
+    KIFMM__R *phi = w->lat, *psi = phi + (size_t)nrhs * mu, *t1 = psi + (size_t)nrhs * md;
+    KIFMM__R *t2 = t1 + (size_t)nrhs * ku;
+    memset(phi, 0, (size_t)nrhs * mu * sizeof(KIFMM__R));
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
+    for (int i0 = 0; i0 < nu; i0 += BLK) {
+        const int n = nu - i0 < BLK ? nu - i0 : BLK;
+        KIFMM__R *pe = KIFMM__F(__scratch)(c);
+        double c0[3], h0, cb[3], hb;
+        int32_t b;
+        kifmm__box_center(t, 0, c0, &h0);
+        for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
+            if (t->s1[b] == t->s0[b]) continue;
+            kifmm__box_center(t, b, cb, &hb);
+            kifmm__sub3(cb, c0, cb);
+            KIFMM__F(__place)(c->surf.unit_e, c->surf.nse, cb, c->surf.ai * hb, pe);
+            KIFMM__F(__p2p_sc)(c->opts.kernel_param, pu + i0, pu + nu + i0, pu + 2 * nu + i0, n, pe,
+                               pe + c->surf.nse, pe + 2 * c->surf.nse, w->ue + (size_t)b * c->surf.ne,
+                               c->surf.nse, nrhs, per, 1.0, phi + (size_t)i0 * KIFMM__SD, (size_t)mu);
+        }
+    }
+    KIFMM__F(__gemm)(ku, nrhs, mu, c->lat.zu, ku, phi, mu, 0, t1, ku);
+    KIFMM__F(__gemm)(kd, nrhs, ku, c->lat.zm, kd, t1, ku, 0, t2, kd);
+    KIFMM__F(__gemm)(md, nrhs, kd, c->lat.zd, md, t2, kd, 0, psi, md);
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
+    for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
+        KIFMM__R *pc = KIFMM__F(__scratch)(c);
+        double c0[3], h0, cb[3], hb;
+        if (t->t1[b] == t->t0[b]) continue;
+        kifmm__box_center(t, 0, c0, &h0);
+        kifmm__box_center(t, b, cb, &hb);
+        kifmm__sub3(cb, c0, cb);
+        KIFMM__F(__place)(c->surf.unit_c, c->surf.nsc, cb, c->surf.ai * hb, pc);
+        KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc,
+                           c->surf.nsc, pd, pd + nd, pd + 2 * nd, psi, nd, nrhs, (size_t)md, scale,
+                           w->chk + (size_t)(b - t->loff[l]) * c->surf.nc, cst);
+    }
+}
+
 /* Downward pass at level l: L2L from the parents, X sources and far
  * ancestors per box (__x_direct, __p2l_box; a box served by an ancestor's
  * expansion does not refit), then the M2L and the solve. Timed as L2L (with
@@ -5470,8 +5617,9 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
     const double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now();
     double t1;
     if (l > kifmm__lmin(t)) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
-    else if (l == 0) KIFMM__F(__lattice_apply)(c, w, nrhs); /* the far images */
+    else if (l == 0 && c->lat.t) KIFMM__F(__lattice_apply)(c, w, nrhs); /* the far images */
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
+    if (c->lat.zu && l == c->lat.zl) KIFMM__F(__ewald_apply)(c, w, nrhs, l); /* the far images */
     t1 = kifmm__now();
     /* box b writes its own check vectors and its own targets' outputs */
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
@@ -5852,6 +6000,10 @@ KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->lat.t);
     kifmm__free(h->lat.mu);
     kifmm__free(h->lat.bq);
+    kifmm__free(h->lat.zu);
+    kifmm__free(h->lat.zm);
+    kifmm__free(h->lat.zd);
+    kifmm__free(h->lat.zp);
     kifmm__free(h);
 }
 
@@ -5961,7 +6113,9 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
     c->pts.src = c->tree.src;
     c->pts.trg = c->tree.trg;
 #endif
-    kifmm__tree_dsrc(&c->tree, c->surf.nsc); /* X lists of boxes with few targets go direct */
+    /* three periodic directions: the far images reach level 1 (__ewald_root) */
+    c->lat.zl = KIFMM__SI && c->tree.per[0] && c->tree.per[1] && c->tree.per[2] && c->tree.nlev > 1;
+    kifmm__tree_dsrc(&c->tree, c->surf.nsc, c->lat.zl); /* X lists of boxes with few targets go direct */
     return KIFMM_SUCCESS;
 }
 
