@@ -94,7 +94,7 @@ static void gen_set(t_rng *r, int k, int64_t n, double *x)
  * (neutral) or not */
 static void gen_q(t_rng *r, int64_t n, int dim, double *q, int neutral)
 {
-    double m[3] = {0.0, 0.0, 0.0};
+    double m[4] = {0.0, 0.0, 0.0, 0.0};
     int64_t i;
     for (i = 0; i < n * dim; i++) m[i % dim] += (q[i] = t_rand01(r) - 0.5);
     for (i = 0; i < n * dim && neutral; i++) q[i] -= m[i % dim] / (double)n;
