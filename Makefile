@@ -2,7 +2,7 @@
 #
 #   make run        build and run examples/laplace.c (1M points, order 6;
 #                   other sizes: make run ARGS="200000 8")
-#   make test       build and run the test suite (nine configurations; CONFIGS=all for fourteen)
+#   make test       build and run the test suite (seven configurations; CONFIGS=all for fourteen)
 #                   (tests/run.sh: gcc and clang, C99 and C11, with and
 #                   without OpenMP, a sanitizer build and a build without -march)
 #   make custom     build and run examples/custom_kernel.c (a kernel written in

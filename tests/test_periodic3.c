@@ -362,7 +362,6 @@ int main(void)
     run3(LAP, CORNER, SAME, 10, 0, 1e-8);
     run3(LAPG, UNIFORM, APART, 10, 0, 1e-8);
     run3(STK, CORNER, APART, 10, 0, 3e-8);
-    run3(STK, CORNER, CROWD, 10, 0, 6e-8);
 #endif
     return t_finish();
 }
