@@ -4232,31 +4232,6 @@ KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, double *
 }
 #endif
 
-/* The Ewald far sums (__ewald_far) at the (2q - 1)^3 offsets between two
- * order-q lattices on the surface of radius ai h, as __lat_ring_sums. */
-KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, double *gs)
-{
-#if KIFMM__EWALD
-    const int w = 2 * q - 1;
-    const double g = 2.0 * c->surf.ai * h / (q - 1);
-    double *d = (double *)kifmm__alloc((size_t)3 * w * w * w, sizeof(double));
-    int64_t e;
-    int rc;
-    if (!d) return KIFMM_ERR_NOMEM;
-    for (e = 0; e < (int64_t)w * w * w; e++) {
-        d[3 * e] = g * (double)(e / (w * w) - (q - 1));
-        d[3 * e + 1] = g * (double)(e / w % w - (q - 1));
-        d[3 * e + 2] = g * (double)(e % w - (q - 1));
-    }
-    rc = KIFMM__F(__ewald_at)(c, h, (int64_t)w * w * w, d, gs);
-    kifmm__free(d);
-    return rc;
-#else
-    (void)c, (void)h, (void)q, (void)gs;
-    return KIFMM_ERR_PERIODIC;
-#endif
-}
-
 /* a (SD n x SD n, leading dimension lda) from the sums per lattice offset gs
  * (__lat_ring_sums, __lat_ewald_sums) for the n points of the order-q unit
  * surface u, which lie on the order-q lattice: entry (i a, j b) is the sum
@@ -4528,6 +4503,26 @@ KIFMM__FN int KIFMM__F(__background_fit)(KIFMM_NAME *c)
     c->lat.bq = bq;
     c->held += kifmm__size(bq);
     return KIFMM_SUCCESS;
+}
+
+/* The Ewald far sums (__ewald_far) at the (2q - 1)^3 offsets between two
+ * order-q lattices on the surface of radius ai h, as __lat_ring_sums. */
+KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, double *gs)
+{
+    const int w = 2 * q - 1;
+    const double g = 2.0 * c->surf.ai * h / (q - 1);
+    double *d = (double *)kifmm__alloc((size_t)3 * w * w * w, sizeof(double));
+    int64_t e;
+    int rc;
+    if (!d) return KIFMM_ERR_NOMEM;
+    for (e = 0; e < (int64_t)w * w * w; e++) {
+        d[3 * e] = g * (double)(e / (w * w) - (q - 1));
+        d[3 * e + 1] = g * (double)(e / w % w - (q - 1));
+        d[3 * e + 2] = g * (double)(e % w - (q - 1));
+    }
+    rc = KIFMM__F(__ewald_at)(c, h, (int64_t)w * w * w, d, gs);
+    kifmm__free(d);
+    return rc;
 }
 
 /* The pseudo-inverse of K(check surface uc, nsc points at radius rc <-
@@ -5570,14 +5565,15 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
     const int ku = c->lat.zku, kd = c->lat.zkd;
     KIFMM__R *phi = w->lat, *psi = phi + (size_t)nrhs * mu, *t1 = psi + (size_t)nrhs * md;
     KIFMM__R *t2 = t1 + (size_t)nrhs * ku;
+    double c0[3], h0;
+    kifmm__box_center(t, 0, c0, &h0);
     memset(phi, 0, (size_t)nrhs * mu * sizeof(KIFMM__R));
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
     for (int i0 = 0; i0 < nu; i0 += BLK) {
         const int n = nu - i0 < BLK ? nu - i0 : BLK;
         KIFMM__R *pe = KIFMM__F(__scratch)(c);
-        double c0[3], h0, cb[3], hb;
+        double cb[3], hb;
         int32_t b;
-        kifmm__box_center(t, 0, c0, &h0);
         for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
             if (t->s1[b] == t->s0[b]) continue;
             kifmm__box_center(t, b, cb, &hb);
@@ -5594,9 +5590,8 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
         KIFMM__R *pc = KIFMM__F(__scratch)(c);
-        double c0[3], h0, cb[3], hb;
+        double cb[3], hb;
         if (t->t1[b] == t->t0[b]) continue;
-        kifmm__box_center(t, 0, c0, &h0);
         kifmm__box_center(t, b, cb, &hb);
         kifmm__sub3(cb, c0, cb);
         KIFMM__F(__place)(c->surf.unit_c, c->surf.nsc, cb, c->surf.ai * hb, pc);
