@@ -229,6 +229,7 @@ static inline int kifmm_kernel__begin(double dx, double dy, double dz, int n, do
     (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | KIFMM_HAS_P2PF | KIFMM_HAS_P2PS | KIFMM_HAS_P2PSF |       \
      KIFMM_KERNEL__PER)
 #define kifmm_kernel_stokes_setup kifmm_kernel__viscosity_setup
+#define kifmm_kernel_stokes_INNER_NARROW 1 /* inner surfaces at 0.95 (kifmm.h) */
 static inline void kifmm_kernel_stokes_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
 {
