@@ -644,14 +644,14 @@ done:
     return rc;
 }
 
-/* The factors of pinv(A^T) from those of pinv(A) (A square, n x n): A^T =
- * V S U^T, so ut' = V_k^T = S_k vs^T and vs' = U_k S_k^-1 = ut^T S_k^-1,
- * with S_k from the norms of vs's columns (|V_k e_j| = 1). */
-KIFMM__FN int kifmm__pinv_transposed(int n, int k, const double *ut, const double *vs,
+/* The factors of pinv(A^T) from those of pinv(A) (A m x n): A^T = V S U^T,
+ * so ut' = V_k^T = S_k vs^T (k x n) and vs' = U_k S_k^-1 = ut^T S_k^-1
+ * (m x k), with S_k from the norms of vs's columns (|V_k e_j| = 1). */
+KIFMM__FN int kifmm__pinv_transposed(int m, int n, int k, const double *ut, const double *vs,
                                      double **ut_out, double **vs_out)
 {
     double *u2 = (double *)kifmm__alloc((size_t)k * n, sizeof(double));
-    double *v2 = (double *)kifmm__alloc((size_t)n * k, sizeof(double));
+    double *v2 = (double *)kifmm__alloc((size_t)m * k, sizeof(double));
     int i, j;
     if (!u2 || !v2) {
         kifmm__free(u2);
@@ -662,10 +662,8 @@ KIFMM__FN int kifmm__pinv_transposed(int n, int k, const double *ut, const doubl
         double nv = 0.0, sj;
         for (i = 0; i < n; i++) nv += vs[i + (size_t)j * n] * vs[i + (size_t)j * n];
         sj = 1.0 / sqrt(nv); /* s_j: vs's column j is V e_j / s_j */
-        for (i = 0; i < n; i++) {
-            u2[j + (size_t)i * k] = vs[i + (size_t)j * n] * sj;
-            v2[i + (size_t)j * n] = ut[j + (size_t)i * k] / sj;
-        }
+        for (i = 0; i < n; i++) u2[j + (size_t)i * k] = vs[i + (size_t)j * n] * sj;
+        for (i = 0; i < m; i++) v2[i + (size_t)j * m] = ut[j + (size_t)i * k] / sj;
     }
     *ut_out = u2;
     *vs_out = v2;
@@ -2016,9 +2014,11 @@ KIFMM__FN int kifmm__check_diff(int p, int fft, int sd)
 }
 
 /* Three periodic directions: the order of the far images' exchange about
- * the root (__ewald_root) for expansions of order p. */
+ * the root (__ewald_root) for expansions of order p. p + 1 and p + 2 gave
+ * the same errors to a few per cent (docs/algorithm.md), p + 2 at 2 times
+ * the cost. */
 #ifndef KIFMM_EWALD_RAISE
-#define KIFMM_EWALD_RAISE 2
+#define KIFMM_EWALD_RAISE 1
 #endif
 KIFMM__FN int kifmm__ewald_order(int p) { return p + KIFMM_EWALD_RAISE; }
 
@@ -3627,7 +3627,7 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
     rc = kifmm__pinv(o->kup, nc, ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku);
     if (!rc && tr) {
         o->kd = o->ku;
-        rc = kifmm__pinv_transposed(nc, o->ku, o->ut_up, o->vs_up, &o->ut_dn, &o->vs_dn);
+        rc = kifmm__pinv_transposed(nc, nc, o->ku, o->ut_up, o->vs_up, &o->ut_dn, &o->vs_dn);
     } else if (!rc) {
         rc = kifmm__pinv(o->kdn, nc, ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd);
     }
@@ -4514,45 +4514,83 @@ KIFMM__FN int KIFMM__F(__background_fit)(KIFMM_NAME *c)
     return KIFMM_SUCCESS;
 }
 
-/* The Ewald far sums (__ewald_far) at the (2q - 1)^3 offsets between two
- * order-q lattices on the surface of radius ai h, as __lat_ring_sums. */
-KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, double *gs)
+/* The lattice offset e of a (2q - 1)^3 grid (components -(q - 1) .. q - 1)
+ * as its absolute components sorted, a <= b <= c, into one index a q^2 + b
+ * q + c: the same for the 48 images of e under the cube's symmetries. */
+KIFMM__FN int KIFMM__F(__lat_sorted)(int64_t e, int q)
 {
     const int w = 2 * q - 1;
+    int a = abs((int)(e / (w * w)) - (q - 1)), b = abs((int)(e / w % w) - (q - 1));
+    int c = abs((int)(e % w) - (q - 1)), t;
+    if (a > b) t = a, a = b, b = t;
+    if (b > c) t = b, b = c, c = t;
+    if (a > b) t = a, a = b, b = t;
+    return (a * q + b) * q + c;
+}
+
+/* The Ewald far sums (__ewald_far) at the (2q - 1)^3 offsets between two
+ * order-q lattices on the surface of radius ai h, as __lat_ring_sums. A
+ * radial kernel's sums (KIFMM__RADIAL) are the same at the 48 images of an
+ * offset under the cube's symmetries, which map the lattice of images to
+ * itself: only the offsets with sorted absolute components are summed
+ * (120 of 3375 at q = 8) and copied to the others. */
+KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, double *gs)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const int w = 2 * q - 1, sym = KIFMM__RADIAL;
+    const int64_t nw = (int64_t)w * w * w;
     const double g = 2.0 * c->surf.ai * h / (q - 1);
-    double *d = (double *)kifmm__alloc((size_t)3 * w * w * w, sizeof(double));
-    int64_t e;
-    int rc;
-    if (!d) return KIFMM_ERR_NOMEM;
-    for (e = 0; e < (int64_t)w * w * w; e++) {
-        d[3 * e] = g * (double)(e / (w * w) - (q - 1));
-        d[3 * e + 1] = g * (double)(e / w % w - (q - 1));
-        d[3 * e + 2] = g * (double)(e % w - (q - 1));
+    double *d = (double *)kifmm__alloc((size_t)3 * nw, sizeof(double));
+    double *gc = sym ? (double *)kifmm__alloc((size_t)nw * SD2, sizeof(double)) : gs;
+    int *slot = sym ? (int *)kifmm__alloc((size_t)q * q * q, sizeof(int)) : NULL;
+    int64_t e, n = 0;
+    int rc = d && gc && (slot || !sym) ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, k;
+    for (k = 0; k < q * q * q && sym && !rc; k++) slot[k] = -1;
+    for (e = 0; e < nw && !rc; e++) { /* the offsets summed, slot[]: where */
+        if (sym && slot[k = KIFMM__F(__lat_sorted)(e, q)] >= 0) continue;
+        if (sym) slot[k] = (int)n;
+        d[3 * n] = g * (double)(e / (w * w) - (q - 1));
+        d[3 * n + 1] = g * (double)(e / w % w - (q - 1));
+        d[3 * n + 2] = g * (double)(e % w - (q - 1));
+        n++;
     }
-    rc = KIFMM__F(__ewald_at)(c, h, (int64_t)w * w * w, d, gs);
+    if (!rc) rc = KIFMM__F(__ewald_at)(c, h, n, d, gc);
+    for (e = 0; e < nw && sym && !rc; e++)
+        memcpy(gs + e * SD2, gc + (size_t)slot[KIFMM__F(__lat_sorted)(e, q)] * SD2, SD2 * sizeof(double));
     kifmm__free(d);
+    if (sym) kifmm__free(gc);
+    kifmm__free(slot);
     return rc;
 }
 
 /* The pseudo-inverse of K(check surface uc, nsc points at radius rc <-
  * equivalent surface ue, nse points at radius re), both about 0 at
  * half-width 1, as its two factors (kifmm__pinv) of K / big, *big the
- * largest |entry|: K^+ = vs ut / big. */
+ * largest |entry|: K^+ = vs ut / big. With sym, *sym = 1 if K(ue <- uc) is
+ * K's transpose to rounding, 1e-14 big (a kernel with K(-d) = K(d)^T:
+ * Laplace, Stokes; the Stokeslet's entries differ in the last bit). */
 KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int nsc, double rc,
                                     const double *ue, int nse, double re, double **ut, double **vs,
-                                    int *rank, double *big)
+                                    int *rank, double *big, int *sym)
 {
     const int nc = nsc * KIFMM__SD, ne = nse * KIFMM__SD;
     const double zero[3] = {0.0, 0.0, 0.0};
     double *k = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
-    int err;
-    size_t i;
-    if (!k) return KIFMM_ERR_NOMEM;
-    err = KIFMM__F(__surf_kmat)(c, uc, nsc, zero, rc, ue, nse, zero, re, 1.0, k, (size_t)nc, big);
+    double *kt = sym ? (double *)kifmm__alloc((size_t)nc * ne, sizeof(double)) : NULL;
+    int err = k && (kt || !sym) ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, i, j;
+    if (!err) err = KIFMM__F(__surf_kmat)(c, uc, nsc, zero, rc, ue, nse, zero, re, 1.0, k, (size_t)nc, big);
+    if (!err && sym)
+        err = KIFMM__F(__surf_kmat)(c, ue, nse, zero, re, uc, nsc, zero, rc, 1.0, kt, (size_t)ne, NULL);
+    if (!err && sym)
+        for (*sym = 1, j = 0; j < ne && *sym; j++)
+            for (i = 0; i < nc && *sym; i++) /* to rounding (FMA contractions) */
+                *sym = fabs(kt[j + (size_t)i * ne] - k[i + (size_t)j * nc]) <= 1e-14 * *big;
     if (!err && !(*big > 0.0)) err = KIFMM_ERR_KERNEL;
-    for (i = 0; i < (size_t)nc * ne && !err; i++) k[i] /= *big; /* entries of size 1 */
+    for (i = 0; i < nc && !err; i++)
+        for (j = 0; j < ne; j++) k[i + (size_t)j * nc] /= *big; /* entries of size 1 */
     if (!err) err = kifmm__pinv(k, nc, ne, KIFMM__CUTOFF, ut, vs, rank);
     kifmm__free(k);
+    kifmm__free(kt);
     return err;
 }
 
@@ -4568,7 +4606,12 @@ KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int n
  *   E: equivalent surface at ai (order q), fitted to those: Kup^+;
  *   G: the Ewald far sums between E's points (on the order-q lattice: at the
  *      (2q - 1)^3 offsets, __lat_ewald_sums), E's images -> E's points;
- *   D: equivalent surface at ao (order q - cd), fitted to that: Kdn^+;
+ *   D: equivalent surface at ao, fitted to that: Kdn^+. For a kernel with
+ *      K(-d) = K(d)^T, D has U's points (more than E's: the fit is
+ *      underdetermined, its minimum-norm density smooth, D being far from
+ *      E) and Kdn = Kup^T, its factors from Kup's SVD; with it q = p + 1
+ *      gives the errors q = p + 2 gave with D of order q - cd, at less
+ *      than half the cost (docs/algorithm.md). Else order q - cd;
  * and D's field at the boxes' downward check surfaces (directly). Kept:
  * Kdn^+ G Kup^+ (U -> D) as three factors, ut of Kup^+ (zu), the middle
  * ut G vs (zm) and vs of Kdn^+ (zd), built at half-width 1 and scaled to
@@ -4580,25 +4623,33 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
     const int q = kifmm__ewald_order(c->opts.order), cd = kifmm__check_diff(q, 0, KIFMM__SD);
-    const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q), nd = kifmm__surf_count(q - cd);
-    const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD, md = nd * KIFMM__SD, w = 2 * q - 1;
+    const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q), w = 2 * q - 1;
+    const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD;
     const double ao = kifmm__alpha_outer(cd, KIFMM__SD), ai = c->surf.ai, h = 0.5 * c->tree.width;
     const double zero[3] = {0.0, 0.0, 0.0};
-    double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne + nd), sizeof(double));
+    double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne + nu), sizeof(double));
     double *g = (double *)kifmm__alloc((size_t)me * me, sizeof(double));
     double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
     double *x = (double *)kifmm__alloc((size_t)me * me, sizeof(double)), *ue = uu + 3 * nu;
     double *utu = NULL, *vsu = NULL, *utd = NULL, *vsd = NULL, *m = NULL, bu = 0.0, bd = 0.0;
-    int rc = uu && g && gs && x ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, ku = 0, kd = 0;
+    double *ud = ue + 3 * ne;
+    int rc = uu && g && gs && x ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, ku = 0, kd = 0, sym = 0;
+    int nd = kifmm__surf_count(q - cd), md;
     if (!rc) {
         kifmm__surf_unit(q + cd, uu);
         kifmm__surf_unit(q, ue);
-        kifmm__surf_unit(q - cd, ue + 3 * ne);
+        kifmm__surf_unit(q - cd, ud);
         rc = KIFMM__F(__lat_ewald_sums)(c, 1.0, q, gs);
     }
     if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
-    if (!rc) rc = KIFMM__F(__ewald_fit)(c, uu, nu, ao, ue, ne, ai, &utu, &vsu, &ku, &bu);
-    if (!rc) rc = KIFMM__F(__ewald_fit)(c, ue, ne, ai, ue + 3 * ne, nd, ao, &utd, &vsd, &kd, &bd);
+    if (!rc) rc = KIFMM__F(__ewald_fit)(c, uu, nu, ao, ue, ne, ai, &utu, &vsu, &ku, &bu, &sym);
+    if (!rc && sym) { /* D on U's points: Kdn = Kup^T, factors from Kup's SVD */
+        nd = nu, ud = uu, kd = ku, bd = bu;
+        rc = kifmm__pinv_transposed(mu, me, ku, utu, vsu, &utd, &vsd);
+    } else if (!rc) {
+        rc = KIFMM__F(__ewald_fit)(c, ue, ne, ai, ud, nd, ao, &utd, &vsd, &kd, &bd, NULL);
+    }
+    md = nd * KIFMM__SD;
     if (!rc && !(m = (double *)kifmm__alloc((size_t)kd * ku + 1, sizeof(double)))) rc = KIFMM_ERR_NOMEM;
     if (!rc) {
         kifmm__gemm(0, 0, me, ku, me, 1.0, g, me, vsu, me, 0.0, x, me);
@@ -4612,7 +4663,7 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
     }
     if (!rc) {
         KIFMM__F(__place)(uu, nu, zero, ao * h, c->lat.zp);
-        KIFMM__F(__place)(ue + 3 * ne, nd, zero, ao * h, c->lat.zp + 3 * nu);
+        KIFMM__F(__place)(ud, nd, zero, ao * h, c->lat.zp + 3 * nu);
     }
     kifmm__free(uu);
     kifmm__free(g);
