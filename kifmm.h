@@ -2330,6 +2330,21 @@ KIFMM__FN int kifmm__tv_turn(const int *t, int *pi, int *s)
     return kifmm__transfer_index(c[0], c[1], c[2]);
 }
 
+/* The lattice offset e of a (2q - 1)^3 grid (components -(q - 1) .. q - 1)
+ * as its absolute components sorted, a <= b <= c, into one index a q^2 + b
+ * q + c: the same for the 48 images of e under the cube's symmetries (as
+ * kifmm__tv_turn for the M2L's transfer vectors, over any range). */
+KIFMM__FN int kifmm__lat_sorted(int64_t e, int q)
+{
+    const int w = 2 * q - 1;
+    int a = abs((int)(e / (w * w)) - (q - 1)), b = abs((int)(e / w % w) - (q - 1));
+    int c = abs((int)(e % w) - (q - 1)), t;
+    if (a > b) t = a, a = b, b = t;
+    if (b > c) t = b, b = c, c = t;
+    if (a > b) t = a, a = b, b = t;
+    return (a * q + b) * q + c;
+}
+
 /* The spectrum of a grid turned by sigma (kifmm__tv_turn) from the grid's:
  * with G'[sigma x] = G[x], G'^[k] = G^[k'], k'_pi(a) = s_a k_a (mod n);
  * where k'_z is past the stored half, G^[k'] = conj G^[-k'] (a real grid).
@@ -4514,26 +4529,12 @@ KIFMM__FN int KIFMM__F(__background_fit)(KIFMM_NAME *c)
     return KIFMM_SUCCESS;
 }
 
-/* The lattice offset e of a (2q - 1)^3 grid (components -(q - 1) .. q - 1)
- * as its absolute components sorted, a <= b <= c, into one index a q^2 + b
- * q + c: the same for the 48 images of e under the cube's symmetries. */
-KIFMM__FN int KIFMM__F(__lat_sorted)(int64_t e, int q)
-{
-    const int w = 2 * q - 1;
-    int a = abs((int)(e / (w * w)) - (q - 1)), b = abs((int)(e / w % w) - (q - 1));
-    int c = abs((int)(e % w) - (q - 1)), t;
-    if (a > b) t = a, a = b, b = t;
-    if (b > c) t = b, b = c, c = t;
-    if (a > b) t = a, a = b, b = t;
-    return (a * q + b) * q + c;
-}
-
 /* The Ewald far sums (__ewald_far) at the (2q - 1)^3 offsets between two
  * order-q lattices on the surface of radius ai h, as __lat_ring_sums. A
  * radial kernel's sums (KIFMM__RADIAL) are the same at the 48 images of an
  * offset under the cube's symmetries, which map the lattice of images to
  * itself: only the offsets with sorted absolute components are summed
- * (120 of 3375 at q = 8) and copied to the others. */
+ * (84 of 2,197 at q = 7) and copied to the others. */
 KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, double *gs)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
@@ -4547,7 +4548,7 @@ KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, d
     int rc = d && gc && (slot || !sym) ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, k;
     for (k = 0; k < q * q * q && sym && !rc; k++) slot[k] = -1;
     for (e = 0; e < nw && !rc; e++) { /* the offsets summed, slot[]: where */
-        if (sym && slot[k = KIFMM__F(__lat_sorted)(e, q)] >= 0) continue;
+        if (sym && slot[k = kifmm__lat_sorted(e, q)] >= 0) continue;
         if (sym) slot[k] = (int)n;
         d[3 * n] = g * (double)(e / (w * w) - (q - 1));
         d[3 * n + 1] = g * (double)(e / w % w - (q - 1));
@@ -4556,7 +4557,7 @@ KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, d
     }
     if (!rc) rc = KIFMM__F(__ewald_at)(c, h, n, d, gc);
     for (e = 0; e < nw && sym && !rc; e++)
-        memcpy(gs + e * SD2, gc + (size_t)slot[KIFMM__F(__lat_sorted)(e, q)] * SD2, SD2 * sizeof(double));
+        memcpy(gs + e * SD2, gc + (size_t)slot[kifmm__lat_sorted(e, q)] * SD2, SD2 * sizeof(double));
     kifmm__free(d);
     if (sym) kifmm__free(gc);
     kifmm__free(slot);
