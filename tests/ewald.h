@@ -68,94 +68,194 @@ static inline int t_ew_near(const double *x, const double *y, double L, t_ewald_
     return k;
 }
 
-/* Adds w[0 .. nw - 1] e^{-i k.x} (k = 2 pi m / L, |m_a| <= mm) to the
- * structure factors (sr, si)[nw at + c], at = the index of m; the phases
- * from one table of e^{-i k_a x_a} per axis. */
-static inline void t_ew_factor(const double *x, double L, int mm, const double *w, int nw,
-                               long double *sr, long double *si)
+/* The structure factors (sr, si)[nw at + c] = sum_j w[nw j + c] e^{-i
+ * k.x_j} of ns sources (k = 2 pi m / L, |m_a| <= mm, at = the index of m),
+ * from one table of e^{-i k_a x_a} per source and axis; the sources in the
+ * inner loop, so that each factor is summed in registers; half of them,
+ * the others conjugate (S(-m) = conj S(m), at -> nm^3 - 1 - at). */
+static inline void t_ew_factors(int64_t ns, const double *xs, double L, int mm, const double *w,
+                                int nw, long double *sr, long double *si)
 {
     const int nm = 2 * mm + 1;
-    long double *ec = (long double *)malloc(6 * (size_t)nm * sizeof(long double)), *es = ec + 3 * nm;
+    const size_t half = ((size_t)nm * nm * nm - 1) / 2, n3 = (size_t)nm * nm * nm;
+    long double *ec = (long double *)malloc((6 * (size_t)nm + 4) * (size_t)ns * sizeof(long double));
+    long double *es = ec + 3 * (size_t)nm * ns, *r1 = es + 3 * (size_t)nm * ns, *i1 = r1 + ns;
+    long double *pr = i1 + ns, *pi = pr + ns;
+    int64_t j;
     int a, mx, my, mz, c;
-    size_t at = 0;
-    for (a = 0; a < 3; a++)
-        for (mx = -mm; mx <= mm; mx++) {
-            const long double ph = 2.0L * T_EW_PI / L * mx * (long double)x[a];
-            ec[a * nm + mx + mm] = cosl(ph);
-            es[a * nm + mx + mm] = -sinl(ph);
-        }
+    size_t at;
+    for (j = 0; j < ns; j++) /* ec[(a nm + m) ns + j] */
+        for (a = 0; a < 3; a++)
+            for (mx = -mm; mx <= mm; mx++) {
+                const long double ph = 2.0L * T_EW_PI / L * mx * (long double)xs[3 * j + a];
+                ec[((size_t)a * nm + mx + mm) * ns + j] = cosl(ph);
+                es[((size_t)a * nm + mx + mm) * ns + j] = -sinl(ph);
+            }
     for (mx = 0; mx < nm; mx++)
-        for (my = 0; my < nm; my++) {
-            const long double r1 = ec[mx] * ec[nm + my] - es[mx] * es[nm + my];
-            const long double i1 = ec[mx] * es[nm + my] + es[mx] * ec[nm + my];
-            for (mz = 0; mz < nm; mz++, at++) {
-                const long double re = r1 * ec[2 * nm + mz] - i1 * es[2 * nm + mz];
-                const long double im = r1 * es[2 * nm + mz] + i1 * ec[2 * nm + mz];
+        for (my = 0; my < nm && (at = ((size_t)mx * nm + my) * nm) <= half; my++) {
+            const long double *cx = ec + (size_t)mx * ns, *sx = es + (size_t)mx * ns;
+            const long double *cy = ec + (size_t)(nm + my) * ns, *sy = es + (size_t)(nm + my) * ns;
+            for (j = 0; j < ns; j++) {
+                r1[j] = cx[j] * cy[j] - sx[j] * sy[j];
+                i1[j] = cx[j] * sy[j] + sx[j] * cy[j];
+            }
+            for (mz = 0; mz < nm && at <= half; mz++, at++) {
+                const long double *cz = ec + (size_t)(2 * nm + mz) * ns, *sz = es + (size_t)(2 * nm + mz) * ns;
+                for (j = 0; j < ns; j++) {
+                    pr[j] = r1[j] * cz[j] - i1[j] * sz[j];
+                    pi[j] = r1[j] * sz[j] + i1[j] * cz[j];
+                }
                 for (c = 0; c < nw; c++) {
-                    sr[nw * at + c] += w[c] * re;
-                    si[nw * at + c] += w[c] * im;
+                    long double re = 0.0L, im = 0.0L;
+                    for (j = 0; j < ns; j++) {
+                        re += w[nw * j + c] * pr[j];
+                        im += w[nw * j + c] * pi[j];
+                    }
+                    sr[nw * at + c] = re;
+                    si[nw * at + c] = im;
+                    sr[nw * (n3 - 1 - at) + c] = re;
+                    si[nw * (n3 - 1 - at) + c] = -im;
                 }
             }
         }
     free(ec);
 }
 
-static inline void t_ewald_laplace_split(int64_t ns, const double *xs, const double *q, int64_t nt,
-                                  const double *xt, double L, t_ewald_split sp, double *out)
+/* The index of the derivative d_a d_b among the Hessian's six entries (xx,
+ * yy, zz, xy, xz, yz) and of d_a d_b d_c among the ten third derivatives
+ * (xxx, xxy, xxz, xyy, xyz, xzz, yyy, yyz, yzz, zzz: a <= b <= c in
+ * lexicographic order), in any order of a, b, c. */
+static inline int t_ew_h2(int a, int b)
+{
+    return a == b ? a : 2 + a + b;
+}
+static inline int t_ew_h3(int a, int b, int c)
+{
+    static const int at[3][3][3] = {{{0, 1, 2}, {1, 3, 4}, {2, 4, 5}},
+                                    {{1, 3, 4}, {3, 6, 7}, {4, 7, 8}},
+                                    {{2, 4, 5}, {4, 7, 8}, {5, 8, 9}}};
+    return at[a][b][c];
+}
+
+/* t_ewald_laplace_deriv: the potential and its derivatives with respect to
+ * the target up to the third, of nq sets of charges (q[nq j + u]), nd (4,
+ * 10 or 20) of them per target and set into out[nd (nq i + u) ..]: the
+ * potential, the gradient (3), the Hessian (6, as
+ * t_ew_h2), the third derivatives (10, as t_ew_h3). Real space: with F_0 =
+ * erfc(alpha r) / r and F_{n+1} = -F_n' / r = ((2 n + 1) F_n + (2
+ * alpha^2)^(n + 1) / (alpha sqrt(pi)) exp(-alpha^2 r^2)) / r^2, d_a F_0 =
+ * -x_a F_1, d_ab F_0 = x_a x_b F_2 - delta_ab F_1, d_abc F_0 = (delta_ab x_c
+ * + delta_ac x_b + delta_bc x_a) F_2 - x_a x_b x_c F_3; reciprocal space:
+ * each derivative d_a multiplies the term S(k) e^{i k.x} by i k_a. A target
+ * at a source: the smooth part erf(alpha r) / r of that source's own term,
+ * in the reciprocal sum, is taken out: 2 alpha / sqrt(pi) from the
+ * potential, -4 alpha^3 / (3 sqrt(pi)) delta_ab from the Hessian (its odd
+ * derivatives are 0 there). */
+static inline void t_ewald_laplace_deriv(int64_t ns, const double *xs, const double *q, int nq,
+                                         int64_t nt, const double *xt, double L, t_ewald_split sp,
+                                         int nd, double *out)
 {
     const long double a = sp.alpha, V = (long double)L * L * L, four_pi = 4.0L * T_EW_PI;
+    const long double spi = sqrtl(T_EW_PI);
     const int mm = sp.mmax, nm = 2 * mm + 1;
-    long double Q = 0.0L;
-    long double *sr = (long double *)calloc((size_t)nm * nm * nm, sizeof(long double));
-    long double *si = (long double *)calloc((size_t)nm * nm * nm, sizeof(long double));
+    long double *Q = (long double *)calloc((size_t)nq, sizeof(long double));
+    long double *o = (long double *)malloc(20 * (size_t)nq * sizeof(long double));
+    long double *sr = (long double *)calloc((size_t)nm * nm * nm * nq, sizeof(long double));
+    long double *si = (long double *)calloc((size_t)nm * nm * nm * nq, sizeof(long double));
     int64_t i, j;
     const size_t nb = (size_t)(2 * sp.nimg + 1) * (2 * sp.nimg + 1) * (2 * sp.nimg + 1);
     long double *dv = (long double *)malloc(3 * nb * sizeof(long double));
-    int mx, my, mz, d;
-    for (j = 0; j < ns; j++) Q += q[j];
-    /* structure factors S(m) = sum_j q_j e^{-i k.x_j} */
-    for (j = 0; j < ns; j++) t_ew_factor(xs + 3 * j, L, mm, q + j, 1, sr, si);
+    int mx, my, mz, b, c, d, e, u;
+    for (j = 0; j < ns * nq; j++) Q[j % nq] += q[j];
+    /* structure factors S(m) = sum_j q_j e^{-i k.x_j}, nq per m */
+    t_ew_factors(ns, xs, L, mm, q, nq, sr, si);
     for (i = 0; i < nt; i++) {
         const double *x = xt + 3 * i;
-        long double p = 0.0L, g[3] = {0.0L, 0.0L, 0.0L};
-        /* real space */
+        for (u = 0; u < 20 * nq; u++) o[u] = 0.0L;
+        /* real space: g, the derivatives of one unit charge's term */
         for (j = 0; j < ns; j++) {
             int self, k;
             const int nk = t_ew_near(x, xs + 3 * j, L, sp, dv, &self);
-            if (self) p -= q[j] * 2.0L * a / sqrtl(T_EW_PI) / four_pi; /* its smeared part */
+            long double g[20] = {0.0L};
+            if (self) { /* its smeared part */
+                g[0] -= 2.0L * a / spi;
+                for (d = 0; d < 3; d++) g[4 + d] += 4.0L * a * a * a / (3.0L * spi);
+            }
             for (k = 0; k < nk; k++) {
                 const long double *v = dv + 3 * k, r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-                const long double r = sqrtl(r2), e = erfcl(a * r) / r;
-                const long double c = (e + 2.0L * a / sqrtl(T_EW_PI) * expl(-a * a * r2)) / r2;
-                p += q[j] * e / four_pi;
-                for (d = 0; d < 3; d++) g[d] -= q[j] * c * v[d] / four_pi;
+                const long double ex = expl(-a * a * r2) / (a * spi);
+                long double F[4];
+                F[0] = erfcl(a * sqrtl(r2)) / sqrtl(r2);
+                for (e = 0; e < 3; e++) F[e + 1] = ((2 * e + 1) * F[e] + powl(2.0L * a * a, e + 1) * ex) / r2;
+                g[0] += F[0];
+                for (b = 0; b < 3; b++) {
+                    g[1 + b] -= v[b] * F[1];
+                    for (c = b; c < 3; c++) {
+                        g[4 + t_ew_h2(b, c)] += v[b] * v[c] * F[2] - (b == c) * F[1];
+                        for (d = c; d < 3; d++)
+                            g[10 + t_ew_h3(b, c, d)] +=
+                                ((b == c) * v[d] + (b == d) * v[c] + (c == d) * v[b]) * F[2] -
+                                v[b] * v[c] * v[d] * F[3];
+                    }
+                }
             }
+            for (u = 0; u < nq; u++)
+                for (d = 0; d < nd; d++) o[20 * u + d] += q[nq * j + u] / four_pi * g[d];
         }
-        /* reciprocal space */
+        /* reciprocal space: Re and Im of S e^{i k.x}, times (i k)^n: the
+         * even orders take Re, the odd ones Im */
         for (mx = -mm; mx <= mm; mx++)
             for (my = -mm; my <= mm; my++)
                 for (mz = -mm; mz <= mm; mz++) {
                     const size_t at = ((size_t)(mx + mm) * nm + (size_t)(my + mm)) * nm + (size_t)(mz + mm);
-                    const long double kx = 2.0L * T_EW_PI / L * mx, ky = 2.0L * T_EW_PI / L * my;
-                    const long double kz = 2.0L * T_EW_PI / L * mz, k2 = kx * kx + ky * ky + kz * kz;
-                    long double w, ph, re, im;
+                    const long double k[3] = {2.0L * T_EW_PI / L * mx, 2.0L * T_EW_PI / L * my,
+                                              2.0L * T_EW_PI / L * mz};
+                    const long double k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
+                    long double w, ph, cs, sn, g[20];
                     if (mx == 0 && my == 0 && mz == 0) continue;
                     w = expl(-k2 / (4.0L * a * a)) / k2 / V;
-                    ph = kx * x[0] + ky * x[1] + kz * x[2];
-                    re = sr[at] * cosl(ph) - si[at] * sinl(ph); /* Re(S e^{i k.x}) */
-                    im = sr[at] * sinl(ph) + si[at] * cosl(ph);
-                    p += w * re;
-                    g[0] -= w * kx * im;
-                    g[1] -= w * ky * im;
-                    g[2] -= w * kz * im;
+                    ph = k[0] * x[0] + k[1] * x[1] + k[2] * x[2];
+                    cs = cosl(ph), sn = sinl(ph);
+                    g[0] = w;
+                    for (b = 0; b < 3; b++) {
+                        g[1 + b] = -w * k[b];
+                        for (c = b; c < 3; c++) {
+                            g[4 + t_ew_h2(b, c)] = -w * k[b] * k[c];
+                            for (d = c; d < 3; d++) g[10 + t_ew_h3(b, c, d)] = w * k[b] * k[c] * k[d];
+                        }
+                    }
+                    for (u = 0; u < nq; u++) {
+                        const long double re = sr[nq * at + u] * cs - si[nq * at + u] * sn;
+                        const long double im = sr[nq * at + u] * sn + si[nq * at + u] * cs;
+                        for (d = 0; d < nd; d++) o[20 * u + d] += g[d] * (d == 0 || (d >= 4 && d < 10) ? re : im);
+                    }
                 }
-        p -= Q / (4.0L * a * a * V); /* the background */
-        out[4 * i] = (double)p;
-        for (d = 0; d < 3; d++) out[4 * i + 1 + d] = (double)g[d];
+        for (u = 0; u < nq; u++) {
+            o[20 * u] -= Q[u] / (4.0L * a * a * V); /* the background */
+            for (d = 0; d < nd; d++) out[nd * (nq * i + u) + d] = (double)o[20 * u + d];
+        }
     }
+    free(Q);
+    free(o);
     free(sr);
     free(si);
     free(dv);
+}
+
+/* The potential and gradient (4 per target, out[4 i ..]) at a given split. */
+static inline void t_ewald_laplace_split(int64_t ns, const double *xs, const double *q, int64_t nt,
+                                         const double *xt, double L, t_ewald_split sp, double *out)
+{
+    t_ewald_laplace_deriv(ns, xs, q, 1, nt, xt, L, sp, 4, out);
+}
+
+/* The potential and its derivatives of nq sets of charges (q[nq j + u]),
+ * nd (4, 10 or 20) per target and set (out[nd (nq i + u) ..]), at the
+ * default split. */
+static inline void t_ewald_laplace_d(int64_t ns, const double *xs, const double *q, int nq,
+                                     int64_t nt, const double *xt, double L, int nd, double *out)
+{
+    t_ewald_laplace_deriv(ns, xs, q, nq, nt, xt, L, t_ewald_plan(L, 5.0, 1e-15), nd, out);
 }
 
 /* The sums at the default split (alpha L = 5, relative accuracy 1e-15). */
@@ -254,34 +354,59 @@ static inline void t_ewald2d_laplace(int64_t ns, const double *xs, const double 
  * net force is balanced by a mean pressure gradient, the velocity has zero
  * mean over the cell (the real part integrates to zero), a target at a
  * source leaves that source's own term out (-4 xi / sqrt(pi) f / (8 pi),
- * the smooth part's value at 0). */
-static inline void t_ewald_stokes_split(int64_t ns, const double *xs, const double *f, int64_t nt,
-                                        const double *xt, double L, t_ewald_split sp, double *out)
+ * the smooth part's value at 0; its gradient there is 0).
+ * t_ewald_stokes_deriv: nf sets of forces (f[3 (nf j + u) ..]), nd = 3
+ * (the velocity) or 12 (and its gradient du_a / dx_m at 3 + 3 a + m) per
+ * target and set (out[nd (nf i + u) ..]); real space with A = erfc(xi r) /
+ * r - E, B = (erfc(xi r) / r + E) / r^2 (the two coefficients above),
+ * d_m (A f_a + B d_a (d . f)) = A' d_m / r f_a + B' d_m / r d_a (d . f) + B
+ * (delta_am (d . f) + d_a f_m), A' / r = -C / r^2 + 2 xi^2 E, B' / r = -3 C
+ * / r^4 - 2 xi^2 E / r^2, C = erfc(xi r) / r + E; Fourier space: i k_m. */
+static inline void t_ewald_stokes_deriv(int64_t ns, const double *xs, const double *f, int nf,
+                                        int64_t nt, const double *xt, double L, t_ewald_split sp,
+                                        int nd, double *out)
 {
     const long double xi = sp.alpha, V = (long double)L * L * L, e8p = 8.0L * T_EW_PI;
     const int mm = sp.mmax, nm = 2 * mm + 1;
     const size_t nk = (size_t)nm * nm * nm;
-    long double *sr = (long double *)calloc(3 * nk, sizeof(long double));
-    long double *si = (long double *)calloc(3 * nk, sizeof(long double));
+    long double *sr = (long double *)calloc(3 * nk * nf, sizeof(long double));
+    long double *si = (long double *)calloc(3 * nk * nf, sizeof(long double));
+    long double *u = (long double *)malloc(12 * (size_t)nf * sizeof(long double));
     int64_t i, j;
     const size_t nb = (size_t)(2 * sp.nimg + 1) * (2 * sp.nimg + 1) * (2 * sp.nimg + 1);
     long double *dv = (long double *)malloc(3 * nb * sizeof(long double));
-    int mx, my, mz, a, b;
-    for (j = 0; j < ns; j++) t_ew_factor(xs + 3 * j, L, mm, f + 3 * j, 3, sr, si); /* S(m) */
+    int mx, my, mz, a, b, m, s;
+    t_ew_factors(ns, xs, L, mm, f, 3 * nf, sr, si); /* S(m) */
     for (i = 0; i < nt; i++) {
         const double *x = xt + 3 * i;
-        long double u[3] = {0.0L, 0.0L, 0.0L};
+        for (a = 0; a < 12 * nf; a++) u[a] = 0.0L;
         for (j = 0; j < ns; j++) {
             int self, k;
             const int nk = t_ew_near(x, xs + 3 * j, L, sp, dv, &self);
-            for (a = 0; a < 3 && self; a++) /* the target's own source */
-                u[a] -= 4.0L * xi / sqrtl(T_EW_PI) * f[3 * j + a] / e8p;
+            for (s = 0; s < nf; s++) {
+                const double *fj = f + 3 * (nf * j + s);
+                long double *us = u + 12 * s;
+                for (a = 0; a < 3 && self; a++) /* the target's own source */
+                    us[a] -= 4.0L * xi / sqrtl(T_EW_PI) * fj[a] / e8p;
+            }
             for (k = 0; k < nk; k++) {
                 const long double *v = dv + 3 * k, r2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
                 const long double r = sqrtl(r2), E = 2.0L * xi / sqrtl(T_EW_PI) * expl(-xi * xi * r2);
-                const long double ca = erfcl(xi * r) / r - E, cb = (erfcl(xi * r) / r + E) / r2;
-                const long double fd = v[0] * f[3 * j] + v[1] * f[3 * j + 1] + v[2] * f[3 * j + 2];
-                for (a = 0; a < 3; a++) u[a] += (ca * f[3 * j + a] + cb * v[a] * fd) / e8p;
+                const long double C = erfcl(xi * r) / r + E, ca = C - 2.0L * E, cb = C / r2;
+                /* A'(r) / r and B'(r) / r of A = ca, B = cb */
+                const long double da = -C / r2 + 2.0L * xi * xi * E;
+                const long double db = -3.0L * C / (r2 * r2) - 2.0L * xi * xi * E / r2;
+                for (s = 0; s < nf; s++) {
+                    const double *fj = f + 3 * (nf * j + s);
+                    const long double fd = v[0] * fj[0] + v[1] * fj[1] + v[2] * fj[2];
+                    long double *us = u + 12 * s;
+                    for (a = 0; a < 3; a++) {
+                        us[a] += (ca * fj[a] + cb * v[a] * fd) / e8p;
+                        for (m = 0; m < 3 && nd > 3; m++)
+                            us[3 + 3 * a + m] += (da * v[m] * fj[a] + db * v[m] * v[a] * fd +
+                                                  cb * ((a == m) * fd + v[a] * fj[m])) / e8p;
+                    }
+                }
             }
         }
         for (mx = -mm; mx <= mm; mx++)
@@ -291,20 +416,46 @@ static inline void t_ewald_stokes_split(int64_t ns, const double *xs, const doub
                     const long double k[3] = {2.0L * T_EW_PI / L * mx, 2.0L * T_EW_PI / L * my,
                                               2.0L * T_EW_PI / L * mz};
                     const long double k2 = k[0] * k[0] + k[1] * k[1] + k[2] * k[2];
-                    long double w, ph, re[3];
+                    long double w, ph, cs, sn;
                     if (mx == 0 && my == 0 && mz == 0) continue;
                     w = 8.0L * T_EW_PI * (1.0L / (k2 * k2) + 1.0L / (4.0L * xi * xi * k2)) *
                         expl(-k2 / (4.0L * xi * xi)) / V / e8p;
                     ph = k[0] * x[0] + k[1] * x[1] + k[2] * x[2];
-                    for (a = 0; a < 3; a++) re[a] = sr[3 * at + a] * cosl(ph) - si[3 * at + a] * sinl(ph);
-                    for (a = 0; a < 3; a++)
-                        for (b = 0; b < 3; b++) u[a] += w * ((a == b ? k2 : 0.0L) - k[a] * k[b]) * re[b];
+                    cs = cosl(ph), sn = sinl(ph);
+                    for (s = 0; s < nf; s++) {
+                        const long double *Sr = sr + 3 * (nf * at + s), *Si = si + 3 * (nf * at + s);
+                        long double *us = u + 12 * s;
+                        for (a = 0; a < 3; a++)
+                            for (b = 0; b < 3; b++) {
+                                const long double g = w * ((a == b ? k2 : 0.0L) - k[a] * k[b]);
+                                us[a] += g * (Sr[b] * cs - Si[b] * sn);
+                                for (m = 0; m < 3 && nd > 3; m++) us[3 + 3 * a + m] -= g * k[m] * (Sr[b] * sn + Si[b] * cs);
+                            }
+                    }
                 }
-        for (a = 0; a < 3; a++) out[3 * i + a] = (double)u[a];
+        for (s = 0; s < nf; s++)
+            for (a = 0; a < nd; a++) out[nd * (nf * i + s) + a] = (double)u[12 * s + a];
     }
     free(sr);
     free(si);
+    free(u);
     free(dv);
+}
+
+/* The velocity (3 per target, out[3 i ..]) at a given split. */
+static inline void t_ewald_stokes_split(int64_t ns, const double *xs, const double *f, int64_t nt,
+                                        const double *xt, double L, t_ewald_split sp, double *out)
+{
+    t_ewald_stokes_deriv(ns, xs, f, 1, nt, xt, L, sp, 3, out);
+}
+
+/* The velocity and its gradient (nd = 12) or the velocity alone (nd = 3)
+ * of nf sets of forces (f[3 (nf j + u) ..]), per target and set (out[nd
+ * (nf i + u) ..]), at the default split. */
+static inline void t_ewald_stokes_d(int64_t ns, const double *xs, const double *f, int nf,
+                                    int64_t nt, const double *xt, double L, int nd, double *out)
+{
+    t_ewald_stokes_deriv(ns, xs, f, nf, nt, xt, L, t_ewald_plan(L, 5.0, 1e-15), nd, out);
 }
 
 /* The sums at the default split (xi L = 5, relative accuracy 1e-15). */

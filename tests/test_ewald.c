@@ -167,6 +167,111 @@ static void test_direct_lattice(void)
               "the same: potential up to one constant (%.4f)", off);
 }
 
+/* The largest |a - b| over the largest |b|, n values of stride st from
+ * offset k, kn of each */
+static double rel_diff_st(int n, int st, const double *a, const double *b, int k, int kn)
+{
+    double num = 0.0, den = 0.0;
+    int i, c;
+    for (i = 0; i < n; i++)
+        for (c = k; c < k + kn; c++) {
+            num = fabs(a[st * i + c] - b[st * i + c]) > num ? fabs(a[st * i + c] - b[st * i + c]) : num;
+            den = fabs(b[st * i + c]) > den ? fabs(b[st * i + c]) : den;
+        }
+    return num / den;
+}
+
+/* nt targets at least 0.1 L from every source and its images */
+static void far_targets(t_rng *r, int ns, const double *xs, int nt, double *xt, double L)
+{
+    int i = 0, j, k;
+    while (i < nt) {
+        double m = L;
+        for (k = 0; k < 3; k++) xt[3 * i + k] = t_uniform(r, 0.0, L);
+        for (j = 0; j < ns; j++) {
+            double d2 = 0.0;
+            for (k = 0; k < 3; k++) {
+                double d = fabs(xt[3 * i + k] - xs[3 * j + k]);
+                d = d > L / 2 ? L - d : d;
+                d2 += d * d;
+            }
+            m = sqrt(d2) < m ? sqrt(d2) : m;
+        }
+        i += m >= 0.1 * L;
+    }
+}
+
+/* The derivatives: the Laplace sums' Hessian and third derivatives, the
+ * Stokes sums' velocity gradient. Two splits agree (also at targets on
+ * sources, where the smooth part of the source's own term is taken out of
+ * the Hessian), and each order against central differences of fourth
+ * order of the order below (step 1e-4 L; targets 0.1 L from the sources, so
+ * that the step's error, about (h / r)^4, stays below 1e-10). 30 charges
+ * and forces, not neutral, in a cell of side 1.3. */
+static void test_derivatives(void)
+{
+    enum { NS = 30, NT = 6 };
+    static const double w[4] = {1.0, -8.0, 8.0, -1.0}, st[4] = {-2.0, -1.0, 1.0, 2.0};
+    const double L = 1.3, h = 1e-4 * L;
+    t_rng r = t_rng_seed(47);
+    double xs[3 * NS], q[NS], f[3 * NS], xt[3 * NT], tt[3 * NT], a[20 * NT], b[20 * NT];
+    double fd[20 * NT], sa[12 * NT], sb[12 * NT], sf[12 * NT], lo[20 * NT];
+    int i, k, j, c, m;
+    for (i = 0; i < 3 * NS; i++) xs[i] = t_uniform(&r, 0.0, L);
+    for (i = 0; i < NS; i++) q[i] = t_uniform(&r, -1.0, 1.0);
+    for (i = 0; i < 3 * NS; i++) f[i] = t_uniform(&r, -1.0, 1.0);
+    far_targets(&r, NS, xs, NT, xt, L);
+    memcpy(tt, xt, sizeof tt);
+    memcpy(tt, xs, 6 * sizeof(double)); /* two targets on sources */
+    t_ewald_laplace_deriv(NS, xs, q, 1, NT, tt, L, t_ewald_plan(L, 4.0, 1e-15), 20, a);
+    t_ewald_laplace_deriv(NS, xs, q, 1, NT, tt, L, t_ewald_plan(L, 7.5, 1e-15), 20, b);
+    CHECK_ERR(rel_diff_st(NT, 20, a, b, 4, 6), 1e-12, "alpha L 4 against 7.5: Hessian (2 targets on sources)");
+    CHECK_ERR(rel_diff_st(NT, 20, a, b, 10, 10), 1e-12, "alpha L 4 against 7.5: third derivatives");
+    t_ewald_stokes_deriv(NS, xs, f, 1, NT, tt, L, t_ewald_plan(L, 4.0, 1e-15), 12, sa);
+    t_ewald_stokes_deriv(NS, xs, f, 1, NT, tt, L, t_ewald_plan(L, 7.5, 1e-15), 12, sb);
+    CHECK_ERR(rel_diff_st(NT, 12, sa, sb, 3, 9), 1e-12, "xi L 4 against 7.5: Stokes velocity gradient");
+    /* several sets at once: the charges and the forces' x components; two
+     * copies of the forces */
+    {
+        double q2[2 * NS], f2[6 * NS], a2[40 * NT], s2[24 * NT], e = 0.0;
+        for (i = 0; i < NS; i++) {
+            q2[2 * i] = q[i], q2[2 * i + 1] = f[3 * i];
+            for (k = 0; k < 3; k++) f2[6 * i + k] = f[3 * i + k], f2[6 * i + 3 + k] = -f[3 * i + k];
+        }
+        t_ewald_laplace_d(NS, xs, q2, 2, NT, tt, L, 20, a2);
+        t_ewald_laplace_d(NS, xs, q, 1, NT, tt, L, 20, a);
+        t_ewald_stokes_d(NS, xs, f2, 2, NT, tt, L, 12, s2);
+        t_ewald_stokes_d(NS, xs, f, 1, NT, tt, L, 12, sa);
+        for (i = 0; i < 20 * NT; i++) e = fmax(e, fabs(a2[40 * (i / 20) + i % 20] - a[i]));
+        for (i = 0; i < 12 * NT; i++)
+            e = fmax(e, fabs(s2[24 * (i / 12) + i % 12] - sa[i]) + fabs(s2[24 * (i / 12) + 12 + i % 12] + sa[i]));
+        CHECK(e == 0.0, "two sets at once: the same sums as each alone (%.1e)", e);
+    }
+    /* central differences */
+    t_ewald_laplace_d(NS, xs, q, 1, NT, xt, L, 20, a);
+    t_ewald_stokes_d(NS, xs, f, 1, NT, xt, L, 12, sa);
+    memset(fd, 0, sizeof fd);
+    memset(sf, 0, sizeof sf);
+    for (j = 0; j < 3; j++)
+        for (k = 0; k < 4; k++) {
+            memcpy(tt, xt, sizeof tt);
+            for (i = 0; i < NT; i++) tt[3 * i + j] += st[k] * h;
+            t_ewald_laplace_d(NS, xs, q, 1, NT, tt, L, 20, lo);
+            t_ewald_stokes_d(NS, xs, f, 1, NT, tt, L, 3, sb);
+            for (i = 0; i < NT; i++)
+                for (c = 0; c < 3; c++) {
+                    /* d_j of d_c (c <= j) and of d_c d_m (c <= m <= j): each entry once */
+                    if (c <= j) fd[20 * i + 4 + t_ew_h2(c, j)] += w[k] * lo[20 * i + 1 + c] / (12.0 * h);
+                    for (m = c; m <= j; m++)
+                        fd[20 * i + 10 + t_ew_h3(c, m, j)] += w[k] * lo[20 * i + 4 + t_ew_h2(c, m)] / (12.0 * h);
+                    sf[12 * i + 3 + 3 * c + j] += w[k] * sb[3 * i + c] / (12.0 * h);
+                }
+        }
+    CHECK_ERR(rel_diff_st(NT, 20, fd, a, 4, 6), 1e-8, "Hessian against differences of the gradient");
+    CHECK_ERR(rel_diff_st(NT, 20, fd, a, 10, 10), 1e-8, "third derivatives against differences of the Hessian");
+    CHECK_ERR(rel_diff_st(NT, 12, sf, sa, 3, 9), 1e-8, "Stokes gradient against differences of the velocity");
+}
+
 int main(void)
 {
     t_group("Ewald sums against lattice constants");
@@ -174,6 +279,8 @@ int main(void)
     test_wigner();
     t_group("Ewald sums: split, periodicity");
     test_split_and_shift();
+    t_group("Ewald sums: derivatives");
+    test_derivatives();
     t_group("Ewald sums against direct lattice sums");
     test_direct_lattice();
     return t_finish();
