@@ -2021,6 +2021,12 @@ KIFMM__FN int kifmm__check_diff(int p, int fft, int sd)
 #define KIFMM_EWALD_RAISE 1
 #endif
 KIFMM__FN int kifmm__ewald_order(int p) { return p + KIFMM_EWALD_RAISE; }
+/* KIFMM_EWALD_OWN_FIT 1: the exchange's down fit from its own SVD even for
+ * a kernel with K(-d) = K(d)^T, as for the kernels without that symmetry
+ * (tests/test_ewald.c runs that path with laplace) */
+#ifndef KIFMM_EWALD_OWN_FIT
+#define KIFMM_EWALD_OWN_FIT 0
+#endif
 
 KIFMM__FN double kifmm__alpha_outer(int diff, int sd)
 {
@@ -3373,8 +3379,8 @@ struct KIFMM_NAME {
                                   the background's quadratic (__background_fit), */
         KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__ewald_root): its three
                                   factors (zku x SD nzu, zkd x zku, SD nzd x zkd), */
-        KIFMM__R *zp;          /* and the points of U then D about the root's centre */
-        int nzu, nzd, zku, zkd; /* points of U and D; the factors' ranks */
+        KIFMM__R *zp;          /* and the points of U and D about the root's centre */
+        int nzu, nzd, zku, zkd; /* points of U and D (the same); the factors' ranks */
         int zl;                /* the level whose boxes it reaches (0 or 1) */
     } lat;
     struct {                   /* the mutual near field (sources = targets) */
@@ -4607,12 +4613,12 @@ KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int n
  *   E: equivalent surface at ai (order q), fitted to those: Kup^+;
  *   G: the Ewald far sums between E's points (on the order-q lattice: at the
  *      (2q - 1)^3 offsets, __lat_ewald_sums), E's images -> E's points;
- *   D: equivalent surface at ao, fitted to that: Kdn^+. For a kernel with
- *      K(-d) = K(d)^T, D has U's points (more than E's: the fit is
+ *   D: equivalent surface at ao on U's points (more than E's: the fit is
  *      underdetermined, its minimum-norm density smooth, D being far from
- *      E) and Kdn = Kup^T, its factors from Kup's SVD; with it q = p + 1
- *      gives the errors q = p + 2 gave with D of order q - cd, at less
- *      than half the cost (docs/algorithm.md). Else order q - cd;
+ *      E), fitted to that: Kdn^+; with it q = p + 1 gives the errors q = p
+ *      + 2 gave with D of order q - cd, at less than half the cost
+ *      (docs/algorithm.md). For a kernel with K(-d) = K(d)^T, Kdn =
+ *      Kup^T, its factors from Kup's SVD; else from its own;
  * and D's field at the boxes' downward check surfaces (directly). Kept:
  * Kdn^+ G Kup^+ (U -> D) as three factors, ut of Kup^+ (zu), the middle
  * ut G vs (zm) and vs of Kdn^+ (zd), built at half-width 1 and scaled to
@@ -4628,44 +4634,40 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
     const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD;
     const double ao = kifmm__alpha_outer(cd, KIFMM__SD), ai = c->surf.ai, h = 0.5 * c->tree.width;
     const double zero[3] = {0.0, 0.0, 0.0};
-    double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne + nu), sizeof(double));
+    double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne), sizeof(double));
     double *g = (double *)kifmm__alloc((size_t)me * me, sizeof(double));
     double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
     double *x = (double *)kifmm__alloc((size_t)me * me, sizeof(double)), *ue = uu + 3 * nu;
     double *utu = NULL, *vsu = NULL, *utd = NULL, *vsd = NULL, *m = NULL, bu = 0.0, bd = 0.0;
-    double *ud = ue + 3 * ne;
+    const int nd = nu, md = mu; /* D on U's points */
     int rc = uu && g && gs && x ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, ku = 0, kd = 0, sym = 0;
-    int nd = kifmm__surf_count(q - cd), md;
     if (!rc) {
         kifmm__surf_unit(q + cd, uu);
         kifmm__surf_unit(q, ue);
-        kifmm__surf_unit(q - cd, ud);
         rc = KIFMM__F(__lat_ewald_sums)(c, 1.0, q, gs);
     }
     if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
-    if (!rc) rc = KIFMM__F(__ewald_fit)(c, uu, nu, ao, ue, ne, ai, &utu, &vsu, &ku, &bu, &sym);
-    if (!rc && sym) { /* D on U's points: Kdn = Kup^T, factors from Kup's SVD */
-        nd = nu, ud = uu, kd = ku, bd = bu;
+    if (!rc)
+        rc = KIFMM__F(__ewald_fit)(c, uu, nu, ao, ue, ne, ai, &utu, &vsu, &ku, &bu,
+                                   KIFMM_EWALD_OWN_FIT ? NULL : &sym);
+    if (!rc && sym) { /* Kdn = Kup^T: the factors from Kup's SVD */
+        kd = ku, bd = bu;
         rc = kifmm__pinv_transposed(mu, me, ku, utu, vsu, &utd, &vsd);
     } else if (!rc) {
-        rc = KIFMM__F(__ewald_fit)(c, ue, ne, ai, ud, nd, ao, &utd, &vsd, &kd, &bd, NULL);
+        rc = KIFMM__F(__ewald_fit)(c, ue, ne, ai, uu, nd, ao, &utd, &vsd, &kd, &bd, NULL);
     }
-    md = nd * KIFMM__SD;
     if (!rc && !(m = (double *)kifmm__alloc((size_t)kd * ku + 1, sizeof(double)))) rc = KIFMM_ERR_NOMEM;
     if (!rc) {
         kifmm__gemm(0, 0, me, ku, me, 1.0, g, me, vsu, me, 0.0, x, me);
         kifmm__gemm(0, 0, kd, ku, me, pow(h, -c->ops.degree) / (bu * bd), utd, kd, x, me, 0.0, m, kd);
         c->lat.nzu = nu, c->lat.nzd = nd, c->lat.zku = ku, c->lat.zkd = kd;
-        c->lat.zp = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * (nu + nd), sizeof(KIFMM__R));
+        c->lat.zp = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * nu, sizeof(KIFMM__R));
         c->lat.zu = KIFMM__F(__own)(&c->held, &utu, (size_t)ku * mu);
         c->lat.zm = KIFMM__F(__own)(&c->held, &m, (size_t)kd * ku);
         c->lat.zd = KIFMM__F(__own)(&c->held, &vsd, (size_t)md * kd);
         if (!c->lat.zp || !c->lat.zu || !c->lat.zm || !c->lat.zd) rc = KIFMM_ERR_NOMEM;
     }
-    if (!rc) {
-        KIFMM__F(__place)(uu, nu, zero, ao * h, c->lat.zp);
-        KIFMM__F(__place)(ud, nd, zero, ao * h, c->lat.zp + 3 * nu);
-    }
+    if (!rc) KIFMM__F(__place)(uu, nu, zero, ao * h, c->lat.zp);
     kifmm__free(uu);
     kifmm__free(g);
     kifmm__free(gs);
@@ -5622,7 +5624,7 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
     const int nu = c->lat.nzu, nd = c->lat.nzd, mu = nu * KIFMM__SD, md = nd * KIFMM__SD;
     const size_t per = (size_t)t->nbox * (size_t)c->surf.ne, cst = (size_t)KIFMM__LVL(c, l) * c->surf.nc;
     const double scale = KIFMM__F(__level_scale)(c, l);
-    const KIFMM__R *pu = c->lat.zp, *pd = c->lat.zp + 3 * (size_t)nu;
+    const KIFMM__R *pu = c->lat.zp, *pd = c->lat.zp; /* D on U's points */
     const int ku = c->lat.zku, kd = c->lat.zkd;
     KIFMM__R *phi = w->lat, *psi = phi + (size_t)nrhs * mu, *t1 = psi + (size_t)nrhs * md;
     KIFMM__R *t2 = t1 + (size_t)nrhs * ku;
