@@ -13,8 +13,8 @@
  * on points spread over the cell, crowding one face, crowding one corner
  * (given partly outside the cell, so that they wrap), far from the origin,
  * and with separate targets (crowding a face or corner, the sources spread
- * over the cell); relative L2 error at p = 6 at
- * most 1e-5 and at p = 10 at most 1e-8, the issue's bounds. And the errors:
+ * over the cell); relative L2 error at p = 6 at most 1e-5 and at p = 10 at
+ * most 1e-8, the documented bounds (docs/api.md). And the errors:
  * bad periods, points wider than the period in a free direction, net
  * charge where it must be zero (out untouched). Three periodic directions
  * of scale-invariant kernels: test_periodic3.c. */

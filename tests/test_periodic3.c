@@ -14,8 +14,11 @@
  * on points spread over the cell, crowding one face, crowding one corner
  * (given partly outside the cell, so that they wrap), far from the origin,
  * and with separate targets; relative L2 error at p = 6 at most 1e-5 and
- * at p = 10 at most 1e-8, the issue's bounds, where they hold (the others
- * at the end). The Stokes reference itself: two of its splits agree. */
+ * at p = 10 at most 1e-8, the documented bounds (docs/api.md), where they
+ * hold (the others at the end). The Stokes reference itself: two of its splits agree. The
+ * rest of the Laplace family (laplace_dipole_grad, laplace_cd_grad,
+ * laplace_cd_hess) and stokes_dl are checked in three periodic directions
+ * in test_laplace_family.c and test_families.c, which build them. */
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
@@ -61,6 +64,10 @@ static inline void kifmm_kernel_plain_eval(const double *param, double dx, doubl
 #define NPTS 1000
 #define NCHK 16
 #endif
+/* stokes on 1,000 points in every configuration: on 400 its error at p = 6
+ * measured up to 1.12e-5 (three seeds, eight sets and targets each; 1,000
+ * points up to 5.7e-6), above the documented bound (docs/api.md) */
+#define NPTS_STK 1000
 
 enum { UNIFORM, FACE, CORNER, FAR };
 /* targets: the sources themselves; separate points of the same set; the
@@ -254,7 +261,7 @@ static const char *part_name[][3] = {{""}, {" (potential)", " (field)"}, {""}, {
 static void run3(int kind, int set, int sep, int p, int neutral, double bound)
 {
     const int sd = src_dim[kind], td = trg_dim[kind], *cut = part_cut[kind], parts = cut[4];
-    const int64_t ns = NPTS, nt = sep ? NPTS / 2 : NPTS;
+    const int64_t ns = kind == STK ? NPTS_STK : NPTS, nt = sep ? ns / 2 : ns;
     t_rng r = t_rng_seed(0x51ULL + (uint64_t)(kind * 131 + set * 17 + sep * 7 + p + neutral));
     double *xs = t_doubles(3 * ns), *q = t_doubles(sd * ns), *xt = sep ? t_doubles(3 * nt) : xs;
     double *out = t_doubles(td * nt), t[3 * NCHK], ref[12 * NCHK];
@@ -325,13 +332,12 @@ static void test_errors(void)
 int main(void)
 {
     int s, k;
-    double stk6 = 1e-5;
     t_group("errors");
     test_errors();
     t_group("the Stokes reference");
     test_reference();
-    /* The issue's bounds, 1e-5 at p = 6 and 1e-8 at p = 10, where every
-     * seed measured holds them: laplace and laplace_grad (Ewald's sums)
+    /* The documented bounds (docs/api.md), 1e-5 at p = 6 and 1e-8 at p =
+     * 10, where every seed measured holds them: laplace and laplace_grad (Ewald's sums)
      * and stokes (Hasimoto's) on every set (three seeds of every set at p
      * = 6: up to 3.0e-6 and 5.7e-6; two at p = 10: stokes up to 8.5e-9;
      * 1,000 points).
@@ -345,20 +351,15 @@ int main(void)
      * not the periodic boundaries' (free space, 500 targets within 0.04
      * of a corner shared by the boxes of every level, 20,000 uniform
      * sources: 1.1e-5). */
-    t_group("laplace, laplace_grad and stokes, every set, p = 6 (the issue's bound)");
-    /* stokes: the quick configuration's 400 points measured up to 1.12e-5
-     * (three seeds, eight sets and targets each), so there about twice that */
-#ifdef KIFMM_TEST_QUICK
-    stk6 = 3e-5;
-#endif
+    t_group("laplace, laplace_grad and stokes, every set, p = 6 (the documented bound)");
     for (s = UNIFORM; s <= FAR; s++) run3(LAP, s, SAME, 6, s == FACE, 1e-5);
     run3(LAP, UNIFORM, APART, 6, 0, 1e-5);
     run3(LAP, CORNER, APART, 6, 0, 1e-5);
     run3(LAPG, UNIFORM, SAME, 6, 0, 1e-5);
     run3(LAPG, FACE, APART, 6, 1, 1e-5);
-    run3(STK, UNIFORM, SAME, 6, 1, stk6);
-    run3(STK, CORNER, APART, 6, 1, stk6);
-    run3(STK, FAR, APART, 6, 1, stk6);
+    run3(STK, UNIFORM, SAME, 6, 1, 1e-5);
+    run3(STK, CORNER, APART, 6, 1, 1e-5);
+    run3(STK, FAR, APART, 6, 1, 1e-5);
     t_group("laplace_dipole, Biot-Savart and stokes_pvel, p = 6");
     for (k = DIP; k <= PVEL; k++)
         if (k != STK) run3(k, UNIFORM, SAME, 6, 0, 3e-5);
@@ -370,7 +371,7 @@ int main(void)
     run3(LAPG, CORNER, SAME, 6, 1, 1e-5);
     run3(STK, FACE, SAME, 6, 0, 1e-5);
     run3(BS, FACE, CROWD, 6, 1, 6e-5);
-    t_group("p = 10 (the issue's bound)");
+    t_group("p = 10 (the documented bound)");
     run3(LAP, CORNER, SAME, 10, 0, 1e-8);
     run3(LAPG, UNIFORM, APART, 10, 0, 1e-8);
     run3(STK, CORNER, APART, 10, 0, 1e-8);
