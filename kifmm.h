@@ -69,7 +69,7 @@
  *                               kernels with the FFT M2L, else 1)
  *   KIFMM_SQUARE_MAX_ORDER      highest order with square systems (7)
  *   KIFMM_FFT_SINGLE_MAX_ORDER  double instances of scale-invariant kernels keep
- *                               the FFT spectra in float up to this order (5)
+ *                               the FFT spectra in float up to this order (4)
  *   KIFMM_FFT_SPEC_MB           MiB for the FFT spectra of a slab (64)
  *   KIFMM_MAX_THREADS           largest opts.nthreads accepted (1024)
  *
@@ -320,12 +320,14 @@ extern "C++" {
  * total, and where the fields of many boxes cancel (charges that sum to
  * zero, seen from afar) that error can pass the truncation error: 20,000
  * neutral charges with targets 30 cloud sizes away give 3.9e-5 with float
- * spectra at p = 6 against 1.6e-6 in double; at p = 4 and 5 the truncation
- * error still dominates (1.8e-4 against 1.7e-4, 2.3e-6 against 5.2e-6; at
- * 300 sizes away 7.8e-4 both, 9.7e-6 against 8.7e-6). Hence 5; 0 for double
- * spectra at every order, 6 or more for speed where nothing cancels. */
+ * spectra at p = 6 against 1.6e-6 in double, and at p = 5 anything from
+ * 8.8e-7 to 2.2e-5 with float spectra (the rounding of the operators, which
+ * OpenBLAS's kernel for the CPU sets, decides) against 5.2e-6 in double; at
+ * p = 4 the truncation error dominates (1.8e-4 against 1.7e-4; at 300
+ * sizes away 7.8e-4 both). Hence 4; 0 for double spectra at every order, 5
+ * or more for speed where nothing cancels. */
 #ifndef KIFMM_FFT_SINGLE_MAX_ORDER
-#define KIFMM_FFT_SINGLE_MAX_ORDER 5
+#define KIFMM_FFT_SINGLE_MAX_ORDER 4
 #endif
 
 /* Memory for the spectra of the FFT M2L, in MiB: a level whose source
