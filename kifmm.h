@@ -196,7 +196,7 @@ extern "C++" {
     X(KIFMM_ERR_PERIODIC, -14,                                                                \
       "these periodic boundaries are not supported for this kernel: periodic directions "     \
       "need a scale-invariant or decaying kernel, and three of them for a scale-invariant "  \
-      "one its _ewald and _background hooks (docs/api.md)")                                  \
+      "one its _ewald and _background hooks (docs/api.md); direct sums are free space only")   \
     X(KIFMM_ERR_NEUTRAL, -15,                                                                 \
       "with these periodic directions and this kernel the densities must sum to zero "        \
       "(docs/api.md, \"Periodic boundaries\")")
@@ -3102,6 +3102,22 @@ KIFMM__API int KIFMM__F(_stats)(const KIFMM_NAME *h, kifmm_stats *out);
 /* <prefix>_options: the options the handle uses, defaults resolved (kernel
  * parameters included). */
 KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used);
+
+/* <prefix>_direct: the sums over all nsources sources at each of ntargets
+ * targets, computed directly from the kernel's _eval (no tree, no
+ * expansions, no hooks), in double whatever KIFMM_REAL: out[j*TRG_DIM + k]
+ * from densities[i*SRC_DIM + d], laid out as in evaluate; a target at a
+ * source's position gets nothing from it (as in evaluate). The reference to
+ * check a kernel or a handle against: pass the handle's options and a
+ * subset of its targets (O(nsources * ntargets) work). Of opts (NULL: the
+ * defaults) it uses kernel_param and nthreads; periodic options are
+ * refused (KIFMM_ERR_PERIODIC: the sums are those of free space). Returns
+ * KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT, KIFMM_ERR_NONFINITE,
+ * KIFMM_ERR_PARAM, an option's error, KIFMM_ERR_PERIODIC or
+ * KIFMM_ERR_NOMEM; out is written only on success. Thread safe. */
+KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const KIFMM__R *src_xyz,
+                                 const KIFMM__R *densities, int64_t ntargets,
+                                 const KIFMM__R *trg_xyz, KIFMM__R *out);
 
 #ifndef KIFMM_DECLARE /* the implementation, from here to >>epilogue */
 
@@ -6448,23 +6464,23 @@ KIFMM__FN int KIFMM__F(__eval_grow)(KIFMM_NAME *h, int cap)
     return KIFMM_SUCCESS;
 }
 
-/* The densities of nr vectors in sorted order, each sorted source writing
- * its own (through the kernel's _density map, if it has one). */
 /* The QD densities the kernel is linear in, from one source's UD values
- * (through the kernel's _density map, if it has one). */
-KIFMM__FN void KIFMM__F(__density_of)(const KIFMM_NAME *h, const KIFMM__R *in, double *lin)
+ * (through the kernel's _density map, if it has one, at parameters prm). */
+KIFMM__FN void KIFMM__F(__density_of)(const double *prm, const KIFMM__R *in, double *lin)
 {
     int k;
 #if KIFMM__HAS_QT & KIFMM_HAS_DENSITY
     double u[KIFMM__UD];
     for (k = 0; k < KIFMM__UD; k++) u[k] = (double)in[k];
-    KIFMM__K(_density)(h->opts.kernel_param, u, lin);
+    KIFMM__K(_density)(prm, u, lin);
 #else
-    (void)h;
+    (void)prm;
     for (k = 0; k < KIFMM__QD; k++) lin[k] = (double)in[k];
 #endif
 }
 
+/* The densities of nr vectors in sorted order, each sorted source writing
+ * its own (through the kernel's _density map, if it has one). */
 KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work) *w, int nr,
                                             const KIFMM__R *d)
 {
@@ -6476,7 +6492,7 @@ KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work
         for (r = 0; r < nr; r++) {
             KIFMM__R *q = w->qs + r * qper + i * KIFMM__QD;
             double lin[KIFMM__QD];
-            KIFMM__F(__density_of)(h, d + r * uper + t->sperm[i] * KIFMM__UD, lin);
+            KIFMM__F(__density_of)(h->opts.kernel_param, d + r * uper + t->sperm[i] * KIFMM__UD, lin);
             for (k = 0; k < KIFMM__QD; k++) q[k] = (KIFMM__R)lin[k];
         }
     }
@@ -6528,7 +6544,8 @@ KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIF
         for (int64_t i = 0; i < t->ns; i++) {
             double lin[KIFMM__QD];
             int k;
-            KIFMM__F(__density_of)(h, d + (size_t)r * t->ns * KIFMM__UD + (size_t)i * KIFMM__UD, lin);
+            KIFMM__F(__density_of)(h->opts.kernel_param,
+                                   d + (size_t)r * t->ns * KIFMM__UD + (size_t)i * KIFMM__UD, lin);
             for (b = 0; b < KIFMM__SD; b++)
                 for (k = 0; k < KIFMM__QD; k++) {
                     q[b] += h->lat.mu[b + k * KIFMM__SD] * lin[k];
@@ -6594,6 +6611,47 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used)
 {
     if (!h || !used) return KIFMM_ERR_NULL;
     *used = h->opts;
+    return KIFMM_SUCCESS;
+}
+
+/* direct's outputs at one target x from ns sources with lin, their QD
+ * densities each (the kernel's _density map applied), summed in double */
+KIFMM__FN void KIFMM__F(__direct_at)(const double *prm, const KIFMM__R *x, int64_t ns,
+                                     const KIFMM__R *src, const double *lin, KIFMM__R *o)
+{
+    double acc[KIFMM__TD], k[KIFMM__TD * KIFMM__QD];
+    int a, b;
+    for (a = 0; a < KIFMM__TD; a++) acc[a] = 0.0;
+    for (int64_t j = 0; j < ns; j++) {
+        const KIFMM__R *y = src + 3 * j;
+        KIFMM__K(_eval)(prm, (double)x[0] - (double)y[0], (double)x[1] - (double)y[1],
+                        (double)x[2] - (double)y[2], k);
+        for (a = 0; a < KIFMM__TD; a++)
+            for (b = 0; b < KIFMM__QD; b++) acc[a] += k[a * KIFMM__QD + b] * lin[j * KIFMM__QD + b];
+    }
+    for (a = 0; a < KIFMM__TD; a++) o[a] = (KIFMM__R)acc[a];
+}
+
+KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const KIFMM__R *src_xyz,
+                                 const KIFMM__R *densities, int64_t ntargets,
+                                 const KIFMM__R *trg_xyz, KIFMM__R *out)
+{
+    kifmm_opts o;
+    double *lin;
+    int rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o), d;
+    if (rc) return rc;
+    if ((nsources > 0 && ntargets > 0 && !densities) || (ntargets > 0 && !out)) return KIFMM_ERR_NULL;
+    for (d = 0; d < 3; d++)
+        if (o.period[d] != 0.0) return KIFMM_ERR_PERIODIC;
+    if (!(lin = (double *)kifmm__alloc((size_t)nsources * KIFMM__QD + 1, sizeof(double))))
+        return KIFMM_ERR_NOMEM;
+    for (int64_t j = 0; j < nsources; j++)
+        KIFMM__F(__density_of)(o.kernel_param, densities + j * KIFMM__UD, lin + j * KIFMM__QD);
+    KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(o.nthreads))
+    for (int64_t i = 0; i < ntargets; i++)
+        KIFMM__F(__direct_at)(o.kernel_param, trg_xyz + 3 * i, nsources, src_xyz, lin,
+                              out + i * KIFMM__TD);
+    kifmm__free(lin);
     return KIFMM_SUCCESS;
 }
 

@@ -532,6 +532,27 @@ static inline int t_run(const t_api *api, const kifmm_opts *opts, int64_t ns, co
         return rc;                                                                             \
     }
 
+/* direct_P: P_direct through doubles (points, densities and outputs
+ * converted to and from R); out is left as it was unless it succeeds. */
+#define T_DEFINE_DIRECT(P, R, SD, TD)                                                            \
+    static int direct_##P(const kifmm_opts *o, int64_t ns, const double *s, const double *q,    \
+                          int64_t nt, const double *t, double *out)                             \
+    {                                                                                          \
+        int64_t i;                                                                             \
+        R *sr = (R *)calloc((size_t)(3 * ns + 1), sizeof(R));                                 \
+        R *tr = (R *)calloc((size_t)(3 * nt + 1), sizeof(R));                                 \
+        R *qr = (R *)calloc((size_t)(ns * (SD) + 1), sizeof(R));                              \
+        R *orr = (R *)calloc((size_t)(nt * (TD) + 1), sizeof(R));                             \
+        int rc;                                                                                \
+        for (i = 0; i < 3 * ns; i++) sr[i] = (R)s[i];                                          \
+        for (i = 0; i < 3 * nt; i++) tr[i] = (R)t[i];                                          \
+        for (i = 0; i < ns * (SD); i++) qr[i] = (R)q[i];                                       \
+        rc = P##_direct(o, ns, sr, qr, nt, tr, orr);                                           \
+        for (i = 0; i < nt * (TD) && rc == 0; i++) out[i] = (double)orr[i];                    \
+        free(sr); free(tr); free(qr); free(orr);                                               \
+        return rc;                                                                             \
+    }
+
 /* One-way near-field hooks (double and float) against a long double
  * reference: blocks of 0 to 129 targets and sources (around the stack block
  * of 64 points), coincident pairs, two calls adding up; the error of each

@@ -80,6 +80,20 @@ T_DEFINE_RUN(kifmm_stokes_gradf, float, 3, 12)
 T_DEFINE_RUN(kifmm_stokes_dlf, float, 6, 3)
 T_DEFINE_RUN(kifmm_biot_savartf, float, 3, 3)
 T_DEFINE_RUN(kifmm_biot_savart_gradf, float, 3, 12)
+T_DEFINE_DIRECT(kifmm_yukawa_cd, double, 4, 1)
+T_DEFINE_DIRECT(kifmm_yukawa_cd_grad, double, 4, 4)
+T_DEFINE_DIRECT(kifmm_stokes_pvel, double, 3, 4)
+T_DEFINE_DIRECT(kifmm_stokes_grad, double, 3, 12)
+T_DEFINE_DIRECT(kifmm_stokes_dl, double, 6, 3)
+T_DEFINE_DIRECT(kifmm_biot_savart, double, 3, 3)
+T_DEFINE_DIRECT(kifmm_biot_savart_grad, double, 3, 12)
+T_DEFINE_DIRECT(kifmm_yukawa_cdf, float, 4, 1)
+T_DEFINE_DIRECT(kifmm_yukawa_cd_gradf, float, 4, 4)
+T_DEFINE_DIRECT(kifmm_stokes_pvelf, float, 3, 4)
+T_DEFINE_DIRECT(kifmm_stokes_gradf, float, 3, 12)
+T_DEFINE_DIRECT(kifmm_stokes_dlf, float, 6, 3)
+T_DEFINE_DIRECT(kifmm_biot_savartf, float, 3, 3)
+T_DEFINE_DIRECT(kifmm_biot_savart_gradf, float, 3, 12)
 
 typedef int (*run_fn)(const kifmm_opts *, int64_t, const double *, int64_t, const double *,
                       const double *, int, double *, kifmm_opts *);
@@ -108,6 +122,17 @@ static const kern kernels[] = {
     {"biot_savart_grad", BS, 3, 12, 3, "velocity", "gradient", 1e-5, 1e-4,
      run_kifmm_biot_savart_grad, run_kifmm_biot_savart_gradf},
 };
+
+typedef int (*direct_fn)(const kifmm_opts *, int64_t, const double *, const double *, int64_t,
+                         const double *, double *);
+static const direct_fn directs[][2] = { /* in the order of kernels[] */
+    {direct_kifmm_yukawa_cd, direct_kifmm_yukawa_cdf},
+    {direct_kifmm_yukawa_cd_grad, direct_kifmm_yukawa_cd_gradf},
+    {direct_kifmm_stokes_pvel, direct_kifmm_stokes_pvelf},
+    {direct_kifmm_stokes_grad, direct_kifmm_stokes_gradf},
+    {direct_kifmm_stokes_dl, direct_kifmm_stokes_dlf},
+    {direct_kifmm_biot_savart, direct_kifmm_biot_savartf},
+    {direct_kifmm_biot_savart_grad, direct_kifmm_biot_savart_gradf}};
 
 /* The outputs of one source with densities w at d = target - source, all
  * of the family's (in the layouts of kifmm_kernels.h), in long double:
@@ -405,6 +430,74 @@ static void check_periodic_dl(int corner)
     free(out);
 }
 
+/* P_direct of every kernel (double and float) against the sums written
+ * here: 3,000 sources in the unit cube, NSAMPLE targets, four of them at
+ * sources (left out, as in evaluate); the float instances against the sums
+ * of their rounded inputs. And its errors, out untouched. */
+static void check_direct(void)
+{
+    const int64_t n = 3000, nt = NSAMPLE;
+    double *s = t_doubles(3 * n), *t = t_doubles(3 * nt), *w = t_doubles(6 * n), *wr = t_doubles(6 * n);
+    double *sr = t_doubles(3 * n), *tr = t_doubles(3 * nt), *ref = t_doubles(16 * nt), *out = t_doubles(12 * nt);
+    int64_t idx[NSAMPLE], i;
+    t_rng r = t_rng_seed(97);
+    size_t k;
+    int fl, rc;
+    t_gen_cube(&r, n, s, 0.0, 1.0);
+    t_gen_cube(&r, nt, t, 0.0, 1.0);
+    memcpy(t, s, 12 * sizeof(double)); /* four targets at sources */
+    for (i = 0; i < nt; i++) idx[i] = i;
+    for (k = 0; k < sizeof kernels / sizeof kernels[0]; k++) {
+        const kern *K = &kernels[k];
+        densities(K, n, &r, w);
+        for (fl = 0; fl < 2; fl++) {
+            kifmm_opts o = t_opts(0, 0, 0);
+            o.kernel_param[0] = K->family == YUK ? LAMBDA : MU;
+            for (i = 0; i < 3 * n; i++) sr[i] = fl ? (float)s[i] : s[i];
+            for (i = 0; i < 3 * nt; i++) tr[i] = fl ? (float)t[i] : t[i];
+            for (i = 0; i < K->sd * n; i++) wr[i] = fl ? (float)w[i] : w[i];
+            for (i = 0; i < nt; i++) direct(K->family, K->sd, n, sr, wr, tr + 3 * i, ref + 16 * i);
+            rc = directs[k][fl](&o, n, s, w, nt, t, out);
+            CHECK(rc == KIFMM_SUCCESS, "%s%s_direct: %s", K->name, fl ? "f" : "", kifmm_strerror(rc));
+            CHECK_ERR(rc ? 1.0 : group_err(K, 0, K->td, idx, out, ref), fl ? 1e-6 : 1e-13,
+                      "%s%s_direct against the sums written here", K->name, fl ? "f" : "");
+        }
+    }
+    { /* the errors, on stokes_dl: out as it was */
+        kifmm_opts o = t_opts(0, 0, 0);
+        double keep;
+        for (i = 0; i < 3 * nt; i++) out[i] = 7.0;
+        o.period[0] = 1.0;
+        CHECK(kifmm_stokes_dl_direct(&o, n, s, w, nt, t, out) == KIFMM_ERR_PERIODIC,
+              "periodic options: KIFMM_ERR_PERIODIC");
+        CHECK(kifmm_stokes_dl_direct(NULL, n, s, NULL, nt, t, out) == KIFMM_ERR_NULL,
+              "densities NULL: KIFMM_ERR_NULL");
+        CHECK(kifmm_stokes_dl_direct(NULL, -1, s, w, nt, t, out) == KIFMM_ERR_COUNT,
+              "a negative count: KIFMM_ERR_COUNT");
+        keep = t[5];
+        t[5] = NAN;
+        CHECK(kifmm_stokes_dl_direct(NULL, n, s, w, nt, t, out) == KIFMM_ERR_NONFINITE,
+              "a NaN target: KIFMM_ERR_NONFINITE");
+        t[5] = keep;
+        o.period[0] = 0.0;
+        o.nthreads = -1;
+        CHECK(kifmm_stokes_dl_direct(&o, n, s, w, nt, t, out) == KIFMM_ERR_NTHREADS,
+              "nthreads -1: KIFMM_ERR_NTHREADS");
+        for (i = 0, keep = 0.0; i < 3 * nt; i++) keep += out[i] != 7.0;
+        CHECK(keep == 0.0, "out untouched by the refused calls");
+        CHECK(kifmm_stokes_dl_direct(NULL, 0, NULL, NULL, nt, t, out) == KIFMM_SUCCESS && out[0] == 0.0,
+              "no sources: zeros");
+    }
+    free(s);
+    free(t);
+    free(w);
+    free(wr);
+    free(sr);
+    free(tr);
+    free(ref);
+    free(out);
+}
+
 int main(void)
 {
     static const char *dists[3] = {"cube", "sphere", "clustered"};
@@ -445,6 +538,8 @@ int main(void)
             t_group(name);
             check_case(dists[d], sep, !QUICK || d == 0);
         }
+    t_group("P_direct");
+    check_direct();
     t_group("stokes_dl, three periodic directions, against Ewald and Hasimoto sums, p = 6");
     check_periodic_dl(0);
     check_periodic_dl(1);
