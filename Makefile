@@ -12,6 +12,14 @@
 #   make examples   build the examples into build/
 #   make deps       check the compilers, OpenMP and BLAS/LAPACKE headers;
 #                   installs the Debian packages when run as root
+#   make lib        build/lib/libkifmm.a and libkifmm.so: every shipped kernel
+#                   in double and float (kifmm_lib.h, src/kifmm_lib.c)
+#   make install    PREFIX=/usr/local (DESTDIR for staging): kifmm.h,
+#                   kifmm_kernels.h, kifmm_lib.h, libkifmm, kifmm.pc and the
+#                   CMake package (find_package(kifmm): kifmm::kifmm,
+#                   kifmm::headers); LIB_CFLAGS="-O2 -fopenmp" for a library
+#                   without -march=native (one to copy to other machines)
+#   make uninstall  the same PREFIX and DESTDIR: removes what install put there
 #   make clean      remove build/
 #
 # On machines where OpenBLAS misdetects the CPU, set OPENBLAS_CORETYPE
@@ -23,7 +31,7 @@ ARGS ?=
 EXAMPLE_CFLAGS := -std=c99 -O2 -march=native -fopenmp -Wall -Wextra -pedantic
 LDLIBS := -llapacke -lopenblas -lm
 
-APT_INSTALL := apt-get update && apt-get install -y libopenblas-dev liblapacke-dev clang libomp-dev
+APT_INSTALL := apt-get update && apt-get install -y libopenblas-dev liblapacke-dev clang libomp-dev cmake pkg-config
 
 # cblas.h is found by the compiler's default search path on Debian (it sits in
 # /usr/include/<multiarch>/ or /usr/include/); only if it is not, look for it
@@ -36,7 +44,7 @@ CBLAS_CFLAGS := $(shell \
     [ -n "$$d" ] && echo "-I$$(dirname $$d)"; \
   fi)
 
-.PHONY: all run custom double_layer test examples deps clean
+.PHONY: all run custom double_layer test examples deps clean lib install uninstall
 
 all: examples
 
@@ -44,7 +52,7 @@ all: examples
 # so the multiarch include directory is never hard-coded.
 define DEPS_CHECK
 missing=""; \
-for c in gcc clang; do \
+for c in gcc clang cmake pkg-config; do \
   command -v $$c >/dev/null 2>&1 || missing="$$missing $$c"; \
 done; \
 if command -v gcc >/dev/null 2>&1; then \
@@ -112,6 +120,53 @@ test: deps
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/custom_kernel 20000 6
 	./$(BUILD)/double_layer 64 6
+	bash tests/install.sh
+
+# ---- the compiled library and its installation
+PREFIX ?= /usr/local
+DESTDIR ?=
+LIB_CFLAGS ?= -O2 -march=native -fopenmp
+VERSION := $(shell awk '/define KIFMM_VERSION_MAJOR/{a=$$3} /define KIFMM_VERSION_MINOR/{b=$$3} \
+                        /define KIFMM_VERSION_PATCH/{c=$$3} END{print a "." b "." c}' kifmm.h)
+MAJOR := $(firstword $(subst ., ,$(VERSION)))
+LIBDIR := $(PREFIX)/lib
+INCDIR := $(PREFIX)/include
+SONAME := libkifmm.so.$(MAJOR)
+
+$(BUILD)/lib/kifmm_lib.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
+	mkdir -p $(BUILD)/lib
+	$(CC) -std=c99 $(LIB_CFLAGS) -fPIC -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. -c $< -o $@
+
+$(BUILD)/lib/libkifmm.a: $(BUILD)/lib/kifmm_lib.o
+	rm -f $@
+	ar rcs $@ $<
+
+$(BUILD)/lib/libkifmm.so.$(VERSION): $(BUILD)/lib/kifmm_lib.o
+	$(CC) -shared -Wl,-soname,$(SONAME) -fopenmp $< -o $@ $(LDLIBS)
+
+lib: $(BUILD)/lib/libkifmm.a $(BUILD)/lib/libkifmm.so.$(VERSION)
+
+install: lib
+	install -d $(DESTDIR)$(INCDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(LIBDIR)/cmake/kifmm
+	install -m 644 kifmm.h kifmm_kernels.h kifmm_lib.h $(DESTDIR)$(INCDIR)/
+	install -m 644 $(BUILD)/lib/libkifmm.a $(DESTDIR)$(LIBDIR)/
+	install -m 755 $(BUILD)/lib/libkifmm.so.$(VERSION) $(DESTDIR)$(LIBDIR)/
+	ln -sf libkifmm.so.$(VERSION) $(DESTDIR)$(LIBDIR)/$(SONAME)
+	ln -sf $(SONAME) $(DESTDIR)$(LIBDIR)/libkifmm.so
+	sed -e 's|@PREFIX@|$(PREFIX)|' -e 's|@VERSION@|$(VERSION)|' cmake/kifmm.pc.in \
+	    > $(DESTDIR)$(LIBDIR)/pkgconfig/kifmm.pc
+	install -m 644 cmake/kifmmConfig.cmake $(DESTDIR)$(LIBDIR)/cmake/kifmm/
+	sed -e 's|@VERSION@|$(VERSION)|' -e 's|@MAJOR@|$(MAJOR)|' cmake/kifmmConfigVersion.cmake.in \
+	    > $(DESTDIR)$(LIBDIR)/cmake/kifmm/kifmmConfigVersion.cmake
+	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ] && command -v ldconfig >/dev/null 2>&1; then \
+	    ldconfig; fi
+
+uninstall:
+	rm -f $(addprefix $(DESTDIR)$(INCDIR)/,kifmm.h kifmm_kernels.h kifmm_lib.h)
+	rm -f $(addprefix $(DESTDIR)$(LIBDIR)/,libkifmm.a libkifmm.so $(SONAME) libkifmm.so.$(VERSION))
+	rm -f $(DESTDIR)$(LIBDIR)/pkgconfig/kifmm.pc
+	rm -f $(addprefix $(DESTDIR)$(LIBDIR)/cmake/kifmm/,kifmmConfig.cmake kifmmConfigVersion.cmake)
+	-rmdir $(DESTDIR)$(LIBDIR)/cmake/kifmm 2>/dev/null
 
 clean:
 	rm -rf $(BUILD)

@@ -1,0 +1,287 @@
+/* kifmm_lib.h - the compiled library's instances: every kernel shipped in
+ * kifmm_kernels.h, in double (kifmm_<kernel>_*) and in float
+ * (kifmm_<kernel>f_*), declared with KIFMM_DECLARE (docs/api.md,
+ * "Linkage"). A program that links libkifmm (pkg-config kifmm, or CMake's
+ * kifmm::kifmm) includes this header instead of kifmm.h and compiles none
+ * of the library; src/kifmm_lib.c, the library's one source file, defines
+ * KIFMM_LIB_IMPLEMENT before including it and so compiles the instances
+ * (KIFMM_IMPLEMENT). Kernels of your own: include kifmm.h (header-only),
+ * beside this header if you like. */
+#ifndef KIFMM_LIB_H
+#define KIFMM_LIB_H
+
+/* ---- double ---- */
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_grad
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_hess
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_dipole
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_dipole_grad
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_cd
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_cd_grad
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_cd_hess
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL yukawa
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL yukawa_grad
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL yukawa_cd
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL yukawa_cd_grad
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL stokes
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL stokes_grad
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL stokes_pvel
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL stokes_dl
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL biot_savart
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL biot_savart_grad
+#include "kifmm.h"
+
+/* ---- float ---- */
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_hess
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_dipole
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_dipole_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_cd
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_cd_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL laplace_cd_hess
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL yukawa
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL yukawa_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL yukawa_cd
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL yukawa_cd_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL stokes
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL stokes_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL stokes_pvel
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL stokes_dl
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL biot_savart
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL biot_savart_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+
+#endif
