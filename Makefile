@@ -31,7 +31,7 @@ ARGS ?=
 EXAMPLE_CFLAGS := -std=c99 -O2 -march=native -fopenmp -Wall -Wextra -pedantic
 LDLIBS := -llapacke -lopenblas -lm
 
-APT_INSTALL := apt-get update && apt-get install -y libopenblas-dev liblapacke-dev clang libomp-dev cmake pkg-config
+APT_INSTALL := apt-get update && apt-get install -y libopenblas-dev liblapacke-dev clang libomp-dev cmake pkg-config python3-venv
 
 # cblas.h is found by the compiler's default search path on Debian (it sits in
 # /usr/include/<multiarch>/ or /usr/include/); only if it is not, look for it
@@ -121,6 +121,7 @@ test: deps
 	./$(BUILD)/custom_kernel 20000 6
 	./$(BUILD)/double_layer 64 6
 	bash tests/install.sh
+	bash tests/python.sh
 
 # ---- the compiled library and its installation
 PREFIX ?= /usr/local

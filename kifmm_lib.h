@@ -15,6 +15,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace
 #include "kifmm.h"
@@ -22,6 +31,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
@@ -29,6 +47,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_hess
 #include "kifmm.h"
@@ -36,6 +63,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_dipole
 #include "kifmm.h"
@@ -43,6 +79,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_dipole_grad
 #include "kifmm.h"
@@ -50,6 +95,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_cd
 #include "kifmm.h"
@@ -57,6 +111,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_cd_grad
 #include "kifmm.h"
@@ -64,6 +127,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_cd_hess
 #include "kifmm.h"
@@ -71,6 +143,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL yukawa
 #include "kifmm.h"
@@ -78,6 +159,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL yukawa_grad
 #include "kifmm.h"
@@ -85,6 +175,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL yukawa_cd
 #include "kifmm.h"
@@ -92,6 +191,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL yukawa_cd_grad
 #include "kifmm.h"
@@ -99,6 +207,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL stokes
 #include "kifmm.h"
@@ -106,6 +223,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL stokes_grad
 #include "kifmm.h"
@@ -113,6 +239,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL stokes_pvel
 #include "kifmm.h"
@@ -120,6 +255,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL stokes_dl
 #include "kifmm.h"
@@ -127,6 +271,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL biot_savart
 #include "kifmm.h"
@@ -134,6 +287,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL biot_savart_grad
 #include "kifmm.h"
@@ -143,6 +305,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace
 #define KIFMM_REAL float
@@ -151,6 +322,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_grad
 #define KIFMM_REAL float
@@ -159,6 +339,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_hess
 #define KIFMM_REAL float
@@ -167,6 +356,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_dipole
 #define KIFMM_REAL float
@@ -175,6 +373,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_dipole_grad
 #define KIFMM_REAL float
@@ -183,6 +390,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_cd
 #define KIFMM_REAL float
@@ -191,6 +407,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_cd_grad
 #define KIFMM_REAL float
@@ -199,6 +424,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL laplace_cd_hess
 #define KIFMM_REAL float
@@ -207,6 +441,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL yukawa
 #define KIFMM_REAL float
@@ -215,6 +458,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL yukawa_grad
 #define KIFMM_REAL float
@@ -223,6 +475,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL yukawa_cd
 #define KIFMM_REAL float
@@ -231,6 +492,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL yukawa_cd_grad
 #define KIFMM_REAL float
@@ -239,6 +509,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL stokes
 #define KIFMM_REAL float
@@ -247,6 +526,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL stokes_grad
 #define KIFMM_REAL float
@@ -255,6 +543,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL stokes_pvel
 #define KIFMM_REAL float
@@ -263,6 +560,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL stokes_dl
 #define KIFMM_REAL float
@@ -271,6 +577,15 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL biot_savart
 #define KIFMM_REAL float
@@ -279,9 +594,27 @@
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
+
 #endif
 #define KIFMM_KERNEL biot_savart_grad
 #define KIFMM_REAL float
 #include "kifmm.h"
+
+/* kifmm_strerror is static in every translation unit (kifmm.h); the library
+ * exports it under this name for hosts that cannot compile the header
+ * (bindings through a foreign-function interface). */
+#ifdef __cplusplus
+extern "C" const char *kifmm_lib_strerror(int code);
+#else
+const char *kifmm_lib_strerror(int code);
+#endif
 
 #endif

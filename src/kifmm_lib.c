@@ -4,3 +4,5 @@
  * make install installs them (Makefile). */
 #define KIFMM_LIB_IMPLEMENT
 #include "kifmm_lib.h"
+
+const char *kifmm_lib_strerror(int code) { return kifmm_strerror(code); }

@@ -1,0 +1,174 @@
+"""Tests of the Python bindings: the FMM against numpy sums written here and
+against kifmm.direct, every kernel in double and float, several density
+sets at once, shapes and errors, the GIL and the OpenMP runtime."""
+import os
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import kifmm
+
+PI4 = 4.0 * np.pi
+
+
+def points(n, seed):
+    return np.random.default_rng(seed).random((n, 3))
+
+
+def laplace_numpy(x, q, t):
+    """potential and gradient of charges q at x, at targets t (a target on a
+    source leaves it out)"""
+    d = t[:, None, :] - x[None, :, :]
+    r = np.sqrt((d * d).sum(axis=2))
+    with np.errstate(divide="ignore"):
+        inv = np.where(r > 0, 1.0 / r, 0.0)
+    pot = (q[None, :] * inv).sum(axis=1) / PI4
+    grad = -(q[None, :, None] * d * inv[:, :, None] ** 3).sum(axis=1) / PI4
+    return pot, grad
+
+
+def stokes_numpy(x, f, t):
+    d = t[:, None, :] - x[None, :, :]
+    r = np.sqrt((d * d).sum(axis=2))
+    with np.errstate(divide="ignore"):
+        inv = np.where(r > 0, 1.0 / r, 0.0)
+    fd = (d * f[None, :, :]).sum(axis=2)
+    u = f[None, :, :] * inv[:, :, None] + d * (fd * inv ** 3)[:, :, None]
+    return u.sum(axis=1) / (2.0 * PI4)
+
+
+def rel(a, b):
+    return np.linalg.norm(a - b) / np.linalg.norm(b)
+
+
+def test_laplace_grad_against_numpy():
+    x = points(6000, 1)
+    q = np.random.default_rng(2).random(6000) - 0.5
+    out = kifmm.FMM("laplace_grad", x, order=6).evaluate(q)
+    pot, grad = laplace_numpy(x, q, x[:200])
+    assert out.shape == (6000, 4)
+    assert rel(out[:200, 0], pot) < 1e-5
+    assert rel(out[:200, 1:], grad) < 1e-4
+    ref = kifmm.direct("laplace_grad", x, q, x[:200])
+    assert rel(ref[:, 0], pot) < 1e-13 and rel(ref[:, 1:], grad) < 1e-13
+
+
+def test_stokes_separate_targets_against_numpy():
+    x, t = points(4000, 3), points(1500, 4)
+    f = np.random.default_rng(5).random((4000, 3)) - 0.5
+    fmm = kifmm.FMM("stokes", x, t, order=6, kernel_param=[1.0])
+    u = fmm.evaluate(f)
+    ref = stokes_numpy(x, f, t[:100])
+    assert u.shape == (1500, 3)
+    assert rel(u[:100], ref) < 1e-5
+    assert rel(kifmm.direct("stokes", x, f, t[:100], kernel_param=[1.0]), ref) < 1e-13
+
+
+@pytest.mark.parametrize("kernel", sorted(kifmm.KERNELS))
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_every_kernel_against_direct(kernel, dtype):
+    sd, td = kifmm.KERNELS[kernel]
+    x = points(3000, 6)
+    rng = np.random.default_rng(7)
+    dens = rng.random((3000, sd)) - 0.5
+    prm = [3.0] if kernel.startswith("yukawa") else None
+    order, bound = (6, 1e-4) if dtype == np.float64 else (4, 2e-3)
+    out = kifmm.FMM(kernel, x, order=order, dtype=dtype, kernel_param=prm).evaluate(dens)
+    assert out.dtype == dtype and out.shape == (3000, td)
+    ref = kifmm.direct(kernel, x, dens, x[:100], kernel_param=prm)
+    assert rel(out[:100].astype(np.float64), ref) < bound
+
+
+def test_several_density_sets():
+    x = points(3000, 8)
+    q = np.random.default_rng(9).random((3, 3000)) - 0.5
+    fmm = kifmm.FMM("laplace", x, order=6)
+    many = fmm.evaluate(q)
+    assert many.shape == (3, 3000, 1)
+    for k in range(3):
+        assert rel(many[k], fmm.evaluate(q[k])) < 1e-12
+    v = np.random.default_rng(10).random((2, 3000, 3))
+    fmm3 = kifmm.FMM("biot_savart", x, order=6)
+    out = fmm3.evaluate(v)
+    assert out.shape == (2, 3000, 3)
+    assert rel(out[1], fmm3.evaluate(v[1])) < 1e-12
+
+
+def test_inputs_converted_and_checked():
+    x = points(500, 11)
+    q = np.random.default_rng(12).random(500)
+    xf = np.asfortranarray(x)  # converted once, results the same
+    a = kifmm.FMM("laplace", x).evaluate(q)
+    b = kifmm.FMM("laplace", xf).evaluate(list(q))
+    assert np.array_equal(a, b)
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace", x[:, :2])
+    with pytest.raises(ValueError):
+        kifmm.FMM("no_such_kernel", x)
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace", x.astype(np.complex128))
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace", x, dtype=np.float16)
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace", x).evaluate(q[:10])
+
+
+def test_library_errors_carry_its_message():
+    x = points(100, 13)
+    with pytest.raises(kifmm.KifmmError) as e:
+        kifmm.FMM("laplace", x, order=50)
+    assert e.value.code == -4 and "order" in str(e.value)
+    bad = x.copy()
+    bad[7, 1] = np.nan
+    with pytest.raises(kifmm.KifmmError) as e:
+        kifmm.FMM("laplace", bad)
+    assert e.value.code == -3 and "NaN" in str(e.value)
+    with pytest.raises(kifmm.KifmmError) as e:
+        kifmm.direct("laplace", x, np.ones(100), x, kernel_param=[np.inf])
+    assert e.value.code == -8
+
+
+def test_stats_and_options():
+    x = points(20000, 14)
+    fmm = kifmm.FMM("laplace", x, order=5, nthreads=1, period=1.0)
+    fmm.evaluate(np.random.default_rng(15).random(20000) - 0.5)
+    o, s = fmm.options, fmm.stats
+    assert o["order"] == 5 and o["nthreads"] == 1 and o["period"] == [1.0, 1.0, 1.0]
+    assert s["levels"] >= 2 and s["bytes"] > 0 and s["t_evaluate"] > 0
+    assert isinstance(s["build"], str) and s["build"]
+    fmm.close()
+    with pytest.raises(ValueError):
+        fmm.evaluate(np.zeros(20000))
+
+
+def test_gil_released():
+    """create and evaluate of 300,000 points in a thread while this one counts"""
+    x = points(300000, 16)
+    q = np.ones(300000)
+    done = threading.Event()
+
+    def work():
+        kifmm.FMM("laplace", x, order=6).evaluate(q)
+        done.set()
+
+    th = threading.Thread(target=work)
+    t0 = time.perf_counter()
+    th.start()
+    count = 0
+    while not done.is_set():
+        count += 1
+        time.sleep(0.001)
+    th.join()
+    elapsed = time.perf_counter() - t0
+    # with the GIL held by the FMM the loop would have run only a handful of times
+    assert count > 0.3 * elapsed / 0.0011, (count, elapsed)
+
+
+def test_one_openmp_runtime():
+    kifmm.FMM("laplace", points(1000, 17)).evaluate(np.ones(1000))
+    with open("/proc/self/maps") as f:
+        libs = {line.split()[-1] for line in f if line.rstrip().endswith(".so") or ".so." in line}
+    omp = {os.path.basename(p) for p in libs if any(k in os.path.basename(p) for k in ("gomp", "libomp", "iomp"))}
+    assert len(omp) <= 1, omp
