@@ -64,6 +64,7 @@ class _Opts(ctypes.Structure):
         ("nthreads", ctypes.c_int),
         ("kernel_param", ctypes.c_double * 4),
         ("period", ctypes.c_double * 3),
+        ("tol", ctypes.c_double),
     ]
 
 
@@ -165,9 +166,10 @@ def _points(x, dtype, what):
     return arr
 
 
-def _opts(order=None, nthreads=None, kernel_param=None, leaf_size=None, period=None):
+def _opts(order=None, nthreads=None, kernel_param=None, leaf_size=None, period=None, tol=None):
     o = _Opts()
     o.order = 0 if order is None else int(order)
+    o.tol = 0.0 if tol is None else float(tol)
     o.nthreads = 0 if nthreads is None else int(nthreads)
     o.leaf_size = 0 if leaf_size is None else int(leaf_size)
     if kernel_param is not None:
@@ -208,6 +210,9 @@ class FMM:
     sources       (nsources, 3) points
     targets       (ntargets, 3) points; None: the sources themselves
     order         expansion order (2 to 12; None: 6): about ``order`` digits
+    tol           instead of order: the relative L2 error wanted (1e-3 ...
+                  1e-10; the order is picked from a measured table, and
+                  ``options["order"]`` reports it)
     dtype         numpy.float64 or numpy.float32 (the float instances)
     nthreads      OpenMP threads (None: all)
     kernel_param  up to 4 numbers (yukawa: lambda; stokes kernels: viscosity)
@@ -218,7 +223,7 @@ class FMM:
     already; the library keeps no reference to them.
     """
 
-    def __init__(self, kernel, sources, targets=None, *, order=None, dtype=np.float64,
+    def __init__(self, kernel, sources, targets=None, *, order=None, tol=None, dtype=np.float64,
                  nthreads=None, kernel_param=None, leaf_size=None, period=None):
         self.kernel = kernel
         self.src_dim, self.trg_dim = _kernel(kernel)
@@ -227,7 +232,7 @@ class FMM:
         src = _points(sources, self.dtype, "sources")
         trg = src if targets is None else _points(targets, self.dtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
-        opts = _opts(order, nthreads, kernel_param, leaf_size, period)
+        opts = _opts(order, nthreads, kernel_param, leaf_size, period, tol)
         self._h = _P()
         rc = self._f["create"](ctypes.byref(self._h), ctypes.byref(opts), self.nsources, _ptr(src),
                                self.ntargets, _ptr(trg))
@@ -275,7 +280,7 @@ class FMM:
             raise KifmmError(rc, f"kifmm_{self.kernel}_options")
         return {"order": o.order, "leaf_size": o.leaf_size, "max_depth": o.max_depth,
                 "nthreads": o.nthreads, "kernel_param": list(o.kernel_param),
-                "period": list(o.period)}
+                "period": list(o.period), "tol": o.tol}
 
     def close(self):
         """Free the library's handle now (also done when the object goes)."""

@@ -81,6 +81,21 @@ def test_every_kernel_against_direct(kernel, dtype):
     assert rel(out[:100].astype(np.float64), ref) < bound
 
 
+@pytest.mark.parametrize("tol", [1e-3, 1e-6, 1e-9])
+def test_tol_against_numpy(tol):
+    x = points(8000, 18)
+    q = np.random.default_rng(19).random(8000) - 0.5
+    fmm = kifmm.FMM("laplace", x, tol=tol)
+    out = fmm.evaluate(q)
+    pot, _ = laplace_numpy(x, q, x[:300])
+    err = rel(out[:300, 0], pot)
+    assert fmm.options["tol"] == tol and fmm.options["order"] >= 2
+    assert tol / 30 <= err <= tol, (fmm.options["order"], err)
+    with pytest.raises(kifmm.KifmmError) as e:
+        kifmm.FMM("laplace", x, tol=tol, order=6)
+    assert e.value.code == -16
+
+
 def test_several_density_sets():
     x = points(3000, 8)
     q = np.random.default_rng(9).random((3, 3000)) - 0.5

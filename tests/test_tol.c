@@ -1,0 +1,130 @@
+/* test_tol.c - opts.tol: create picks the order from the measured table
+ * (kifmm__order_for_tol, docs/api.md "Tolerance"), P_options reports it,
+ * and the relative L2 error of laplace's potential, against direct sums
+ * written out in test.h, lies between tol / 30 and tol at tol = 1e-3 ...
+ * 1e-10 on uniform, sphere-surface and clustered points (seeds other than
+ * the table's); float instances at tol = 1e-3, 1e-4 and 2e-5, their floor. And the
+ * errors: tol negative, NaN, infinite, below what order 12 reaches, set
+ * with an order, or below float's floor in a float instance. */
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace
+#define KIFMM_REAL float
+#include "kifmm.h"
+
+#include "test.h"
+
+#ifdef KIFMM_TEST_QUICK
+#define N 10000
+#else
+#define N 20000
+#endif
+
+static void gen(int dist, t_rng *r, int64_t n, double *x)
+{
+    if (dist == 0) t_gen_cube(r, n, x, 0.0, 1.0);
+    else if (dist == 1) t_gen_sphere(r, n, x);
+    else t_gen_blobs(r, n, x);
+}
+
+static void check_tol(int dist, double tol, int fl)
+{
+    static const char *name[3] = {"uniform", "sphere", "clustered"};
+    double *x = t_doubles(3 * N), *q = t_doubles(N), *out = t_doubles(N);
+    float *xf = (float *)malloc(sizeof(float) * 3 * N), *qf = (float *)malloc(sizeof(float) * N);
+    float *of = (float *)malloc(sizeof(float) * N);
+    t_rng r = t_rng_seed(900 + (uint64_t)dist);
+    kifmm_opts o, used;
+    int64_t i;
+    int rc;
+    t_err e;
+    gen(dist, &r, N, x);
+    for (i = 0; i < N; i++) q[i] = t_rand01(&r) - 0.5;
+    memset(&o, 0, sizeof o);
+    memset(&used, 0, sizeof used);
+    o.tol = tol;
+    if (fl) {
+        kifmm_laplacef *h = NULL;
+        for (i = 0; i < 3 * N; i++) x[i] = xf[i] = (float)x[i];
+        for (i = 0; i < N; i++) q[i] = qf[i] = (float)q[i];
+        rc = kifmm_laplacef_create(&h, &o, N, xf, N, xf);
+        if (!rc) rc = kifmm_laplacef_options(h, &used);
+        if (!rc) rc = kifmm_laplacef_evaluate(h, qf, of);
+        kifmm_laplacef_destroy(h);
+        for (i = 0; i < N; i++) out[i] = of[i];
+    } else {
+        kifmm_laplace *h = NULL;
+        rc = kifmm_laplace_create(&h, &o, N, x, N, x);
+        if (!rc) rc = kifmm_laplace_options(h, &used);
+        if (!rc) rc = kifmm_laplace_evaluate(h, q, out);
+        kifmm_laplace_destroy(h);
+    }
+    CHECK(rc == KIFMM_SUCCESS && used.tol == tol && used.order >= 2, "tol %.0e: %s, order %d",
+          tol, kifmm_strerror(rc), used.order);
+    e = t_error_laplace(N, x, q, N, x, out, 1, 300);
+    CHECK_ERR(rc ? 1.0 : e.pot, tol, "%s%s, tol %.0e: order %d, the error at most tol", name[dist],
+              fl ? ", float" : "", tol, used.order);
+    CHECK(rc == 0 && e.pot >= tol / 30.0, "%s%s, tol %.0e: the error %.2e at least tol / 30",
+          name[dist], fl ? ", float" : "", tol, e.pot);
+    free(x);
+    free(q);
+    free(out);
+    free(xf);
+    free(qf);
+    free(of);
+}
+
+static void check_errors(void)
+{
+    static const double bad[] = {-1e-6, 1e-12, 1.7e-11};
+    double x[30];
+    kifmm_opts o;
+    kifmm_laplace *h = NULL;
+    kifmm_laplacef *hf = NULL;
+    float xf[30];
+    int i, rc;
+    for (i = 0; i < 30; i++) xf[i] = (float)(x[i] = (i * 37 % 11) / 11.0);
+    memset(&o, 0, sizeof o);
+    for (i = 0; i < 5; i++) {
+        o.tol = i < 3 ? bad[i] : i == 3 ? NAN : INFINITY;
+        h = (kifmm_laplace *)&o; /* create must set it to NULL */
+        rc = kifmm_laplace_create(&h, &o, 10, x, 10, x);
+        CHECK(rc == KIFMM_ERR_TOL && h == NULL, "tol %g: %s", o.tol, kifmm_strerror(rc));
+    }
+    o.tol = 1e-6;
+    o.order = 8;
+    rc = kifmm_laplace_create(&h, &o, 10, x, 10, x);
+    CHECK(rc == KIFMM_ERR_TOL && h == NULL, "tol and order both set: %s", kifmm_strerror(rc));
+    o.order = 0;
+    o.tol = 2e-11; /* order 12 */
+    rc = kifmm_laplace_create(&h, &o, 10, x, 10, x);
+    CHECK(rc == KIFMM_SUCCESS, "tol 2e-11 (order 12): %s", kifmm_strerror(rc));
+    kifmm_laplace_destroy(h);
+    o.tol = 1.9e-5;
+    rc = kifmm_laplacef_create(&hf, &o, 10, xf, 10, xf);
+    CHECK(rc == KIFMM_ERR_TOL && hf == NULL, "float, tol 1.9e-5: %s", kifmm_strerror(rc));
+    o.tol = 2e-5;
+    rc = kifmm_laplacef_create(&hf, &o, 10, xf, 10, xf);
+    CHECK(rc == KIFMM_SUCCESS, "float, tol 2e-5: %s", kifmm_strerror(rc));
+    kifmm_laplacef_destroy(hf);
+}
+
+int main(void)
+{
+    int d, k;
+    t_group("errors");
+    check_errors();
+    for (d = 0; d < 3; d++) {
+        static const char *name[3] = {"uniform points", "points on a sphere", "clustered points"};
+        t_group(name[d]);
+        for (k = 3; k <= 10; k++) {
+#ifdef KIFMM_TEST_QUICK
+            if (k % 3 != d % 3) continue; /* a third of the cases, each distribution its own */
+#endif
+            check_tol(d, pow(10.0, -k), 0);
+        }
+        check_tol(d, 1e-3, 1);
+        check_tol(d, 1e-4, 1);
+        check_tol(d, 2e-5, 1);
+    }
+    return t_finish();
+}
