@@ -164,6 +164,8 @@ extern "C++" {
 
 #define KIFMM__CAT_(a, b) a##b
 #define KIFMM__CAT(a, b) KIFMM__CAT_(a, b)
+#define KIFMM__STR_(a) #a
+#define KIFMM__STR(a) KIFMM__STR_(a)
 #define KIFMM__CAT3(a, b, c) KIFMM__CAT(KIFMM__CAT(a, b), c)
 
 /* KIFMM_REAL must name one of these two types. */
@@ -202,7 +204,8 @@ extern "C++" {
       "(docs/api.md, \"Periodic boundaries\")")                                               \
     X(KIFMM_ERR_TOL, -16,                                                                     \
       "opts.tol is negative, not finite, set together with opts.order, or below what the "    \
-      "largest order reaches (about 1.8e-11; float instances 2e-5)")
+      "largest order reaches (about 1.8e-11; float instances 2e-5)")                          \
+    X(KIFMM_ERR_VERBOSE, -17, "opts.verbose is neither 0 nor 1")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -238,6 +241,8 @@ typedef struct kifmm_opts {
     double tol;             /* > 0: the order is chosen for a relative L2 error of at
                                most tol (order must then be 0; docs/api.md,
                                "Tolerance"); 0: order decides */
+    int verbose;            /* 1: create and evaluate print one line per stage, with
+                               its time, and the memory held, on stderr; 0: quiet */
 } kifmm_opts;
 
 /* What a handle is made of and where the last evaluation spent its time. */
@@ -506,6 +511,7 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, kifmm_opts *o
     if (o.max_depth < 0 || o.max_depth > KIFMM_MAX_DEPTH) return KIFMM_ERR_DEPTH;
     if (o.max_depth == 0) o.max_depth = KIFMM_DEFAULT_DEPTH;
     if (o.nthreads < 0 || o.nthreads > KIFMM_MAX_THREADS) return KIFMM_ERR_NTHREADS;
+    if (o.verbose != 0 && o.verbose != 1) return KIFMM_ERR_VERBOSE;
     for (d = 0; d < 3; d++) {
         if (!(o.period[d] >= 0.0 && o.period[d] <= DBL_MAX)) return KIFMM_ERR_PERIOD;
         if (o.period[d] > 0.0 && L > 0.0 && o.period[d] != L) return KIFMM_ERR_PERIOD;
@@ -6408,6 +6414,28 @@ KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
              h->opts.nthreads, h->opts.nthreads == 1 ? "" : "s");
 }
 
+/* opts.verbose: create's stages (after create) or evaluate's passes (after
+ * an evaluate), one line each on stderr, with the memory held. */
+KIFMM__FN void KIFMM__F(__report)(const KIFMM_NAME *h, int create)
+{
+    static const char *pass[8] = {"P2M", "M2M and upward solves", "M2L", "L2L and downward solves",
+                                  "P2L (X lists)", "L2P", "M2P (W lists)", "P2P (U lists)"};
+    const kifmm_stats *s = &h->stats;
+    const double t[8] = {s->t_p2m, s->t_m2m, s->t_m2l, s->t_l2l, s->t_p2l, s->t_l2p, s->t_m2p, s->t_p2p};
+    const char *name = KIFMM__STR(KIFMM_NAME);
+    int k;
+    if (create) {
+        fprintf(stderr, "%s create: tree and lists %.4f s (%d levels, %lld boxes, %lld leaves)\n",
+                name, s->t_tree, s->levels, (long long)s->boxes, (long long)s->leaves);
+        fprintf(stderr, "%s create: operators and workspace %.4f s (order %d, leaf size %d)\n", name,
+                s->t_operators, h->opts.order, h->opts.leaf_size);
+    } else {
+        for (k = 0; k < 8; k++) fprintf(stderr, "%s evaluate: %s %.4f s\n", name, pass[k], t[k]);
+    }
+    fprintf(stderr, "%s %s: %.4f s, %.1f MiB held\n", name, create ? "create" : "evaluate",
+            create ? s->t_tree + s->t_operators : s->t_evaluate, s->bytes / 1048576.0);
+}
+
 KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
                                  const KIFMM__R *src_xyz, int64_t ntargets,
                                  const KIFMM__R *trg_xyz)
@@ -6454,6 +6482,7 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
     h->stats.boxes = h->tree.nbox;
     h->stats.leaves = h->tree.nleaves;
     h->stats.bytes = KIFMM__F(__held)(h);
+    if (h->opts.verbose) KIFMM__F(__report)(h, 1);
     *out = h;
     return KIFMM_SUCCESS;
 }
@@ -6621,6 +6650,7 @@ KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R 
         KIFMM__F(__eval_group)(h, nr, densities + (size_t)r0 * qper, out + (size_t)r0 * oper);
     }
     h->stats.t_evaluate = kifmm__now() - t0;
+    if (h->opts.verbose) KIFMM__F(__report)(h, 0);
     kifmm__free(dcopy);
     return KIFMM_SUCCESS;
 }

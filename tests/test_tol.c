@@ -1,11 +1,16 @@
-/* test_tol.c - opts.tol: create picks the order from the measured table
+/* test_tol.c - opts.tol and opts.verbose. opts.tol: create picks the order from the measured table
  * (kifmm__order_for_tol, docs/api.md "Tolerance"), P_options reports it,
  * and the relative L2 error of laplace's potential, against direct sums
  * written out in test.h, lies between tol / 30 and tol at tol = 1e-3 ...
  * 1e-10 on uniform, sphere-surface and clustered points (seeds other than
  * the table's); float instances at tol = 1e-3, 1e-4 and 2e-5, their floor. And the
  * errors: tol negative, NaN, infinite, below what order 12 reaches, set
- * with an order, or below float's floor in a float instance. */
+ * with an order, or below float's floor in a float instance. opts.verbose:
+ * create's and evaluate's lines on stderr (read back through a file), none
+ * when 0, KIFMM_ERR_VERBOSE for other values. */
+#define _POSIX_C_SOURCE 200809L /* dup, dup2, fileno */
+#include <unistd.h>
+
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace
 #define KIFMM_REAL float
@@ -108,11 +113,62 @@ static void check_errors(void)
     kifmm_laplacef_destroy(hf);
 }
 
+/* the lines create and evaluate write to stderr with opts.verbose v,
+ * counted: those of create and those of evaluate */
+static int verbose_run(int v, int *ncreate, int *neval)
+{
+    enum { NV = 5000 };
+    double *x = t_doubles(3 * NV), *q = t_doubles(NV), *out = t_doubles(NV);
+    char line[512];
+    kifmm_opts o;
+    kifmm_laplace *h = NULL;
+    t_rng r = t_rng_seed(77);
+    FILE *f = tmpfile();
+    int saved = dup(2), rc, i;
+    t_gen_cube(&r, NV, x, 0.0, 1.0);
+    for (i = 0; i < NV; i++) q[i] = t_rand01(&r);
+    memset(&o, 0, sizeof o);
+    o.verbose = v;
+    fflush(stderr);
+    dup2(fileno(f), 2);
+    rc = kifmm_laplace_create(&h, &o, NV, x, NV, x);
+    if (!rc) rc = kifmm_laplace_evaluate(h, q, out);
+    kifmm_laplace_destroy(h);
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    rewind(f);
+    *ncreate = *neval = 0;
+    while (fgets(line, sizeof line, f)) {
+        *ncreate += strncmp(line, "kifmm_laplace create: ", 22) == 0;
+        *neval += strncmp(line, "kifmm_laplace evaluate: ", 24) == 0;
+        if (v) printf("    %s", line);
+    }
+    fclose(f);
+    free(x);
+    free(q);
+    free(out);
+    return rc;
+}
+
+static void check_verbose(void)
+{
+    int nc, ne, rc = verbose_run(1, &nc, &ne);
+    CHECK(rc == KIFMM_SUCCESS && nc == 3 && ne == 9,
+          "verbose 1: %d lines from create (3), %d from evaluate (9): %s", nc, ne, kifmm_strerror(rc));
+    rc = verbose_run(0, &nc, &ne);
+    CHECK(rc == KIFMM_SUCCESS && nc == 0 && ne == 0, "verbose 0: nothing (%d, %d lines)", nc, ne);
+    rc = verbose_run(2, &nc, &ne);
+    CHECK(rc == KIFMM_ERR_VERBOSE, "verbose 2: %s", kifmm_strerror(rc));
+}
+
 int main(void)
 {
     int d, k;
     t_group("errors");
     check_errors();
+    t_group("opts.verbose");
+    check_verbose();
     for (d = 0; d < 3; d++) {
         static const char *name[3] = {"uniform points", "points on a sphere", "clustered points"};
         t_group(name[d]);

@@ -65,6 +65,7 @@ class _Opts(ctypes.Structure):
         ("kernel_param", ctypes.c_double * 4),
         ("period", ctypes.c_double * 3),
         ("tol", ctypes.c_double),
+        ("verbose", ctypes.c_int),
     ]
 
 
@@ -166,8 +167,10 @@ def _points(x, dtype, what):
     return arr
 
 
-def _opts(order=None, nthreads=None, kernel_param=None, leaf_size=None, period=None, tol=None):
+def _opts(order=None, nthreads=None, kernel_param=None, leaf_size=None, period=None, tol=None,
+          verbose=False):
     o = _Opts()
+    o.verbose = 1 if verbose else 0
     o.order = 0 if order is None else int(order)
     o.tol = 0.0 if tol is None else float(tol)
     o.nthreads = 0 if nthreads is None else int(nthreads)
@@ -218,13 +221,15 @@ class FMM:
     kernel_param  up to 4 numbers (yukawa: lambda; stokes kernels: viscosity)
     leaf_size     points per leaf (None: chosen per order)
     period        a period L (or 3 of them, 0 = free) for periodic boundaries
+    verbose       True: one line per stage of create and evaluate, with its
+                  time and the memory held, on stderr
 
     Arrays are converted to C-contiguous ``dtype`` once, when they are not
     already; the library keeps no reference to them.
     """
 
     def __init__(self, kernel, sources, targets=None, *, order=None, tol=None, dtype=np.float64,
-                 nthreads=None, kernel_param=None, leaf_size=None, period=None):
+                 nthreads=None, kernel_param=None, leaf_size=None, period=None, verbose=False):
         self.kernel = kernel
         self.src_dim, self.trg_dim = _kernel(kernel)
         self.dtype = _dtype(dtype)
@@ -232,7 +237,7 @@ class FMM:
         src = _points(sources, self.dtype, "sources")
         trg = src if targets is None else _points(targets, self.dtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
-        opts = _opts(order, nthreads, kernel_param, leaf_size, period, tol)
+        opts = _opts(order, nthreads, kernel_param, leaf_size, period, tol, verbose)
         self._h = _P()
         rc = self._f["create"](ctypes.byref(self._h), ctypes.byref(opts), self.nsources, _ptr(src),
                                self.ntargets, _ptr(trg))
@@ -280,7 +285,7 @@ class FMM:
             raise KifmmError(rc, f"kifmm_{self.kernel}_options")
         return {"order": o.order, "leaf_size": o.leaf_size, "max_depth": o.max_depth,
                 "nthreads": o.nthreads, "kernel_param": list(o.kernel_param),
-                "period": list(o.period), "tol": o.tol}
+                "period": list(o.period), "tol": o.tol, "verbose": bool(o.verbose)}
 
     def close(self):
         """Free the library's handle now (also done when the object goes)."""

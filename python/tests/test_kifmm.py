@@ -158,6 +158,14 @@ def test_stats_and_options():
         fmm.evaluate(np.zeros(20000))
 
 
+def test_verbose_lines(capfd):
+    fmm = kifmm.FMM("laplace", points(3000, 20), verbose=True)
+    fmm.evaluate(np.ones(3000))
+    err = capfd.readouterr().err
+    assert err.count("kifmm_laplace create:") == 3 and err.count("kifmm_laplace evaluate:") == 9
+    assert fmm.options["verbose"] is True
+
+
 def test_gil_released():
     """create and evaluate of 300,000 points in a thread while this one counts"""
     x = points(300000, 16)
