@@ -2,9 +2,12 @@
 #
 #   make run        build and run examples/laplace.c (1M points, order 6;
 #                   other sizes: make run ARGS="200000 8")
-#   make test       build and run the test suite (seven configurations; CONFIGS=all for fourteen)
+#   make test       build and run the test suite (six configurations; CONFIGS=all for fifteen)
 #                   (tests/run.sh: gcc and clang, C99 and C11, with and
-#                   without OpenMP, a sanitizer build and a build without -march)
+#                   without OpenMP, sanitizer builds, a build without -march), the examples,
+#                   tests/install.sh (make install into a temporary prefix,
+#                   pkg-config and CMake hosts) and tests/python.sh (the Python
+#                   package in build/pyvenv, pytest)
 #   make custom     build and run examples/custom_kernel.c (a kernel written in
 #                   the example file, checked against direct summation)
 #   make double_layer  build and run examples/double_layer.c (the Laplace
