@@ -479,8 +479,8 @@ KIFMM__FN int kifmm__default_leaf(int order, int multi)
  * relative L2 error at 300 targets against direct sums, on uniform,
  * sphere-surface and clustered points, 20,000 of them (two seeds) and
  * 200,000 (one); consecutive orders differ by 6x to 12x, so at tol = 1e-3
- * ... 1e-10 the error reached lies between tol / 25 and tol (docs/api.md,
- * "Tolerance"). */
+ * ... 1e-10 the error reached lies between tol / 30 and tol (measured: tol
+ * / 6.5 to tol / 26; docs/api.md, "Tolerance"). */
 KIFMM__FN int kifmm__order_for_tol(double tol)
 {
     static const double err[KIFMM_MAX_ORDER + 1] = {0.0,    0.0,    3.0e-2, 2.2e-3, 1.9e-4,
@@ -3430,9 +3430,9 @@ struct KIFMM_NAME {
         double *bq;            /* three periodic directions of a scale-invariant kernel:
                                   the background's quadratic (__background_fit), */
         KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__ewald_root): its three
-                                  factors (zku x SD nzu, zkd x zku, SD nzd x zkd), */
-        KIFMM__R *zp;          /* and the points of U and D about the root's centre */
-        int nzu, nzd, zku, zkd; /* points of U and D (the same); the factors' ranks */
+                                  factors (zku x SD nzu, zkd x zku, SD nzu x zkd), */
+        KIFMM__R *zp;          /* and U's points (D's too) about the root's centre */
+        int nzu, zku, zkd;     /* points of U (and D); the factors' ranks */
         int zl;                /* the level whose boxes it reaches (0 or 1) */
     } lat;
     struct {                   /* the mutual near field (sources = targets) */
@@ -4691,7 +4691,6 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
     double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
     double *x = (double *)kifmm__alloc((size_t)me * me, sizeof(double)), *ue = uu + 3 * nu;
     double *utu = NULL, *vsu = NULL, *utd = NULL, *vsd = NULL, *m = NULL, bu = 0.0, bd = 0.0;
-    const int nd = nu, md = mu; /* D on U's points */
     int rc = uu && g && gs && x ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, ku = 0, kd = 0, sym = 0;
     if (!rc) {
         kifmm__surf_unit(q + cd, uu);
@@ -4706,17 +4705,17 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
         kd = ku, bd = bu;
         rc = kifmm__pinv_transposed(mu, me, ku, utu, vsu, &utd, &vsd);
     } else if (!rc) {
-        rc = KIFMM__F(__ewald_fit)(c, ue, ne, ai, uu, nd, ao, &utd, &vsd, &kd, &bd, NULL);
+        rc = KIFMM__F(__ewald_fit)(c, ue, ne, ai, uu, nu, ao, &utd, &vsd, &kd, &bd, NULL);
     }
     if (!rc && !(m = (double *)kifmm__alloc((size_t)kd * ku + 1, sizeof(double)))) rc = KIFMM_ERR_NOMEM;
     if (!rc) {
         kifmm__gemm(0, 0, me, ku, me, 1.0, g, me, vsu, me, 0.0, x, me);
         kifmm__gemm(0, 0, kd, ku, me, pow(h, -c->ops.degree) / (bu * bd), utd, kd, x, me, 0.0, m, kd);
-        c->lat.nzu = nu, c->lat.nzd = nd, c->lat.zku = ku, c->lat.zkd = kd;
+        c->lat.nzu = nu, c->lat.zku = ku, c->lat.zkd = kd;
         c->lat.zp = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * nu, sizeof(KIFMM__R));
         c->lat.zu = KIFMM__F(__own)(&c->held, &utu, (size_t)ku * mu);
         c->lat.zm = KIFMM__F(__own)(&c->held, &m, (size_t)kd * ku);
-        c->lat.zd = KIFMM__F(__own)(&c->held, &vsd, (size_t)md * kd);
+        c->lat.zd = KIFMM__F(__own)(&c->held, &vsd, (size_t)mu * kd);
         if (!c->lat.zp || !c->lat.zu || !c->lat.zm || !c->lat.zd) rc = KIFMM_ERR_NOMEM;
     }
     if (!rc) KIFMM__F(__place)(uu, nu, zero, ao * h, c->lat.zp);
@@ -4911,7 +4910,7 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     w->chk = (KIFMM__R *)kifmm__take(held, n * sz[1], sizeof(KIFMM__R));
     w->qs = (KIFMM__R *)kifmm__take(held, n * sz[3], sizeof(KIFMM__R));
     if (c->lat.zu)
-        w->lat = (KIFMM__R *)kifmm__take(held, n * ((size_t)(c->lat.nzu + c->lat.nzd) * KIFMM__SD +
+        w->lat = (KIFMM__R *)kifmm__take(held, n * ((size_t)2 * c->lat.nzu * KIFMM__SD +
                                          (size_t)c->lat.zku + (size_t)c->lat.zkd), sizeof(KIFMM__R));
     if (!KIFMM__FFT) {
         w->tmp = (KIFMM__R *)kifmm__take(held, n * sz[2], sizeof(KIFMM__R));
@@ -5673,12 +5672,12 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
 {
     enum { BLK = 32 };
     const kifmm__tree *t = &c->tree;
-    const int nu = c->lat.nzu, nd = c->lat.nzd, mu = nu * KIFMM__SD, md = nd * KIFMM__SD;
+    const int nu = c->lat.nzu, mu = nu * KIFMM__SD; /* D shares U's points */
     const size_t per = (size_t)t->nbox * (size_t)c->surf.ne, cst = (size_t)KIFMM__LVL(c, l) * c->surf.nc;
     const double scale = KIFMM__F(__level_scale)(c, l);
-    const KIFMM__R *pu = c->lat.zp, *pd = c->lat.zp; /* D on U's points */
+    const KIFMM__R *pu = c->lat.zp;
     const int ku = c->lat.zku, kd = c->lat.zkd;
-    KIFMM__R *phi = w->lat, *psi = phi + (size_t)nrhs * mu, *t1 = psi + (size_t)nrhs * md;
+    KIFMM__R *phi = w->lat, *psi = phi + (size_t)nrhs * mu, *t1 = psi + (size_t)nrhs * mu;
     KIFMM__R *t2 = t1 + (size_t)nrhs * ku;
     double c0[3], h0;
     kifmm__box_center(t, 0, c0, &h0);
@@ -5701,7 +5700,7 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
     }
     KIFMM__F(__gemm)(ku, nrhs, mu, c->lat.zu, ku, phi, mu, 0, t1, ku);
     KIFMM__F(__gemm)(kd, nrhs, ku, c->lat.zm, kd, t1, ku, 0, t2, kd);
-    KIFMM__F(__gemm)(md, nrhs, kd, c->lat.zd, md, t2, kd, 0, psi, md);
+    KIFMM__F(__gemm)(mu, nrhs, kd, c->lat.zd, mu, t2, kd, 0, psi, mu);
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
         KIFMM__R *pc = KIFMM__F(__scratch)(c);
@@ -5711,7 +5710,7 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
         kifmm__sub3(cb, c0, cb);
         KIFMM__F(__place)(c->surf.unit_c, c->surf.nsc, cb, c->surf.ai * hb, pc);
         KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc,
-                           c->surf.nsc, pd, pd + nd, pd + 2 * nd, psi, nd, nrhs, (size_t)md, scale,
+                           c->surf.nsc, pu, pu + nu, pu + 2 * nu, psi, nu, nrhs, (size_t)mu, scale,
                            w->chk + (size_t)(b - t->loff[l]) * c->surf.nc, cst);
     }
 }
