@@ -6297,22 +6297,29 @@ KIFMM__FN int KIFMM__F(__plan_slabs)(KIFMM_NAME *h, size_t esz)
     return KIFMM_SUCCESS;
 }
 
-/* The FFT M2L's buffers in the spectra's precision: the spectra of a slab
+/* The FFT M2L's buffers in the spectra's precision (__fft_per: the values
+ * per thread, and the target parents per task): the spectra of a slab
  * (forward transforms write every frequency below nf of a slot; only the
  * last chunk, whose padding frequencies must read 0, is zeroed here:
  * zeroing all of it, 45 MiB at 1M points, p = 6, took 0.05 s of one thread
  * in create), and per thread the blocks of a chunk, the products of up to
  * ftb target parents (128, at most about 4 MiB) and the transform work. */
+KIFMM__FN void KIFMM__F(__fft_per)(KIFMM_NAME *h, size_t esz)
+{
+    const kifmm__fft *pl = &h->fft.plan;
+    h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz * KIFMM__SD));
+    h->fft.ftb = h->fft.ftb > 128 ? 128 : h->fft.ftb < 1 ? 1 : h->fft.ftb;
+    h->fft.per = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(h) + kifmm__fft_work8(pl);
+    h->fft.per = (h->fft.per + 15) / 16 * 16; /* each thread's part 64-byte aligned */
+}
+
 KIFMM__FN int KIFMM__F(__plan_fft_buffers)(KIFMM_NAME *h, size_t esz)
 {
     const kifmm__fft *pl = &h->fft.plan;
     const size_t nth = (size_t)h->opts.nthreads, chunk = (size_t)h->fft.slots * KIFMM__FFT_F * 16;
     const size_t nspec = (size_t)h->fft.slots * (size_t)pl->nfp * 16;
     size_t *held = &h->held;
-    h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz * KIFMM__SD));
-    h->fft.ftb = h->fft.ftb > 128 ? 128 : h->fft.ftb < 1 ? 1 : h->fft.ftb;
-    h->fft.per = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(h) + kifmm__fft_work8(pl);
-    h->fft.per = (h->fft.per + 15) / 16 * 16; /* each thread's part 64-byte aligned */
+    KIFMM__F(__fft_per)(h, esz);
     if (pl->single) {
         h->fft.specf = (float *)kifmm__take(held, nspec, sizeof(float));
         h->fft.bf = (float *)kifmm__take(held, nth * h->fft.per, sizeof(float));
@@ -6328,16 +6335,20 @@ KIFMM__FN int KIFMM__F(__plan_fft_buffers)(KIFMM_NAME *h, size_t esz)
                : KIFMM_ERR_NOMEM;
 }
 
-/* The FFT M2L: the plan, the colleagues, the slabs and buffers. Float
- * spectra for float instances, and on request for double instances of
- * scale-invariant kernels (whose spectra's range fits float at every
+/* Float spectra for float instances, and on request for double instances
+ * of scale-invariant kernels (whose spectra's range fits float at every
  * level, unlike those of a Yukawa kernel at large lambda r). */
+KIFMM__FN int KIFMM__F(__fft_single)(const KIFMM_NAME *h)
+{
+    return KIFMM__FLOAT || (KIFMM__SI && h->opts.order <= KIFMM_FFT_SINGLE_MAX_ORDER);
+}
+
+/* The FFT M2L: the plan, the colleagues, the slabs and buffers. */
 KIFMM__FN int KIFMM__F(__plan_fft)(KIFMM_NAME *h)
 {
     size_t esz;
     int rc = kifmm__fft_init(&h->fft.plan, h->opts.order + h->surf.cdiff, &h->held);
-    h->fft.plan.single =
-        KIFMM__FLOAT || (KIFMM__SI && h->opts.order <= KIFMM_FFT_SINGLE_MAX_ORDER);
+    h->fft.plan.single = KIFMM__F(__fft_single)(h);
     esz = h->fft.plan.single ? sizeof(float) : sizeof(double);
     if (!rc)
         rc = kifmm__colleagues(&h->tree, h->opts.nthreads, &h->held, &h->fft.co, &h->fft.cj,
@@ -6363,18 +6374,24 @@ KIFMM__FN int KIFMM__F(__plan_fout)(KIFMM_NAME *h)
 }
 #endif
 
-/* The workspace of the passes for one vector, and what it is sized by: the
- * boxes the solves visit, the largest level, the dense M2L's columns per
- * GEMM (about 64 MB of stacked multipoles; none without M2L). */
-KIFMM__FN int KIFMM__F(__plan_work)(KIFMM_NAME *h)
+/* The dense M2L's columns per GEMM: about 64 MB of stacked multipoles, at
+ * most RHS_MAX per box of the largest level. */
+KIFMM__FN int KIFMM__F(__m2l_cols)(const KIFMM_NAME *h)
 {
     size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->surf.ne);
-    h->work.mb = kifmm__max_level_boxes(&h->tree);
-    if (!(h->work.act = kifmm__active(&h->tree, &h->held))) return KIFMM_ERR_NOMEM;
     if (cols < KIFMM__RHS_MAX) cols = KIFMM__RHS_MAX;
     if (cols > (size_t)h->work.mb * KIFMM__RHS_MAX) cols = (size_t)h->work.mb * KIFMM__RHS_MAX;
-    if (h->tree.m2lo[h->tree.nlev] == 0) cols = 0; /* no M2L in this tree */
-    h->ops.m2l_cols = (int)cols;
+    return (int)cols;
+}
+
+/* The workspace of the passes for one vector, and what it is sized by: the
+ * boxes the solves visit, the largest level, the dense M2L's columns. */
+KIFMM__FN int KIFMM__F(__plan_work)(KIFMM_NAME *h)
+{
+    h->work.mb = kifmm__max_level_boxes(&h->tree);
+    if (!(h->work.act = kifmm__active(&h->tree, &h->held))) return KIFMM_ERR_NOMEM;
+    /* none in a tree without M2L */
+    h->ops.m2l_cols = h->tree.m2lo[h->tree.nlev] ? KIFMM__F(__m2l_cols)(h) : 0;
     h->work.w = KIFMM__F(__work_new)(h, 1);
     return h->work.w ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
 }
