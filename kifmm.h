@@ -154,6 +154,9 @@ extern "C++" {
  * KIFMM_ERR_COUNT instead of an overflow). */
 #define KIFMM_MAX_POINTS ((int64_t)(PTRDIFF_MAX / 1024))
 
+/* <prefix>_estimate_bytes's ntargets when the targets will be the sources. */
+#define KIFMM_SAME_POINTS ((int64_t)-1)
+
 /* Internal functions are static, and marked unused so that a translation
  * unit may use only some of them. */
 #if defined(__GNUC__) || defined(__clang__)
@@ -1940,6 +1943,98 @@ KIFMM__FN int32_t *kifmm__active(const kifmm__tree *t, size_t *held)
     return a;
 }
 
+/* ---- the tree expected of points spread through a cube (estimate_bytes) -- */
+
+/* P(N > s) for N Poisson with mean mu: one less the terms k = 0 .. s, each
+ * from the one before in logs, stopped once past the mean they no longer
+ * count; above a mean of 10^4, the normal law's tail (at most about 10^4
+ * terms whatever s). */
+KIFMM__FN double kifmm__poisson_above(double mu, int64_t s)
+{
+    double lt = -mu, sum = 0.0;
+    int64_t k;
+    if (!(mu > 0.0)) return 0.0;
+    if (mu > 1e4) return 0.5 * erfc(((double)s + 0.5 - mu) / sqrt(2.0 * mu));
+    for (k = 0; k <= s; k++) {
+        const double term = exp(lt);
+        sum += term;
+        if ((double)k > mu && term < 1e-17 * sum) break;
+        lt += log(mu / (double)(k + 1));
+    }
+    return sum >= 1.0 ? 0.0 : 1.0 - sum;
+}
+
+/* Expected figures of a tree (see kifmm__shape_uniform). */
+typedef struct {
+    double box, inner, leaf; /* boxes, internal boxes, leaves with targets */
+    double u, v;             /* U list entries, V list entries (boxes with targets) */
+    double vlev, vany;       /* levels with V lists (how many, whether any), from the
+                                chance that two colleagues of the level above split */
+    double mb, mi, mc;       /* most boxes of a level; most internal boxes of a level
+                                from 1 (0 periodic) to the last but one, and their
+                                colleague entries */
+    double maxleaf;          /* most sources or targets of a leaf */
+    int nlev;
+} kifmm__shape;
+
+/* Neighbours of a box of a full level of m^3 boxes (itself included), and
+ * children of its parent's neighbours (V candidates, adjacent ones included),
+ * on average: per direction 3 - 2 / m and 6 - 8 / m, 3 and 6 across a
+ * periodic one. */
+KIFMM__FN void kifmm__shape_lists(double m, const int *per, double *fu, double *fv)
+{
+    int d;
+    *fu = *fv = 1.0;
+    for (d = 0; d < 3; d++) {
+        *fu *= per[d] ? 3.0 : 3.0 - 2.0 / m;
+        *fv *= per[d] || m < 2.0 ? 6.0 : 6.0 - 8.0 / m;
+    }
+}
+
+/* The tree of ns sources and nt targets spread uniformly through a cube
+ * (the targets the sources if same). A box of level l holds Poisson(ns /
+ * 8^l) sources and Poisson(nt / 8^l) targets, and splits with probability q
+ * that one count is above leaf; a box that holds that many has a parent
+ * that does, so the level has 8^l q boxes that split and the next 8 times
+ * as many boxes. Levels are kept while they expect half a box. */
+KIFMM__FN void kifmm__shape_uniform(int64_t ns, int64_t nt, int same, int leaf, int maxdepth,
+                                    const int *per, kifmm__shape *s)
+{
+    const int lv = per[0] || per[1] || per[2] ? 0 : 2; /* V lists from here (kifmm__lmin) */
+    double at = 1.0, qp = 1.0, pairs = 0.0, fu, fv;
+    int l;
+    memset(s, 0, sizeof *s);
+    s->maxleaf = (double)leaf;
+    for (l = 0; l <= maxdepth && at >= 0.5; l++) {
+        const double cells = ldexp(1.0, 3 * l);
+        const double ps = kifmm__poisson_above((double)ns / cells, leaf);
+        const double pt = same ? 0.0 : kifmm__poisson_above((double)nt / cells, leaf);
+        const double split = l < maxdepth ? cells * (1.0 - (1.0 - ps) * (1.0 - pt)) : 0.0;
+        const double leaves = (at - split) * (1.0 - exp(-(double)nt / cells));
+        kifmm__shape_lists(ldexp(1.0, l), per, &fu, &fv);
+        s->nlev = l + 1;
+        s->box += at;
+        s->inner += split;
+        s->leaf += leaves;
+        s->u += leaves * fu;
+        if (l >= lv) {
+            s->v += at * (fv - fu) * qp;
+            s->vlev += 1.0 - exp(-pairs);
+            s->vany += pairs;
+        }
+        pairs = 0.5 * split * (split / cells) * (fu - 1.0); /* pairs of colleagues that split */
+        if (at > s->mb) s->mb = at;
+        if (l >= (lv ? 1 : 0) && split >= 0.5 && split > s->mi) {
+            s->mi = split;
+            s->mc = split * (fu - 1.0);
+        }
+        if (l == maxdepth && (double)ns / cells > s->maxleaf) s->maxleaf = (double)ns / cells;
+        qp = split / cells;
+        at = 8.0 * split;
+    }
+    s->vany = 1.0 - exp(-s->vany);
+}
+
 // >>surfaces
 
 /* Number of points on the surface of a p x p x p grid: 6 (p-1)^2 + 2. */
@@ -3152,6 +3247,20 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used);
 KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const KIFMM__R *src_xyz,
                                  const KIFMM__R *densities, int64_t ntargets,
                                  const KIFMM__R *trg_xyz, KIFMM__R *out);
+
+/* <prefix>_estimate_bytes: *bytes gets an estimate of what create would
+ * hold (stats.bytes) for nsources sources and ntargets targets, before any
+ * point exists: a model of the tree that points spread through a volume
+ * give, with create's own sizes of operators, buffers and workspace. Pass
+ * ntargets = KIFMM_SAME_POINTS when the targets will be the sources (the
+ * same array for both). Points on surfaces or in clusters make other trees:
+ * docs/api.md, "Memory", gives the ratios measured. One vector's
+ * workspace: evaluate_many with more vectors adds to it. Options are
+ * checked as create checks them. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL,
+ * KIFMM_ERR_COUNT, an option's error, KIFMM_ERR_PARAM, KIFMM_ERR_PERIODIC
+ * or KIFMM_ERR_NOMEM; *bytes is written only on success. Thread safe. */
+KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsources, int64_t ntargets,
+                                         double *bytes);
 
 #ifndef KIFMM_DECLARE /* the implementation, from here to >>epilogue */
 
@@ -6729,6 +6838,186 @@ KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const
                               out + i * KIFMM__TD);
     kifmm__free(lin);
     return KIFMM_SUCCESS;
+}
+
+/* ---- estimate_bytes: the memory of a handle before it is created ---- */
+
+/* A model of the handle create would build over points spread through a
+ * cube: the expected tree's figures (kifmm__shape_uniform) where create has
+ * the tree's, then what create derives from them alone, through its own
+ * functions: surfaces, FFT plan, spectra slots, per-thread buffers, dense
+ * M2L columns. Counts past the int32 fields are capped (create's tree could
+ * not hold them either). */
+KIFMM__FN int KIFMM__F(__model)(KIFMM_NAME *h, const kifmm__shape *s)
+{
+    kifmm__tree *t = &h->tree;
+    const double cap = 2e9;
+    int rc;
+    t->nlev = s->nlev;
+    t->nbox = (int32_t)(s->box < cap ? s->box : cap);
+    h->work.mb = (int)(s->mb < cap ? s->mb : cap);
+    if ((rc = KIFMM__F(__plan_surfaces)(h))) return rc;
+    h->work.fpts = KIFMM__FLOAT ? (size_t)s->maxleaf : 0;
+    h->work.ipts = t->periodic ? (size_t)s->maxleaf : 0;
+    if (t->periodic && h->work.ipts < (size_t)h->surf.nse) h->work.ipts = (size_t)h->surf.nse;
+    h->ops.m2l_cols = KIFMM__F(__m2l_cols)(h);
+#if KIFMM__FFT
+    rc = kifmm__fft_init(&h->fft.plan, h->opts.order + h->surf.cdiff, &h->held);
+    h->fft.plan.single = KIFMM__F(__fft_single)(h);
+    h->fft.m = (int32_t)(s->mi < 1.0 ? 1.0 : s->mi < cap ? s->mi : cap);
+    h->fft.slots = KIFMM__F(__fft_slots)(h, h->fft.plan.single ? 4 : 8, h->fft.m);
+    KIFMM__F(__fft_per)(h, h->fft.plan.single ? 4 : 8);
+#endif
+    return rc;
+}
+
+/* The points' coordinates and permutations (one set when the targets are
+ * the sources), and the tree's arrays: per box 105 bytes (key, child,
+ * parent, anchor, level, point ranges, the lists' offsets, the internal,
+ * M2L, leaf, dsrc and active boxes' indices), per U entry 4 (5 periodic:
+ * the image), per V entry 6 (dense M2L: the transfer vector), per internal
+ * box 134 (FFT M2L: 26 colleague entries), and the slabs' bookkeeping. */
+KIFMM__FN double KIFMM__F(__bytes_tree)(const KIFMM_NAME *h, const kifmm__shape *s)
+{
+    const kifmm__tree *t = &h->tree;
+    const double sets = t->same ? (double)t->ns : (double)t->ns + (double)t->nt;
+    double b = sets * (3.0 * sizeof(KIFMM__R) + sizeof(int64_t));
+    b += 105.0 * s->box + (t->periodic ? 5.0 : 4.0) * s->u;
+#if KIFMM__FFT
+    b += 134.0 * s->inner + 8.0 * h->fft.m + 4.0 * s->mc + 9.0 * h->fft.slots;
+#else
+    b += 6.0 * s->v;
+#endif
+    return b;
+}
+
+/* The operators (__precompute), one set for a scale-invariant kernel, else
+ * one per level from kifmm__lmin, none in a tree without M2L: the solves'
+ * factors (ranks at most ne), M2M and L2L, the check-to-equivalent map when
+ * the check surface is larger, and at the levels with V lists (from 2, from
+ * 1 in a periodic tree) the M2L's: the kernel's spectra (in double) with
+ * the products' blocks where all of them fit in KIFMM__FFT_KB_MB
+ * (__keep_blocks), or the dense matrix. Levels with V lists are expected
+ * ones (kifmm__shape), so are these sets. *fout: the chance that the
+ * products need a slab's output buffer (blocks not kept). */
+KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *s, double *fout)
+{
+    const double ne = h->surf.ne, nc = h->surf.nc, r = sizeof(KIFMM__R);
+    const int lmin = kifmm__lmin(&h->tree), n = KIFMM__SI ? 1 : h->tree.nlev > 1 ? h->tree.nlev : 1;
+    const double sets = h->tree.nlev <= lmin ? 0.0 : KIFMM__SI ? 1.0 : (double)(n - lmin);
+    const double m2ls = KIFMM__SI ? s->vany : s->vlev;
+    const double c2e = h->surf.cdiff ? nc * ne : 0.0; /* the check-to-equivalent map */
+    const double per = r * (2.0 * ne * (nc + ne) + 16.0 * nc * ne + c2e);
+    double m2l;
+#if KIFMM__FFT
+    const kifmm__fft *pl = &h->fft.plan;
+    const double kb = (double)KIFMM__FFT_KBN * pl->nchunk * (pl->single ? 4.0 : 8.0);
+    m2l = (double)KIFMM__NT * KIFMM__SD * KIFMM__SD * 2.0 * pl->nfp * sizeof(double);
+    if (kb * (m2ls > 1.0 ? m2ls : 1.0) <= (double)((size_t)KIFMM__FFT_KB_MB << 20)) {
+        m2l += kb;
+        *fout = 0.0;
+    } else {
+        *fout = m2ls < 1.0 ? m2ls : 1.0; /* __plan_fout */
+    }
+#else
+    m2l = (double)KIFMM__NT * ne * ne * r;
+    *fout = 0.0;
+#endif
+    return (double)n * sizeof(KIFMM__F(__ops)) + sets * per + m2ls * m2l;
+}
+
+/* A periodic tree's far images (__lattice_build): the root's map, nc x ne;
+ * with three periodic directions of a scale-invariant kernel the exchange
+ * instead (__ewald_root): U's points, its three factors (ranks at most SD
+ * times the points of its equivalent surface) and their workspace. */
+KIFMM__FN double KIFMM__F(__bytes_lattice)(const KIFMM_NAME *h)
+{
+    const kifmm__tree *t = &h->tree;
+    const double r = sizeof(KIFMM__R);
+    if (!t->periodic) return 0.0;
+    if (KIFMM__SI && t->per[0] && t->per[1] && t->per[2]) {
+        const int q = kifmm__ewald_order(h->opts.order), cd = kifmm__check_diff(q, 0, KIFMM__SD);
+        const double nu = kifmm__surf_count(q + cd), mu = nu * KIFMM__SD;
+        const double me = (double)kifmm__surf_count(q) * KIFMM__SD;
+        return (3.0 * nu + 2.0 * mu * me + me * me + 2.0 * (mu + me)) * r;
+    }
+    return (double)h->surf.nc * h->surf.ne * r;
+}
+
+/* One vector's workspace (__work_new): the expansions, the check vectors of
+ * a level, the dense M2L's level buffer, the sorted densities and the
+ * outputs (all of them, or per thread a leaf's or a mutual chunk's:
+ * __lbuf_per); per thread the scratch and the column GEMMs' buffer
+ * (__plan_buffers); the dense M2L's stacked columns and products (in a tree
+ * with V lists); the FFT M2L's spectra of a slab, the products of one
+ * without kept blocks, and per thread its blocks, products and transforms
+ * (__plan_fft_buffers). */
+KIFMM__FN double KIFMM__F(__bytes_work)(const KIFMM_NAME *h, const kifmm__shape *s, double fout)
+{
+    const kifmm__tree *t = &h->tree;
+    const double r = sizeof(KIFMM__R), nth = h->opts.nthreads;
+    double sz[5], b, m = s->maxleaf > h->surf.nsc ? s->maxleaf : h->surf.nsc;
+    size_t z[5];
+    int k;
+    KIFMM__F(__work_sizes)(h, z);
+    for (k = 0; k < 5; k++) sz[k] = (double)z[k];
+    if (KIFMM__MUTUAL && t->same && nth > 1 && (double)t->nt / (KIFMM__PAIR_CHUNKS * nth) > m)
+        m = (double)t->nt / (KIFMM__PAIR_CHUNKS * nth);
+    m = ceil(m * KIFMM__TD / 16.0) * 16.0;
+    b = (2.0 * sz[0] + sz[1] + sz[2] + sz[3] + (2.0 * nth * m <= sz[4] ? nth * m : sz[4])) * r;
+    b += nth * (double)KIFMM__F(__scratch_per)(h) * r;
+    if (t->nlev > kifmm__lmin(t))
+        b += (KIFMM__GC_FAST ? nth : 1.0) * (double)KIFMM__F(__gbuf_per)(h) * r;
+#if KIFMM__FFT
+    {
+        const double esz = h->fft.plan.single ? 4.0 : 8.0;
+        const double spec = (double)h->fft.slots * h->fft.plan.nfp * 16.0 * esz;
+        b += spec * (1.0 + fout) + nth * ((double)h->fft.per * esz + 64.0 * h->surf.nc);
+    }
+#else
+    b += s->vany * h->ops.m2l_cols * r *
+         (KIFMM__NT * h->surf.ne + (h->surf.nc > h->surf.ne ? h->surf.nc : h->surf.ne));
+    (void)fout;
+#endif
+    return b;
+}
+
+KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsources, int64_t ntargets,
+                                         double *bytes)
+{
+    const int same = ntargets == KIFMM_SAME_POINTS;
+    const int64_t nt = same ? nsources : ntargets;
+    kifmm_opts o;
+    kifmm__shape s;
+    KIFMM_NAME *h;
+    int rc, d;
+    double b, fout = 0.0;
+    if (!bytes) return KIFMM_ERR_NULL;
+    if (nsources < 0 || nsources > KIFMM_MAX_POINTS || nt < 0 || nt > KIFMM_MAX_POINTS)
+        return KIFMM_ERR_COUNT;
+    if ((rc = KIFMM__F(__validate)(opts, 0, NULL, 0, NULL, &o))) return rc;
+    if (KIFMM__SI && !KIFMM__EWALD && o.period[0] > 0.0 && o.period[1] > 0.0 && o.period[2] > 0.0)
+        return KIFMM_ERR_PERIODIC; /* as create: __lat_ewald */
+    if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
+    h->held = sizeof *h;
+    h->opts = o;
+    h->tree.ns = nsources;
+    h->tree.nt = nt;
+    h->tree.same = same;
+    for (d = 0; d < 3; d++) h->tree.periodic |= h->tree.per[d] = o.period[d] > 0.0;
+    b = 0.0;
+    if (nsources > 0 && nt > 0) {
+        kifmm__shape_uniform(nsources, nt, same, o.leaf_size, o.max_depth, h->tree.per, &s);
+        rc = KIFMM__F(__model)(h, &s);
+        if (!rc) {
+            b = KIFMM__F(__bytes_tree)(h, &s) + KIFMM__F(__bytes_ops)(h, &s, &fout);
+            b += KIFMM__F(__bytes_lattice)(h) + KIFMM__F(__bytes_work)(h, &s, fout);
+        }
+    }
+    b += (double)h->held;
+    KIFMM__F(_destroy)(h);
+    if (!rc) *bytes = b;
+    return rc;
 }
 
 #endif /* KIFMM_DECLARE */
