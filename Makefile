@@ -186,3 +186,11 @@ bench:
 
 bench-quick:
 	CC="$(CC)" EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash bench/run.sh --quick
+
+# estimate_bytes against the memory handles hold: docs/api.md's "Memory"
+# table (about 6 minutes on 2 cores; bench-memory Q=1: --quick)
+.PHONY: bench-memory
+bench-memory:
+	@mkdir -p $(BUILD)/bench
+	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. bench/bench_memory.c -o $(BUILD)/bench/bench_memory $(LDLIBS)
+	$(BUILD)/bench/bench_memory $(if $(Q),--quick,)
