@@ -6,7 +6,7 @@
  * the quick builds), sources alone and separate targets, two sizes. Each
  * case within 0.8 to 1.25 of the estimate, and over the group the mean of
  * |ln(held / estimate)| at most 0.03 (bench/bench_memory.c, 315 such
- * cases, orders 2 to 10: 0.0054; cases 0.961 to 1.204, 95 % within 0.977
+ * cases, orders 2 to 10: 0.0055; cases 0.961 to 1.204, 95 % within 0.977
  * and 1.022; a level about to split makes the outliers). Periodic trees:
  * 0.9 to 1.1.
  * Points on a sphere and in clusters: laplace within 0.5 to 2 (measured
