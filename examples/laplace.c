@@ -66,7 +66,7 @@ int main(int argc, char **argv)
     int64_t nsample = n < 1000 ? n : 1000;
     uint64_t seed = 42;
     double *xyz, *charges, *out;
-    double t0, t_create, t_eval;
+    double t0, t_create, t_eval, estimate = 0.0;
     double num_pot = 0, den_pot = 0, num_grad = 0, den_grad = 0;
     kifmm_opts opts = {0}; /* every field 0 means "default" */
     kifmm_opts used;
@@ -99,6 +99,13 @@ int main(int argc, char **argv)
      *    the translation operators.  The handle copies what it needs: the
      *    coordinate arrays may be freed afterwards. */
     opts.order = order; /* expansion order: higher is more accurate and slower */
+    /* The memory the handle will hold, from the counts alone (a model of
+     * points spread through a volume, as these are). */
+    rc = kifmm_laplace_grad_estimate_bytes(&opts, n, KIFMM_SAME_POINTS, &estimate);
+    if (rc != KIFMM_SUCCESS) {
+        fprintf(stderr, "kifmm_laplace_grad_estimate_bytes: %s\n", kifmm_strerror(rc));
+        return 1;
+    }
     t0 = wall_seconds();
     rc = kifmm_laplace_grad_create(&fmm, &opts, n, xyz, n, xyz);
     t_create = wall_seconds() - t0;
@@ -111,6 +118,8 @@ int main(int argc, char **argv)
     printf("create:   %.3f s  (order %d, leaf size %d, max depth %d)\n", t_create, used.order,
            used.leaf_size, used.max_depth);
     printf("build:    %s\n", stats.build); /* shows a build without -march or -fopenmp */
+    printf("memory:   %.1f MiB held (estimated before create: %.1f MiB)\n", stats.bytes / 1048576.0,
+           estimate / 1048576.0);
 
     /* 2. Evaluate: may be called any number of times with new charges.
      *    out[4j] is the potential at target j, out[4j+1..4j+3] its gradient. */

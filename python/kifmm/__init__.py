@@ -10,6 +10,7 @@ the GIL.
     fmm = kifmm.FMM("laplace_grad", x, order=6)
     out = fmm.evaluate(q)                 # (100000, 4): potential, gradient
     ref = kifmm.direct("laplace_grad", x, q, x[:100])   # the first 100 rows
+    need = kifmm.estimate_bytes("laplace_grad", 10**7, order=6)  # before any point
 
 Kernels (source and target dimensions) are listed in ``kifmm.KERNELS``;
 docs/api.md in the source tree describes each, its layouts and parameters.
@@ -21,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FMM", "direct", "KERNELS", "KifmmError"]
+__all__ = ["FMM", "direct", "estimate_bytes", "KERNELS", "KifmmError"]
 __version__ = "0.2.0"
 
 # name: (density components per source, output components per target)
@@ -125,7 +126,8 @@ def _api(kernel, dtype):
     if key not in _funcs:
         pre = "kifmm_" + kernel + ("f" if dtype == np.float32 else "")
         f = {n: getattr(_lib, f"{pre}_{n}") for n in
-             ("create", "evaluate", "evaluate_many", "destroy", "stats", "options", "direct")}
+             ("create", "evaluate", "evaluate_many", "destroy", "stats", "options", "direct",
+              "estimate_bytes")}
         f["create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
         f["evaluate"].argtypes = [_P, _P, _P]
         f["evaluate_many"].argtypes = [_P, ctypes.c_int, _P, _P]
@@ -134,6 +136,8 @@ def _api(kernel, dtype):
         f["stats"].argtypes = [_P, ctypes.POINTER(_Stats)]
         f["options"].argtypes = [_P, ctypes.POINTER(_Opts)]
         f["direct"].argtypes = [ctypes.POINTER(_Opts), _I64, _P, _P, _I64, _P, _P]
+        f["estimate_bytes"].argtypes = [ctypes.POINTER(_Opts), _I64, _I64,
+                                        ctypes.POINTER(ctypes.c_double)]
         _funcs[key] = f
     return _funcs[key]
 
@@ -323,3 +327,26 @@ def direct(kernel, sources, densities, targets, kernel_param=None, *, dtype=np.f
     if rc != 0:
         raise KifmmError(rc, f"kifmm_{kernel}_direct")
     return out
+
+
+def estimate_bytes(kernel, nsources, ntargets=None, *, order=None, tol=None, dtype=np.float64,
+                   nthreads=None, kernel_param=None, leaf_size=None, period=None):
+    """The memory, in bytes, that FMM(kernel, sources, targets, ...) would
+    hold (its stats["bytes"]) for nsources sources and ntargets targets
+    (None: the targets are the sources), before any point exists. A model
+    of the tree of points spread through a volume: points on surfaces or in
+    clusters make other trees (docs/api.md, "Memory", gives the ratios
+    measured). Options as FMM's."""
+    _kernel(kernel)
+    dt = _dtype(dtype)
+    f = _api(kernel, dt)
+    ns, nt = int(nsources), -1 if ntargets is None else int(ntargets)
+    if ns < 0 or (ntargets is not None and nt < 0):
+        raise ValueError("kifmm.estimate_bytes: counts must not be negative")
+    o = _opts(order=order, tol=tol, nthreads=nthreads, kernel_param=kernel_param,
+              leaf_size=leaf_size, period=period)
+    out = ctypes.c_double(0.0)
+    rc = f["estimate_bytes"](ctypes.byref(o), ns, nt, ctypes.byref(out))
+    if rc != 0:
+        raise KifmmError(rc, f"kifmm_{kernel}_estimate_bytes")
+    return out.value
