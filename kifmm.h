@@ -207,7 +207,8 @@ extern "C++" {
       "(docs/api.md, \"Periodic boundaries\")")                                               \
     X(KIFMM_ERR_TOL, -16,                                                                     \
       "opts.tol is negative, not finite, set together with opts.order, or below what the "    \
-      "largest order reaches (about 1.8e-11; float instances 2e-5)")                          \
+      "largest order reaches for the kernel (laplace: about 1.8e-11; docs/api.md, "           \
+      "\"Tolerance\"; float instances 2e-5)")                                                 \
     X(KIFMM_ERR_VERBOSE, -17, "opts.verbose is neither 0 nor 1")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
@@ -478,25 +479,29 @@ KIFMM__FN int kifmm__default_leaf(int order, int multi)
 }
 
 /* opts.tol: the smallest order whose error, 1.5 times the largest measured,
- * is at most tol; 0 if none is. Measured (err[p]): laplace's potential,
+ * is at most tol; 0 if none is. err: the kernel's own measurements
+ * (KIFMM_HAS_TOL, kifmm_kernels.h), or NULL for laplace's: its potential,
  * relative L2 error at 300 targets against direct sums, on uniform,
  * sphere-surface and clustered points, 20,000 of them (two seeds) and
  * 200,000 (one); consecutive orders differ by 6x to 12x, so at tol = 1e-3
  * ... 1e-10 the error reached lies between tol / 30 and tol (measured: tol
  * / 6.5 to tol / 26; docs/api.md, "Tolerance"). */
-KIFMM__FN int kifmm__order_for_tol(double tol)
+KIFMM__FN int kifmm__order_for_tol(double tol, const double *err)
 {
-    static const double err[KIFMM_MAX_ORDER + 1] = {0.0,    0.0,    3.0e-2, 2.2e-3, 1.9e-4,
+    static const double lap[KIFMM_MAX_ORDER + 1] = {0.0,    0.0,    3.0e-2, 2.2e-3, 1.9e-4,
                                                     1.8e-5, 2.2e-6, 1.5e-7, 2.4e-8, 3.8e-9,
                                                     4.6e-10, 6.9e-11, 1.2e-11};
     int p;
+    if (!err) err = lap;
     for (p = 2; p <= KIFMM_MAX_ORDER; p++)
-        if (1.5 * err[p] <= tol) return p;
+        if (err[p] > 0.0 && 1.5 * err[p] <= tol) return p; /* 0: not measured, not taken */
     return 0;
 }
 
-/* Resolve defaults and check ranges; *out gets the values actually used. */
-KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, kifmm_opts *out)
+/* Resolve defaults and check ranges (err: opts.tol's table, see
+ * kifmm__order_for_tol); *out gets the values actually used. */
+KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, const double *err,
+                                  kifmm_opts *out)
 {
     kifmm_opts o;
     double L = 0.0;
@@ -505,7 +510,7 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, kifmm_opts *o
     else memset(&o, 0, sizeof o);
     if (o.tol != 0.0) {
         if (!(o.tol > 0.0 && o.tol <= DBL_MAX) || o.order != 0) return KIFMM_ERR_TOL;
-        if (!(o.order = kifmm__order_for_tol(o.tol))) return KIFMM_ERR_TOL;
+        if (!(o.order = kifmm__order_for_tol(o.tol, err))) return KIFMM_ERR_TOL;
     }
     if (o.order == 0) o.order = KIFMM_DEFAULT_ORDER;
     if (o.order < 2 || o.order > KIFMM_MAX_ORDER) return KIFMM_ERR_ORDER;
@@ -6252,13 +6257,25 @@ KIFMM__FN int KIFMM__F(__params)(const double *in, double *out)
     return KIFMM_SUCCESS;
 }
 
+/* opts.tol's table: the kernel's own errors per order (KIFMM_HAS_TOL), or
+ * NULL for laplace's (kifmm__order_for_tol). */
+KIFMM__FN const double *KIFMM__F(__tol_errors)(void)
+{
+#if KIFMM__HAS_QT & KIFMM_HAS_TOL
+    static const double err[KIFMM_MAX_ORDER + 1] = KIFMM__K(_TOL_ERRORS);
+    return err;
+#else
+    return NULL;
+#endif
+}
+
 /* Create's checks: the options, both point sets and the kernel's
  * parameters; *o gets the options with every default resolved. */
 KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIFMM__R *src,
                                    int64_t nt, const KIFMM__R *trg, kifmm_opts *o)
 {
     double param[4];
-    int rc = kifmm__resolve_opts(opts, KIFMM__LEAF_MULTI, o);
+    int rc = kifmm__resolve_opts(opts, KIFMM__LEAF_MULTI, KIFMM__F(__tol_errors)(), o);
     /* float's floor: at order 6 laplacef measured up to 1.05e-5 */
     if (!rc && KIFMM__FLOAT && o->tol != 0.0 && o->tol < 2e-5) rc = KIFMM_ERR_TOL;
     if (!rc) rc = KIFMM__F(__check_points)(ns, src, o->nthreads);

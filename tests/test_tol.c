@@ -5,7 +5,11 @@
  * 1e-10 on uniform, sphere-surface and clustered points (seeds other than
  * the table's); float instances at tol = 1e-3, 1e-4 and 2e-5, their floor. And the
  * errors: tol negative, NaN, infinite, below what order 12 reaches, set
- * with an order, or below float's floor in a float instance. opts.verbose:
+ * with an order, or below float's floor in a float instance. Kernels with
+ * tables of their own (KIFMM_HAS_TOL): laplace_dipole at tol = 1e-3 ...
+ * 1e-9 and stokes_dl at 1e-3 ... 1e-7 (quick: a few of them), against sums
+ * written here: on each distribution at most tol, the largest of the three
+ * at least tol / 30. opts.verbose:
  * create's and evaluate's lines on stderr (read back through a file), none
  * when 0, KIFMM_ERR_VERBOSE for other values. */
 #define _POSIX_C_SOURCE 200809L /* dup, dup2, fileno */
@@ -15,14 +19,24 @@
 #define KIFMM_KERNEL laplace
 #define KIFMM_REAL float
 #include "kifmm.h"
+#define KIFMM_KERNEL laplace_dipole
+#include "kifmm.h"
+#define KIFMM_KERNEL stokes_dl
+#include "kifmm.h"
 
 #include "test.h"
 
 #ifdef KIFMM_TEST_QUICK
 #define N 10000
+#define KTOL_STOKES_DL 4 /* stokes_dl's tols: 1e-3 ... 1e-KTOL_STOKES_DL */
 #else
 #define N 20000
+#define KTOL_STOKES_DL 7
 #endif
+/* points of the kernels with tables of their own, in every build: 10,000
+ * make trees of 2 or 3 levels at their orders 8 and 12, whose errors fall
+ * below tol / 30 (laplace_dipole at tol 1e-6: tol / 49) */
+#define NK 20000
 
 static void gen(int dist, t_rng *r, int64_t n, double *x)
 {
@@ -78,6 +92,107 @@ static void check_tol(int dist, double tol, int fl)
     free(of);
 }
 
+/* Sums written out, at target y: a dipole v at x gives v . (y - x) / (4 pi
+ * r^3); a double-layer density q with normal n gives -3 d (d . q) (d . n) /
+ * (4 pi r^5), d = y - x (docs/kernels.md). */
+static void dipole_sum(int64_t ns, const double *x, const double *v, const double *y,
+                       double *out)
+{
+    double s = 0.0;
+    int64_t i;
+    for (i = 0; i < ns; i++) {
+        const double dx = y[0] - x[3 * i], dy = y[1] - x[3 * i + 1], dz = y[2] - x[3 * i + 2];
+        const double r2 = dx * dx + dy * dy + dz * dz;
+        if (r2 > 0.0) s += (v[3 * i] * dx + v[3 * i + 1] * dy + v[3 * i + 2] * dz) / (r2 * sqrt(r2));
+    }
+    out[0] = s / (4.0 * T_PI);
+}
+
+static void double_layer_sum(int64_t ns, const double *x, const double *qn, const double *y,
+                             double *out)
+{
+    double u[3] = {0.0, 0.0, 0.0};
+    int64_t i;
+    int k;
+    for (i = 0; i < ns; i++) {
+        const double *q = qn + 6 * i, *n = q + 3;
+        const double d[3] = {y[0] - x[3 * i], y[1] - x[3 * i + 1], y[2] - x[3 * i + 2]};
+        const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        double c;
+        if (r2 == 0.0) continue;
+        c = (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) * (d[0] * n[0] + d[1] * n[1] + d[2] * n[2]) /
+            (r2 * r2 * sqrt(r2));
+        for (k = 0; k < 3; k++) u[k] += c * d[k];
+    }
+    for (k = 0; k < 3; k++) out[k] = -3.0 * u[k] / (4.0 * T_PI);
+}
+
+/* The error of a kernel with a table of its own (KIFMM_HAS_TOL):
+ * laplace_dipole (k = 0) or stokes_dl (k = 1) at tol, n points of
+ * distribution dist, relative L2 error of all outputs at 300 targets
+ * against the sums above; *order: the order create took (0 on an error,
+ * then the error is 1). */
+static double kernel_err(int k, int dist, int64_t n, double tol, int *order)
+{
+    const int sd = k ? 6 : 3, td = k ? 3 : 1, nsample = 300;
+    double *x = t_doubles(3 * n), *q = t_doubles(sd * n), *out = t_doubles(td * n);
+    double num = 0.0, den = 0.0, ref[3];
+    t_rng r = t_rng_seed(950 + (uint64_t)(3 * k + dist));
+    kifmm_opts o, used;
+    int64_t i;
+    int rc, c;
+    gen(dist, &r, n, x);
+    for (i = 0; i < sd * n; i++) q[i] = t_rand01(&r) - 0.5;
+    memset(&o, 0, sizeof o);
+    memset(&used, 0, sizeof used);
+    o.tol = tol;
+    if (k == 0) {
+        kifmm_laplace_dipole *h = NULL;
+        rc = kifmm_laplace_dipole_create(&h, &o, n, x, n, x);
+        if (!rc) rc = kifmm_laplace_dipole_options(h, &used);
+        if (!rc) rc = kifmm_laplace_dipole_evaluate(h, q, out);
+        kifmm_laplace_dipole_destroy(h);
+    } else {
+        kifmm_stokes_dl *h = NULL;
+        rc = kifmm_stokes_dl_create(&h, &o, n, x, n, x);
+        if (!rc) rc = kifmm_stokes_dl_options(h, &used);
+        if (!rc) rc = kifmm_stokes_dl_evaluate(h, q, out);
+        kifmm_stokes_dl_destroy(h);
+    }
+    for (i = 0; i < nsample && !rc; i++) {
+        const int64_t j = t_sample_index(i, nsample, n);
+        if (k == 0) dipole_sum(n, x, q, x + 3 * j, ref);
+        else double_layer_sum(n, x, q, x + 3 * j, ref);
+        for (c = 0; c < td; c++) {
+            num += (out[td * j + c] - ref[c]) * (out[td * j + c] - ref[c]);
+            den += ref[c] * ref[c];
+        }
+    }
+    free(x);
+    free(q);
+    free(out);
+    *order = rc ? 0 : used.order;
+    return rc ? 1.0 : sqrt(num / den);
+}
+
+/* tol on the three distributions: each error at most tol, the largest (as
+ * the tables hold the largest) at least tol / 30. */
+static void check_kernel_tol(int k, int64_t n, double tol)
+{
+    static const char *name[3] = {"uniform", "sphere", "clustered"};
+    const char *kn = k ? "stokes_dl" : "laplace_dipole";
+    double e, worst = 0.0;
+    int d, order = 0;
+    for (d = 0; d < 3; d++) {
+        e = kernel_err(k, d, n, tol, &order);
+        CHECK_ERR(e, tol, "%s, %s, tol %.0e: order %d, the error at most tol", kn, name[d], tol,
+                  order);
+        worst = e > worst ? e : worst;
+    }
+    CHECK(worst >= tol / 30.0, "%s, tol %.0e: the largest error %.2e at least tol / 30", kn, tol,
+          worst);
+}
+
 static void check_errors(void)
 {
     static const double bad[] = {-1e-6, 1e-12, 1.7e-11};
@@ -104,6 +219,16 @@ static void check_errors(void)
     rc = kifmm_laplace_create(&h, &o, 10, x, 10, x);
     CHECK(rc == KIFMM_SUCCESS, "tol 2e-11 (order 12): %s", kifmm_strerror(rc));
     kifmm_laplace_destroy(h);
+    {
+        kifmm_laplace_dipole *hd = NULL;
+        o.tol = 1e-10; /* below 1.5 times its table's p = 12 entry, 9.5e-11 */
+        rc = kifmm_laplace_dipole_create(&hd, &o, 10, x, 10, x);
+        CHECK(rc == KIFMM_ERR_TOL && hd == NULL, "laplace_dipole, tol 1e-10: %s", kifmm_strerror(rc));
+        o.tol = 1.5e-10;
+        rc = kifmm_laplace_dipole_create(&hd, &o, 10, x, 10, x);
+        CHECK(rc == KIFMM_SUCCESS, "laplace_dipole, tol 1.5e-10 (order 12): %s", kifmm_strerror(rc));
+        kifmm_laplace_dipole_destroy(hd);
+    }
     o.tol = 1.9e-5;
     rc = kifmm_laplacef_create(&hf, &o, 10, xf, 10, xf);
     CHECK(rc == KIFMM_ERR_TOL && hf == NULL, "float, tol 1.9e-5: %s", kifmm_strerror(rc));
@@ -182,5 +307,13 @@ int main(void)
         check_tol(d, 1e-4, 1);
         check_tol(d, 2e-5, 1);
     }
+    t_group("kernels with their own tables");
+    for (k = 3; k <= 9; k++) {
+#ifdef KIFMM_TEST_QUICK
+        if (k % 3 != 0) continue; /* 1e-3, 1e-6, 1e-9 */
+#endif
+        check_kernel_tol(0, NK, pow(10.0, -k));
+    }
+    for (k = 3; k <= KTOL_STOKES_DL; k++) check_kernel_tol(1, NK, pow(10.0, -k));
     return t_finish();
 }
