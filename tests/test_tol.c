@@ -38,6 +38,17 @@
  * below tol / 30 (laplace_dipole at tol 1e-6: tol / 49) */
 #define NK 20000
 
+/* rc = create with options o over n points x (sources and targets), the
+ * options used, evaluate the densities q into out, destroy; handle type P */
+#define TOL_RUN(P, o, used, n, x, q, out, rc)                                                    \
+    do {                                                                                         \
+        P *h_ = NULL;                                                                            \
+        rc = P##_create(&h_, &o, n, x, n, x);                                                    \
+        if (!rc) rc = P##_options(h_, &used);                                                    \
+        if (!rc) rc = P##_evaluate(h_, q, out);                                                  \
+        P##_destroy(h_);                                                                         \
+    } while (0)
+
 static void gen(int dist, t_rng *r, int64_t n, double *x)
 {
     if (dist == 0) t_gen_cube(r, n, x, 0.0, 1.0);
@@ -62,20 +73,12 @@ static void check_tol(int dist, double tol, int fl)
     memset(&used, 0, sizeof used);
     o.tol = tol;
     if (fl) {
-        kifmm_laplacef *h = NULL;
         for (i = 0; i < 3 * N; i++) x[i] = xf[i] = (float)x[i];
         for (i = 0; i < N; i++) q[i] = qf[i] = (float)q[i];
-        rc = kifmm_laplacef_create(&h, &o, N, xf, N, xf);
-        if (!rc) rc = kifmm_laplacef_options(h, &used);
-        if (!rc) rc = kifmm_laplacef_evaluate(h, qf, of);
-        kifmm_laplacef_destroy(h);
+        TOL_RUN(kifmm_laplacef, o, used, N, xf, qf, of, rc);
         for (i = 0; i < N; i++) out[i] = of[i];
     } else {
-        kifmm_laplace *h = NULL;
-        rc = kifmm_laplace_create(&h, &o, N, x, N, x);
-        if (!rc) rc = kifmm_laplace_options(h, &used);
-        if (!rc) rc = kifmm_laplace_evaluate(h, q, out);
-        kifmm_laplace_destroy(h);
+        TOL_RUN(kifmm_laplace, o, used, N, x, q, out, rc);
     }
     CHECK(rc == KIFMM_SUCCESS && used.tol == tol && used.order >= 2, "tol %.0e: %s, order %d",
           tol, kifmm_strerror(rc), used.order);
@@ -146,19 +149,8 @@ static double kernel_err(int k, int dist, int64_t n, double tol, int *order)
     memset(&o, 0, sizeof o);
     memset(&used, 0, sizeof used);
     o.tol = tol;
-    if (k == 0) {
-        kifmm_laplace_dipole *h = NULL;
-        rc = kifmm_laplace_dipole_create(&h, &o, n, x, n, x);
-        if (!rc) rc = kifmm_laplace_dipole_options(h, &used);
-        if (!rc) rc = kifmm_laplace_dipole_evaluate(h, q, out);
-        kifmm_laplace_dipole_destroy(h);
-    } else {
-        kifmm_stokes_dl *h = NULL;
-        rc = kifmm_stokes_dl_create(&h, &o, n, x, n, x);
-        if (!rc) rc = kifmm_stokes_dl_options(h, &used);
-        if (!rc) rc = kifmm_stokes_dl_evaluate(h, q, out);
-        kifmm_stokes_dl_destroy(h);
-    }
+    if (k == 0) TOL_RUN(kifmm_laplace_dipole, o, used, n, x, q, out, rc);
+    else TOL_RUN(kifmm_stokes_dl, o, used, n, x, q, out, rc);
     for (i = 0; i < nsample && !rc; i++) {
         const int64_t j = t_sample_index(i, nsample, n);
         if (k == 0) dipole_sum(n, x, q, x + 3 * j, ref);
