@@ -7,7 +7,7 @@
  * errors: tol negative, NaN, infinite, below what order 12 reaches, set
  * with an order, or below float's floor in a float instance. Kernels with
  * tables of their own (KIFMM_HAS_TOL): laplace_dipole at tol = 1e-3 ...
- * 1e-9 and stokes_dl at 1e-3 ... 1e-7 (quick: a few of them), against sums
+ * 1e-9 and stokes_dl at 1e-3 ... 1e-5 (quick: a few of them), against sums
  * written here: on each distribution at most tol, the largest of the three
  * at least tol / 30. opts.verbose:
  * create's and evaluate's lines on stderr (read back through a file), none
@@ -28,10 +28,10 @@
 
 #ifdef KIFMM_TEST_QUICK
 #define N 10000
-#define KTOL_STOKES_DL 4 /* stokes_dl's tols: 1e-3 ... 1e-KTOL_STOKES_DL */
+#define KTOL_STOKES_DL 3 /* stokes_dl's tols: 1e-3 ... 1e-KTOL_STOKES_DL */
 #else
 #define N 20000
-#define KTOL_STOKES_DL 7
+#define KTOL_STOKES_DL 5 /* 1e-6 and 1e-7 (orders 8, 9): 40 s more */
 #endif
 /* points of the kernels with tables of their own, in every build: 10,000
  * make trees of 2 or 3 levels at their orders 8 and 12, whose errors fall
@@ -302,7 +302,7 @@ int main(void)
     t_group("kernels with their own tables");
     for (k = 3; k <= 9; k++) {
 #ifdef KIFMM_TEST_QUICK
-        if (k % 3 != 0) continue; /* 1e-3, 1e-6, 1e-9 */
+        if (k != 3 && k != 6) continue; /* 1e-3, 1e-6 */
 #endif
         check_kernel_tol(0, NK, pow(10.0, -k));
     }
