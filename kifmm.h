@@ -1971,8 +1971,8 @@ KIFMM__FN double kifmm__poisson_above(double mu, int64_t s)
 
 /* Expected figures of a tree (see kifmm__shape_uniform). */
 typedef struct {
-    double box, inner, leaf; /* boxes, internal boxes, leaves with targets */
-    double u, v;             /* U list entries, V list entries (boxes with targets) */
+    double box, inner;       /* boxes, internal boxes */
+    double u, v;             /* U list entries (leaves with targets), V list entries */
     double vlev, vany;       /* levels with V lists (how many, whether any), from the
                                 chance that two colleagues of the level above split */
     double mb, mi, mc;       /* most boxes of a level; most internal boxes of a level
@@ -2020,7 +2020,6 @@ KIFMM__FN void kifmm__shape_uniform(int64_t ns, int64_t nt, int same, int leaf, 
         s->nlev = l + 1;
         s->box += at;
         s->inner += split;
-        s->leaf += leaves;
         s->u += leaves * fu;
         if (l >= lv) {
             s->v += at * (fv - fu) * qp;
@@ -6356,15 +6355,23 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
     return KIFMM_SUCCESS;
 }
 
+/* The points of the scratch's frames for a largest leaf of maxleaf points
+ * (see __scratch_per): float instances' frame, periodic trees' image (at
+ * least a surface). */
+KIFMM__FN void KIFMM__F(__frame_points)(KIFMM_NAME *h, size_t maxleaf)
+{
+    h->work.fpts = KIFMM__FLOAT ? maxleaf : 0;
+    h->work.ipts = h->tree.periodic ? maxleaf : 0;
+    if (h->tree.periodic && h->work.ipts < (size_t)h->surf.nse) h->work.ipts = (size_t)h->surf.nse;
+}
+
 /* Per-thread buffers of the passes: three surfaces and, for float
  * instances, the frame of the largest leaf (see __frame); and the level
  * passes' column buffers, for trees that have levels 2 and deeper. */
 KIFMM__FN int KIFMM__F(__plan_buffers)(KIFMM_NAME *h)
 {
     const size_t nth = (size_t)h->opts.nthreads;
-    h->work.fpts = KIFMM__FLOAT ? (size_t)kifmm__max_leaf(&h->tree) : 0;
-    h->work.ipts = h->tree.periodic ? (size_t)kifmm__max_leaf(&h->tree) : 0;
-    if (h->tree.periodic && h->work.ipts < (size_t)h->surf.nse) h->work.ipts = (size_t)h->surf.nse;
+    KIFMM__F(__frame_points)(h, (size_t)kifmm__max_leaf(&h->tree));
     h->work.scratch = (KIFMM__R *)kifmm__take(&h->held, nth * KIFMM__F(__scratch_per)(h),
                                               sizeof(KIFMM__R));
     h->work.gbuf_n = h->tree.nlev > kifmm__lmin(&h->tree) ? (KIFMM__GC_FAST ? nth : 1) * KIFMM__F(__gbuf_per)(h) : 0;
@@ -6874,9 +6881,7 @@ KIFMM__FN int KIFMM__F(__model)(KIFMM_NAME *h, const kifmm__shape *s)
     t->nbox = (int32_t)(s->box < cap ? s->box : cap);
     h->work.mb = (int)(s->mb < cap ? s->mb : cap);
     if ((rc = KIFMM__F(__plan_surfaces)(h))) return rc;
-    h->work.fpts = KIFMM__FLOAT ? (size_t)s->maxleaf : 0;
-    h->work.ipts = t->periodic ? (size_t)s->maxleaf : 0;
-    if (t->periodic && h->work.ipts < (size_t)h->surf.nse) h->work.ipts = (size_t)h->surf.nse;
+    KIFMM__F(__frame_points)(h, (size_t)s->maxleaf);
     h->ops.m2l_cols = KIFMM__F(__m2l_cols)(h);
 #if KIFMM__FFT
     rc = kifmm__fft_init(&h->fft.plan, h->opts.order + h->surf.cdiff, &h->held);
