@@ -154,6 +154,18 @@ extern "C++" {
  * KIFMM_ERR_COUNT instead of an overflow). */
 #define KIFMM_MAX_POINTS ((int64_t)(PTRDIFF_MAX / 1024))
 
+/* The range of coordinates and periods: squared distances (and the
+ * kernels' powers of them) stay within the precision's range when every
+ * coordinate and period is at most KIFMM_COORD_MAX in magnitude, and
+ * periods and the extent of a set of distinct points are at least
+ * KIFMM_EXTENT_MIN (KIFMM_ERR_RANGE otherwise). Points closer together than
+ * about the square root of the smallest normal number (1e-154 in double,
+ * 1e-19 in float) count as coincident. */
+#define KIFMM_COORD_MAX 1e150
+#define KIFMM_EXTENT_MIN 1e-150
+#define KIFMM_COORD_MAX_FLOAT 1e18
+#define KIFMM_EXTENT_MIN_FLOAT 1e-15
+
 /* <prefix>_estimate_bytes's ntargets when the targets will be the sources. */
 #define KIFMM_SAME_POINTS ((int64_t)-1)
 
@@ -209,7 +221,15 @@ extern "C++" {
       "opts.tol is negative, not finite, set together with opts.order, or below what the "    \
       "largest order reaches for the kernel (laplace: about 1.8e-11; docs/api.md, "           \
       "\"Tolerance\"; float instances 2e-5)")                                                 \
-    X(KIFMM_ERR_VERBOSE, -17, "opts.verbose is neither 0 nor 1")
+    X(KIFMM_ERR_VERBOSE, -17, "opts.verbose is neither 0 nor 1")                              \
+    X(KIFMM_ERR_RANGE, -18,                                                                   \
+      "a coordinate or period is beyond KIFMM_COORD_MAX (1e150; float 1e18), or a period or "  \
+      "the points' extent is below KIFMM_EXTENT_MIN (1e-150; float 1e-15)")                    \
+    X(KIFMM_ERR_DENSITY, -19, "a density is NaN or infinite")                                 \
+    X(KIFMM_ERR_OVERLAP, -20, "the output array overlaps the points or the densities")        \
+    X(KIFMM_ERR_OVERFLOW, -21,                                                                \
+      "an output is not finite: the densities are too large or points too close for the "     \
+      "precision's range")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -3152,8 +3172,12 @@ KIFMM__FN void KIFMM__P(kifmm__fft_products)(int nn, const int32_t *nb, const un
 
 #if KIFMM__CAT(KIFMM__REAL_IS_, KIFMM_REAL) == 1
 #define KIFMM__FLOAT 0
+#define KIFMM__CMAX KIFMM_COORD_MAX
+#define KIFMM__EMIN KIFMM_EXTENT_MIN
 #elif KIFMM__CAT(KIFMM__REAL_IS_, KIFMM_REAL) == 2
 #define KIFMM__FLOAT 1
+#define KIFMM__CMAX KIFMM_COORD_MAX_FLOAT
+#define KIFMM__EMIN KIFMM_EXTENT_MIN_FLOAT
 #else
 #error "kifmm.h: KIFMM_REAL must be double or float"
 #endif
@@ -3206,7 +3230,11 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
 
 /* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
  * order, from densities[i*SRC_DIM + d]. Outputs are overwritten. Returns
- * KIFMM_SUCCESS or KIFMM_ERR_NULL (then out is untouched). The handle holds
+ * KIFMM_SUCCESS; KIFMM_ERR_NULL, KIFMM_ERR_DENSITY (a density NaN or
+ * infinite) or KIFMM_ERR_NEUTRAL (periodic, see kifmm_opts.period), and
+ * then out is untouched; or KIFMM_ERR_OVERFLOW, an output not finite though
+ * the inputs are (densities near the precision's largest value, points a
+ * hair apart), and then out holds the outputs as computed. The handle holds
  * the workspace and the timings: not thread safe on one handle (use one
  * handle per thread). */
 KIFMM__API int KIFMM__F(_evaluate)(KIFMM_NAME *h, const KIFMM__R *densities, KIFMM__R *out);
@@ -3218,9 +3246,10 @@ KIFMM__API int KIFMM__F(_evaluate)(KIFMM_NAME *h, const KIFMM__R *densities, KIF
  * and the translations run as GEMMs over boxes and vectors together. Outputs
  * are overwritten; out may be the densities' own array (in place) or overlap
  * it. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT (nrhs < 0, or
- * more vectors than any array holds) or KIFMM_ERR_NOMEM (workspace for more
- * vectors than before, or the copy of overlapping densities; then out is
- * untouched). nrhs == 0 does nothing. Not thread safe on one handle. */
+ * more vectors than any array holds), KIFMM_ERR_NOMEM (workspace for more
+ * vectors than before, or the copy of overlapping densities), and those of
+ * evaluate, with out untouched except after KIFMM_ERR_OVERFLOW. nrhs == 0
+ * does nothing. Not thread safe on one handle. */
 KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
                                         KIFMM__R *out);
 
@@ -3244,10 +3273,14 @@ KIFMM__API int KIFMM__F(_options)(const KIFMM_NAME *h, kifmm_opts *used);
  * check a kernel or a handle against: pass the handle's options and a
  * subset of its targets (O(nsources * ntargets) work). Of opts (NULL: the
  * defaults) it uses kernel_param and nthreads; periodic options are
- * refused (KIFMM_ERR_PERIODIC: the sums are those of free space). Returns
- * KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT, KIFMM_ERR_NONFINITE,
- * KIFMM_ERR_PARAM, an option's error, KIFMM_ERR_PERIODIC or
- * KIFMM_ERR_NOMEM; out is written only on success. Thread safe. */
+ * refused (KIFMM_ERR_PERIODIC: the sums are those of free space). out may
+ * overlap the densities (they are copied first) but not the points
+ * (KIFMM_ERR_OVERLAP). With no targets nothing is read but the points.
+ * Returns KIFMM_SUCCESS, KIFMM_ERR_NULL, KIFMM_ERR_COUNT,
+ * KIFMM_ERR_NONFINITE, KIFMM_ERR_RANGE, KIFMM_ERR_PARAM, an option's error,
+ * KIFMM_ERR_PERIODIC, KIFMM_ERR_DENSITY, KIFMM_ERR_OVERLAP,
+ * KIFMM_ERR_OVERFLOW or KIFMM_ERR_NOMEM; out is written only on success.
+ * Thread safe. */
 KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const KIFMM__R *src_xyz,
                                  const KIFMM__R *densities, int64_t ntargets,
                                  const KIFMM__R *trg_xyz, KIFMM__R *out);
@@ -4345,14 +4378,19 @@ KIFMM__FN int KIFMM__F(__ewald_far)(const KIFMM_NAME *c, const KIFMM__F(__ewald)
     return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
 }
 
-/* The far sums at offsets d (3 x n) for a cell of half-width h. */
+/* The far sums at offsets d (3 x n, in cell widths) for a cell of
+ * half-width h: summed for a cell of width 1 and scaled by (2 h)^DEGREE (the
+ * surface kernel is scale invariant), since V = L^3 and the wave numbers
+ * leave double's range for periods beyond about 1e100 or below 1e-100. */
 KIFMM__FN int KIFMM__F(__ewald_at)(const KIFMM_NAME *c, double h, int64_t n, const double *d, double *gs)
 {
+    const double s = pow(2.0 * h, (double)(KIFMM__DEGREE));
     KIFMM__F(__ewald) e;
     int rc;
     memset(&e, 0, sizeof e);
-    rc = KIFMM__F(__ewald_plan)(c, 2.0 * h, &e);
+    rc = KIFMM__F(__ewald_plan)(c, 1.0, &e);
     if (!rc) rc = KIFMM__F(__ewald_far)(c, &e, n, d, gs);
+    for (int64_t i = 0; i < n * KIFMM__SD * KIFMM__SD && !rc; i++) gs[i] *= s;
     kifmm__free(e.m);
     kifmm__free(e.f);
     return rc;
@@ -4711,7 +4749,7 @@ KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, d
     enum { SD2 = KIFMM__SD * KIFMM__SD };
     const int w = 2 * q - 1, sym = KIFMM__RADIAL;
     const int64_t nw = (int64_t)w * w * w;
-    const double g = 2.0 * c->surf.ai * h / (q - 1);
+    const double g = c->surf.ai / (q - 1); /* in cell widths, 2 h */
     double *d = (double *)kifmm__alloc((size_t)3 * nw, sizeof(double));
     double *gc = sym ? (double *)kifmm__alloc((size_t)nw * SD2, sizeof(double)) : gs;
     int *slot = sym ? (int *)kifmm__alloc((size_t)q * q * q, sizeof(int)) : NULL;
@@ -6078,8 +6116,9 @@ KIFMM__FN void KIFMM__F(__leaves)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
  * kernel's quadratic (lat.bq), added at the targets. From the densities'
  * moments about the cell's centre (per kind: sum q, sum q y, sum q y y^T),
  * per output P(a) = P0 + P1 . a + a^T P2 a / 2 at a = x - centre. */
-/* The moments of vector r's densities about cen: mo[10 b ..] = sum q_b, sum
- * q_b y (3), sum q_b y y^T (xx, yy, zz, xy, xz, yz) per kind b. */
+/* The moments of vector r's densities about cen, in the cell's width:
+ * mo[10 b ..] = sum q_b, sum q_b y (3), sum q_b y y^T (xx, yy, zz, xy, xz,
+ * yz) per kind b, y = (point - cen) / width. */
 KIFMM__FN void KIFMM__F(__moments)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int r,
                                    const double *cen, double *mo)
 {
@@ -6088,8 +6127,9 @@ KIFMM__FN void KIFMM__F(__moments)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     int b, j;
     memset(mo, 0, (size_t)KIFMM__QD * 10 * sizeof(double));
     for (int64_t i = 0; i < ns; i++) {
-        const double a[3] = {c->pts.src[i] - cen[0], c->pts.src[ns + i] - cen[1],
-                             c->pts.src[2 * ns + i] - cen[2]};
+        const double wd = c->tree.width;
+        const double a[3] = {(c->pts.src[i] - cen[0]) / wd, (c->pts.src[ns + i] - cen[1]) / wd,
+                             (c->pts.src[2 * ns + i] - cen[2]) / wd};
         for (b = 0; b < KIFMM__QD; b++) {
             const double q = w->qs[(size_t)r * ns * KIFMM__QD + (size_t)i * KIFMM__QD + b];
             mo[10 * b] += q;
@@ -6103,7 +6143,7 @@ KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work
 {
     static const int pq[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
     const kifmm__tree *t = &c->tree;
-    const double V = t->width * t->width * t->width;
+    const double wd = t->width;
     const size_t oper = (size_t)t->nt * KIFMM__TD;
     double cen[3];
     int r, d;
@@ -6115,8 +6155,14 @@ KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work
         KIFMM__F(__moments)(c, w, r, cen, mo);
         for (o = 0; o < KIFMM__TD; o++)
             for (b = 0; b < KIFMM__QD; b++) {
-                const double *B = c->lat.bq + 10 * ((size_t)o * KIFMM__QD + b), *m = mo + 10 * b;
-                double *p = P + 10 * o;
+                /* B / V in the cell's width: B's terms of degree k in the
+                 * offset times width^(k - 3), divided one width at a time
+                 * (a cube of the width leaves double's range first) */
+                const double *B0 = c->lat.bq + 10 * ((size_t)o * KIFMM__QD + b), *m = mo + 10 * b;
+                double *p = P + 10 * o, B[10];
+                B[0] = B0[0] / wd / wd / wd;
+                for (j = 1; j < 4; j++) B[j] = B0[j] / wd / wd;
+                for (j = 4; j < 10; j++) B[j] = B0[j] / wd;
                 p[0] += m[0] * B[0];
                 for (j = 0; j < 3; j++) p[0] -= m[1 + j] * B[1 + j];
                 for (j = 0; j < 6; j++) p[0] += (j < 3 ? 0.5 : 1.0) * m[4 + j] * B[4 + j];
@@ -6130,8 +6176,8 @@ KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work
         /* each sorted target i writes its own outputs */
         KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
         for (int64_t i = 0; i < t->nt; i++) {
-            const double a[3] = {c->pts.trg[i] - cen[0], c->pts.trg[t->nt + i] - cen[1],
-                                 c->pts.trg[2 * t->nt + i] - cen[2]};
+            const double a[3] = {(c->pts.trg[i] - cen[0]) / wd, (c->pts.trg[t->nt + i] - cen[1]) / wd,
+                                 (c->pts.trg[2 * t->nt + i] - cen[2]) / wd};
             KIFMM__R *out = w->outs ? w->outs + r * oper + (size_t)i * KIFMM__TD
                                     : w->dst + r * oper + (size_t)t->tperm[i] * KIFMM__TD;
             int k;
@@ -6140,7 +6186,7 @@ KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work
                 const double v = p[0] + p[1] * a[0] + p[2] * a[1] + p[3] * a[2] +
                                  0.5 * (p[4] * a[0] * a[0] + p[5] * a[1] * a[1] + p[6] * a[2] * a[2]) +
                                  p[7] * a[0] * a[1] + p[8] * a[0] * a[2] + p[9] * a[1] * a[2];
-                out[k] += (KIFMM__R)(v / V);
+                out[k] += (KIFMM__R)v;
             }
         }
     }
@@ -6230,16 +6276,31 @@ KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
 }
 
 /* A point set: a count that an array can hold, a pointer if there are
- * points, and finite coordinates. */
-KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const KIFMM__R *xyz, int nth)
+ * points, finite coordinates of at most KIFMM__CMAX in magnitude; lo and hi
+ * (3 each) widened to the set's bounds. */
+KIFMM__FN int KIFMM__F(__check_points)(int64_t n, const KIFMM__R *xyz, int nth, double *lo,
+                                       double *hi)
 {
-    int bad = 0;
+    int bad = 0, d;
     if (n < 0 || n > KIFMM_MAX_POINTS) return KIFMM_ERR_COUNT;
     if (n > 0 && !xyz) return KIFMM_ERR_NULL;
     KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(| : bad) if (n > 65536))
-    for (int64_t i = 0; i < 3 * n; i++) bad |= !isfinite(xyz[i]);
+    for (int64_t i = 0; i < 3 * n; i++)
+        bad |= !isfinite(xyz[i]) ? 1 : !(fabs((double)xyz[i]) <= KIFMM__CMAX) ? 2 : 0;
     (void)nth;
-    return bad ? KIFMM_ERR_NONFINITE : KIFMM_SUCCESS;
+    if (bad) return bad & 1 ? KIFMM_ERR_NONFINITE : KIFMM_ERR_RANGE;
+    for (d = 0; d < 3; d++) {
+        double mn = lo[d], mx = hi[d];
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(min : mn) reduction(max : mx) if (n > 65536))
+        for (int64_t i = 0; i < n; i++) {
+            const double v = (double)xyz[3 * i + d];
+            mn = v < mn ? v : mn;
+            mx = v > mx ? v : mx;
+        }
+        lo[d] = mn;
+        hi[d] = mx;
+    }
+    return KIFMM_SUCCESS;
 }
 
 /* The kernel's parameters with defaults resolved, or KIFMM_ERR_PARAM. */
@@ -6277,8 +6338,21 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
     int rc = kifmm__resolve_opts(opts, KIFMM__LEAF_MULTI, KIFMM__F(__tol_errors)(), o);
     /* float's floor: at order 6 laplacef measured up to 1.05e-5 */
     if (!rc && KIFMM__FLOAT && o->tol != 0.0 && o->tol < 2e-5) rc = KIFMM_ERR_TOL;
-    if (!rc) rc = KIFMM__F(__check_points)(ns, src, o->nthreads);
-    if (!rc) rc = KIFMM__F(__check_points)(nt, trg, o->nthreads);
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    int d;
+    if (!rc) rc = KIFMM__F(__check_points)(ns, src, o->nthreads, lo, hi);
+    if (!rc) rc = KIFMM__F(__check_points)(nt, trg, o->nthreads, lo, hi);
+    /* squared distances must stay in range: periods of KIFMM__EMIN to
+     * KIFMM__CMAX, and in free space a spread set's extent of at least
+     * KIFMM__EMIN (a periodic tree's root is the cell) */
+    for (d = 0; d < 3 && !rc; d++)
+        if (o->period[d] > 0.0 && !(o->period[d] >= KIFMM__EMIN && o->period[d] <= KIFMM__CMAX))
+            rc = KIFMM_ERR_RANGE;
+    if (!rc && !(o->period[0] > 0.0 || o->period[1] > 0.0 || o->period[2] > 0.0)) {
+        double ext = 0.0; /* free space: the root's width */
+        for (d = 0; d < 3; d++) ext = hi[d] - lo[d] > ext ? hi[d] - lo[d] : ext;
+        if (ext > 0.0 && ext < KIFMM__EMIN) rc = KIFMM_ERR_RANGE;
+    }
     if (!rc) rc = KIFMM__F(__params)(o->kernel_param, param);
     if (!rc) memcpy(o->kernel_param, param, sizeof param);
     return rc;
@@ -6765,6 +6839,17 @@ KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIF
     return bad ? KIFMM_ERR_NEUTRAL : KIFMM_SUCCESS;
 }
 
+/* n values, KIFMM_ERR_DENSITY or KIFMM_ERR_OVERFLOW (code) if one is not
+ * finite. */
+KIFMM__FN int KIFMM__F(__check_finite)(size_t n, const KIFMM__R *v, int nth, int code)
+{
+    int bad = 0;
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth) reduction(| : bad) if (n > 65536))
+    for (size_t i = 0; i < n; i++) bad |= !isfinite(v[i]);
+    (void)nth;
+    return bad ? code : KIFMM_SUCCESS;
+}
+
 KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
                                         KIFMM__R *out)
 {
@@ -6773,6 +6858,9 @@ KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R 
     int r0, nr, cap, rc;
     double t0;
     if (KIFMM__F(__eval_check)(h, nrhs, densities, out, &rc)) return rc;
+    if ((rc = KIFMM__F(__check_finite)((size_t)nrhs * h->tree.ns * KIFMM__UD, densities,
+                                       h->opts.nthreads, KIFMM_ERR_DENSITY)))
+        return rc;
     if ((rc = KIFMM__F(__check_neutral)(h, nrhs, densities))) return rc;
     qper = (size_t)h->tree.ns * KIFMM__UD;
     oper = (size_t)h->tree.nt * KIFMM__TD;
@@ -6801,7 +6889,9 @@ KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R 
     h->stats.t_evaluate = kifmm__now() - t0;
     if (h->opts.verbose) KIFMM__F(__report)(h, 0);
     kifmm__free(dcopy);
-    return KIFMM_SUCCESS;
+    /* finite inputs in range can still overflow (huge densities, points a
+     * hair apart): never a non-finite output with success */
+    return KIFMM__F(__check_finite)((size_t)nrhs * oper, out, h->opts.nthreads, KIFMM_ERR_OVERFLOW);
 }
 
 KIFMM__API int KIFMM__F(_evaluate)(KIFMM_NAME *h, const KIFMM__R *densities, KIFMM__R *out)
@@ -6847,21 +6937,41 @@ KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const
 {
     kifmm_opts o;
     double *lin;
+    KIFMM__R *res;
+    const size_t no = (size_t)(ntargets > 0 ? ntargets : 0) * KIFMM__TD * sizeof(KIFMM__R);
     int rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o), d;
     if (rc) return rc;
     if ((nsources > 0 && ntargets > 0 && !densities) || (ntargets > 0 && !out)) return KIFMM_ERR_NULL;
     for (d = 0; d < 3; d++)
         if (o.period[d] != 0.0) return KIFMM_ERR_PERIODIC;
-    if (!(lin = (double *)kifmm__alloc((size_t)nsources * KIFMM__QD + 1, sizeof(double))))
+    if (ntargets == 0) return KIFMM_SUCCESS; /* the densities are not read */
+    if ((rc = KIFMM__F(__check_finite)((size_t)nsources * KIFMM__UD, densities, o.nthreads,
+                                       KIFMM_ERR_DENSITY)))
+        return rc;
+    /* the densities are copied (lin) before out is written; the points are
+     * read throughout */
+    if (kifmm__overlap(out, no, src_xyz, (size_t)nsources * 3 * sizeof(KIFMM__R)) ||
+        kifmm__overlap(out, no, trg_xyz, (size_t)ntargets * 3 * sizeof(KIFMM__R)))
+        return KIFMM_ERR_OVERLAP;
+    lin = (double *)kifmm__alloc((size_t)nsources * KIFMM__QD + 1, sizeof(double));
+    res = (KIFMM__R *)kifmm__alloc((size_t)ntargets * KIFMM__TD, sizeof(KIFMM__R));
+    if (!lin || !res) {
+        kifmm__free(lin);
+        kifmm__free(res);
         return KIFMM_ERR_NOMEM;
+    }
     for (int64_t j = 0; j < nsources; j++)
         KIFMM__F(__density_of)(o.kernel_param, densities + j * KIFMM__UD, lin + j * KIFMM__QD);
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(o.nthreads))
     for (int64_t i = 0; i < ntargets; i++)
         KIFMM__F(__direct_at)(o.kernel_param, trg_xyz + 3 * i, nsources, src_xyz, lin,
-                              out + i * KIFMM__TD);
+                              res + i * KIFMM__TD);
     kifmm__free(lin);
-    return KIFMM_SUCCESS;
+    /* out is written only on success */
+    rc = KIFMM__F(__check_finite)((size_t)ntargets * KIFMM__TD, res, o.nthreads, KIFMM_ERR_OVERFLOW);
+    if (!rc) memcpy(out, res, no);
+    kifmm__free(res);
+    return rc;
 }
 
 /* ---- estimate_bytes: the memory of a handle before it is created ---- */
@@ -7093,6 +7203,8 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
 #endif /* KIFMM_DECLARE */
 #undef KIFMM__API
 #undef KIFMM__FLOAT
+#undef KIFMM__CMAX
+#undef KIFMM__EMIN
 #undef KIFMM__R
 #undef KIFMM__F
 #undef KIFMM__K

@@ -217,8 +217,10 @@ static void test_strerror(void)
                                 KIFMM_ERR_DEPTH,   KIFMM_ERR_NTHREADS,  KIFMM_ERR_PARAM,
                                 KIFMM_ERR_NOMEM,   KIFMM_ERR_LAPACK,    KIFMM_ERR_INTERNAL,
                                 KIFMM_ERR_KERNEL,  KIFMM_ERR_PERIOD,    KIFMM_ERR_PERIODIC,
-                                KIFMM_ERR_NEUTRAL, KIFMM_ERR_TOL,       KIFMM_ERR_VERBOSE};
-    static const int unknown[] = {1, -18, 42, -1000, 2147483647, -2147483647 - 1};
+                                KIFMM_ERR_NEUTRAL, KIFMM_ERR_TOL,       KIFMM_ERR_VERBOSE,
+                                KIFMM_ERR_RANGE,   KIFMM_ERR_DENSITY,   KIFMM_ERR_OVERLAP,
+                                KIFMM_ERR_OVERFLOW};
+    static const int unknown[] = {1, -22, 42, -1000, 2147483647, -2147483647 - 1};
     const int nc = (int)(sizeof codes / sizeof codes[0]);
     int i, j;
     /* the documented values */
@@ -227,7 +229,9 @@ static void test_strerror(void)
               KIFMM_ERR_DEPTH == -6 && KIFMM_ERR_NTHREADS == -7 && KIFMM_ERR_PARAM == -8 &&
               KIFMM_ERR_NOMEM == -9 && KIFMM_ERR_LAPACK == -10 && KIFMM_ERR_INTERNAL == -11 &&
               KIFMM_ERR_KERNEL == -12 && KIFMM_ERR_PERIOD == -13 && KIFMM_ERR_PERIODIC == -14 &&
-              KIFMM_ERR_NEUTRAL == -15 && KIFMM_ERR_TOL == -16 && KIFMM_ERR_VERBOSE == -17,
+              KIFMM_ERR_NEUTRAL == -15 && KIFMM_ERR_TOL == -16 && KIFMM_ERR_VERBOSE == -17 &&
+              KIFMM_ERR_RANGE == -18 && KIFMM_ERR_DENSITY == -19 && KIFMM_ERR_OVERLAP == -20 &&
+              KIFMM_ERR_OVERFLOW == -21,
           "error code values differ from the documented ones");
     CHECK(KIFMM_MAX_ORDER == 12 && KIFMM_MAX_DEPTH == 20, "KIFMM_MAX_ORDER %d KIFMM_MAX_DEPTH %d",
           (int)KIFMM_MAX_ORDER, (int)KIFMM_MAX_DEPTH);
