@@ -2,49 +2,93 @@
 directory sits in) into the package, then installs it with the Python code.
 
     pip install ./python          from the checkout's root
+    pip install -v ./python       the same, with the compiler's full log
 
 Needs a C compiler with OpenMP, OpenBLAS and LAPACKE (Debian: apt-get install
 build-essential libopenblas-dev liblapacke-dev). Environment: CC (default
 cc) and KIFMM_CFLAGS (default "-O2 -march=native -fopenmp"; "-O2 -fopenmp"
 for a build to copy to other machines); KIFMM_PREBUILT, the path of a
 libkifmm.so already built from the same checkout (make lib), to package
-that one instead of compiling again."""
+that one instead of compiling again.
+
+Nothing is written into the checkout: setuptools' build and egg-info
+directories go to a temporary directory, so a read-only checkout installs."""
+import atexit
 import os
 import shlex
 import shutil
 import subprocess
+import sys
+import tempfile
+import time
 from pathlib import Path
-
-from setuptools import setup
-from setuptools.command.build_py import build_py
-from setuptools.dist import Distribution
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
-class BuildWithLibrary(build_py):
-    def run(self):
-        super().run()
-        src = ROOT / "src" / "kifmm_lib.c"
-        if not src.exists():
-            raise RuntimeError(f"{src} not found: install from a kifmm.h checkout (pip install ./python)")
-        out = Path(self.build_lib) / "kifmm" / "libkifmm.so"
-        out.parent.mkdir(parents=True, exist_ok=True)
-        if os.environ.get("KIFMM_PREBUILT"):
-            shutil.copyfile(os.environ["KIFMM_PREBUILT"], out)
+TTY = "/dev/tty"
+
+
+def announce(line, first=True):
+    """One line for the person waiting: pip captures a build's stdout and
+    stderr and shows them only with -v (or on failure), but the terminal
+    itself stays reachable through /dev/tty. The first line leaves pip's
+    spinner line; a later one starts with a carriage return so that it
+    covers the spinner's character."""
+    try:
+        with open(TTY, "a") as tty:
+            tty.write(("\n" if first else "\r") + line + "\n")
             return
-        cflags = shlex.split(os.environ.get("KIFMM_CFLAGS", "-O2 -march=native -fopenmp"))
-        cmd = [os.environ.get("CC", "cc"), "-std=c99", *cflags, "-fPIC", "-shared", f"-I{ROOT}",
-               str(src), "-o", str(out), "-llapacke", "-lopenblas", "-lm"]
-        print(" ".join(cmd), flush=True)
-        subprocess.check_call(cmd)
+    except OSError:
+        pass
+    print(line, file=sys.stderr, flush=True)
 
 
-class BinaryDistribution(Distribution):
-    """A wheel for this platform: it carries a compiled library."""
+def compile_library(cmd, say=announce):
+    """Run the compiler command cmd, saying before that it runs and after
+    how long it took (a minute or two: every kernel in two precisions)."""
+    say("kifmm: compiling libkifmm.so (about 1-2 minutes) ...")
+    print(" ".join(cmd), flush=True)
+    t0 = time.monotonic()
+    subprocess.check_call(cmd)
+    say(f"kifmm: compiled in {time.monotonic() - t0:.0f} s", first=False)
 
-    def has_ext_modules(self):
-        return True
+
+def library_command(out):
+    src = ROOT / "src" / "kifmm_lib.c"
+    if not src.exists():
+        raise RuntimeError(f"{src} not found: install from a kifmm.h checkout (pip install ./python)")
+    cflags = shlex.split(os.environ.get("KIFMM_CFLAGS", "-O2 -march=native -fopenmp"))
+    return [os.environ.get("CC", "cc"), "-std=c99", *cflags, "-fPIC", "-shared", f"-I{ROOT}",
+            str(src), "-o", str(out), "-llapacke", "-lopenblas", "-lm"]
 
 
-setup(cmdclass={"build_py": BuildWithLibrary}, distclass=BinaryDistribution)
+if __name__ == "__main__":
+    from setuptools import setup
+    from setuptools.command.build_py import build_py
+    from setuptools.dist import Distribution
+
+    class BuildWithLibrary(build_py):
+        def run(self):
+            super().run()
+            out = Path(self.build_lib) / "kifmm" / "libkifmm.so"
+            out.parent.mkdir(parents=True, exist_ok=True)
+            if os.environ.get("KIFMM_PREBUILT"):
+                shutil.copyfile(os.environ["KIFMM_PREBUILT"], out)
+                return
+            compile_library(library_command(out))
+
+    class BinaryDistribution(Distribution):
+        """A wheel for this platform: it carries a compiled library."""
+
+        def has_ext_modules(self):
+            return True
+
+    # setuptools writes build/ and kifmm.egg-info beside setup.py unless
+    # told otherwise, which fails in a read-only checkout; pip runs each
+    # build step in a process of its own, so each gets its own directory.
+    scratch = tempfile.mkdtemp(prefix="kifmm-build-")
+    atexit.register(shutil.rmtree, scratch, ignore_errors=True)
+    setup(cmdclass={"build_py": BuildWithLibrary}, distclass=BinaryDistribution,
+          options={"build": {"build_base": os.path.join(scratch, "build")},
+                   "egg_info": {"egg_base": scratch}})

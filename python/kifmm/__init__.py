@@ -12,49 +12,77 @@ the GIL.
     ref = kifmm.direct("laplace_grad", x, q, x[:100])   # the first 100 rows
     need = kifmm.estimate_bytes("laplace_grad", 10**7, order=6)  # before any point
 
-Kernels (source and target dimensions) are listed in ``kifmm.KERNELS``;
-docs/api.md in the source tree describes each, its layouts and parameters.
+Kernels (source and target dimensions) are listed in ``kifmm.KERNELS``,
+and ``print(kifmm.kernel_help(name))`` gives each one's formula, signs,
+layouts and parameter (help(kifmm.FMM) lists them). ``python -m kifmm``
+prints the build: the library, its code paths, threads and BLAS.
 """
 
 import ctypes
+import math
+import numbers
 import os
+import threading
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FMM", "direct", "estimate_bytes", "KERNELS", "KifmmError"]
+from . import _kernels
+
+__all__ = ["FMM", "direct", "estimate_bytes", "kernel_help", "KERNELS", "KifmmError",
+           "OptionError", "MAX_ORDER", "MAX_DEPTH", "MAX_THREADS", "MAX_POINTS"]
 __version__ = "0.2.0"
 
 # name: (density components per source, output components per target)
-KERNELS = {
-    "laplace": (1, 1),
-    "laplace_grad": (1, 4),
-    "laplace_hess": (1, 10),
-    "laplace_dipole": (3, 1),
-    "laplace_dipole_grad": (3, 4),
-    "laplace_cd": (4, 1),
-    "laplace_cd_grad": (4, 4),
-    "laplace_cd_hess": (4, 10),
-    "yukawa": (1, 1),
-    "yukawa_grad": (1, 4),
-    "yukawa_cd": (4, 1),
-    "yukawa_cd_grad": (4, 4),
-    "stokes": (3, 3),
-    "stokes_grad": (3, 12),
-    "stokes_pvel": (3, 4),
-    "stokes_dl": (6, 3),
-    "biot_savart": (3, 3),
-    "biot_savart_grad": (3, 12),
-}
+KERNELS = {k.name: (_kernels.src_dim(k), _kernels.trg_dim(k)) for k in _kernels.KERNEL_TABLE}
+
+# kifmm.h's limits, as the library was compiled with them (a test compares
+# them with kifmm.h)
+MAX_ORDER = 12
+MAX_DEPTH = 20
+MAX_THREADS = 1024
+MAX_POINTS = (2**63 - 1) // 1024  # PTRDIFF_MAX / 1024
+_INT_MAX = 2**31 - 1  # the C options are ints
+
+# kifmm.h's result codes that the checks made here stand for
+_ERR_COUNT, _ERR_ORDER, _ERR_LEAF_SIZE, _ERR_DEPTH, _ERR_NTHREADS, _ERR_PARAM = -2, -4, -5, -6, -7, -8
+_ERR_PERIOD, _ERR_TOL = -13, -16
+
+
+def kernel_help(kernel):
+    """The description of one kernel (a str): its densities per source and
+    outputs per target with their offsets in a row, the formula with its
+    signs and 1 / (4 pi) factors, and its kernel_param. print() it."""
+    _kernel(kernel)
+    return _kernels.help_text(kernel)
+
+
+def _rebuild_error(cls, args, state):
+    e = cls.__new__(cls, *args)
+    e.args = args
+    e.__dict__.update(state)
+    return e
 
 
 class KifmmError(RuntimeError):
     """A library call failed: ``code`` is its result code (kifmm.h), the
     message the library's own."""
 
-    def __init__(self, code, what):
+    def __init__(self, code, what, detail=None):
         self.code = code
-        super().__init__(f"{what}: {_strerror(code)} (kifmm code {code})")
+        super().__init__(f"{what}: {detail or _strerror(code)} (kifmm code {code})")
+
+    def __reduce__(self):
+        # the default would call KifmmError(message), which needs two
+        # arguments: unpickling failed, and multiprocessing.Pool hung on
+        # an error raised in a worker
+        return (_rebuild_error, (type(self), self.args, self.__dict__))
+
+
+class OptionError(KifmmError, ValueError):
+    """An argument out of range, found before the library is called: a
+    ValueError whose message names the Python argument, and a KifmmError
+    whose ``code`` is the one the library would have returned."""
 
 
 class _Opts(ctypes.Structure):
@@ -118,28 +146,30 @@ def _strerror(code):
 _P = ctypes.c_void_p
 _I64 = ctypes.c_int64
 _funcs = {}
+_funcs_lock = threading.Lock()
 
 
 def _api(kernel, dtype):
     """The instance's functions: kifmm_<kernel>[f]_*."""
     key = (kernel, dtype)
-    if key not in _funcs:
-        pre = "kifmm_" + kernel + ("f" if dtype == np.float32 else "")
-        f = {n: getattr(_lib, f"{pre}_{n}") for n in
-             ("create", "evaluate", "evaluate_many", "destroy", "stats", "options", "direct",
-              "estimate_bytes")}
-        f["create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
-        f["evaluate"].argtypes = [_P, _P, _P]
-        f["evaluate_many"].argtypes = [_P, ctypes.c_int, _P, _P]
-        f["destroy"].argtypes = [_P]
-        f["destroy"].restype = None
-        f["stats"].argtypes = [_P, ctypes.POINTER(_Stats)]
-        f["options"].argtypes = [_P, ctypes.POINTER(_Opts)]
-        f["direct"].argtypes = [ctypes.POINTER(_Opts), _I64, _P, _P, _I64, _P, _P]
-        f["estimate_bytes"].argtypes = [ctypes.POINTER(_Opts), _I64, _I64,
-                                        ctypes.POINTER(ctypes.c_double)]
-        _funcs[key] = f
-    return _funcs[key]
+    with _funcs_lock:
+        if key not in _funcs:
+            pre = "kifmm_" + kernel + ("f" if dtype == np.float32 else "")
+            f = {n: getattr(_lib, f"{pre}_{n}") for n in
+                 ("create", "evaluate", "evaluate_many", "destroy", "stats", "options", "direct",
+                  "estimate_bytes")}
+            f["create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
+            f["evaluate"].argtypes = [_P, _P, _P]
+            f["evaluate_many"].argtypes = [_P, ctypes.c_int, _P, _P]
+            f["destroy"].argtypes = [_P]
+            f["destroy"].restype = None
+            f["stats"].argtypes = [_P, ctypes.POINTER(_Stats)]
+            f["options"].argtypes = [_P, ctypes.POINTER(_Opts)]
+            f["direct"].argtypes = [ctypes.POINTER(_Opts), _I64, _P, _P, _I64, _P, _P]
+            f["estimate_bytes"].argtypes = [ctypes.POINTER(_Opts), _I64, _I64,
+                                            ctypes.POINTER(ctypes.c_double)]
+            _funcs[key] = f
+        return _funcs[key]
 
 
 def _kernel(kernel):
@@ -171,25 +201,139 @@ def _points(x, dtype, what):
     return arr
 
 
-def _opts(order=None, nthreads=None, kernel_param=None, leaf_size=None, period=None, tol=None,
-          verbose=False):
+# ctypes would store order=2**32+8 as 8 and order=6.7 as 6 without a word,
+# so every option is checked here, and refused with the Python argument's
+# name, before it reaches a C field.
+
+def _show(v):
+    return f"{v} ({type(v).__name__})" if isinstance(v, np.generic) else repr(v)
+
+
+def _is_int(v):
+    return isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_))
+
+
+def _is_real(v):
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+
+
+def _int(v, name, lo, hi, where, code, none=" (or None)"):
+    """v as a Python int in lo..hi; None is 0 (the C default) when `none`
+    says what it means, else refused"""
+    want = f"{name} must be an integer in {lo}..{hi}{none or ''}"
+    if v is None and none:
+        return 0
+    if not _is_int(v):
+        raise TypeError(f"{where}: {want}, not {_show(v)}")
+    if not lo <= int(v) <= hi:
+        raise OptionError(code, where, f"{want}, not {int(v)}")
+    return int(v)
+
+
+def _order(v, where):
+    # 0 is the C default, as None
+    if _is_int(v) and int(v) == 0:
+        return 0
+    return _int(v, "order", 2, MAX_ORDER, where, _ERR_ORDER)
+
+
+def _reals(v, name, where, shapes, code):
+    """v as a float64 array shaped one of shapes; TypeError for anything
+    but real numbers (bools and strings included)"""
+    arr = np.asarray(v)
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(f"{where}: {name} must be real numbers, not {_show(v)}")
+    if arr.shape not in shapes:
+        raise OptionError(code, where, f"{name} must be a number or up to "
+                          f"{max(s[0] for s in shapes if s)} of them, not shaped {arr.shape}")
+    return arr.astype(np.float64).reshape(-1)
+
+
+def _kernel_param(kernel, v, where):
+    """kernel_param (None: the kernel's default) as 4 doubles. An explicit 0
+    would be the C default, not a zero screening or viscosity, and a value
+    given to a kernel without parameters would be ignored: both refused."""
+    out = [0.0] * 4
+    if v is None:
+        return out
+    prm = _reals(v, "kernel_param", where, [(), (1,), (2,), (3,), (4,)], _ERR_PARAM)
+    if not np.all(np.isfinite(prm)):
+        raise OptionError(_ERR_PARAM, where, f"kernel_param must be finite, not {prm.tolist()}")
+    k = _kernels.BY_NAME[kernel]
+    p = k.param
+    if p is None:
+        if np.any(prm != 0.0):
+            raise OptionError(_ERR_PARAM, where, f"kernel {kernel!r} takes no kernel_param "
+                              f"(give None), not {prm.tolist()}")
+        return out
+    if np.any(prm[1:] != 0.0):
+        raise OptionError(_ERR_PARAM, where, f"kernel {kernel!r} takes one kernel_param "
+                          f"({p.symbol}), not {prm.tolist()}")
+    x = float(prm[0])
+    if x == 0.0:
+        raise OptionError(_ERR_PARAM, where, f"kernel_param: {kernel!r} needs {p.valid}, not 0 "
+                          f"(None gives the default {p.symbol} = {p.default:g})")
+    if not p.lo <= x <= p.hi:
+        raise OptionError(_ERR_PARAM, where, f"kernel_param: {kernel!r} needs {p.valid}, not {x!r}")
+    out[0] = x
+    return out
+
+
+def _tol(v, order, where):
+    if v is None:
+        return 0.0
+    want = "tol must be a finite number > 0 (or None)"
+    if not _is_real(v):
+        raise TypeError(f"{where}: {want}, not {_show(v)}")
+    t = float(v)
+    if not (t > 0.0 and math.isfinite(t)):
+        raise OptionError(_ERR_TOL, where, f"{want}, not {t!r}")
+    if order:
+        raise OptionError(_ERR_TOL, where, f"give tol or order, not both (tol={t!r}, order={order})")
+    return t
+
+
+def _period(v, where):
+    if v is None:
+        return [0.0] * 3
+    per = _reals(v, "period", where, [(), (1,), (3,)], _ERR_PERIOD)
+    per = np.broadcast_to(per, (3,))
+    if not np.all(np.isfinite(per) & (per >= 0.0)):
+        raise OptionError(_ERR_PERIOD, where, f"period must be finite and >= 0 (0: free), not "
+                          f"{per.tolist()}")
+    if len(set(per[per > 0.0].tolist())) > 1:
+        raise OptionError(_ERR_PERIOD, where, f"every periodic direction must have the same "
+                          f"period, not {per.tolist()}")
+    return per.tolist()
+
+
+def _verbose(v, where):
+    if not isinstance(v, (bool, np.bool_)):
+        raise TypeError(f"{where}: verbose must be True or False, not {_show(v)}")
+    return 1 if v else 0
+
+
+def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size=None,
+          period=None, tol=None, verbose=False, max_depth=None):
     o = _Opts()
-    o.verbose = 1 if verbose else 0
-    o.order = 0 if order is None else int(order)
-    o.tol = 0.0 if tol is None else float(tol)
-    o.nthreads = 0 if nthreads is None else int(nthreads)
-    o.leaf_size = 0 if leaf_size is None else int(leaf_size)
-    if kernel_param is not None:
-        prm = np.atleast_1d(np.asarray(kernel_param, dtype=np.float64))
-        if prm.ndim != 1 or prm.size > 4:
-            raise ValueError("kifmm: kernel_param holds at most 4 numbers")
-        for i, v in enumerate(prm):
-            o.kernel_param[i] = float(v)
-    if period is not None:
-        per = np.broadcast_to(np.asarray(period, dtype=np.float64), (3,))
-        for i in range(3):
-            o.period[i] = float(per[i])
+    o.order = _order(order, where)
+    o.tol = _tol(tol, o.order, where)
+    o.nthreads = _int(nthreads, "nthreads", 0, MAX_THREADS, where, _ERR_NTHREADS,
+                      " (None or 0: all)")
+    o.leaf_size = _int(leaf_size, "leaf_size", 0, _INT_MAX, where, _ERR_LEAF_SIZE,
+                       " (None or 0: chosen per order)")
+    o.max_depth = _int(max_depth, "max_depth", 0, MAX_DEPTH, where, _ERR_DEPTH,
+                       " (None or 0: 16)")
+    o.verbose = _verbose(verbose, where)
+    for i, x in enumerate(_kernel_param(kernel, kernel_param, where)):
+        o.kernel_param[i] = x
+    for i, x in enumerate(_period(period, where)):
+        o.period[i] = x
     return o
+
+
+def _count(v, name, where):
+    return _int(v, name, 0, MAX_POINTS, where, _ERR_COUNT, None)
 
 
 def _densities(d, dtype, ns, sd):
@@ -209,62 +353,124 @@ def _ptr(a):
     return a.ctypes.data_as(_P)
 
 
+_NO_COPY = ("kifmm.FMM cannot be copied or pickled: it owns a C handle; create another FMM on "
+            "the same points")
+
+
 class FMM:
     """An FMM for one kernel on fixed sources and targets (the tree and the
     operators are built here, once); ``evaluate`` as often as needed.
 
-    kernel        a name from kifmm.KERNELS
+    kernel        a name from kifmm.KERNELS (the list below;
+                  kifmm.kernel_help(name) gives its formula and layouts)
     sources       (nsources, 3) points
     targets       (ntargets, 3) points; None: the sources themselves
-    order         expansion order (2 to 12; None: 6): about ``order`` digits
-    tol           instead of order: the relative L2 error wanted (1e-3 ...
-                  1e-10; the order is picked from a measured table, and
-                  ``options["order"]`` reports it)
+    order         expansion order, an integer 2 to 12 (None: 6): about
+                  ``order`` digits
+    tol           instead of order: the relative L2 error wanted, a finite
+                  number > 0 (below), ``options["order"]`` reports the
+                  order picked
     dtype         numpy.float64 or numpy.float32 (the float instances)
-    nthreads      OpenMP threads (None: all)
-    kernel_param  up to 4 numbers (yukawa: lambda; stokes kernels: viscosity)
-    leaf_size     points per leaf (None: chosen per order)
-    period        a period L (or 3 of them, 0 = free) for periodic boundaries
+    nthreads      OpenMP threads, 0 to 1024 (None or 0: all)
+    kernel_param  the kernel's parameter (yukawa kernels: lambda > 0;
+                  stokes, stokes_grad, stokes_pvel: the viscosity mu > 0),
+                  a number or a list of up to 4; None: the default (1). An
+                  explicit 0 is refused, and so is a nonzero value for a
+                  kernel without parameters
+    leaf_size     points per leaf, an integer >= 1 (None or 0: chosen per
+                  order)
+    max_depth     deepest tree level, 1 to 20 (None or 0: 16); boxes there
+                  stay leaves whatever they hold
+    period        a period L (or 3 of them, 0 = free) for periodic
+                  boundaries; finite, >= 0, every nonzero one the same
     verbose       True: one line per stage of create and evaluate, with its
                   time and the memory held, on stderr
 
+    tol: the order is picked so that every output of the kernel (potential,
+    gradient, Hessian, velocity, pressure, velocity gradient) meets tol in
+    relative L2 error on the measured distributions; the first output is
+    then at most 30x more accurate than asked; see docs/api.md, Tolerance.
+    A tol below what the largest order reaches raises KifmmError.
+
+    Integers must be Python or numpy integers and numbers real (bools,
+    strings and floats where an integer is wanted raise TypeError); values
+    out of range raise kifmm.OptionError, a ValueError naming the argument
+    (and a KifmmError with the library's code). Errors of the library
+    itself raise KifmmError.
+
     Arrays are converted to C-contiguous ``dtype`` once, when they are not
     already; the library keeps no reference to them.
-    """
+
+    Threads: one FMM may be shared between threads. Every method that uses
+    the library's handle (evaluate, stats, options, close) holds the
+    object's lock, so concurrent calls on one object run one after the
+    other (each releases the GIL while it runs); close() waits for a running
+    call. For parallel evaluations create one FMM per thread. After close(),
+    evaluate, stats and options raise ValueError. An FMM cannot be copied or
+    pickled (TypeError): it owns a C handle.
+
+    Kernels (in: densities per source, out: outputs per target; param: the
+    meaning of kernel_param; kifmm.kernel_help(name) for the formula):
+
+"""
+
+    __doc__ += _kernels.summary_table() + "\n"
 
     def __init__(self, kernel, sources, targets=None, *, order=None, tol=None, dtype=np.float64,
-                 nthreads=None, kernel_param=None, leaf_size=None, period=None, verbose=False):
+                 nthreads=None, kernel_param=None, leaf_size=None, period=None, verbose=False,
+                 max_depth=None):
+        self._lock = threading.Lock()
+        self._h = None
         self.kernel = kernel
         self.src_dim, self.trg_dim = _kernel(kernel)
         self.dtype = _dtype(dtype)
         self._f = _api(kernel, self.dtype)
+        self._destroy = self._f["destroy"]
+        opts = _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size, period, tol,
+                     verbose, max_depth)
         src = _points(sources, self.dtype, "sources")
         trg = src if targets is None else _points(targets, self.dtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
-        opts = _opts(order, nthreads, kernel_param, leaf_size, period, tol, verbose)
-        self._h = _P()
-        rc = self._f["create"](ctypes.byref(self._h), ctypes.byref(opts), self.nsources, _ptr(src),
+        h = _P()
+        rc = self._f["create"](ctypes.byref(h), ctypes.byref(opts), self.nsources, _ptr(src),
                                self.ntargets, _ptr(trg))
         if rc != 0:
-            self._h = _P()
             raise KifmmError(rc, f"kifmm_{kernel}_create")
+        self._h = h
+
+    def __repr__(self):
+        state = "closed" if self._h is None else "open"
+        return (f"kifmm.FMM({self.kernel!r}, {self.nsources} sources, {self.ntargets} targets, "
+                f"{np.dtype(self.dtype).name}, {state})")
+
+    def _handle(self):
+        """The C handle; the caller holds self._lock."""
+        if self._h is None:
+            raise ValueError(f"kifmm.FMM({self.kernel!r}) is closed: create another FMM")
+        return self._h
+
+    @property
+    def closed(self):
+        """True after close()."""
+        return self._h is None
 
     def evaluate(self, densities):
         """The outputs at every target, (ntargets, trg_dim), from densities
         shaped (nsources, src_dim) (or (nsources,) for one component); with
         a leading axis of k density sets, k output blocks (k, ntargets,
-        trg_dim), computed together."""
-        if not self._h:
-            raise ValueError("kifmm: this FMM is closed")
+        trg_dim), computed together. Calls on one object from several
+        threads run one after the other."""
         d, nrhs, lead = _densities(densities, self.dtype, self.nsources, self.src_dim)
         shape = (self.ntargets, self.trg_dim) if lead is None else (lead, self.ntargets, self.trg_dim)
         out = np.empty(shape, dtype=self.dtype)
-        if nrhs == 0:
-            return out
-        if nrhs == 1:
-            rc = self._f["evaluate"](self._h, _ptr(d), _ptr(out))
-        else:
-            rc = self._f["evaluate_many"](self._h, nrhs, _ptr(d), _ptr(out))
+        with self._lock:
+            h = self._handle()
+            if nrhs == 0:
+                return out
+            if nrhs == 1:
+                rc = self._f["evaluate"](h, _ptr(d), _ptr(out))
+            else:
+                rc = self._f["evaluate_many"](h, nrhs, _ptr(d), _ptr(out))
         if rc != 0:
             raise KifmmError(rc, f"kifmm_{self.kernel}_evaluate")
         return out
@@ -273,7 +479,8 @@ class FMM:
     def stats(self):
         """The tree, the memory held and the last evaluate's times (dict)."""
         s = _Stats()
-        rc = self._f["stats"](self._h, ctypes.byref(s))
+        with self._lock:
+            rc = self._f["stats"](self._handle(), ctypes.byref(s))
         if rc != 0:
             raise KifmmError(rc, f"kifmm_{self.kernel}_stats")
         out = {name: getattr(s, name) for name, _ in _Stats._fields_}
@@ -284,7 +491,8 @@ class FMM:
     def options(self):
         """The options in use, every default resolved (dict)."""
         o = _Opts()
-        rc = self._f["options"](self._h, ctypes.byref(o))
+        with self._lock:
+            rc = self._f["options"](self._handle(), ctypes.byref(o))
         if rc != 0:
             raise KifmmError(rc, f"kifmm_{self.kernel}_options")
         return {"order": o.order, "leaf_size": o.leaf_size, "max_depth": o.max_depth,
@@ -292,10 +500,13 @@ class FMM:
                 "period": list(o.period), "tol": o.tol, "verbose": bool(o.verbose)}
 
     def close(self):
-        """Free the library's handle now (also done when the object goes)."""
-        if getattr(self, "_h", None):
-            self._f["destroy"](self._h)
-            self._h = _P()
+        """Free the library's handle now (also done when the object goes);
+        waits for a call running in another thread. Closing twice is
+        harmless."""
+        with self._lock:
+            if self._h is not None:
+                self._destroy(self._h)
+                self._h = None
 
     def __enter__(self):
         return self
@@ -304,7 +515,40 @@ class FMM:
         self.close()
 
     def __del__(self):
-        self.close()
+        # No other thread can hold a reference, so the lock is free unless
+        # this thread collects the object inside one of its own calls; a
+        # blocking acquire there would deadlock, so the handle is left.
+        # Exceptions are swallowed: at interpreter exit ctypes may be gone.
+        lock, h = getattr(self, "_lock", None), getattr(self, "_h", None)
+        if lock is None or h is None:
+            return
+        try:
+            if lock.acquire(blocking=False):
+                try:
+                    if self._h is not None:
+                        self._destroy(self._h)
+                        self._h = None
+                finally:
+                    lock.release()
+        except Exception:
+            pass
+
+    def __copy__(self):
+        """Refused (TypeError): a copy would share the C handle, and both
+        would free it."""
+        raise TypeError(_NO_COPY)
+
+    def __deepcopy__(self, memo):
+        """Refused (TypeError), as __copy__."""
+        raise TypeError(_NO_COPY)
+
+    def __reduce_ex__(self, protocol):
+        """Refused (TypeError): a pickle cannot carry the C handle."""
+        raise TypeError(_NO_COPY)
+
+    def __getstate__(self):
+        """Refused (TypeError), as __reduce_ex__."""
+        raise TypeError(_NO_COPY)
 
 
 def direct(kernel, sources, densities, targets, kernel_param=None, *, dtype=np.float64,
@@ -312,39 +556,42 @@ def direct(kernel, sources, densities, targets, kernel_param=None, *, dtype=np.f
     """The same sums as FMM(kernel, sources, targets).evaluate(densities),
     computed directly (every source at every target, from the kernel's own
     definition, in double); (ntargets, trg_dim). The reference to check an
-    FMM against, at a few targets. One density set."""
+    FMM against, at a few targets. One density set. kernel_param and
+    nthreads as FMM's."""
     sd, td = _kernel(kernel)
     dt = _dtype(dtype)
     f = _api(kernel, dt)
+    opts = _opts("kifmm.direct", kernel, nthreads=nthreads, kernel_param=kernel_param)
     src = _points(sources, dt, "sources")
     trg = _points(targets, dt, "targets")
     d, nrhs, lead = _densities(densities, dt, src.shape[0], sd)
     if lead is not None:
         raise ValueError("kifmm.direct: one density set (no leading axis)")
     out = np.empty((trg.shape[0], td), dtype=dt)
-    rc = f["direct"](ctypes.byref(_opts(nthreads=nthreads, kernel_param=kernel_param)),
-                     src.shape[0], _ptr(src), _ptr(d), trg.shape[0], _ptr(trg), _ptr(out))
+    rc = f["direct"](ctypes.byref(opts), src.shape[0], _ptr(src), _ptr(d), trg.shape[0],
+                     _ptr(trg), _ptr(out))
     if rc != 0:
         raise KifmmError(rc, f"kifmm_{kernel}_direct")
     return out
 
 
 def estimate_bytes(kernel, nsources, ntargets=None, *, order=None, tol=None, dtype=np.float64,
-                   nthreads=None, kernel_param=None, leaf_size=None, period=None):
+                   nthreads=None, kernel_param=None, leaf_size=None, period=None, max_depth=None):
     """The memory, in bytes, that FMM(kernel, sources, targets, ...) would
     hold (its stats["bytes"]) for nsources sources and ntargets targets
     (None: the targets are the sources), before any point exists. A model
     of the tree of points spread through a volume: points on surfaces or in
     clusters make other trees (docs/api.md, "Memory", gives the ratios
-    measured). Options as FMM's."""
+    measured). The counts are integers in 0..kifmm.MAX_POINTS; options as
+    FMM's."""
+    where = "kifmm.estimate_bytes"
     _kernel(kernel)
     dt = _dtype(dtype)
     f = _api(kernel, dt)
-    ns, nt = int(nsources), -1 if ntargets is None else int(ntargets)
-    if ns < 0 or (ntargets is not None and nt < 0):
-        raise ValueError("kifmm.estimate_bytes: counts must not be negative")
-    o = _opts(order=order, tol=tol, nthreads=nthreads, kernel_param=kernel_param,
-              leaf_size=leaf_size, period=period)
+    ns = _count(nsources, "nsources", where)
+    nt = -1 if ntargets is None else _count(ntargets, "ntargets", where)
+    o = _opts(where, kernel, order=order, tol=tol, nthreads=nthreads, kernel_param=kernel_param,
+              leaf_size=leaf_size, period=period, max_depth=max_depth)
     out = ctypes.c_double(0.0)
     rc = f["estimate_bytes"](ctypes.byref(o), ns, nt, ctypes.byref(out))
     if rc != 0:
