@@ -10,7 +10,8 @@
  * laplace, laplacef, stokes, yukawa and laplace with the dense M2L);
  * uniform points with one, two and three periodic directions (100,000 and
  * 200,000 of them, order 6); points on a
- * sphere and clustered (bench/points.h). One line per case, then per group
+ * sphere and clustered, and Plummer's sphere (100,000 and 1M points;
+ * bench/points.h). One line per case, then per group
  * the ratios' range, the middle 95 % and the mean |ln(held / estimate)|.
  * --quick: 30,000 points and orders 4 and 6 only. Memory only: timings do
  * not matter here, and OPENBLAS_CORETYPE is left alone. */
@@ -108,7 +109,7 @@ static void group_summary(group *g)
 }
 
 /* one case: measure, print its line, add its ratio to g */
-static void run_case(group *g, int k, int dist, int64_t n, int p, int sep, int nper,
+static void run_case(group *g, int k, const char *dname, int64_t n, int p, int sep, int nper,
                      const double *x, const double *y)
 {
     kifmm_opts o;
@@ -121,7 +122,7 @@ static void run_case(group *g, int k, int dist, int64_t n, int p, int sep, int n
     g->r[g->n++] = held / est;
     printf("%-20s %-9s %8lld  p %2d  %-8s  periodic %d  held %9.1f MiB  estimate %9.1f MiB  "
            "%.3f\n",
-           kernel_names[k], dist_names[dist], (long long)n, p, sep ? "separate" : "same", nper,
+           kernel_names[k], dname, (long long)n, p, sep ? "separate" : "same", nper,
            held / 1048576.0, est / 1048576.0, held / est);
     fflush(stdout);
 }
@@ -141,6 +142,7 @@ int main(int argc, char **argv)
     static group gu = {"uniform", {0}, 0}, gp = {"uniform, periodic", {0}, 0};
     static group gs = {"sphere and clustered, laplace-like", {0}, 0};
     static group gy = {"sphere and clustered, yukawa", {0}, 0};
+    static group gpl = {"Plummer, laplace-like", {0}, 0}, gpy = {"Plummer, yukawa", {0}, 0};
     int k, i, j, sep, per, dist;
     if (!x || !y || !q) return 1;
     printf("kifmm estimate_bytes against stats.bytes (%s)\n", quick ? "--quick" : "full");
@@ -150,18 +152,18 @@ int main(int argc, char **argv)
             make_points(DIST_CUBE, ns[i], 1, 8, y, q);
             for (j = 0; j < np; j++)
                 for (sep = 0; sep < 2; sep++)
-                    run_case(&gu, k, DIST_CUBE, ns[i], ps[j], sep, 0, x, y);
+                    run_case(&gu, k, "cube", ns[i], ps[j], sep, 0, x, y);
         }
     if (!quick) {
         make_points(DIST_CUBE, nmax, 1, 7, x, q);
         for (k = 0; k < NKERNEL; k++)
-            for (j = 4; j <= 8; j += 2) run_case(&gu, k, DIST_CUBE, nmax, j, 0, 0, x, y);
+            for (j = 4; j <= 8; j += 2) run_case(&gu, k, "cube", nmax, j, 0, 0, x, y);
     }
     for (k = 0; k < 4; k++)
         for (i = 0; i < (quick ? 1 : 2); i++) {
             const int64_t n = quick ? 30000 : 100000 * (i + 1);
             make_points(DIST_CUBE, n, 1, 7, x, q);
-            for (per = 1; per <= 3; per++) run_case(&gp, k, DIST_CUBE, n, 6, 0, per, x, y);
+            for (per = 1; per <= 3; per++) run_case(&gp, k, "cube", n, 6, 0, per, x, y);
         }
     for (dist = DIST_SPHERE; dist <= DIST_CLUSTERED; dist++)
         for (i = 0; i < (quick ? 1 : 3); i++) {
@@ -169,13 +171,22 @@ int main(int argc, char **argv)
             make_points(dist, n, 1, 7, x, q);
             for (k = 0; k < 4; k++)
                 for (j = 4; j <= (quick ? 6 : 8); j += 2)
-                    run_case(k == 3 ? &gy : &gs, k, dist, n, j, 0, 0, x, y);
+                    run_case(k == 3 ? &gy : &gs, k, dist_names[dist], n, j, 0, 0, x, y);
         }
+    for (i = 0; i < (quick ? 1 : 2); i++) {
+        const int64_t n = i == 0 ? 100000 : 1000000;
+        make_plummer(n, 1, 7, x, q);
+        for (k = 0; k < 4; k++)
+            for (j = 4; j <= (quick ? 6 : 8); j += 2)
+                run_case(k == 3 ? &gpy : &gpl, k, "Plummer", n, j, 0, 0, x, y);
+    }
     printf("\n");
     group_summary(&gu);
     group_summary(&gp);
     group_summary(&gs);
     group_summary(&gy);
+    group_summary(&gpl);
+    group_summary(&gpy);
     free(x);
     free(y);
     free(q);

@@ -75,4 +75,30 @@ static void make_points(int dist, int64_t n, int dim, uint64_t seed, double *xyz
     for (i = 0; i < dim * n; i++) q[i] = 2.0 * random01(&st) - 1.0;
 }
 
+/* Plummer's sphere of scale radius 1 (radii from the cumulative mass, r =
+ * (u^(-2/3) - 1)^(-1/2), directions uniform), the usual test of a galaxy
+ * code: half the points within 1.3, a few hundred times that at the
+ * largest radius of 1e5 to 1e6 points. */
+static void make_plummer(int64_t n, int dim, uint64_t seed, double *xyz, double *q)
+{
+    uint64_t st = seed;
+    int64_t i;
+    int k;
+    for (i = 0; i < n; i++) {
+        double *x = xyz + 3 * i, u, r, r2;
+        do u = random01(&st);
+        while (u < 1e-12);
+        r = 1.0 / sqrt(pow(u, -2.0 / 3.0) - 1.0 + 1e-300);
+        do {
+            r2 = 0;
+            for (k = 0; k < 3; k++) {
+                x[k] = random_normal(&st);
+                r2 += x[k] * x[k];
+            }
+        } while (r2 < 1e-20);
+        for (k = 0; k < 3; k++) x[k] *= r / sqrt(r2);
+    }
+    for (i = 0; i < dim * n; i++) q[i] = 2.0 * random01(&st) - 1.0;
+}
+
 #endif
