@@ -23,6 +23,9 @@
 #                   kifmm::headers); LIB_CFLAGS="-O2 -fopenmp" for a library
 #                   without -march=native (one to copy to other machines)
 #   make uninstall  the same PREFIX and DESTDIR: removes what install put there
+#   make fuzz       build tests/fuzz_create.c (clang libFuzzer, ASan, UBSan) and
+#                   fuzz the API for FUZZ_TIME seconds (default 300; make test
+#                   runs 60) from tests/fuzz_corpus/ (tests/fuzz.sh)
 #   make clean      remove build/
 #
 # On machines where OpenBLAS misdetects the CPU, set OPENBLAS_CORETYPE
@@ -34,7 +37,7 @@ ARGS ?=
 EXAMPLE_CFLAGS := -std=c99 -O2 -march=native -fopenmp -Wall -Wextra -pedantic
 LDLIBS := -llapacke -lopenblas -lm
 
-APT_INSTALL := apt-get update && apt-get install -y libopenblas-dev liblapacke-dev clang libomp-dev cmake pkg-config python3-venv
+APT_INSTALL := apt-get update && apt-get install -y libopenblas-dev liblapacke-dev clang libclang-rt-dev libomp-dev cmake pkg-config python3-venv
 
 # cblas.h is found by the compiler's default search path on Debian (it sits in
 # /usr/include/<multiarch>/ or /usr/include/); only if it is not, look for it
@@ -72,6 +75,8 @@ fi; \
 if command -v clang >/dev/null 2>&1; then \
   printf '\043include <omp.h>\nint main(void){return omp_get_max_threads() < 1;}\n' \
     | clang -fopenmp -x c - -o /dev/null >/dev/null 2>&1 || missing="$$missing omp.h(clang)"; \
+  printf 'int LLVMFuzzerTestOneInput(const unsigned char *d, unsigned long n){(void)d;(void)n;return 0;}\n' \
+    | clang -fsanitize=fuzzer -x c - -o /dev/null >/dev/null 2>&1 || missing="$$missing libclang_rt.fuzzer"; \
 fi
 endef
 
@@ -125,6 +130,13 @@ test: deps
 	./$(BUILD)/double_layer 64 6
 	bash tests/install.sh
 	bash tests/python.sh
+	FUZZ_TIME=60 EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/fuzz.sh
+
+# the libFuzzer target (tests/fuzz.sh: build, corpus copy in build/fuzz/)
+FUZZ_TIME ?= 300
+.PHONY: fuzz
+fuzz:
+	FUZZ_TIME=$(FUZZ_TIME) EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/fuzz.sh
 
 # ---- the compiled library and its installation
 PREFIX ?= /usr/local
