@@ -136,7 +136,7 @@ test: deps
 FUZZ_TIME ?= 300
 .PHONY: fuzz
 fuzz:
-	FUZZ_TIME=$(FUZZ_TIME) EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/fuzz.sh
+	FUZZ_TIME=$(FUZZ_TIME) FUZZ_KEEP=$(FUZZ_KEEP) EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/fuzz.sh
 
 # ---- the compiled library and its installation
 PREFIX ?= /usr/local

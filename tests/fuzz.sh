@@ -5,8 +5,9 @@
 #   bash tests/fuzz.sh                  (make test runs it this way)
 #   FUZZ_TIME=300 bash tests/fuzz.sh    (make fuzz FUZZ_TIME=300)
 #
-# The run starts from tests/fuzz_corpus/, copied into build/fuzz/corpus/ (new
-# inputs accumulate there, not in the repository).  A crash, leak, sanitizer
+# The run starts from tests/fuzz_corpus/, copied afresh into build/fuzz/corpus/
+# (new inputs go there, not into the repository; FUZZ_KEEP=1 starts from
+# what an earlier run left there instead).  A crash, leak, sanitizer
 # report or failed check leaves build/fuzz/crash-* (or leak-*, timeout-*,
 # oom-*) and the log build/fuzz/fuzz.log; reproduce with
 #   FUZZ_TRACE=1 build/fuzz_create build/fuzz/crash-...
@@ -14,7 +15,7 @@
 # "fuzz: skipped (...)", the last only where clang or its libFuzzer runtime is
 # missing (Debian: the clang and libclang-rt-dev packages).
 #
-# Environment: FUZZ_TIME (seconds), EXTRA_CFLAGS (e.g. an -I for cblas.h),
+# Environment: FUZZ_TIME (seconds), FUZZ_KEEP, EXTRA_CFLAGS (e.g. an -I for cblas.h),
 # FUZZ_ARGS (more libFuzzer options), CLANG (default clang).
 set -u
 cd "$(dirname "$0")/.." || exit 1
@@ -52,6 +53,10 @@ if [ ! -x "$BIN" ] || [ tests/fuzz_create.c -nt "$BIN" ] || [ kifmm.h -nt "$BIN"
     fi
 fi
 
+# a fresh copy each time: libFuzzer first runs every input of its corpus, and
+# one grown by earlier runs (thousands of inputs) would take minutes of the
+# time given; FUZZ_KEEP=1 keeps the grown one (make fuzz FUZZ_KEEP=1)
+if [ "${FUZZ_KEEP:-0}" != 1 ]; then rm -rf "$OUT/corpus"; fi
 mkdir -p "$OUT/corpus"
 cp -p tests/fuzz_corpus/* "$OUT/corpus/" 2>/dev/null
 rm -f "$OUT"/crash-* "$OUT"/leak-* "$OUT"/timeout-* "$OUT"/oom-* "$OUT"/slow-unit-*
