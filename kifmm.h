@@ -6761,10 +6761,32 @@ KIFMM__FN void KIFMM__F(__density_of)(const double *prm, const KIFMM__R *in, dou
 #endif
 }
 
+/* e[r]: the power of two that brings vector r's largest density into [0.5,
+ * 1). The passes run on densities scaled by 2^-e and the outputs are scaled
+ * back: exact (powers of two), and no float M2L spectra or float instance
+ * overflow or lose digits to subnormals on densities far from 1 (masses of
+ * 1e40 kg, charges of 1e-19 C). */
+KIFMM__FN void KIFMM__F(__density_scale)(const KIFMM_NAME *h, int nr, const KIFMM__R *d, int *e)
+{
+    const size_t uper = (size_t)h->tree.ns * KIFMM__UD;
+    int r;
+    for (r = 0; r < nr; r++) {
+        double m = 0.0;
+        KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads) reduction(max : m) if (uper > 65536))
+        for (size_t i = 0; i < uper; i++) {
+            const double v = fabs((double)d[r * uper + i]);
+            m = v > m ? v : m;
+        }
+        e[r] = 0;
+        if (m > 0.0) (void)frexp(m, &e[r]);
+    }
+}
+
 /* The densities of nr vectors in sorted order, each sorted source writing
- * its own (through the kernel's _density map, if it has one). */
+ * its own (through the kernel's _density map, if it has one), times 2^-e[r]
+ * (__density_scale). */
 KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work) *w, int nr,
-                                            const KIFMM__R *d)
+                                            const KIFMM__R *d, const int *e)
 {
     const kifmm__tree *t = &h->tree;
     const size_t qper = (size_t)t->ns * KIFMM__QD, uper = (size_t)t->ns * KIFMM__UD;
@@ -6773,9 +6795,10 @@ KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work
         int k, r;
         for (r = 0; r < nr; r++) {
             KIFMM__R *q = w->qs + r * qper + i * KIFMM__QD;
+            const double sc = ldexp(1.0, -e[r]);
             double lin[KIFMM__QD];
             KIFMM__F(__density_of)(h->opts.kernel_param, d + r * uper + t->sperm[i] * KIFMM__UD, lin);
-            for (k = 0; k < KIFMM__QD; k++) q[k] = (KIFMM__R)lin[k];
+            for (k = 0; k < KIFMM__QD; k++) q[k] = (KIFMM__R)(lin[k] * sc);
         }
     }
 }
@@ -6790,8 +6813,10 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     const kifmm__tree *t = &h->tree;
     KIFMM__F(__work) *w = h->work.w;
     const size_t oper = (size_t)t->nt * KIFMM__TD;
-    int l;
-    KIFMM__F(__gather_densities)(h, w, nr, d);
+    int l, e[KIFMM__RHS_MAX], r, scaled = 0;
+    KIFMM__F(__density_scale)(h, nr, d, e);
+    for (r = 0; r < nr; r++) scaled |= e[r] != 0;
+    KIFMM__F(__gather_densities)(h, w, nr, d, e);
     w->dst = o;
     memset(w->outs ? w->outs : w->dst, 0, (size_t)nr * oper * sizeof(KIFMM__R));
     for (l = t->nlev - 1; l >= kifmm__lmin(t); l--) KIFMM__F(__upward)(h, w, nr, l);
@@ -6799,14 +6824,24 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     KIFMM__F(__leaves)(h, w, nr);
     if (h->lat.bq) KIFMM__F(__background)(h, w, nr);
     w->dst = NULL;
-    if (!w->outs) return;
+    if (!w->outs) {
+        for (r = 0; r < nr && scaled; r++) {
+            const double up = ldexp(1.0, e[r]);
+            KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
+            for (size_t j = 0; j < oper; j++) o[r * oper + j] = (KIFMM__R)(o[r * oper + j] * up);
+        }
+        return;
+    }
     /* each sorted target i writes its own outputs */
     KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
     for (int64_t i = 0; i < t->nt; i++) {
-        int k, r;
-        for (r = 0; r < nr; r++)
+        int k, rr;
+        for (rr = 0; rr < nr; rr++) {
+            const double up = ldexp(1.0, e[rr]);
             for (k = 0; k < KIFMM__TD; k++)
-                o[r * oper + t->tperm[i] * KIFMM__TD + k] = w->outs[r * oper + i * KIFMM__TD + k];
+                o[rr * oper + t->tperm[i] * KIFMM__TD + k] =
+                    (KIFMM__R)(w->outs[rr * oper + i * KIFMM__TD + k] * up);
+        }
     }
 }
 

@@ -15,7 +15,10 @@
  *     up had given potentials 25-47 % off, 1e-110 and below inf) against
  *     the Ewald sums of the points scaled to a unit cell, times 1 / L; two
  *     periodic directions at the extremes against the 2-D Ewald sums;
- *   - outputs that overflow from finite inputs: KIFMM_ERR_OVERFLOW. */
+ *   - outputs that overflow from finite inputs: KIFMM_ERR_OVERFLOW;
+ *   - densities of 1e40 and 1e-40 (and 1e+-300) against direct sums: the
+ *     float M2L spectra of p <= 4 had overflowed (KIFMM_ERR_OVERFLOW) or
+ *     lost every digit. */
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace
 #define KIFMM_REAL float
@@ -302,6 +305,47 @@ static void test_overflow(void)
           "direct, 1e300 / (4 pi 1e-150): rc=%d, out untouched", rc);
 }
 
+/* densities far from 1 (masses in kilograms, charges in coulombs): at p =
+ * 4 the M2L runs on float spectra, whose range a density of 1e40 left and
+ * where one of 1e-40 lost its digits to subnormals; against direct sums */
+static void test_density_scale(void)
+{
+    enum { NS = 3000, NC = 100 };
+    static const double scale[] = {1e40, 1e-40, 1e300, 1e-300};
+    t_rng r = t_rng_seed(10);
+    double *x = t_doubles(3 * NS), *q = t_doubles(NS), *out = t_doubles(NS), *ref = t_doubles(NC);
+    int s, rc, p;
+    t_gen_cube(&r, NS, x, 0.0, 1.0);
+    for (p = 4; p <= 6; p += 2)
+        for (s = 0; s < 4; s++) {
+            kifmm_opts o = t_opts(p, 0, 0);
+            kifmm_laplace *h = NULL;
+            int k;
+            r = t_rng_seed(11);
+            for (k = 0; k < NS; k++) q[k] = (t_rand01(&r) - 0.5) * scale[s];
+            rc = kifmm_laplace_create(&h, &o, NS, x, NS, x);
+            if (!rc) rc = kifmm_laplace_evaluate(h, q, out);
+            kifmm_laplace_destroy(h);
+            if (s >= 2) { /* 1e300: the sums may leave the range; then refused */
+                CHECK(rc == KIFMM_SUCCESS || rc == KIFMM_ERR_OVERFLOW, "densities of %g, p = %d: rc=%d",
+                      scale[s], p, rc);
+                if (rc) continue;
+            }
+            CHECK(rc == KIFMM_SUCCESS, "densities of %g, p = %d: rc=%d (%s)", scale[s], p, rc,
+                  kifmm_strerror(rc));
+            if (rc) continue;
+            sums(NS, x, q, NC, x, ref);
+            for (k = 0; k < NC; k++) out[k] /= scale[s], ref[k] /= scale[s]; /* squares in range */
+            /* the same points at densities of 1 measure 5.7e-5 (p = 4), 7.7e-7 (p = 6) */
+            CHECK_ERR(t_rel_diff(NC, out, 1, ref, 1), p == 4 ? 4e-4 : 1e-5,
+                      "densities of %g, p = %d, against direct sums", scale[s], p);
+        }
+    free(x);
+    free(q);
+    free(out);
+    free(ref);
+}
+
 int main(void)
 {
     t_group("direct: NULL densities without targets, overlap");
@@ -314,5 +358,7 @@ int main(void)
     test_period_scale();
     t_group("outputs that overflow");
     test_overflow();
+    t_group("densities far from 1");
+    test_density_scale();
     return t_finish();
 }
