@@ -1104,7 +1104,10 @@ static inline void kifmm_kernel__avx512_laplace_grad(__m512d *acc, __mmask8 vali
     __m512d dy = _mm512_sub_pd(Y, _mm512_maskz_loadu_pd(valid, sy));
     __m512d dz = _mm512_sub_pd(Z, _mm512_maskz_loadu_pd(valid, sz));
     __m512d r2 = _mm512_fmadd_pd(dz, dz, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dx, dx)));
-    __m512d inv = kifmm_kernel__rinv8(r2), qv = _mm512_maskz_loadu_pd(valid, q);
+    /* dead lanes zeroed: their sources load as 0, and for a target within
+     * 1e-154 of 0 their 1 / r^2 overflows, which a zero density would turn
+     * into NaN */
+    __m512d inv = _mm512_maskz_mov_pd(valid, kifmm_kernel__rinv8(r2)), qv = _mm512_maskz_loadu_pd(valid, q);
     /* q / r added on the adder pipes, then reused for q / r^3 */
     __m512d qi = _mm512_mul_pd(qv, inv), qi3 = _mm512_mul_pd(qi, _mm512_mul_pd(inv, inv));
     acc[0] = _mm512_add_pd(acc[0], qi); /* the densities are 0 in dead lanes */
