@@ -18,10 +18,14 @@
  *   - outputs that overflow from finite inputs: KIFMM_ERR_OVERFLOW;
  *   - densities of 1e40 and 1e-40 (and 1e+-300) against direct sums: the
  *     float M2L spectra of p <= 4 had overflowed (KIFMM_ERR_OVERFLOW) or
- *     lost every digit. */
+ *     lost every digit;
+ *   - coincident points at 2.5e-161: outputs 0 (the AVX-512 gradient loop
+ *     had given NaN there). */
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace
 #define KIFMM_REAL float
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
 
 #include "ewald.h"
@@ -346,6 +350,28 @@ static void test_density_scale(void)
     free(ref);
 }
 
+/* every point at one spot near 0 (2.5e-161): every output is 0; the
+ * AVX-512 gradient loop's dead lanes had given NaN there */
+static void test_coincident_tiny(void)
+{
+    enum { NQ = 12 };
+    double s[3 * NQ], t[3 * NQ], q[NQ], out[4 * NQ];
+    int i, rc, same;
+    for (same = 0; same < 2; same++) {
+        kifmm_opts o = t_opts(4, 0, 0);
+        kifmm_laplace_grad *h = NULL;
+        double m = 0.0;
+        for (i = 0; i < 3 * NQ; i++) s[i] = t[i] = 2.5e-161;
+        for (i = 0; i < NQ; i++) q[i] = 1.0;
+        rc = kifmm_laplace_grad_create(&h, &o, NQ, s, NQ, same ? s : t);
+        if (!rc) rc = kifmm_laplace_grad_evaluate(h, q, out);
+        kifmm_laplace_grad_destroy(h);
+        for (i = 0; i < 4 * NQ && !rc; i++) m = fabs(out[i]) > m || out[i] != out[i] ? fabs(out[i]) : m;
+        CHECK(rc == KIFMM_SUCCESS && m == 0.0, "laplace_grad, 12 coincident points at 2.5e-161%s: rc=%d (%s), largest |output| %g",
+              same ? "" : ", targets a copy", rc, kifmm_strerror(rc), m);
+    }
+}
+
 int main(void)
 {
     t_group("direct: NULL densities without targets, overlap");
@@ -360,5 +386,7 @@ int main(void)
     test_overflow();
     t_group("densities far from 1");
     test_density_scale();
+    t_group("coincident points near 0");
+    test_coincident_tiny();
     return t_finish();
 }
