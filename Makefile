@@ -26,6 +26,8 @@
 #   make fuzz       build tests/fuzz_create.c (clang libFuzzer, ASan, UBSan) and
 #                   fuzz the API for FUZZ_TIME seconds (default 300; make test
 #                   runs 60) from tests/fuzz_corpus/ (tests/fuzz.sh)
+#   make bench-tol  the errors of every output per order behind opts.tol's
+#                   tables (bench/bench_tol.c; KERNELS="..." for some)
 #   make clean      remove build/
 #
 # On machines where OpenBLAS misdetects the CPU, set OPENBLAS_CORETYPE
@@ -206,3 +208,13 @@ bench-memory:
 	@mkdir -p $(BUILD)/bench
 	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. bench/bench_memory.c -o $(BUILD)/bench/bench_memory $(LDLIBS)
 	$(BUILD)/bench/bench_memory $(if $(Q),--quick,)
+
+# opts.tol's tables (bench/bench_tol.c): every output's error per order at
+# 20,000 points (two seeds) and 200,000 (one), cube, sphere and clustered;
+# KERNELS="laplace_hess stokes_grad" for some (about 90 minutes for all)
+.PHONY: bench-tol
+bench-tol:
+	@mkdir -p $(BUILD)/bench
+	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. bench/bench_tol.c -o $(BUILD)/bench/bench_tol $(LDLIBS)
+	$(BUILD)/bench/bench_tol -n 20000 -s 2 $(foreach k,$(KERNELS),-k $(k))
+	$(BUILD)/bench/bench_tol -n 200000 -s 1 -p 3 12 $(foreach k,$(KERNELS),-k $(k))

@@ -219,7 +219,7 @@ extern "C++" {
       "(docs/api.md, \"Periodic boundaries\")")                                               \
     X(KIFMM_ERR_TOL, -16,                                                                     \
       "opts.tol is negative, not finite, set together with opts.order, or below what the "    \
-      "largest order reaches for the kernel (laplace: about 1.8e-11; docs/api.md, "           \
+      "largest order reaches for the kernel (laplace: about 2.6e-11; docs/api.md, "           \
       "\"Tolerance\"; float instances 2e-5)")                                                 \
     X(KIFMM_ERR_VERBOSE, -17, "opts.verbose is neither 0 nor 1")                              \
     X(KIFMM_ERR_RANGE, -18,                                                                   \
@@ -499,18 +499,18 @@ KIFMM__FN int kifmm__default_leaf(int order, int multi)
 }
 
 /* opts.tol: the smallest order whose error, 1.5 times the largest measured,
- * is at most tol; 0 if none is. err: the kernel's own measurements
- * (KIFMM_HAS_TOL, kifmm_kernels.h), or NULL for laplace's: its potential,
- * relative L2 error at 300 targets against direct sums, on uniform,
- * sphere-surface and clustered points, 20,000 of them (two seeds) and
- * 200,000 (one); consecutive orders differ by 6x to 12x, so at tol = 1e-3
- * ... 1e-10 the error reached lies between tol / 30 and tol (measured: tol
- * / 6.5 to tol / 26; docs/api.md, "Tolerance"). */
+ * is at most tol; 0 if none is. err: the kernel's own measurements, those
+ * of its worst output (KIFMM_HAS_TOL, kifmm_kernels.h), or NULL for
+ * laplace's: its potential, relative L2 error at 300 targets against direct
+ * sums, on uniform, sphere-surface and clustered points, 20,000 of them
+ * (two seeds) and 200,000 (one; bench/bench_tol.c); consecutive orders
+ * differ by 5x to 12x, so at tol = 1e-3 ... 1e-10 the largest error reached
+ * lies between tol / 30 and tol (docs/api.md, "Tolerance"). */
 KIFMM__FN int kifmm__order_for_tol(double tol, const double *err)
 {
-    static const double lap[KIFMM_MAX_ORDER + 1] = {0.0,    0.0,    3.0e-2, 2.2e-3, 1.9e-4,
-                                                    1.8e-5, 2.2e-6, 1.5e-7, 2.4e-8, 3.8e-9,
-                                                    4.6e-10, 6.9e-11, 1.2e-11};
+    static const double lap[KIFMM_MAX_ORDER + 1] = {0.0, 0.0, 4.5e-2, 2.4e-3, 2.1e-4,
+                                                    1.9e-5, 2.2e-6, 2.4e-7, 4.2e-8, 6.4e-9,
+                                                    7.9e-10, 1.4e-10, 1.7e-11};
     int p;
     if (!err) err = lap;
     for (p = 2; p <= KIFMM_MAX_ORDER; p++)

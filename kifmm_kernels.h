@@ -59,8 +59,8 @@ extern "C++" {
  * M2L spectra are then built for 16 transfer vectors and turned to the other
  * 300 by the cube's symmetries; and TOL, the kernel's own errors per order
  * for opts.tol (kifmm_kernel_NAME_TOL_ERRORS, an initializer of
- * KIFMM_MAX_ORDER + 1 numbers: the largest relative L2 error of its first
- * outputs measured at each order, 0 where not measured (orders 0 and 1
+ * KIFMM_MAX_ORDER + 1 numbers: the largest relative L2 error of its worst
+ * output measured at each order, 0 where not measured (orders 0 and 1
  * always), which tol never takes; without it, laplace's table). A
  * misspelt bit stops the build. */
 #define KIFMM_HAS_SETUP 1
@@ -160,7 +160,8 @@ static inline int kifmm_kernel__viscosity_setup(const double *in, double *out)
 #define kifmm_kernel_yukawa_TRG_DIM 1
 #define kifmm_kernel_yukawa_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_DEGREE 0
-#define kifmm_kernel_yukawa_HAS (KIFMM_KERNEL__YUKAWA_HAS | KIFMM_HAS_RADIAL) /* below */
+#define kifmm_kernel_yukawa_HAS (KIFMM_KERNEL__YUKAWA_HAS | KIFMM_HAS_RADIAL | KIFMM_HAS_TOL) /* below */
+#define kifmm_kernel_yukawa_TOL_ERRORS KIFMM_KERNEL__TOL_YUKAWA
 #define kifmm_kernel_yukawa_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, double dy,
                                             double dz, double *k)
@@ -176,7 +177,8 @@ static inline void kifmm_kernel_yukawa_eval(const double *param, double dx, doub
 #define kifmm_kernel_yukawa_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_yukawa_grad_DEGREE 0
 #define kifmm_kernel_yukawa_grad_EQUIV yukawa
-#define kifmm_kernel_yukawa_grad_HAS KIFMM_KERNEL__YUKAWA_HAS
+#define kifmm_kernel_yukawa_grad_HAS (KIFMM_KERNEL__YUKAWA_HAS | KIFMM_HAS_TOL)
+#define kifmm_kernel_yukawa_grad_TOL_ERRORS KIFMM_KERNEL__TOL_GRAD
 #define kifmm_kernel_yukawa_grad_setup kifmm_kernel__positive_setup
 static inline void kifmm_kernel_yukawa_grad_eval(const double *param, double dx, double dy,
                                                  double dz, double *k)
@@ -233,7 +235,8 @@ static inline int kifmm_kernel__begin(double dx, double dy, double dz, int n, do
 #define kifmm_kernel_stokes_DEGREE (-1)
 #define kifmm_kernel_stokes_HAS                                                           \
     (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | KIFMM_HAS_P2PF | KIFMM_HAS_P2PS | KIFMM_HAS_P2PSF |       \
-     KIFMM_KERNEL__PER)
+     KIFMM_KERNEL__PER | KIFMM_HAS_TOL)
+#define kifmm_kernel_stokes_TOL_ERRORS KIFMM_KERNEL__TOL_STOKES
 #define kifmm_kernel_stokes_setup kifmm_kernel__viscosity_setup
 #define kifmm_kernel_stokes_INNER_NARROW 1 /* inner surfaces at 0.95 (kifmm.h) */
 static inline void kifmm_kernel_stokes_eval(const double *param, double dx, double dy,
@@ -330,7 +333,8 @@ static inline void kifmm_kernel__lap_eval(double dx, double dy, double dz, int c
 #define kifmm_kernel_laplace_hess_SRC_DIM 1
 #define kifmm_kernel_laplace_hess_TRG_DIM 10
 #define kifmm_kernel_laplace_hess_SCALE_INVARIANT 1
-#define kifmm_kernel_laplace_hess_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
+#define kifmm_kernel_laplace_hess_HAS (KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND | KIFMM_HAS_TOL) /* below */
+#define kifmm_kernel_laplace_hess_TOL_ERRORS KIFMM_KERNEL__TOL_GRAD
 #define kifmm_kernel_laplace_hess_DEGREE (-1)
 #define kifmm_kernel_laplace_hess_EQUIV laplace
 static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx, double dy,
@@ -340,15 +344,24 @@ static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx
     kifmm_kernel__lap_eval(dx, dy, dz, 1, 0, 10, k);
 }
 
-/* opts.tol's tables (KIFMM_HAS_TOL) of the kernels whose errors run above
- * laplace's: the largest relative L2 error of the first outputs (potential,
- * velocity) at 300 targets against direct sums, at each order p = 2 ... 12
- * at its default leaf size, on uniform, sphere-surface and clustered
- * points, 20,000 of them (two seeds) and 200,000 (one), rounded up to two
- * digits (docs/api.md, "Tolerance"). The charge-and-dipole kernels share
- * one table (laplace_cd's and yukawa_cd's, at the default lambda, agree to
- * two digits); the _grad and _hess variants take their family's (their
- * first outputs measured below it at 20,000 points). */
+/* opts.tol's tables (KIFMM_HAS_TOL): per order p = 2 ... 12, at its
+ * default leaf size, the largest relative L2 error of the kernel's worst
+ * output (each of potential, gradient, Hessian, velocity, pressure and
+ * velocity gradient against its own norm) at 300 targets against direct
+ * sums, on uniform, sphere-surface and clustered points, 20,000 of them
+ * (two seeds) and 200,000 (one), rounded up to two digits (bench/bench_tol.c,
+ * make bench-tol; docs/api.md, "Tolerance"). The first outputs are the
+ * worst for the dipole, charge-and-dipole, Biot-Savart and double-layer
+ * kernels (their gradients and Hessians measured 3 to 10 times below at
+ * 20,000 points, biot_savart_grad's also at 200,000): one table per family,
+ * the charge-and-dipole kernels' shared (laplace_cd's and yukawa_cd's, at
+ * the default lambda, agree to two digits). The gradients are the worst of
+ * laplace_grad, laplace_hess and yukawa_grad (up to 4.1 times the
+ * potential; one table, laplace_hess's and yukawa_grad's agree within 10
+ * %), the velocity gradient of stokes_grad (up to 3.8 times the velocity),
+ * the velocity of stokes_pvel at most orders. stokes and yukawa have tables
+ * of their own: their velocity and potential ran up to 3.1 and 1.2 times
+ * laplace's. */
 #define KIFMM_KERNEL__TOL_DIPOLE                                                                \
     {0.0, 0.0, 4.2e-2, 4.7e-3, 4.4e-4, 9.3e-5, 8.6e-6,                                         \
      1.0e-6, 1.1e-7, 2.2e-8, 3.1e-9, 7.3e-10, 9.5e-11}
@@ -361,6 +374,22 @@ static inline void kifmm_kernel_laplace_hess_eval(const double *param, double dx
 #define KIFMM_KERNEL__TOL_STOKES_DL                                                             \
     {0.0, 0.0, 8.4e-2, 6.7e-3, 5.1e-4, 5.4e-5, 1.1e-5,                                         \
      9.0e-7, 2.3e-7, 5.4e-8, 2.7e-8, 1.6e-8, 1.9e-9}
+
+#define KIFMM_KERNEL__TOL_GRAD                                                                  \
+    {0.0, 0.0, 4.5e-2, 3.3e-3, 3.6e-4, 4.2e-5, 6.8e-6,                                          \
+     6.2e-7, 1.3e-7, 2.1e-8, 2.4e-9, 4.4e-10, 6.9e-11}
+#define KIFMM_KERNEL__TOL_YUKAWA                                                                \
+    {0.0, 0.0, 4.5e-2, 2.4e-3, 2.2e-4, 2.0e-5, 2.2e-6,                                          \
+     2.6e-7, 4.5e-8, 6.9e-9, 8.6e-10, 1.5e-10, 2.0e-11}
+#define KIFMM_KERNEL__TOL_STOKES                                                                \
+    {0.0, 0.0, 6.4e-2, 4.2e-3, 3.1e-4, 2.4e-5, 2.7e-6,                                          \
+     2.2e-7, 3.3e-8, 5.4e-9, 1.5e-9, 4.4e-10, 4.6e-11}
+#define KIFMM_KERNEL__TOL_STOKES_GRAD                                                           \
+    {0.0, 0.0, 6.4e-2, 4.6e-3, 5.1e-4, 2.9e-5, 4.7e-6,                                          \
+     4.5e-7, 8.7e-8, 1.4e-8, 4.0e-9, 1.2e-9, 2.1e-10}
+#define KIFMM_KERNEL__TOL_STOKES_PVEL                                                           \
+    {0.0, 0.0, 7.0e-2, 5.1e-3, 3.9e-4, 3.5e-5, 4.2e-6,                                          \
+     3.8e-7, 6.3e-8, 1.5e-8, 6.5e-9, 1.3e-9, 4.4e-10}
 
 /* laplace_dipole: dipoles (3 per source) -> potential */
 #define kifmm_kernel_laplace_dipole_SRC_DIM 3
@@ -534,7 +563,8 @@ static inline void kifmm_kernel_yukawa_cd_grad_eval(const double *param, double 
 #define kifmm_kernel_stokes_grad_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_grad_DEGREE (-1)
 #define kifmm_kernel_stokes_grad_EQUIV stokes
-#define kifmm_kernel_stokes_grad_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
+#define kifmm_kernel_stokes_grad_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND | KIFMM_HAS_TOL) /* below */
+#define kifmm_kernel_stokes_grad_TOL_ERRORS KIFMM_KERNEL__TOL_STOKES_GRAD
 #define kifmm_kernel_stokes_grad_setup kifmm_kernel__viscosity_setup
 static inline void kifmm_kernel_stokes_grad_eval(const double *param, double dx, double dy,
                                                  double dz, double *k)
@@ -575,7 +605,8 @@ static inline void kifmm_kernel__stokes_pl_eval(const double *param, double dx, 
 #define kifmm_kernel_stokes_pvel_TRG_DIM 4
 #define kifmm_kernel_stokes_pvel_SCALE_INVARIANT 1
 #define kifmm_kernel_stokes_pvel_DEGREE (-1)
-#define kifmm_kernel_stokes_pvel_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND) /* below */
+#define kifmm_kernel_stokes_pvel_HAS (KIFMM_HAS_SETUP | KIFMM_KERNEL__OW_HAS | KIFMM_HAS_BACKGROUND | KIFMM_HAS_TOL) /* below */
+#define kifmm_kernel_stokes_pvel_TOL_ERRORS KIFMM_KERNEL__TOL_STOKES_PVEL
 #define kifmm_kernel_stokes_pvel_setup kifmm_kernel__viscosity_setup
 #define kifmm_kernel_stokes_pvel_EQUIV _stokes_pl
 #define kifmm_kernel_stokes_pvel_SURFACE _stokes_pvel_st
@@ -3539,7 +3570,8 @@ KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_dl_qc, 9, 4, KIFMM_KERNEL__DL_PAIR, 1
 #define KIFMM_KERNEL__LAPLACE_HAS (KIFMM_HAS_P2P)
 #endif
 #define kifmm_kernel_laplace_HAS (KIFMM_KERNEL__LAPLACE_HAS | KIFMM_HAS_RADIAL | KIFMM_KERNEL__PER)
-#define kifmm_kernel_laplace_grad_HAS (KIFMM_KERNEL__LAPLACE_HAS | KIFMM_HAS_BACKGROUND)
+#define kifmm_kernel_laplace_grad_HAS (KIFMM_KERNEL__LAPLACE_HAS | KIFMM_HAS_BACKGROUND | KIFMM_HAS_TOL)
+#define kifmm_kernel_laplace_grad_TOL_ERRORS KIFMM_KERNEL__TOL_GRAD
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__cplusplus)
 #pragma GCC diagnostic pop

@@ -388,8 +388,9 @@ class FMM:
 
     tol: the order is picked so that every output of the kernel (potential,
     gradient, Hessian, velocity, pressure, velocity gradient) meets tol in
-    relative L2 error on the measured distributions; the first output is
-    then at most 30x more accurate than asked; see docs/api.md, Tolerance.
+    relative L2 error on the measured distributions; the worst output is
+    then at most 30x more accurate than asked, the others (the potential of
+    the gradient kernels, say) up to about 100x; see docs/api.md, Tolerance.
     A tol below what the largest order reaches raises KifmmError.
 
     Integers must be Python or numpy integers and numbers real (bools,

@@ -46,8 +46,9 @@ def test_tol_docstring():
     doc = " ".join(kifmm.FMM.__doc__.split())
     assert ("tol: the order is picked so that every output of the kernel (potential, gradient, "
             "Hessian, velocity, pressure, velocity gradient) meets tol in relative L2 error on "
-            "the measured distributions; the first output is then at most 30x more accurate "
-            "than asked; see docs/api.md, Tolerance") in doc
+            "the measured distributions; the worst output is then at most 30x more accurate "
+            "than asked, the others (the potential of the gradient kernels, say) up to about "
+            "100x; see docs/api.md, Tolerance") in doc
 
 
 def test_docs_kernels_md_is_generated():
