@@ -203,7 +203,8 @@ static void test_range(void)
     CHECK(create_rc(&o, NP, y) == KIFMM_SUCCESS, "an extent of 2e-150 refused");
     for (k = 0; k < 3 * NP; k++) y[k] = 0.25; /* one point, many times: extent 0 */
     CHECK(create_rc(&o, NP, y) == KIFMM_SUCCESS, "coincident points refused");
-    rc = kifmm_laplace_direct(NULL, NP, x, x, 1, (const double[]){3e150, 0.0, 0.0}, y);
+    y[0] = 3e150, y[1] = y[2] = 0.0;
+    rc = kifmm_laplace_direct(NULL, NP, x, x, 1, y, y + 3);
     CHECK(rc == KIFMM_ERR_RANGE, "direct, a target at 3e150: rc=%d", rc);
     /* periods */
     o.period[0] = 2.0 * KIFMM_COORD_MAX;
