@@ -2,7 +2,7 @@
 #
 #   make run        build and run examples/laplace.c (1M points, order 6;
 #                   other sizes: make run ARGS="200000 8")
-#   make test       build and run the test suite (six configurations; CONFIGS=all for fifteen)
+#   make test       build and run the test suite (five configurations; CONFIGS=all for fifteen)
 #                   (tests/run.sh: gcc and clang, C99 and C11, with and
 #                   without OpenMP, sanitizer builds, a build without -march), the examples,
 #                   tests/install.sh (make install into a temporary prefix,
