@@ -226,7 +226,7 @@ extern "C++" {
       "a coordinate or period is beyond KIFMM_COORD_MAX (1e150; float 1e18), or a period or "  \
       "the points' extent is below KIFMM_EXTENT_MIN (1e-150; float 1e-15)")                    \
     X(KIFMM_ERR_DENSITY, -19, "a density is NaN or infinite")                                 \
-    X(KIFMM_ERR_OVERLAP, -20, "the output array overlaps the points or the densities")        \
+    X(KIFMM_ERR_OVERLAP, -20, "direct: the output array overlaps the source or target points") \
     X(KIFMM_ERR_OVERFLOW, -21,                                                                \
       "an output is not finite: the densities are too large or points too close for the "     \
       "precision's range")
@@ -6124,10 +6124,10 @@ KIFMM__FN void KIFMM__F(__moments)(const KIFMM_NAME *c, const KIFMM__F(__work) *
 {
     static const int pq[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
     const int64_t ns = c->tree.ns;
+    const double wd = c->tree.width;
     int b, j;
     memset(mo, 0, (size_t)KIFMM__QD * 10 * sizeof(double));
     for (int64_t i = 0; i < ns; i++) {
-        const double wd = c->tree.width;
         const double a[3] = {(c->pts.src[i] - cen[0]) / wd, (c->pts.src[ns + i] - cen[1]) / wd,
                              (c->pts.src[2 * ns + i] - cen[2]) / wd};
         for (b = 0; b < KIFMM__QD; b++) {
