@@ -6779,6 +6779,9 @@ KIFMM__FN void KIFMM__F(__density_scale)(const KIFMM_NAME *h, int nr, const KIFM
         }
         e[r] = 0;
         if (m > 0.0) (void)frexp(m, &e[r]);
+        /* subnormal largest densities (from 2^-1074): 2^-e would overflow;
+         * 2^1000 brings them to 2^-74 or more, normal in float too */
+        if (e[r] < -1000) e[r] = -1000;
     }
 }
 

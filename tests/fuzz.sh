@@ -15,7 +15,9 @@
 # "fuzz: skipped (...)", the last only where clang or its libFuzzer runtime is
 # missing (Debian: the clang and libclang-rt-dev packages).
 #
-# Environment: FUZZ_TIME (seconds), FUZZ_KEEP, EXTRA_CFLAGS (e.g. an -I for cblas.h),
+# Environment: FUZZ_TIME (seconds), FUZZ_KEEP, FUZZ_SEED (libFuzzer's -seed:
+# make test sets 1, so that its run repeats; unset, a fresh seed each run),
+# EXTRA_CFLAGS (e.g. an -I for cblas.h),
 # FUZZ_ARGS (more libFuzzer options), CLANG (default clang).
 set -u
 cd "$(dirname "$0")/.." || exit 1
@@ -70,7 +72,8 @@ export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
 start=$(date +%s)
 # shellcheck disable=SC2086
 "./$BIN" -max_len=256 -max_total_time="$FUZZ_TIME" -timeout=60 -rss_limit_mb=4096 \
-    -print_final_stats=1 -artifact_prefix="$OUT/" ${FUZZ_ARGS:-} "$OUT/corpus" >"$OUT/fuzz.log" 2>&1
+    -print_final_stats=1 -artifact_prefix="$OUT/" ${FUZZ_SEED:+-seed=$FUZZ_SEED} ${FUZZ_ARGS:-} \
+    "$OUT/corpus" >"$OUT/fuzz.log" 2>&1
 rc=$?
 secs=$(( $(date +%s) - start ))
 runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$OUT/fuzz.log" | tail -n 1)
