@@ -6829,9 +6829,10 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     w->dst = NULL;
     if (!w->outs) {
         for (r = 0; r < nr && scaled; r++) {
-            const double up = ldexp(1.0, e[r]);
+            /* 2^e in two factors: 2^1024 (densities near DBL_MAX) is not a double */
+            const double ua = ldexp(1.0, e[r] / 2), ub = ldexp(1.0, e[r] - e[r] / 2);
             KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
-            for (size_t j = 0; j < oper; j++) o[r * oper + j] = (KIFMM__R)(o[r * oper + j] * up);
+            for (size_t j = 0; j < oper; j++) o[r * oper + j] = (KIFMM__R)(o[r * oper + j] * ua * ub);
         }
         return;
     }
@@ -6840,10 +6841,10 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     for (int64_t i = 0; i < t->nt; i++) {
         int k, rr;
         for (rr = 0; rr < nr; rr++) {
-            const double up = ldexp(1.0, e[rr]);
+            const double ua = ldexp(1.0, e[rr] / 2), ub = ldexp(1.0, e[rr] - e[rr] / 2); /* as above */
             for (k = 0; k < KIFMM__TD; k++)
                 o[rr * oper + t->tperm[i] * KIFMM__TD + k] =
-                    (KIFMM__R)(w->outs[rr * oper + i * KIFMM__TD + k] * up);
+                    (KIFMM__R)(w->outs[rr * oper + i * KIFMM__TD + k] * ua * ub);
         }
     }
 }

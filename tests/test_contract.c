@@ -376,6 +376,39 @@ static void test_coincident_tiny(void)
     }
 }
 
+/* densities near DBL_MAX (their power of two, 2^1024, is not a double and
+ * had made every output NaN: KIFMM_ERR_OVERFLOW, found by the fuzz target):
+ * coincident points give zeros, two points 10 apart 1.5e308 / (40 pi) */
+static void test_density_max(void)
+{
+    enum { NQ = 8 };
+    double x[3 * NQ], q[NQ], out[NQ];
+    int i, rc;
+    kifmm_opts o = t_opts(4, 0, 0);
+    kifmm_laplace *h = NULL;
+    for (i = 0; i < 3 * NQ; i++) x[i] = 0.3;
+    for (i = 0; i < NQ; i++) q[i] = i == 5 ? DBL_MAX : 1.0 - i;
+    rc = kifmm_laplace_create(&h, &o, NQ, x, NQ, x);
+    if (!rc) rc = kifmm_laplace_evaluate(h, q, out);
+    kifmm_laplace_destroy(h);
+    for (i = 0; i < NQ && !rc && out[i] == 0.0; i++) {}
+    CHECK(rc == KIFMM_SUCCESS && i == NQ, "8 coincident points, a density of DBL_MAX: rc=%d (%s), outputs 0",
+          rc, kifmm_strerror(rc));
+    h = NULL;
+    x[3] = 10.3;
+    q[0] = 1.5e308;
+    q[1] = -1.5e308;
+    rc = kifmm_laplace_create(&h, &o, 2, x, 2, x);
+    if (!rc) rc = kifmm_laplace_evaluate(h, q, out);
+    kifmm_laplace_destroy(h);
+    CHECK(rc == KIFMM_SUCCESS, "two points 10 apart, densities of 1.5e308: rc=%d (%s)", rc, kifmm_strerror(rc));
+    if (!rc) {
+        const double ref = 1.5e308 / (4.0 * T_PI * 10.0);
+        CHECK_ERR(fabs(out[0] + ref) / ref + fabs(out[1] - ref) / ref, 1e-12,
+                  "two points 10 apart, densities of 1.5e308, against q / (4 pi r)");
+    }
+}
+
 int main(void)
 {
     t_group("direct: NULL densities without targets, overlap");
@@ -392,5 +425,7 @@ int main(void)
     test_density_scale();
     t_group("coincident points near 0");
     test_coincident_tiny();
+    t_group("densities near DBL_MAX");
+    test_density_max();
     return t_finish();
 }
