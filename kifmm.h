@@ -209,7 +209,7 @@ extern "C++" {
       "parameters)")                                                                          \
     X(KIFMM_ERR_PERIOD, -13,                                                                  \
       "opts.period: a period is negative or not finite, the periodic directions have "        \
-      "different periods, or the points span more than the period in a free direction")      \
+      "different periods, or the points span 1024 periods or more in a free direction")      \
     X(KIFMM_ERR_PERIODIC, -14,                                                                \
       "these periodic boundaries are not supported for this kernel: periodic directions "     \
       "need a scale-invariant or decaying kernel, and three of them for a scale-invariant "  \
@@ -254,7 +254,8 @@ KIFMM__FN const char *kifmm_strerror(int code)
 typedef struct kifmm_opts {
     int order;              /* expansion order p, 2..KIFMM_MAX_ORDER; 0 = 6 */
     int leaf_size;          /* max points per leaf; 0 = chosen per order */
-    int max_depth;          /* deepest level, 1..KIFMM_MAX_DEPTH; 0 = 16 */
+    int max_depth;          /* deepest level, 1..KIFMM_MAX_DEPTH; 0 = 16 (periodic trees
+                               wider than the cell: counted from the cell) */
     int nthreads;           /* OpenMP threads, 1..KIFMM_MAX_THREADS; 0 =
                                omp_get_max_threads(); always 1 without OpenMP */
     double kernel_param[4]; /* kernel parameters; 0 = the kernel's default */
@@ -940,8 +941,13 @@ typedef struct kifmm__tree {
     double *src, *trg;       /* sorted points, structure of arrays (x | y | z) */
     int64_t *sperm, *tperm;  /* sorted position -> caller's index */
     int same;                /* targets are the sources: trg = src, tperm = sperm */
-    int per[3], periodic;    /* per[d]: periodic in direction d (period: width);
+    int per[3], periodic;    /* per[d]: periodic in direction d (period: cell);
                                 periodic: any of them */
+    int kc;                  /* levels above the cell: the root is 2^kc cells wide
+                                (free directions spanning more than the period) */
+    double cell;             /* periodic trees: the period L (the root's width / 2^kc) */
+    int32_t *alias;          /* kc > 0: per box of levels 1 .. kc, the box whose image
+                                it is (periodic anchors 0), or -1; else NULL */
     double origin[3];        /* shift of each axis: the root's centre where that is
                                 exact, else 0 (see kifmm__tree_bounds) */
     double lo[3], width;     /* root cube: lower corner relative to origin, and edge */
@@ -975,7 +981,7 @@ KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
     void *p[] = {t->src, t->same ? NULL : t->trg, t->sperm, t->same ? NULL : t->tperm,
                  t->key, t->child, t->parent, t->anchor, t->lev, t->dsrc, t->inner,
                  t->s0, t->s1, t->t0, t->t1, t->uo, t->u, t->vo, t->v, t->wo, t->w,
-                 t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves, t->us, t->ws, t->xs};
+                 t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves, t->us, t->ws, t->xs, t->alias};
     size_t i;
     for (i = 0; i < sizeof p / sizeof p[0]; i++) kifmm__free(p[i]);
     memset(t, 0, sizeof *t);
@@ -1014,7 +1020,7 @@ KIFMM__FN int32_t kifmm__find_cover(const kifmm__tree *t, int l, uint64_t key)
 KIFMM__FN int kifmm__lmin(const kifmm__tree *t) { return t->periodic ? 0 : 2; }
 
 /* Images of the unit cell: a code s = 9 (sx + 1) + 3 (sy + 1) + (sz + 1) for the
- * shift (sx, sy, sz) of one cell width, each -1, 0 or 1; 13 is no shift. */
+ * shift (sx, sy, sz) of one period, each -1, 0 or 1; 13 is no shift. */
 #define KIFMM__NOSHIFT 13
 /* The shift code of entry e of a list with shifts sh (NULL: free space). */
 #define KIFMM__SH(sh, e) ((sh) ? (int)(sh)[e] : KIFMM__NOSHIFT)
@@ -1027,21 +1033,40 @@ KIFMM__FN void kifmm__shift_of(int code, int *s)
     s[2] = code % 3 - 1;
 }
 
-/* Do box a and the image s (a shift code) of box b touch or overlap (closed
- * cubes)? Coordinates in units of the finest level (2^20 per cell width, so
- * an image's fit in int32). */
-KIFMM__FN int kifmm__adjacent_s(const kifmm__tree *t, int32_t a, int32_t b, int s)
+/* The period of level l in a periodic direction, in units of the finest
+ * level (2^20 per root width): the cell's width below the cell (levels kc
+ * on), and at coarser levels the box's own width, since a box of level l <
+ * kc stands for the 2^(kc - l) images of the cell along each periodic
+ * direction that it spans (its images are its neighbours). */
+KIFMM__FN int32_t kifmm__period_units(const kifmm__tree *t, int l)
 {
-    int sa = KIFMM__D - t->lev[a], sb = KIFMM__D - t->lev[b], d, sh[3];
+    return (int32_t)1 << (KIFMM__D - (l >= t->kc ? t->kc : l));
+}
+
+/* Do box a and box b moved by off (units of the finest level) touch or
+ * overlap (closed cubes)? */
+KIFMM__FN int kifmm__adjacent_o(const kifmm__tree *t, int32_t a, int32_t b, const int32_t *off)
+{
+    int sa = KIFMM__D - t->lev[a], sb = KIFMM__D - t->lev[b], d;
     const int32_t *xa = t->anchor + 3 * (size_t)a, *xb = t->anchor + 3 * (size_t)b;
-    kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++) {
         int32_t a0 = xa[d] << sa, a1 = (xa[d] + 1) << sa;
-        const int32_t img = sh[d] * ((int32_t)1 << KIFMM__D); /* the image's offset */
-        int32_t b0 = (xb[d] << sb) + img, b1 = ((xb[d] + 1) << sb) + img;
+        int32_t b0 = (xb[d] << sb) + off[d], b1 = ((xb[d] + 1) << sb) + off[d];
         if (a0 > b1 || b0 > a1) return 0;
     }
     return 1;
+}
+
+/* Do box a and the image s (a shift code, in periods) of box b touch or
+ * overlap? Coordinates in units of the finest level (2^20 per root width,
+ * so an image's fit in int32). */
+KIFMM__FN int kifmm__adjacent_s(const kifmm__tree *t, int32_t a, int32_t b, int s)
+{
+    int sh[3], d;
+    int32_t off[3];
+    kifmm__shift_of(s, sh);
+    for (d = 0; d < 3; d++) off[d] = sh[d] * ((int32_t)1 << (KIFMM__D - t->kc));
+    return kifmm__adjacent_o(t, a, b, off);
 }
 
 /* Do boxes a and b touch or overlap (closed cubes)? */
@@ -1051,16 +1076,26 @@ KIFMM__FN int kifmm__adjacent(const kifmm__tree *t, int32_t a, int32_t b)
 }
 
 /* Anchor coordinate x of level l (side 2^l boxes) in direction d, wrapped
- * into the cell if d is periodic (*s gets the shift, in cell widths); -1 if
- * it lies outside the cell in a free direction. */
+ * into the cell if d is periodic (*s gets the shift, in periods of level l:
+ * kifmm__period_units); -1 if it lies outside the root in a free direction.
+ * Shift codes hold -1 .. 1 (x at most one period outside the cell, as from
+ * the boxes inside it). */
 KIFMM__FN int64_t kifmm__wrap(const kifmm__tree *t, int d, int l, int64_t x, int *s)
 {
-    const int64_t side = (int64_t)1 << l;
+    const int lp = t->per[d] ? (l >= t->kc ? l - t->kc : 0) : l;
+    const int64_t side = (int64_t)1 << lp;
     *s = 0;
     if (x >= 0 && x < side) return x;
     if (!t->per[d]) return -1;
-    *s = x < 0 ? -1 : 1;
-    return x - *s * side;
+    *s = (int)(x >> lp); /* floor(x / side), also for negative x */
+    return x - (int64_t)*s * side;
+}
+
+/* Does box b hold sources, or (kc > 0) is it the image of a box that does? */
+KIFMM__FN int kifmm__has_src(const kifmm__tree *t, int32_t b)
+{
+    if (t->alias && t->alias[b] >= 0) b = t->alias[b];
+    return t->s1[b] > t->s0[b];
 }
 
 KIFMM__FN void kifmm__box_center(const kifmm__tree *t, int32_t b, double *c, double *half)
@@ -1116,13 +1151,13 @@ KIFMM__FN void kifmm__keys_unique(kifmm__keys *k)
 }
 
 /* Coordinate v of direction d in the tree's frame: relative to t->origin, or
- * in a periodic direction wrapped into the cell [0, width). */
+ * in a periodic direction wrapped into the cell [0, L). */
 KIFMM__FN double kifmm__coord(const kifmm__tree *t, double v, int d)
 {
     double w;
     if (!t->per[d]) return v - t->origin[d];
-    w = v - t->width * floor(v / t->width);
-    return w >= 0.0 && w < t->width ? w : 0.0; /* rounding can give width itself */
+    w = v - t->cell * floor(v / t->cell);
+    return w >= 0.0 && w < t->cell ? w : 0.0; /* rounding can give L itself */
 }
 
 /* Sort one point set by key: sorted SoA coordinates relative to t->origin,
@@ -1187,20 +1222,30 @@ KIFMM__FN void kifmm__centre_axis(kifmm__tree *t, int d, double c, double half)
 }
 
 /* Step 1 with periodic directions: the root is the unit cell, [0, L) in a
- * periodic direction; in a free one the points must span less than L, and
- * the root is centred on them there (shifted as below). */
+ * periodic direction, when the points span less than L in the free ones;
+ * otherwise it is 2^kc cells wide (kc up to KIFMM__KC_MAX, the smallest
+ * that holds them), [0, 2^kc L) in a periodic direction, where the points
+ * still lie in [0, L) and the boxes of levels below kc stand for the cell's
+ * images (kifmm__period_units). In a free direction the root is centred on
+ * the points (shifted as below). */
+#define KIFMM__KC_MAX 10
 KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const double *src,
                                           int64_t nt, const double *trg, int nth)
 {
-    const double half = 0.5 * t->width;
+    double mn[3], mx[3], half;
     int d;
+    t->kc = 0;
     for (d = 0; d < 3; d++) {
-        double mn, mx;
-        t->origin[d] = t->lo[d] = 0.0;
         if (t->per[d]) continue;
-        kifmm__extent(ns, src, nt, trg, d, nth, &mn, &mx);
-        if (!(0.5 * (mx - mn) * (1.0 + 1e-10) < half)) return KIFMM_ERR_PERIOD;
-        kifmm__centre_axis(t, d, 0.5 * (mn + mx), half);
+        kifmm__extent(ns, src, nt, trg, d, nth, &mn[d], &mx[d]);
+        while (!(0.5 * (mx[d] - mn[d]) * (1.0 + 1e-10) < 0.5 * ldexp(t->cell, t->kc)))
+            if (++t->kc > KIFMM__KC_MAX) return KIFMM_ERR_PERIOD;
+    }
+    t->width = ldexp(t->cell, t->kc);
+    half = 0.5 * t->width;
+    for (d = 0; d < 3; d++) {
+        t->origin[d] = t->lo[d] = 0.0;
+        if (!t->per[d]) kifmm__centre_axis(t, d, 0.5 * (mn[d] + mx[d]), half);
     }
     return KIFMM_SUCCESS;
 }
@@ -1248,7 +1293,7 @@ KIFMM__FN int kifmm__tree_sort(kifmm__tree *t, int64_t ns, const double *src, in
 
 /* Does box `key` of the level with shift sh split? It holds more than leaf
  * sources or targets, unless all of them share one finest key (coincident
- * points never separate). */
+ * points never separate); leaf < 0: it holds any (boxes above the cell). */
 KIFMM__FN int kifmm__box_splits(const kifmm__tree *t, const uint64_t *skey, const uint64_t *tkey,
                                 uint64_t key, int sh, int leaf)
 {
@@ -1256,6 +1301,7 @@ KIFMM__FN int kifmm__box_splits(const kifmm__tree *t, const uint64_t *skey, cons
     const int64_t fs = kifmm__lower_bound(skey, t->ns, k0), ft = kifmm__lower_bound(tkey, t->nt, k0);
     const int64_t cs = kifmm__lower_bound(skey, t->ns, k1) - fs;
     const int64_t ct = kifmm__lower_bound(tkey, t->nt, k1) - ft;
+    if (leaf < 0) return cs > 0 || ct > 0;
     if (cs <= leaf && ct <= leaf) return 0;
     return !((cs == 0 || skey[fs] == skey[fs + cs - 1]) &&
              (ct == 0 || tkey[ft] == tkey[ft + ct - 1]) &&
@@ -1280,7 +1326,8 @@ KIFMM__FN int kifmm__tree_refine(const kifmm__tree *t, const uint64_t *skey, con
         /* each j decides for its own box */
         KIFMM__OMP(parallel for schedule(dynamic, 256) num_threads(nth))
         for (int64_t jj = 0; jj < cur.n; jj++)
-            split[jj] = (unsigned char)kifmm__box_splits(t, skey, tkey, cur.a[jj], sh, leaf);
+            /* boxes with points split down to the cell (kc): see kifmm__period_units */
+            split[jj] = (unsigned char)kifmm__box_splits(t, skey, tkey, cur.a[jj], sh, l < t->kc ? -1 : leaf);
         next.n = 0;
         for (j = 0; j < cur.n && !rc; j++) {
             int o;
@@ -1426,6 +1473,31 @@ KIFMM__FN void kifmm__tree_ranges(kifmm__tree *t, int l, const uint64_t *skey,
     }
 }
 
+/* Above the cell (levels 1 .. kc, kc > 0) the boxes whose anchor is not 0
+ * along a periodic direction hold no points: they are images of the
+ * sibling at anchor 0 there (t->alias), whose upward densities they take
+ * (__alias_fill) for the M2M and the M2L. */
+KIFMM__FN int kifmm__tree_aliases(kifmm__tree *t)
+{
+    int32_t b;
+    if (t->kc == 0) return KIFMM_SUCCESS;
+    t->alias = (int32_t *)kifmm__take(&t->held, (size_t)t->nbox, sizeof(int32_t));
+    if (!t->alias) return KIFMM_ERR_NOMEM;
+    for (b = 0; b < t->nbox; b++) {
+        const int l = t->lev[b];
+        int64_t a[3];
+        int d, img = 0;
+        t->alias[b] = -1;
+        if (l == 0 || l > t->kc) continue;
+        for (d = 0; d < 3; d++) {
+            a[d] = t->anchor[3 * (size_t)b + d];
+            if (t->per[d] && a[d] != 0) img = 1, a[d] = 0;
+        }
+        if (img) t->alias[b] = kifmm__find(t, l, kifmm__encode(a[0], a[1], a[2]));
+    }
+    return KIFMM_SUCCESS;
+}
+
 /* Step 5, the boxes laid out level by level from the keys of the boxes that
  * split (in[0 .. deepest - 1]). */
 KIFMM__FN int kifmm__tree_layout(kifmm__tree *t, const kifmm__keys *in, int deepest,
@@ -1440,7 +1512,7 @@ KIFMM__FN int kifmm__tree_layout(kifmm__tree *t, const kifmm__keys *in, int deep
     if ((rc = kifmm__tree_alloc_boxes(t, (size_t)total))) return rc;
     kifmm__tree_links(t, in);
     for (l = 0; l < t->nlev; l++) kifmm__tree_ranges(t, l, skey, tkey, nth);
-    return KIFMM_SUCCESS;
+    return kifmm__tree_aliases(t);
 }
 
 KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists); /* >>lists */
@@ -1462,9 +1534,12 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
     for (l = 0; l < 3 && period; l++)
         if (period[l] > 0.0) {
             t->per[l] = t->periodic = 1;
-            t->width = period[l];
+            t->width = t->cell = period[l];
         }
     rc = kifmm__tree_bounds(t, ns, src, nt, trg, nth);
+    /* levels count from the cell */
+    if (maxdepth + t->kc < KIFMM__D) maxdepth += t->kc;
+    else maxdepth = KIFMM__D;
     if (!rc) rc = kifmm__tree_sort(t, ns, src, nt, trg, nth, &skey, &tkey);
     if (!rc) rc = kifmm__tree_refine(t, skey, tkey, leaf, maxdepth, nth, in);
     for (l = 0; l <= KIFMM__D; l++)
@@ -1604,33 +1679,39 @@ KIFMM__FN void kifmm__far_lists(const kifmm__tree *t, int32_t b, kifmm__lists *L
     const int l = kifmm__level_of(t, b);
     const int32_t *ab = t->anchor + 3 * (size_t)b;
     const int64_t a[3] = {ab[0], ab[1], ab[2]}, pa[3] = {a[0] >> 1, a[1] >> 1, a[2] >> 1};
-    const int64_t side = (int64_t)1 << l;
-    int dx, dy, dz, o, s = KIFMM__NOSHIFT, sh[3];
+    const int32_t pu = kifmm__period_units(t, l - 1), fl = KIFMM__D - l;
+    int dx, dy, dz, o, d, s = KIFMM__NOSHIFT, sh[3];
     for (dx = -1; dx <= 1; dx++)
         for (dy = -1; dy <= 1; dy++)
             for (dz = -1; dz <= 1; dz++) {
                 uint64_t k = 0;
-                int32_t c = kifmm__box_at(t, l - 1, pa, dx, dy, dz, &k, &s);
+                int32_t c = kifmm__box_at(t, l - 1, pa, dx, dy, dz, &k, &s), off[3];
                 if (c == -2) continue;
                 kifmm__shift_of(s, sh);
+                for (d = 0; d < 3; d++) off[d] = sh[d] * pu; /* the image, finest units */
                 if (c >= 0 && t->child[c] >= 0) {
+                    /* above the cell (kc > 0) children of c that hold no
+                     * points can be images of their siblings (has_src) */
                     for (o = 0; o < 8; o++) {
                         const int32_t v = t->child[c] + o;
                         const int32_t *va = t->anchor + 3 * (size_t)v;
-                        if (t->s1[v] == t->s0[v] || kifmm__adjacent_s(t, b, v, s)) continue;
+                        if (!kifmm__has_src(t, v) || kifmm__adjacent_o(t, b, v, off)) continue;
                         if (L->nv >= KIFMM__MAXV) { L->overflow = 1; continue; }
                         /* the transfer vector to the image */
                         L->vt[L->nv] = (uint16_t)kifmm__transfer_index(
-                            (int)(va[0] + sh[0] * side - a[0]), (int)(va[1] + sh[1] * side - a[1]),
-                            (int)(va[2] + sh[2] * side - a[2]));
+                            (int)(va[0] + (off[0] >> fl) - a[0]), (int)(va[1] + (off[1] >> fl) - a[1]),
+                            (int)(va[2] + (off[2] >> fl) - a[2]));
                         L->v[L->nv++] = v;
                     }
                     continue;
                 }
-                /* a leaf of the parent's level or coarser: X if apart from b */
+                /* a leaf of the parent's level or coarser: X if apart from b
+                 * (never above the cell, where boxes with points split) */
                 if (c < 0) c = kifmm__find_cover(t, l - 1, k);
-                if (c >= 0 && t->s1[c] > t->s0[c] && !kifmm__adjacent_s(t, b, c, s))
-                    kifmm__add(L->x, L->xs, &L->nx, KIFMM__MAXX, c, s, &L->overflow, 1);
+                if (c >= 0 && t->s1[c] > t->s0[c] && !kifmm__adjacent_o(t, b, c, off)) {
+                    if (l - 1 < t->kc) L->overflow = 1;
+                    else kifmm__add(L->x, L->xs, &L->nx, KIFMM__MAXX, c, s, &L->overflow, 1);
+                }
             }
 }
 
@@ -5138,7 +5219,7 @@ KIFMM__FN const KIFMM__R *KIFMM__F(__image)(const KIFMM_NAME *c, int32_t a, int 
     kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++)
         for (i = 0; i < n; i++)
-            buf[(size_t)d * n + i] = (KIFMM__R)((double)c->pts.src[(size_t)d * t->ns + s0 + i] + sh[d] * t->width);
+            buf[(size_t)d * n + i] = (KIFMM__R)((double)c->pts.src[(size_t)d * t->ns + s0 + i] + sh[d] * t->cell);
     *ld = (size_t)n;
     return buf;
 }
@@ -5256,6 +5337,21 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
     }
 }
 
+/* Above the cell (kc > 0): the boxes of level l that are images of a
+ * sibling (t->alias) take its upward densities. */
+KIFMM__FN void KIFMM__F(__alias_fill)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
+{
+    const kifmm__tree *t = &c->tree;
+    const size_t ne = (size_t)c->surf.ne, per = (size_t)t->nbox * ne;
+    int32_t b;
+    int r;
+    for (r = 0; r < nrhs; r++)
+        for (b = t->loff[l]; b < t->loff[l + 1]; b++)
+            if (t->alias[b] >= 0)
+                memcpy(w->ue + r * per + (size_t)b * ne, w->ue + r * per + (size_t)t->alias[b] * ne,
+                       ne * sizeof(KIFMM__R));
+}
+
 /* Upward pass at level l: P2M into the leaves' check vectors, M2M into the
  * internal boxes', then the solve for the equivalent densities. */
 KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
@@ -5287,6 +5383,7 @@ KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
     c->stats.t_p2m += t1 - t0;
     KIFMM__F(__family_level)(c, w, nrhs, l, 0); /* M2M */
     KIFMM__F(__solve)(c, w, nrhs, l, 1);
+    if (t->alias && l >= 1 && l <= t->kc) KIFMM__F(__alias_fill)(c, w, nrhs, l);
     c->stats.t_m2m += kifmm__now() - t1;
 }
 
@@ -5558,7 +5655,7 @@ KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__
         unsigned char *h = c->fft.sch + 9 * (size_t)b * KIFMM__SD;
         int q, j;
         for (h[0] = 0, q = 0; q < 8; q++)
-            if (t->s1[ch0 + q] > t->s0[ch0 + q]) h[1 + h[0]++] = (unsigned char)q;
+            if (kifmm__has_src(t, ch0 + q)) h[1 + h[0]++] = (unsigned char)q;
         for (j = 1; j < KIFMM__SD; j++) memcpy(h + 9 * j, h, 9);
         KIFMM__F(__conv8)(o->conv, nc, ne, ue + (size_t)8 * c->fft.need[b] * ne, m);
         for (j = 0; j < KIFMM__SD; j++) {
@@ -5769,7 +5866,7 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
         /* image s of the X box: the box's frame (float) or its check surface
          * (double) moved by -s instead */
         kifmm__shift_of(KIFMM__SH(t->xs, e), sh);
-        for (d = 0; d < 3; d++) fc[d] = cs[d] = ctr[d] - sh[d] * t->width;
+        for (d = 0; d < 3; d++) fc[d] = cs[d] = ctr[d] - sh[d] * t->cell;
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
         if (!KIFMM__FLOAT && t->periodic)
             KIFMM__F(__place)(c->surf.unit_c, nsc, cs, c->surf.ai * half, pc);
@@ -5915,7 +6012,7 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
     int sh[3], d;
     kifmm__box_center(&c->tree, a, ctr, &half);
     kifmm__shift_of(s, sh);
-    for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree.width - fc[d]; /* in the targets' frame */
+    for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree.cell - fc[d]; /* in the targets' frame */
     KIFMM__F(__place)(c->surf.unit_e, c->surf.nse, ctr, alpha * half, pe);
     KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + c->surf.nse, pe + 2 * c->surf.nse, dens, c->surf.nse,
                     nrhs, (size_t)c->tree.nbox * c->surf.ne, 1.0, out, old);
