@@ -146,6 +146,27 @@ def test_library_errors_carry_its_message():
     assert e.value.code == -8
 
 
+def test_yukawa_slab_against_image_sums():
+    """a slab periodic in x and y whose z spans 3 periods (the free direction
+    wider than the period), against image sums written here"""
+    rng = np.random.default_rng(21)
+    x = rng.random((300, 3)) * [1.0, 1.0, 3.0]
+    q = rng.random(300) - 0.5
+    lam = 3.0
+    out = kifmm.FMM("yukawa", x, order=8, period=[1.0, 1.0, 0.0], kernel_param=lam).evaluate(q)
+    ref = np.zeros(40)
+    for a in range(-12, 13):
+        for b in range(-12, 13):
+            d = x[:40, None, :] - x[None, :, :] - [a, b, 0.0]
+            r = np.sqrt((d * d).sum(axis=2))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ref += np.where(r > 0, q[None, :] * np.exp(-lam * r) / r, 0.0).sum(axis=1) / PI4
+    assert rel(out[:40, 0], ref) < 1e-6
+    with pytest.raises(kifmm.KifmmError) as e:
+        kifmm.FMM("yukawa", x * [1.0, 1.0, 500.0], period=[1.0, 1.0, 0.0], kernel_param=lam)
+    assert e.value.code == -13 and "1024 periods" in str(e.value)
+
+
 def test_stats_and_options():
     x = points(20000, 14)
     fmm = kifmm.FMM("laplace", x, order=5, nthreads=1, period=1.0)
