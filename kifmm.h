@@ -2250,13 +2250,24 @@ KIFMM__FN int kifmm__check_diff(int p, int fft, int sd)
 }
 
 /* Three periodic directions: the order of the far images' exchange about
- * the root (__ewald_root) for expansions of order p. p + 1 and p + 2 gave
- * the same errors to a few per cent (docs/algorithm.md), p + 2 at 2 times
- * the cost. */
+ * the root (__ewald_root) for expansions of order p. Where every box of
+ * the exchange's level that holds points splits, the boxes' own expansions
+ * of order p carry it, and p + 1 and p + 2 gave the same errors to a few
+ * per cent (docs/algorithm.md), p + 2 at 2 times the cost; where one is a
+ * leaf (small sets), its points and targets meet the exchange directly and
+ * its order is the error: eight charges, p = 6, gradient 2.4e-5 at p + 1,
+ * 3.1e-6 at p + 2, 1.8e-6 at p + 3 (KIFMM_EWALD_RAISE_SMALL); p = 10 2.0e-8,
+ * 6.2e-9, 9.1e-10; create at p = 10 1.45 s -> 2.8 s. */
 #ifndef KIFMM_EWALD_RAISE
 #define KIFMM_EWALD_RAISE 1
 #endif
-KIFMM__FN int kifmm__ewald_order(int p) { return p + KIFMM_EWALD_RAISE; }
+#ifndef KIFMM_EWALD_RAISE_SMALL
+#define KIFMM_EWALD_RAISE_SMALL 3
+#endif
+KIFMM__FN int kifmm__ewald_order(int p, int small)
+{
+    return p + (small ? KIFMM_EWALD_RAISE_SMALL : KIFMM_EWALD_RAISE);
+}
 /* KIFMM_EWALD_OWN_FIT 1: the exchange's down fit from its own SVD even for
  * a kernel with K(-d) = K(d)^T, as for the kernels without that symmetry
  * (tests/test_ewald.c runs that path with laplace) */
@@ -3658,9 +3669,12 @@ struct KIFMM_NAME {
                                   the background's quadratic (__background_fit), */
         KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__ewald_root): its three
                                   factors (zku x SD nzu, zkd x zku, SD nzu x zkd), */
-        KIFMM__R *zp;          /* and U's points (D's too) about the root's centre */
+        KIFMM__R *zp;          /* and U's points (D's too) about the root's centre, */
+        KIFMM__R *zt;          /* and in the tree's frame (D's field at the targets of
+                                  the leaves of level zl, __ewald_leaf) */
         int nzu, zku, zkd;     /* points of U (and D); the factors' ranks */
         int zl;                /* the level whose boxes it reaches (0 or 1) */
+        int zsmall;            /* a box of level zl with points is a leaf (kifmm__ewald_order) */
     } lat;
     struct {                   /* the mutual near field (sources = targets) */
         int32_t *chunk;        /* chunks of leaves, or NULL */
@@ -4920,7 +4934,7 @@ KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int n
 KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const int q = kifmm__ewald_order(c->opts.order), cd = kifmm__check_diff(q, 0, KIFMM__SD);
+    const int q = kifmm__ewald_order(c->opts.order, c->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
     const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q), w = 2 * q - 1;
     const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD;
     const double ao = kifmm__alpha_outer(cd, KIFMM__SD), ai = c->surf.ai, h = 0.5 * c->tree.width;
@@ -4952,12 +4966,18 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
         kifmm__gemm(0, 0, kd, ku, me, pow(h, -c->ops.degree) / (bu * bd), utd, kd, x, me, 0.0, m, kd);
         c->lat.nzu = nu, c->lat.zku = ku, c->lat.zkd = kd;
         c->lat.zp = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * nu, sizeof(KIFMM__R));
+        c->lat.zt = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * nu, sizeof(KIFMM__R));
         c->lat.zu = KIFMM__F(__own)(&c->held, &utu, (size_t)ku * mu);
         c->lat.zm = KIFMM__F(__own)(&c->held, &m, (size_t)kd * ku);
         c->lat.zd = KIFMM__F(__own)(&c->held, &vsd, (size_t)mu * kd);
-        if (!c->lat.zp || !c->lat.zu || !c->lat.zm || !c->lat.zd) rc = KIFMM_ERR_NOMEM;
+        if (!c->lat.zp || !c->lat.zt || !c->lat.zu || !c->lat.zm || !c->lat.zd) rc = KIFMM_ERR_NOMEM;
     }
-    if (!rc) KIFMM__F(__place)(uu, nu, zero, ao * h, c->lat.zp);
+    if (!rc) {
+        double c0[3], h0;
+        kifmm__box_center(&c->tree, 0, c0, &h0);
+        KIFMM__F(__place)(uu, nu, zero, ao * h, c->lat.zp);
+        KIFMM__F(__place)(uu, nu, c0, ao * h, c->lat.zt);
+    }
     kifmm__free(uu);
     kifmm__free(g);
     kifmm__free(gs);
@@ -5921,7 +5941,12 @@ KIFMM__FN void KIFMM__F(__lattice_apply)(const KIFMM_NAME *c, const KIFMM__F(__w
 /* Three periodic directions: the far images' field at the check surfaces of
  * the boxes of level l = lat.zl, added (__ewald_root): the boxes' upward
  * densities' potentials at U (each block of U's points its own rows), Z,
- * then D's field at the boxes' check surfaces (each box its own). */
+ * then D's field at the check surfaces of the boxes that split (each box
+ * its own). A leaf's points give their potentials at U themselves, and its
+ * targets take D's field directly (in __leaf), not through expansions of
+ * order p at both ends, whose error at a leaf's corners (the whole cell's,
+ * when the root is a leaf) was most of the error of a few charges: eight,
+ * three on a face, at p = 6 potential 2.0e-5 and gradient 9.4e-5. */
 KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                        int l)
 {
@@ -5945,6 +5970,17 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
         int32_t b;
         for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
             if (t->s1[b] == t->s0[b]) continue;
+            if (t->child[b] < 0) { /* a leaf's points themselves */
+                const int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
+                size_t ld = (size_t)t->ns;
+                double f0[3] = {0.0, 0.0, 0.0};
+                const KIFMM__R *xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, ns, f0, KIFMM__F(__framebuf)(c));
+                KIFMM__F(__p2p_qc)(c->opts.kernel_param, c->lat.zt + i0, c->lat.zt + nu + i0,
+                                   c->lat.zt + 2 * nu + i0, n, xs, xs + ld, xs + 2 * ld,
+                                   w->qs + s0 * KIFMM__QD, ns, nrhs, (size_t)t->ns * KIFMM__QD, 1.0,
+                                   phi + (size_t)i0 * KIFMM__SD, (size_t)mu);
+                continue;
+            }
             kifmm__box_center(t, b, cb, &hb);
             kifmm__sub3(cb, c0, cb);
             KIFMM__F(__place)(c->surf.unit_e, c->surf.nse, cb, c->surf.ai * hb, pe);
@@ -5960,7 +5996,8 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
         KIFMM__R *pc = KIFMM__F(__scratch)(c);
         double cb[3], hb;
-        if (t->t1[b] == t->t0[b]) continue;
+        /* a leaf's targets take D's field directly (__ewald_leaf) */
+        if (t->t1[b] == t->t0[b] || t->child[b] < 0) continue;
         kifmm__box_center(t, b, cb, &hb);
         kifmm__sub3(cb, c0, cb);
         KIFMM__F(__place)(c->surf.unit_c, c->surf.nsc, cb, c->surf.ai * hb, pc);
@@ -6111,6 +6148,17 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     double c0 = kifmm__now(), c1, c2, fc[3] = {0.0, 0.0, 0.0}, half;
     size_t ld = (size_t)t->nt;
     int32_t e;
+    if (c->lat.zu && t->lev[b] == c->lat.zl) { /* before xf: it takes the frame buffer */
+        const KIFMM__R *xt;
+        double f0[3] = {0.0, 0.0, 0.0};
+        const int nu = c->lat.nzu;
+        const KIFMM__R *psi = w->lat + (size_t)nrhs * nu * KIFMM__SD;
+        size_t l2 = (size_t)t->nt;
+        xt = KIFMM__F(__frame)(c->pts.trg, &l2, t0, ntb, f0, KIFMM__F(__framebuf)(c));
+        KIFMM__F(__p2p_st)(c->opts.kernel_param, xt, xt + l2, xt + 2 * l2, ntb, c->lat.zt,
+                           c->lat.zt + nu, c->lat.zt + 2 * nu, psi, nu, nrhs, (size_t)nu * KIFMM__SD, 1.0,
+                           out, old);
+    }
     if (t->dsrc[b] >= 0 || t->wo[b + 1] > t->wo[b]) {
         /* the targets in the leaf's frame, for the surfaces */
         kifmm__box_center(t, b, fc, &half);
@@ -6376,6 +6424,7 @@ KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->lat.zm);
     kifmm__free(h->lat.zd);
     kifmm__free(h->lat.zp);
+    kifmm__free(h->lat.zt);
     kifmm__free(h);
 }
 
@@ -6529,6 +6578,12 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
 #endif
     /* three periodic directions: the far images reach level 1 (__ewald_root) */
     c->lat.zl = KIFMM__SI && c->tree.per[0] && c->tree.per[1] && c->tree.per[2] && c->tree.nlev > 1;
+    {
+        int32_t b;
+        for (b = c->tree.loff[c->lat.zl]; b < c->tree.loff[c->lat.zl + 1]; b++)
+            if (c->tree.child[b] < 0 && (c->tree.s1[b] > c->tree.s0[b] || c->tree.t1[b] > c->tree.t0[b]))
+                c->lat.zsmall = 1;
+    }
     kifmm__tree_dsrc(&c->tree, c->surf.nsc, c->lat.zl); /* X lists of boxes with few targets go direct */
     return KIFMM_SUCCESS;
 }
@@ -7211,10 +7266,10 @@ KIFMM__FN double KIFMM__F(__bytes_lattice)(const KIFMM_NAME *h)
     const double r = sizeof(KIFMM__R);
     if (!t->periodic) return 0.0;
     if (KIFMM__SI && t->per[0] && t->per[1] && t->per[2]) {
-        const int q = kifmm__ewald_order(h->opts.order), cd = kifmm__check_diff(q, 0, KIFMM__SD);
+        const int q = kifmm__ewald_order(h->opts.order, h->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
         const double nu = kifmm__surf_count(q + cd), mu = nu * KIFMM__SD;
         const double me = (double)kifmm__surf_count(q) * KIFMM__SD;
-        return (3.0 * nu + 2.0 * mu * me + me * me + 2.0 * (mu + me)) * r;
+        return (6.0 * nu + 2.0 * mu * me + me * me + 2.0 * (mu + me)) * r;
     }
     return (double)h->surf.nc * h->surf.ne * r;
 }
@@ -7280,6 +7335,8 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
     h->tree.nt = nt;
     h->tree.same = same;
     for (d = 0; d < 3; d++) h->tree.periodic |= h->tree.per[d] = o.period[d] > 0.0;
+    /* as __plan_tree finds on uniform points: leaves at level 1 */
+    h->lat.zsmall = nsources / 8 <= o.leaf_size && nt / 8 <= o.leaf_size;
     b = 0.0;
     if (nsources > 0 && nt > 0) {
         kifmm__shape_uniform(nsources, nt, same, o.leaf_size, o.max_depth, h->tree.per, &s);
