@@ -468,7 +468,9 @@ static long double log_bound(const api *a, const kifmm_opts *o, int64_t ns, cons
         } else {
             for (c = 0; c < a->sd; c++) m += fabsl((long double)at(a, q, i * a->sd + c));
         }
-        if (!isfinite(m)) {
+        /* not finite, or (a density map's products, stokes_dl) beyond the
+         * instance's range: the library may refuse with KIFMM_ERR_OVERFLOW */
+        if (!isfinite(m) || m > (a->fl ? (long double)FLT_MAX : (long double)DBL_MAX)) {
             free(qa);
             *kmax = INFINITY;
             return INFINITY;
