@@ -1932,6 +1932,8 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists)
     int32_t nk = 16 * (nth > 0 ? nth : 1), k;
     int rc = KIFMM_SUCCESS, j;
     kifmm__lbuf *buf;
+    if (nb < 1) return KIFMM_ERR_INTERNAL; /* a tree has its root (and gcc's
+                                              -Wstringop-overflow then knows nb + 1 > 0) */
     if (nk > nb) nk = nb;
     t->uo = (int32_t *)kifmm__takez(&t->held, (size_t)nb + 1, sizeof(int32_t));
     t->vo = (int32_t *)kifmm__takez(&t->held, (size_t)nb + 1, sizeof(int32_t));
