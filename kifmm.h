@@ -1065,7 +1065,7 @@ KIFMM__FN int kifmm__adjacent_s(const kifmm__tree *t, int32_t a, int32_t b, int 
     int sh[3], d;
     int32_t off[3];
     kifmm__shift_of(s, sh);
-    for (d = 0; d < 3; d++) off[d] = sh[d] * ((int32_t)1 << (KIFMM__D - t->kc));
+    for (d = 0; d < 3; d++) off[d] = sh[d] * kifmm__period_units(t, t->kc);
     return kifmm__adjacent_o(t, a, b, off);
 }
 
@@ -3673,7 +3673,7 @@ struct KIFMM_NAME {
                                   factors (zku x SD nzu, zkd x zku, SD nzu x zkd), */
         KIFMM__R *zp;          /* and U's points (D's too) about the root's centre, */
         KIFMM__R *zt;          /* and in the tree's frame (D's field at the targets of
-                                  the leaves of level zl, __ewald_leaf) */
+                                  the leaves of level zl, in __leaf) */
         int nzu, zku, zkd;     /* points of U (and D); the factors' ranks */
         int zl;                /* the level whose boxes it reaches (0 or 1) */
         int zsmall;            /* a box of level zl with points is a leaf (kifmm__ewald_order) */
@@ -5998,7 +5998,7 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
         KIFMM__R *pc = KIFMM__F(__scratch)(c);
         double cb[3], hb;
-        /* a leaf's targets take D's field directly (__ewald_leaf) */
+        /* a leaf's targets take D's field directly (in __leaf) */
         if (t->t1[b] == t->t0[b] || t->child[b] < 0) continue;
         kifmm__box_center(t, b, cb, &hb);
         kifmm__sub3(cb, c0, cb);
