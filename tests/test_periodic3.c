@@ -382,6 +382,52 @@ static void test_few_on_face(void)
     CHECK_ERR(wg[1], 2.5e-9, "eight charges, three on a face, p = 10: gradient");
 }
 
+/* Dense crowds on the cell's faces, separate targets: ns sources, half
+ * crowding the face x = 0 and half the corner 0 (from both sides, within
+ * 0.04), nt targets spread over the cell, laplace_grad, NCHK targets
+ * checked. While the tree's frame was the cell's, the crowds sat on box
+ * faces at every level, facing their images at the M2L's worst separation
+ * (kifmm__frame_offset): potential 2.0e-5 and 3.3e-5 (seeds 1 and 3), at
+ * p = 10 3.8e-9, field 1.9e-8. With the frame moved: 4.1e-6 and 5.7e-6, at
+ * p = 10 6.2e-10 and 2.8e-9. The field at p = 6 measures 2.1e-5 to 3.5e-5
+ * either way (a few targets beside the crowd hold it); its bound is the
+ * same crowd's in free space, moved off the root's dyadic planes (0.3, 1/3
+ * and 0.41 of a unit box, seeds 1 to 3, 60 targets: 3.6e-6 to 3.6e-5). */
+static void run_dense(int p, int64_t ns, int64_t nt, int seed, double bp, double bg)
+{
+    t_rng r = t_rng_seed((uint64_t)seed);
+    double *xs = t_doubles(3 * ns), *q = t_doubles(ns), *xt = t_doubles(3 * nt);
+    double *out = t_doubles(4 * nt), t[3 * NCHK], ref[4 * NCHK];
+    kifmm_opts o;
+    int64_t i;
+    int rc, c, d;
+    memset(&o, 0, sizeof o);
+    o.order = p;
+    for (d = 0; d < 3; d++) o.period[d] = 1.0;
+    for (i = 0; i < ns; i++)
+        for (d = 0; d < 3; d++) {
+            double v = t_rand01(&r);
+            if (d == 0 || i % 2) v = t_uniform(&r, -0.04, 0.04);
+            xs[3 * i + d] = v;
+        }
+    gen_q(&r, ns, 1, q, 1);
+    for (i = 0; i < 3 * nt; i++) xt[i] = t_rand01(&r);
+    rc = fmm(LAPG, &o, ns, xs, q, nt, xt, out);
+    CHECK(rc == KIFMM_SUCCESS, "dense crowds: create and evaluate: %s", kifmm_strerror(rc));
+    for (c = 0; c < NCHK; c++) memcpy(t + 3 * c, xt + 3 * chk_index(c, nt), 3 * sizeof(double));
+    reference(LAPG, ns, xs, q, t, ref);
+    CHECK_ERR(rc ? 1.0 : rel_l2(4, 0, 1, nt, out, ref), bp,
+              "laplace_grad (potential), %lld sources crowding a face and a corner, %lld "
+              "targets spread, seed %d, p = %d", (long long)ns, (long long)nt, seed, p);
+    CHECK_ERR(rc ? 1.0 : rel_l2(4, 1, 4, nt, out, ref), bg,
+              "laplace_grad (field), %lld sources crowding a face and a corner, %lld "
+              "targets spread, seed %d, p = %d", (long long)ns, (long long)nt, seed, p);
+    free(xs);
+    free(q);
+    free(xt);
+    free(out);
+}
+
 int main(void)
 {
     int s, k;
@@ -418,6 +464,12 @@ int main(void)
         if (k != STK) run3(k, UNIFORM, SAME, 6, 0, 3e-5);
     run3(BS, FACE, APART, 6, 1, 3e-5);
     run3(LAP, CORNER, CROWD, 6, 0, 6e-5);
+    t_group("dense crowds on a face and a corner, separate targets");
+    run_dense(6, 5000, 1000, 1, 1e-5, 4e-5);
+#ifndef KIFMM_TEST_QUICK
+    run_dense(6, 5000, 1000, 3, 1e-5, 4e-5);
+    run_dense(10, 5000, 1000, 1, 1e-8, 1e-8);
+#endif
     t_group("eight charges, three on a face");
     test_few_on_face();
     t_group("laplace_hess, laplace_cd, stokes_grad, biot_savart_grad, p = 6");
