@@ -5,7 +5,9 @@
  *   - slabs, periodic in x and y, z spanning E = 1, 3 and 10 periods:
  *     Laplace against Ewald's sum for two periodic directions
  *     (tests/ewald.h; the gradient of laplace_grad against its fourth-order
- *     central differences), Yukawa against direct image sums;
+ *     central differences; laplace_dipole's potential against the Ewald sum
+ *     of the charges of fourth-order differences along the dipoles), Yukawa
+ *     against direct image sums;
  *   - channels, periodic in x, y and z spanning C = 1, 3 and 10 periods:
  *     Laplace and Stokes against symmetric image sums extrapolated in N (as
  *     in test_periodic.c), Yukawa against direct image sums;
@@ -13,7 +15,8 @@
  * crowding the edge x = y = 0 (slabs) and with separate targets above and
  * below the sources (sources in the middle half of the free extent, targets
  * in the outer quarters); relative L2 error at most 1.5e-5 at p = 6 (the
- * gradient 2e-5) and 1e-8 at p = 10 (see bound_for; docs/api.md). And: a net charge in a slab is refused
+ * gradient and the dipoles' potential 2e-5) and 1e-8 at p = 10 (see
+ * bound_for; docs/api.md). And: a net charge in a slab is refused
  * (KIFMM_ERR_NEUTRAL), free directions spanning 1024 periods or more are
  * refused (KIFMM_ERR_PERIOD). */
 #include "kifmm.h"
@@ -22,6 +25,8 @@
 #define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
 #define KIFMM_KERNEL stokes
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_dipole
 #include "kifmm.h"
 
 #include "ewald.h"
@@ -324,6 +329,49 @@ static void run_grad(double E, int set, int p)
     if (set == SEP) free(xt);
 }
 
+/* laplace_dipole in a slab: the potential p . (x - y) / (4 pi r^3) of
+ * dipoles p_j at y_j, against Ewald's sum for the charges of the fourth-
+ * order difference along each dipole (|p| / (12 h) times 1, -8, 8, -1 at
+ * y + 2h, h, -h, -2h along p / |p|, h = 1e-5: a neutral set) */
+static void run_dipole(double E, int set, int p)
+{
+    static const double w[4] = {-1.0, 8.0, -8.0, 1.0}, sh[4] = {2.0, 1.0, -1.0, -2.0};
+    const int64_t ns = NPTS, nt = set == SEP ? NPTS / 2 : NPTS;
+    const double hd = 1e-5;
+    t_rng r = t_rng_seed(0xd1b0ULL + (uint64_t)(set * 17 + (int)E));
+    double *xs = t_doubles(3 * ns), *dp = t_doubles(3 * ns), *xt = set == SEP ? t_doubles(3 * nt) : xs;
+    double *cx = t_doubles(12 * ns), *cq = t_doubles(4 * ns), *out = t_doubles(nt);
+    double ref[4 * NCHK], t[3 * NCHK], err = 1.0;
+    kifmm_opts o = popts(p, 3);
+    kifmm_laplace_dipole *h = NULL;
+    int64_t i;
+    int k, d, rc;
+    gen(&r, set, 3, E, 0, ns, xs);
+    if (set == SEP) gen(&r, set, 3, E, 1, nt, xt);
+    for (i = 0; i < 3 * ns; i++) dp[i] = t_rand01(&r) - 0.5;
+    chk_points(nt, xt, t);
+    for (i = 0; i < ns; i++) {
+        const double m = sqrt(dp[3 * i] * dp[3 * i] + dp[3 * i + 1] * dp[3 * i + 1] + dp[3 * i + 2] * dp[3 * i + 2]);
+        for (k = 0; k < 4; k++) {
+            for (d = 0; d < 3; d++) cx[3 * (4 * i + k) + d] = xs[3 * i + d] + sh[k] * hd * dp[3 * i + d] / m;
+            cq[4 * i + k] = w[k] * m / (12.0 * hd);
+        }
+    }
+    rc = kifmm_laplace_dipole_create(&h, &o, ns, xs, nt, xt);
+    if (!rc) rc = kifmm_laplace_dipole_evaluate(h, dp, out);
+    kifmm_laplace_dipole_destroy(h);
+    ref_laplace2d(4 * ns, cx, cq, t, 0, ref);
+    if (!rc) err = rel_l2(nt, out, 1, 0, ref, 4);
+    CHECK(rc == KIFMM_SUCCESS, "laplace_dipole create and evaluate: %s", kifmm_strerror(rc));
+    CHECK_ERR(err, grad_bound_for(p), "laplace_dipole, slab %g periods, %s, p = %d", E, set_name[set], p);
+    free(xs);
+    free(dp);
+    free(cx);
+    free(cq);
+    free(out);
+    if (set == SEP) free(xt);
+}
+
 /* Stokes in a channel (periodic in x), forces summing to zero */
 static void run_stokes(double C, int set, int p)
 {
@@ -427,6 +475,12 @@ int main(void)
     run_grad(10.0, EDGE, 6);
 #ifndef KIFMM_TEST_QUICK
     run_grad(3.0, EDGE, 10);
+#endif
+    t_group("laplace_dipole slabs (any dipoles: they carry no monopole)");
+    run_dipole(3.0, FACE, 6);
+    run_dipole(10.0, SEP, 6);
+#ifndef KIFMM_TEST_QUICK
+    run_dipole(3.0, EDGE, 10);
 #endif
     t_group("stokes channels, zero net force");
     run_stokes(3.0, FACE, 6);
