@@ -97,21 +97,24 @@ static double ref_yukawa(int pm, int N, double lam, int64_t ns, const double *xs
     return ch / big;
 }
 
-/* Richardson steps in 1/N^2, 1/N^4, 1/N^6 (the error of a symmetric image
- * sum) over R[k][0] at N0 << k, k = 0 .. 3, of nv values each; the result
- * into out, the last step's squared change added to *ch and the result's
- * squares to *big */
-static void extrapolate(double R[4][4][3], int nv, double *out, double *ch, double *big)
+/* Richardson steps over R[k][0] at N0 << k, k = 0 .. lv - 1 (lv <= 5), of
+ * nv values each: in 1/N^2, 1/N^4, ... (base 4: the error of a symmetric
+ * image sum along one direction) or 1/N, 1/N^2, ... (base 2: over squares
+ * of images along two); the result into out, the last step's squared
+ * change added to *ch and the result's squares to *big */
+static void extrapolate(double R[5][5][3], int lv, double base, int nv, double *out, double *ch,
+                        double *big)
 {
+    const int m = lv - 1;
     int a, k, d;
-    for (a = 1; a < 4; a++)
-        for (k = a; k < 4; k++)
+    for (a = 1; a < lv; a++)
+        for (k = a; k < lv; k++)
             for (d = 0; d < nv; d++)
-                R[k][a][d] = (pow(4.0, a) * R[k][a - 1][d] - R[k - 1][a - 1][d]) / (pow(4.0, a) - 1.0);
+                R[k][a][d] = (pow(base, a) * R[k][a - 1][d] - R[k - 1][a - 1][d]) / (pow(base, a) - 1.0);
     for (d = 0; d < nv; d++) {
-        out[d] = R[3][3][d];
-        *ch += (R[3][3][d] - R[3][2][d]) * (R[3][3][d] - R[3][2][d]);
-        *big += R[3][3][d] * R[3][3][d];
+        out[d] = R[m][m][d];
+        *ch += (R[m][m][d] - R[m][m - 1][d]) * (R[m][m][d] - R[m][m - 1][d]);
+        *big += R[m][m][d] * R[m][m][d];
     }
 }
 
@@ -124,29 +127,36 @@ static double ref_laplace1d(int pm, int N0, int64_t ns, const double *xs, const 
     double ch = 0.0, big = 0.0;
     int c, k;
     for (c = 0; c < NCHK; c++) {
-        double R[4][4][3];
+        double R[5][5][3];
         for (k = 0; k < 4; k++) R[k][0][0] = image_sum(pm, N0 << k, 0.0, ns, xs, q, t + 3 * c);
-        extrapolate(R, 1, ref + c, &ch, &big);
+        extrapolate(R, 4, 4.0, 1, ref + c, &ch, &big);
     }
     return sqrt(ch / big);
 }
 
-/* the Stokeslet (mu 1) summed over images along x, |n| <= N, at t: u[3] */
-static void stokes_images(int N, int64_t ns, const double *xs, const double *f, const double *t,
-                          double *u)
+/* the Stokeslet (mu 1) summed over the images |n_a| <= N along the periodic
+ * directions of pm (1: x; 3: x and y), at t: u[3]; each image's sum in
+ * double, their sum in long double */
+static void stokes_images(int pm, int N, int64_t ns, const double *xs, const double *f,
+                          const double *t, double *u)
 {
+    const int n1 = pm & 2 ? N : 0;
     long double s[3] = {0.0L, 0.0L, 0.0L};
-    int a, k;
+    int a, b, k;
     int64_t j;
     for (a = -N; a <= N; a++)
-        for (j = 0; j < ns; j++) {
-            const double d[3] = {t[0] - xs[3 * j] - a, t[1] - xs[3 * j + 1], t[2] - xs[3 * j + 2]};
-            const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], r = sqrt(r2);
-            const double df = d[0] * f[3 * j] + d[1] * f[3 * j + 1] + d[2] * f[3 * j + 2];
-            if (r2 == 0.0) continue;
-            for (k = 0; k < 3; k++) s[k] += (f[3 * j + k] / r + d[k] * df / (r2 * r)) / (2.0 * PI4);
+        for (b = -n1; b <= n1; b++) {
+            double cell[3] = {0.0, 0.0, 0.0};
+            for (j = 0; j < ns; j++) {
+                const double d[3] = {t[0] - xs[3 * j] - a, t[1] - xs[3 * j + 1] - b, t[2] - xs[3 * j + 2]};
+                const double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2], r = sqrt(r2);
+                const double df = d[0] * f[3 * j] + d[1] * f[3 * j + 1] + d[2] * f[3 * j + 2];
+                if (r2 == 0.0) continue;
+                for (k = 0; k < 3; k++) cell[k] += f[3 * j + k] / r + d[k] * df / (r2 * r);
+            }
+            for (k = 0; k < 3; k++) s[k] += cell[k];
         }
-    for (k = 0; k < 3; k++) u[k] = (double)s[k];
+    for (k = 0; k < 3; k++) u[k] = (double)(s[k] / (2.0L * (long double)PI4));
 }
 
 #endif

@@ -216,9 +216,9 @@ static void test_stokes(void)
     kifmm_stokes_destroy(h);
     for (c = 0; c < NCHK; c++) {
         const int64_t t = chk_index(c, n);
-        double R[4][4][3], u[3];
-        for (k = 0; k < 4; k++) stokes_images(100 << k, n, x, f, x + 3 * t, R[k][0]);
-        extrapolate(R, 3, u, &ch, &big);
+        double R[5][5][3], u[3];
+        for (k = 0; k < 4; k++) stokes_images(1, 100 << k, n, x, f, x + 3 * t, R[k][0]);
+        extrapolate(R, 4, 4.0, 3, u, &ch, &big);
         for (d = 0; d < 3; d++) {
             e += (o[3 * t + d] - u[d]) * (o[3 * t + d] - u[d]);
             s += u[d] * u[d];

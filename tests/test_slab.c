@@ -11,6 +11,8 @@
  *   - channels, periodic in x, y and z spanning C = 1, 3 and 10 periods:
  *     Laplace and Stokes against symmetric image sums extrapolated in N (as
  *     in test_periodic.c), Yukawa against direct image sums;
+ *   - Stokes in slabs of 3 periods against sums over squares of images
+ *     extrapolated in N;
  * on points spread through the slab or channel, crowding the face x = 0,
  * crowding the edge x = y = 0 (slabs) and with separate targets above and
  * below the sources (sources in the middle half of the free extent, targets
@@ -38,6 +40,7 @@
 #define NPTS 1000
 #endif
 #define NCHK 12 /* targets checked against each reference */
+#define NPTS_STK2 200 /* stokes in slabs: the reference sums squares of images */
 #include "periodic_refs.h"
 
 enum { SPREAD, FACE, EDGE, SEP };
@@ -241,18 +244,25 @@ static void run_dipole(double E, int set, int p)
     if (set == SEP) free(xt);
 }
 
-/* Stokes in a channel (periodic in x), forces summing to zero */
-static void run_stokes(double C, int set, int p)
+/* Stokes, forces summing to zero, in a channel (pm 1: periodic in x, the
+ * image sums at 50 C, 100 C, 200 C, 400 C either side extrapolated in
+ * 1/N^2) or a slab (pm 3: x and y, sums over squares of 8, 16, 32, 64 and
+ * 128 images either side extrapolated in 1/N, 1/N^2, ...). The slab's last
+ * step moves the sums by 1e-6 to 1.7e-6 (checked: at most 3e-6, a fifth of
+ * the bound), but they are closer than that: 3.2e-8 from the FMM's result
+ * at p = 10 on 300 points spread through a slab of 3 periods. */
+static void run_stokes(int pm, double C, int set, int p)
 {
-    const int64_t n = NPTS / 2;
-    t_rng r = t_rng_seed(0x5701ULL + (uint64_t)(set * 17 + (int)C));
+    const int64_t n = pm == 3 ? NPTS_STK2 : NPTS / 2;
+    const int lv = pm == 3 ? 5 : 4;
+    t_rng r = t_rng_seed(0x5701ULL + (uint64_t)(set * 17 + (int)C + (pm == 3 ? 5 : 0)));
     double *x = t_doubles(3 * n), *f = t_doubles(3 * n), *o = t_doubles(3 * n), m[3] = {0, 0, 0};
     double e = 0.0, s = 0.0, ch = 0.0, big = 0.0, t[3 * NCHK];
-    kifmm_opts op = popts(p, 1);
+    kifmm_opts op = popts(p, pm);
     kifmm_stokes *h = NULL;
     int64_t i;
     int c, k, d, rc;
-    gen(&r, set, 1, C, 0, n, x);
+    gen(&r, set, pm, C, 0, n, x);
     for (i = 0; i < 3 * n; i++) m[i % 3] += (f[i] = t_rand01(&r) - 0.5);
     for (i = 0; i < 3 * n; i++) f[i] -= m[i % 3] / (double)n;
     chk_points(n, x, t);
@@ -260,19 +270,21 @@ static void run_stokes(double C, int set, int p)
     if (!rc) rc = kifmm_stokes_evaluate(h, f, o);
     kifmm_stokes_destroy(h);
     for (c = 0; c < NCHK; c++) {
-        double R[4][4][3], u[3];
-        for (k = 0; k < 4; k++) stokes_images((int)(50.0 * C) << k, n, x, f, t + 3 * c, R[k][0]);
-        extrapolate(R, 3, u, &ch, &big);
+        double R[5][5][3], u[3];
+        for (k = 0; k < lv; k++)
+            stokes_images(pm, (pm == 3 ? 8 : (int)(50.0 * C)) << k, n, x, f, t + 3 * c, R[k][0]);
+        extrapolate(R, lv, pm == 3 ? 2.0 : 4.0, 3, u, &ch, &big);
         for (d = 0; d < 3; d++) {
             const double dd = o[3 * chk_index(c, n) + d] - u[d];
             e += dd * dd;
             s += u[d] * u[d];
         }
     }
-    CHECK(sqrt(ch / big) <= 1e-9, "Stokes image sums converged: change %.1e", sqrt(ch / big));
+    CHECK(sqrt(ch / big) <= (pm == 3 ? 3e-6 : 1e-9), "Stokes image sums converged: change %.1e",
+          sqrt(ch / big));
     CHECK(rc == KIFMM_SUCCESS, "stokes create and evaluate: %s", kifmm_strerror(rc));
-    CHECK_ERR(rc ? 1.0 : sqrt(e / s), bound_for(p), "stokes, channel %g periods, %s, p = %d", C,
-              set_name[set], p);
+    CHECK_ERR(rc ? 1.0 : sqrt(e / s), bound_for(p), "stokes, %s %g periods, %s, p = %d", geom(pm),
+              C, set_name[set], p);
     free(x);
     free(f);
     free(o);
@@ -351,9 +363,13 @@ int main(void)
 #ifndef KIFMM_TEST_QUICK
     run_dipole(3.0, EDGE, 10);
 #endif
-    t_group("stokes channels, zero net force");
-    run_stokes(3.0, FACE, 6);
-    run_stokes(10.0, SPREAD, 6);
+    t_group("stokes channels and slabs, zero net force");
+    run_stokes(1, 3.0, FACE, 6);
+    run_stokes(1, 10.0, SPREAD, 6);
+    run_stokes(3, 3.0, EDGE, 6);
+#ifndef KIFMM_TEST_QUICK
+    run_stokes(3, 3.0, SPREAD, 6);
+#endif
     t_group("errors");
     test_errors();
     return t_finish();
