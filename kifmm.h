@@ -946,8 +946,8 @@ typedef struct kifmm__tree {
     int kc;                  /* levels above the cell: the root is 2^kc cells wide
                                 (free directions spanning more than the period) */
     double cell;             /* periodic trees: the period L (the root's width / 2^kc) */
-    double frame[3];         /* periodic directions: the offset added to the wrapped
-                                coordinates (kifmm__frame_offset), else 0 */
+    double frame[3];         /* periodic directions: the frame's offset f, the root's
+                                lower corner -f (kifmm__frame_offset), else 0 */
     int32_t *alias;          /* kc > 0: per box of levels 1 .. kc, the box whose image
                                 it is (periodic anchors 0), or -1; else NULL */
     double origin[3];        /* shift of each axis: the root's centre where that is
@@ -1153,17 +1153,17 @@ KIFMM__FN void kifmm__keys_unique(kifmm__keys *k)
 }
 
 /* Coordinate v of direction d in the tree's frame: relative to t->origin, or
- * in a periodic direction wrapped into the cell [0, L) and moved by the
- * frame's offset (wrapped again). */
+ * in a periodic direction wrapped into the cell [-f, L - f), f the frame's
+ * offset (kifmm__frame_offset): into [0, L) first, then [L - f, L) moved
+ * down by L, which is exact (f <= L / 2: Sterbenz), so that points given in
+ * the cell keep their coordinates and their digits. */
 KIFMM__FN double kifmm__coord(const kifmm__tree *t, double v, int d)
 {
     double w;
     if (!t->per[d]) return v - t->origin[d];
     w = v - t->cell * floor(v / t->cell);
     if (!(w >= 0.0 && w < t->cell)) w = 0.0; /* rounding can give L itself */
-    w += t->frame[d];
-    if (w >= t->cell) w -= t->cell;
-    return w >= 0.0 && w < t->cell ? w : 0.0;
+    return t->frame[d] > 0.0 && w >= t->cell - t->frame[d] ? w - t->cell : w;
 }
 
 /* Sort one point set by key: sorted SoA coordinates relative to t->origin,
@@ -1236,36 +1236,43 @@ KIFMM__FN void kifmm__centre_axis(kifmm__tree *t, int d, double c, double half)
  * the points (shifted as below). */
 #define KIFMM__KC_MAX 10
 
-/* The offset of a periodic direction's frame. The cell's faces are box
- * faces at every level, so points crowding a face (a wall, an interface)
- * would sit at the near face of their boxes at every level, facing their
- * images across the face: the worst case of the M2L's one-box separation
- * (5,000 sources crowding a face and a corner, 1,000 targets apart,
- * laplace_grad p = 6: potential 2.1e-5, gradient 9.1e-5; see
- * docs/algorithm.md). The tree's frame is therefore moved by a fraction of
- * L: of the candidates, the one that leaves the fewest sources within 1/8
- * of a box's width of a box face of levels 1 to 8 (on a sample of at most
- * 4,096 sources). A third keeps the dyadic planes (faces, centre,
- * quarters) a third of a box from every box face; a seventh and 3/7 take
- * over where sources crowd the planes that a third would align (2/3, 1/6,
- * ...). Results do not depend on the frame beyond the method's error. */
+/* The offset f of a periodic direction's frame: the root's lower corner is
+ * -f there (kifmm__coord). With f = 0 the cell's faces are box faces at
+ * every level, and points crowding a face (a wall, an interface) sit at the
+ * near face of their boxes at every level, facing their images across it
+ * one box apart, the worst case of the M2L's separation (5,000 sources
+ * crowding a face and a corner, 1,000 targets apart, laplace_grad p = 6:
+ * potential 2.0e-5 and 3.3e-5, two seeds; see docs/algorithm.md). Each
+ * candidate (0, L / 3, L / 7, 3 L / 7) is scored by the sources within 1/8
+ * of a box's width of a box face of levels 1 to 8, on a sample of at most
+ * 4,096 (one per block of ns / 4,096, at a hashed place in the block, so
+ * that no period in the caller's order, such as species interleaved, hides
+ * a crowd). The frame moves only where a candidate has a tenth fewer than
+ * 0: where the counts differ by less, they differ by the sample's chance,
+ * not by a crowd. A third keeps the cell's faces and its dyadic planes
+ * (centre, quarters) a third of a box from every box face; the sevenths
+ * take over where sources crowd the planes that a third would align (2/3,
+ * 1/6, ...). Results do not depend on the frame beyond the method's
+ * error. */
 KIFMM__FN double kifmm__frame_offset(const kifmm__tree *t, int64_t ns, const double *src, int d)
 {
-    static const double cand[3] = {1.0 / 3.0, 1.0 / 7.0, 3.0 / 7.0};
-    const int64_t step = ns > 4096 ? ns / 4096 : 1;
-    int64_t cnt[3] = {0, 0, 0}, i;
+    static const double cand[4] = {0.0, 1.0 / 3.0, 1.0 / 7.0, 3.0 / 7.0};
+    const int64_t ms = ns < 4096 ? ns : 4096, blk = ms > 0 ? ns / ms : 1;
+    int64_t cnt[4] = {0, 0, 0, 0}, k;
     int c, l, best = 0;
-    for (c = 0; c < 3; c++)
-        for (i = 0; i < ns; i += step) {
-            double u = kifmm__coord(t, src[3 * i + d], d) / t->cell + cand[c];
+    for (k = 0; k < ms; k++) {
+        const int64_t i = k * blk + (int64_t)(((uint64_t)k * 2654435761u) % (uint64_t)blk);
+        const double u0 = kifmm__coord(t, src[3 * i + d], d) / t->cell;
+        for (c = 0; c < 4; c++)
             for (l = 1; l <= 8; l++) {
-                double f = ldexp(u, l);
+                double f = ldexp(u0 + cand[c], l); /* position in the root of offset cand[c] */
                 f -= floor(f);
                 cnt[c] += f < 0.125 || f > 0.875;
             }
-        }
-    for (c = 1; c < 3; c++)
+    }
+    for (c = 1; c < 4; c++)
         if (cnt[c] < cnt[best]) best = c;
+    if (10 * cnt[best] > 9 * cnt[0]) best = 0;
     return cand[best] * t->cell;
 }
 
@@ -1284,9 +1291,10 @@ KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const doub
     t->width = ldexp(t->cell, t->kc);
     half = 0.5 * t->width;
     for (d = 0; d < 3; d++) {
-        t->frame[d] = 0.0;
+        t->frame[d] = 0.0; /* kifmm__frame_offset reads the cell's frame */
         if (t->per[d]) t->frame[d] = kifmm__frame_offset(t, ns, src, d);
-        t->origin[d] = t->lo[d] = 0.0;
+        t->origin[d] = 0.0;
+        t->lo[d] = -t->frame[d];
         if (!t->per[d]) kifmm__centre_axis(t, d, 0.5 * (mn[d] + mx[d]), half);
     }
     return KIFMM_SUCCESS;

@@ -428,6 +428,44 @@ static void run_dense(int p, int64_t ns, int64_t nt, int seed, double bp, double
     free(out);
 }
 
+/* Close pairs keep their digits where the tree's frame moves
+ * (kifmm__frame_offset; sources crowding the face x = 0 move it): a target
+ * 1e-12 from a source near x = 0 and another near x = L, where the points
+ * move down by L. A coordinate rounded to the cell's ulps (1e-16) would
+ * put an error of 1e-4 on these pairs' potentials (the pair's term is
+ * direct; the rest is 1e-16 of it). */
+static void test_close_pairs(void)
+{
+    enum { N = 400 };
+    t_rng r = t_rng_seed(21);
+    double xs[3 * (N + 2)], q[N + 2], xt[6], out[8], ref[8];
+    kifmm_opts o;
+    int rc, c, k;
+    gen_set(&r, FACE, N, xs);
+    gen_q(&r, N, 1, q, 1);
+    xs[3 * N] = 1e-12;
+    xs[3 * N + 3] = 1.0 - 2e-12;
+    for (k = 0; k < 2; k++) {
+        xs[3 * (N + k) + 1] = 0.25 + 0.5 * k;
+        xs[3 * (N + k) + 2] = 0.5;
+        q[N + k] = k ? -1.0 : 1.0;
+        xt[3 * k] = k ? 1.0 - 1e-12 : 2e-12;
+        xt[3 * k + 1] = xs[3 * (N + k) + 1];
+        xt[3 * k + 2] = 0.5;
+    }
+    memset(&o, 0, sizeof o);
+    o.order = 6;
+    o.period[0] = o.period[1] = o.period[2] = 1.0;
+    rc = fmm(LAPG, &o, N + 2, xs, q, 2, xt, out);
+    t_ewald_laplace(N + 2, xs, q, 2, xt, 1.0, ref);
+    CHECK(rc == KIFMM_SUCCESS, "close pairs: %s", kifmm_strerror(rc));
+    for (c = 0; c < 2 && !rc; c++)
+        CHECK(fabs(out[4 * c] - ref[4 * c]) <= 1e-10 * fabs(ref[4 * c]) &&
+                  fabs(out[4 * c + 1] - ref[4 * c + 1]) <= 1e-10 * fabs(ref[4 * c + 1]),
+              "a pair 1e-12 apart near x = %g: potential %.12e (Ewald %.12e), field %.6e (%.6e)",
+              c ? 1.0 : 0.0, out[4 * c], ref[4 * c], out[4 * c + 1], ref[4 * c + 1]);
+}
+
 int main(void)
 {
     int s, k;
@@ -470,6 +508,8 @@ int main(void)
     run_dense(6, 5000, 1000, 3, 1e-5, 4e-5);
     run_dense(10, 5000, 1000, 1, 1e-8, 1e-8);
 #endif
+    t_group("close pairs where the frame moves");
+    test_close_pairs();
     t_group("eight charges, three on a face");
     test_few_on_face();
     t_group("laplace_hess, laplace_cd, stokes_grad, biot_savart_grad, p = 6");
