@@ -1257,11 +1257,13 @@ KIFMM__FN void kifmm__centre_axis(kifmm__tree *t, int d, double c, double half)
 KIFMM__FN double kifmm__frame_offset(const kifmm__tree *t, int64_t ns, const double *src, int d)
 {
     static const double cand[4] = {0.0, 1.0 / 3.0, 1.0 / 7.0, 3.0 / 7.0};
-    const int64_t ms = ns < 4096 ? ns : 4096, blk = ms > 0 ? ns / ms : 1;
+    const int64_t ms = ns < 4096 ? ns : 4096;
     int64_t cnt[4] = {0, 0, 0, 0}, k;
     int c, l, best = 0;
-    for (k = 0; k < ms; k++) {
-        const int64_t i = k * blk + (int64_t)(((uint64_t)k * 2654435761u) % (uint64_t)blk);
+    for (k = 0; k < ms; k++) { /* block k: [b(k), b(k + 1)), b(k) = k ns / ms */
+        const int64_t b0 = k * (ns / ms) + k * (ns % ms) / ms;
+        const int64_t b1 = (k + 1) * (ns / ms) + (k + 1) * (ns % ms) / ms;
+        const int64_t i = b0 + (int64_t)(((uint64_t)k * 2654435761u) % (uint64_t)(b1 - b0));
         const double u0 = kifmm__coord(t, src[3 * i + d], d) / t->cell;
         for (c = 0; c < 4; c++)
             for (l = 1; l <= 8; l++) {
