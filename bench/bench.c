@@ -356,7 +356,7 @@ int main(int argc, char **argv)
         return 1;
     }
     /* The points and charges depend on (DIST, N) only, not on the order. */
-    make_points(dist, n, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, 1, xyz, q);
+    make_points(dist, n, 1, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, xyz, q);
     /* further density vectors: more charges of the same kind */
     {
         uint64_t st2 = UINT64_C(0xC0FFEE);

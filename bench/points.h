@@ -79,7 +79,7 @@ static void make_points(int dist, int64_t n, int dim, uint64_t seed, double *xyz
  * (u^(-2/3) - 1)^(-1/2), directions uniform), the usual test of a galaxy
  * code: half the points within 1.3, a few hundred times that at the
  * largest radius of 1e5 to 1e6 points. */
-static void make_plummer(int64_t n, int dim, uint64_t seed, double *xyz, double *q)
+static inline void make_plummer(int64_t n, int dim, uint64_t seed, double *xyz, double *q)
 {
     uint64_t st = seed;
     int64_t i;
