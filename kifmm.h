@@ -6673,6 +6673,19 @@ KIFMM__FN int KIFMM__F(__params)(const double *in, double *out)
 #if KIFMM__HAS_QT & KIFMM_HAS_SETUP
     if (KIFMM__K(_setup)(in, out) != 0) return KIFMM_ERR_PARAM;
 #endif
+#if KIFMM__FLOAT
+    {
+        /* float instances: the kernel at unit distance at most 1e30 in
+         * magnitude. A Stokeslet's 1 / (8 pi mu) with mu below about 1e-30
+         * overflows float in the hooks' factor, and outputs that are exactly
+         * zero (coincident points only) came out NaN (inf times 0) */
+        double kv[KIFMM__TD * KIFMM__QD];
+        int i;
+        KIFMM__K(_eval)(out, 1.0, 0.0, 0.0, kv);
+        for (i = 0; i < KIFMM__TD * KIFMM__QD; i++)
+            if (!(fabs(kv[i]) <= 1e30)) return KIFMM_ERR_PARAM;
+    }
+#endif
     return KIFMM_SUCCESS;
 }
 
