@@ -5529,10 +5529,10 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
                 for (a = 0; a < KIFMM__SD; a++) m[a] += c->ops.mono[a + k * KIFMM__SD] * sq[k];
         } else {
             int ch;
+            /* every child: those without sources hold zeros, and above the
+             * cell an image's densities are its sibling's (__alias_fill) */
             for (ch = 0; ch < 8; ch++) {
-                const int32_t cb = t->child[b] + ch;
-                const KIFMM__R *y = w->ue + (size_t)r * per + (size_t)cb * ne;
-                if (t->s1[cb] <= t->s0[cb]) continue;
+                const KIFMM__R *y = w->ue + (size_t)r * per + (size_t)(t->child[b] + ch) * ne;
                 for (i = 0; i < ne; i++) m[i % KIFMM__SD] += (double)y[i];
             }
         }
