@@ -72,6 +72,11 @@
  *                               the FFT spectra in float up to this order (4)
  *   KIFMM_FFT_SPEC_MB           MiB for the FFT spectra of a slab (64)
  *   KIFMM_MAX_THREADS           largest opts.nthreads accepted (1024)
+ *   KIFMM_FREE_FRAME            0: the free-space root is always the tight
+ *                               cube around the points (1: a wider one where
+ *                               that keeps crowds off the boxes' faces)
+ *   KIFMM_MONO_FIX              0: the upward densities keep their fitted
+ *                               sums (1: set to their sources')
  *
  *   LINKAGE MODES (per include, as in STC)
  *
@@ -1302,8 +1307,84 @@ KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const doub
     return KIFMM_SUCCESS;
 }
 
+/* KIFMM_FREE_FRAME 0: the free-space root is always the tight cube (see
+ * kifmm__free_frame) */
+#ifndef KIFMM_FREE_FRAME
+#define KIFMM_FREE_FRAME 1
+#endif
+/* The free-space root's frame. The smallest cube around the points, centred
+ * on them, puts every point of a crowd at the points' centre (a body with
+ * targets set around it symmetrically) on the boxes' faces at every level,
+ * and a crowd at the points' edge on the root's faces: the equivalent
+ * surfaces' worst place. 3,000 Laplace charges on a sphere of radius 1e-3,
+ * targets spread over [0, 1]^3, p = 6: 1.5e-7 with the sphere about
+ * (0.3, 0.3, 0.3), 8.0e-5 about (0.5, 0.5, 0.5); laplace_dipole 1.1e-4 at
+ * the corner (0, 0, 0). So a second frame is tried: a cube 1.5 times as
+ * wide, its lower corner at lo - f slack in each axis (slack: its width
+ * less the points' extent; f one of twelve fractions with odd denominators,
+ * never a dyadic place), the best f per axis. As kifmm__frame_offset does
+ * for the periodic cell, each frame counts sampled sources (at most 4096,
+ * one per block of the array) within 1/8 of a box width of a box face at
+ * levels 1 to 8, and the wider frame is taken only where it counts less
+ * than half the tight one's: uniform points do not move (their counts
+ * differ by a few per cent), nor do the Gaussian blobs of bench/points.h,
+ * whose densest blobs sit at 0.75 and 0.5 (at 3/4 they moved, and the error
+ * at 20,000 points went from 9.3e-7 to 1.1e-6 at p = 6 and from 1.8e-8 to
+ * 1.3e-8 at p = 8). Where it moves for a crowd that needed it less, the
+ * error can grow a little: the sphere above about (0.3, 0.3, 0.3) with
+ * laplace_grad, potential 9.3e-8 -> 2.2e-7, gradient 2.4e-6 -> 4.7e-6
+ * (tests/test_accuracy.c, where the centre's gradient goes from 5.8e-5 to
+ * 4.3e-6). In: lo, hi (the points' extent), *half (the tight
+ * cube's padded half-width). Out: ctr (the root's centre), *half. */
+KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, const double *lo,
+                                 const double *hi, double *half, double *ctr)
+{
+    static const double cand[12] = {1.0 / 3.0, 2.0 / 3.0, 1.0 / 5.0, 2.0 / 5.0,
+                                     3.0 / 5.0, 4.0 / 5.0, 1.0 / 7.0, 2.0 / 7.0,
+                                     3.0 / 7.0, 4.0 / 7.0, 5.0 / 7.0, 6.0 / 7.0};
+    const int64_t ms = ns < 4096 ? ns : 4096;
+    const double h0 = *half, w1 = 3.0 * h0;
+    int64_t ca = 0, cb = 0;
+    double cw[3];
+    int d;
+    for (d = 0; d < 3; d++) {
+        const double slack = w1 - (hi[d] - lo[d]), la = 0.5 * (lo[d] + hi[d]) - h0;
+        int64_t cnt[13], k;
+        int c, l, best = 1;
+        ctr[d] = 0.5 * (lo[d] + hi[d]);
+        for (c = 0; c < 13; c++) cnt[c] = 0;
+        for (k = 0; k < ms; k++) { /* as in kifmm__frame_offset */
+            const int64_t b0 = k * (ns / ms) + k * (ns % ms) / ms;
+            const int64_t b1 = (k + 1) * (ns / ms) + (k + 1) * (ns % ms) / ms;
+            const int64_t i = b0 + (int64_t)(((uint64_t)k * 2654435761u) % (uint64_t)(b1 - b0));
+            const double x = src[3 * i + d];
+            for (c = 0; c < 13; c++) {
+                /* c = 0: the tight cube; c >= 1: the wide one at cand[c - 1] */
+                const double u = c == 0 ? (x - la) / (2.0 * h0)
+                                        : (x - (lo[d] - cand[c - 1] * slack)) / w1;
+                for (l = 1; l <= 8; l++) {
+                    double f = ldexp(u, l);
+                    f -= floor(f);
+                    cnt[c] += f < 0.125 || f > 0.875;
+                }
+            }
+        }
+        for (c = 2; c < 13; c++)
+            if (cnt[c] < cnt[best]) best = c;
+        ca += cnt[0];
+        cb += cnt[best];
+        cw[d] = lo[d] - cand[best - 1] * slack + 0.5 * w1;
+    }
+    if (ms > 0 && 2 * cb < ca) {
+        *half = 0.5 * w1;
+        for (d = 0; d < 3; d++) ctr[d] = cw[d];
+    }
+}
+
 /* Step 1, the root cube: the smallest cube around every source and target,
- * padded so that no point sits on its outer faces. Each axis is shifted by
+ * padded so that no point sits on its outer faces, or a wider one where
+ * that keeps crowds of sources off the boxes' faces (kifmm__free_frame).
+ * Each axis is shifted by
  * the cube's centre where that shift is exact: with |centre| >= the root's
  * width, every coordinate lies within a factor 2 of the centre, so x -
  * centre is exact (Sterbenz). Elsewhere the points keep their own
@@ -1313,7 +1394,7 @@ KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const doub
 KIFMM__FN int kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
                                  const double *trg, int nth)
 {
-    double lo[3], hi[3], half = 0.0;
+    double lo[3], hi[3], ctr[3], half = 0.0;
     int d;
     if (t->periodic) return kifmm__tree_bounds_periodic(t, ns, src, nt, trg, nth);
     for (d = 0; d < 3; d++) kifmm__extent(ns, src, nt, trg, d, nth, &lo[d], &hi[d]);
@@ -1321,7 +1402,12 @@ KIFMM__FN int kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, 
         if (0.5 * (hi[d] - lo[d]) > half) half = 0.5 * (hi[d] - lo[d]);
     if (!(half > 0.0)) half = 0.5;
     half *= 1.0 + 1e-10;
-    for (d = 0; d < 3; d++) kifmm__centre_axis(t, d, 0.5 * (lo[d] + hi[d]), half);
+#if KIFMM_FREE_FRAME
+    kifmm__free_frame(ns, src, lo, hi, &half, ctr);
+#else
+    for (d = 0; d < 3; d++) ctr[d] = 0.5 * (lo[d] + hi[d]);
+#endif
+    for (d = 0; d < 3; d++) kifmm__centre_axis(t, d, ctr[d], half);
     t->width = 2.0 * half;
     return KIFMM_SUCCESS;
 }
