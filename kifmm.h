@@ -1316,8 +1316,8 @@ KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const doub
  * on them, puts every point of a crowd at the points' centre (a body with
  * targets set around it symmetrically) on the boxes' faces at every level,
  * and a crowd at the points' edge on the root's faces: the equivalent
- * surfaces' worst place. 3,000 Laplace charges on a sphere of radius 1e-3,
- * targets spread over [0, 1]^3, p = 6: 1.5e-7 with the sphere about
+ * surfaces' worst place. 20,000 Laplace charges on a sphere of radius 1e-3,
+ * 3,000 targets spread over [0, 1]^3, p = 6: 1.5e-7 with the sphere about
  * (0.3, 0.3, 0.3), 8.0e-5 about (0.5, 0.5, 0.5); laplace_dipole 1.1e-4 at
  * the corner (0, 0, 0). So a second frame is tried: a cube 1.5 times as
  * wide, its lower corner at lo - f slack in each axis (slack: its width
