@@ -1323,49 +1323,56 @@ KIFMM__FN int kifmm__tree_bounds_periodic(kifmm__tree *t, int64_t ns, const doub
  * wide, its lower corner at lo - f slack in each axis (slack: its width
  * less the points' extent; f one of twelve fractions with odd denominators,
  * never a dyadic place), the best f per axis. As kifmm__frame_offset does
- * for the periodic cell, each frame counts sampled sources (at most 4096,
- * one per block of the array) within 1/8 of a box width of a box face at
+ * for the periodic cell, each frame counts sampled sources and targets (at
+ * most 4096 of each, one per block of the array; a crowd of targets at the
+ * centre gave 4.6e-5 in the gradient, 5.4e-7 with the frame moved) within
+ * 1/8 of a box width of a box face at
  * levels 1 to 8, and the wider frame is taken only where it counts less
  * than half the tight one's: uniform points do not move (their counts
  * differ by a few per cent), nor do the Gaussian blobs of bench/points.h,
  * whose densest blobs sit at 0.75 and 0.5 (at 3/4 they moved, and the error
  * at 20,000 points went from 9.3e-7 to 1.1e-6 at p = 6 and from 1.8e-8 to
  * 1.3e-8 at p = 8). Where it moves for a crowd that needed it less, the
- * error can grow a little: the sphere above about (0.3, 0.3, 0.3) with
- * laplace_grad, potential 9.3e-8 -> 2.2e-7, gradient 2.4e-6 -> 4.7e-6
- * (tests/test_accuracy.c, where the centre's gradient goes from 5.8e-5 to
- * 4.3e-6). In: lo, hi (the points' extent), *half (the tight
- * cube's padded half-width). Out: ctr (the root's centre), *half. */
-KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, const double *lo,
-                                 const double *hi, double *half, double *ctr)
+ * error can grow a little: counting sources alone, the sphere above about
+ * (0.3, 0.3, 0.3) moved, laplace_grad potential 9.3e-8 -> 2.2e-7, gradient
+ * 2.4e-6 -> 4.7e-6 (with the spread targets counted it stays). In: ns, src,
+ * nt, trg (trg == src: counted once), lo, hi (the points' extent), *half
+ * (the tight cube's padded half-width). Out: ctr (the root's centre),
+ * *half. */
+KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, int64_t nt, const double *trg,
+                                 const double *lo, const double *hi, double *half, double *ctr)
 {
     static const double cand[12] = {1.0 / 3.0, 2.0 / 3.0, 1.0 / 5.0, 2.0 / 5.0,
                                      3.0 / 5.0, 4.0 / 5.0, 1.0 / 7.0, 2.0 / 7.0,
                                      3.0 / 7.0, 4.0 / 7.0, 5.0 / 7.0, 6.0 / 7.0};
-    const int64_t ms = ns < 4096 ? ns : 4096;
     const double h0 = *half, w1 = 3.0 * h0;
+    const int sets = trg == src && nt == ns ? 1 : 2; /* the targets, unless they are the sources */
     int64_t ca = 0, cb = 0;
     double cw[3];
     int d;
     for (d = 0; d < 3; d++) {
         const double slack = w1 - (hi[d] - lo[d]), la = 0.5 * (lo[d] + hi[d]) - h0;
         int64_t cnt[13], k;
-        int c, l, best = 1;
+        int c, l, best = 1, set;
         ctr[d] = 0.5 * (lo[d] + hi[d]);
         for (c = 0; c < 13; c++) cnt[c] = 0;
-        for (k = 0; k < ms; k++) { /* as in kifmm__frame_offset */
-            const int64_t b0 = k * (ns / ms) + k * (ns % ms) / ms;
-            const int64_t b1 = (k + 1) * (ns / ms) + (k + 1) * (ns % ms) / ms;
-            const int64_t i = b0 + (int64_t)(((uint64_t)k * 2654435761u) % (uint64_t)(b1 - b0));
-            const double x = src[3 * i + d];
-            for (c = 0; c < 13; c++) {
-                /* c = 0: the tight cube; c >= 1: the wide one at cand[c - 1] */
-                const double u = c == 0 ? (x - la) / (2.0 * h0)
-                                        : (x - (lo[d] - cand[c - 1] * slack)) / w1;
-                for (l = 1; l <= 8; l++) {
-                    double f = ldexp(u, l);
-                    f -= floor(f);
-                    cnt[c] += f < 0.125 || f > 0.875;
+        for (set = 0; set < sets; set++) {
+            const int64_t n = set ? nt : ns, ms = n < 4096 ? n : 4096;
+            const double *x = set ? trg : src;
+            for (k = 0; k < ms; k++) { /* as in kifmm__frame_offset */
+                const int64_t b0 = k * (n / ms) + k * (n % ms) / ms;
+                const int64_t b1 = (k + 1) * (n / ms) + (k + 1) * (n % ms) / ms;
+                const int64_t i = b0 + (int64_t)(((uint64_t)k * 2654435761u) % (uint64_t)(b1 - b0));
+                const double v = x[3 * i + d];
+                for (c = 0; c < 13; c++) {
+                    /* c = 0: the tight cube; c >= 1: the wide one at cand[c - 1] */
+                    const double u = c == 0 ? (v - la) / (2.0 * h0)
+                                            : (v - (lo[d] - cand[c - 1] * slack)) / w1;
+                    for (l = 1; l <= 8; l++) {
+                        double f = ldexp(u, l);
+                        f -= floor(f);
+                        cnt[c] += f < 0.125 || f > 0.875;
+                    }
                 }
             }
         }
@@ -1375,7 +1382,7 @@ KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, const double *lo
         cb += cnt[best];
         cw[d] = lo[d] - cand[best - 1] * slack + 0.5 * w1;
     }
-    if (ms > 0 && 2 * cb < ca) {
+    if (2 * cb < ca) {
         *half = 0.5 * w1;
         for (d = 0; d < 3; d++) ctr[d] = cw[d];
     }
@@ -1383,7 +1390,7 @@ KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, const double *lo
 
 /* Step 1, the root cube: the smallest cube around every source and target,
  * padded so that no point sits on its outer faces, or a wider one where
- * that keeps crowds of sources off the boxes' faces (kifmm__free_frame).
+ * that keeps crowds of points off the boxes' faces (kifmm__free_frame).
  * Each axis is shifted by
  * the cube's centre where that shift is exact: with |centre| >= the root's
  * width, every coordinate lies within a factor 2 of the centre, so x -
@@ -1403,7 +1410,7 @@ KIFMM__FN int kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, 
     if (!(half > 0.0)) half = 0.5;
     half *= 1.0 + 1e-10;
 #if KIFMM_FREE_FRAME
-    kifmm__free_frame(ns, src, lo, hi, &half, ctr);
+    kifmm__free_frame(ns, src, nt, trg, lo, hi, &half, ctr);
 #else
     for (d = 0; d < 3; d++) ctr[d] = 0.5 * (lo[d] + hi[d]);
 #endif

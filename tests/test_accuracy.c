@@ -167,16 +167,17 @@ static void test_separate(double shift, double bound)
 }
 
 /* A small cluster of sources (3,000 charges on a sphere of radius 1e-3)
- * with 1,500 targets spread over [0, 1]^3, the sphere about (c, c, c). At
+ * with 1,500 targets spread over [0, 1]^3, the sphere about (c, c, c); or
+ * (targets set) 1,500 targets on that sphere among 3,000 spread sources. At
  * the points' centre (c = 0.5) or their corner (c = 0) the tight root put
  * the cluster on the boxes' faces at every level, where the equivalent
  * surfaces fit worst; the root's frame now moves (kifmm__free_frame).
- * Measured with the tight root (KIFMM_FREE_FRAME 0) / now: potential
- * 2.9e-6 / 1.3e-7 and gradient 5.8e-5 / 4.3e-6 at the centre, 7.3e-7 /
- * 1.0e-7 and 9.1e-6 / 1.5e-5 at the corner, 9.3e-8 / 2.2e-7 and 2.4e-6 /
- * 4.7e-6 about 0.3 (the frame moves there too: the cluster touches the
- * boxes' faces at levels 7 and 8). */
-static void test_small_cluster(double c)
+ * Measured with the tight root (KIFMM_FREE_FRAME 0) / now, potential and
+ * gradient: sources at the centre 2.9e-6 / 1.3e-7 and 5.8e-5 / 4.3e-6, at
+ * the corner 7.3e-7 / 1.0e-7 and 9.1e-6 / 1.5e-5, about 0.3 (no move)
+ * 9.3e-8 and 2.4e-6; targets at the centre 6.7e-6 / 2.5e-7 and 4.6e-5 /
+ * 5.4e-7, at the corner 5.2e-7 / 1.6e-7 and 4.1e-5 / 3.4e-6. */
+static void test_small_cluster(double c, int targets)
 {
     t_api grd = kifmm_laplace_grad_t_api();
     const int64_t ns = 3000, nt = 1500;
@@ -187,16 +188,26 @@ static void test_small_cluster(double c)
     t_err e;
     int64_t i;
     int rc;
-    t_gen_sphere(&r, ns, s);
-    for (i = 0; i < 3 * ns; i++) s[i] = c + 2e-3 * (s[i] - 0.5);
-    t_gen_cube(&r, nt, t, 0.0, 1.0);
+    if (targets) { /* the cluster is of targets, among spread sources */
+        t_gen_cube(&r, ns, s, 0.0, 1.0);
+        t_gen_sphere(&r, nt, t);
+        for (i = 0; i < 3 * nt; i++) t[i] = c + 2e-3 * (t[i] - 0.5);
+    } else {
+        t_gen_sphere(&r, ns, s);
+        for (i = 0; i < 3 * ns; i++) s[i] = c + 2e-3 * (s[i] - 0.5);
+        t_gen_cube(&r, nt, t, 0.0, 1.0);
+    }
     t_gen_charges(&r, ns, q, -1.0, 1.0);
     t_fill(4 * nt, out, NAN);
     rc = t_run(&grd, &o, ns, s, nt, t, q, out, NULL, NULL);
     CHECK(rc == KIFMM_SUCCESS, "small cluster at %g: rc=%d", c, rc);
+    if (rc != KIFMM_SUCCESS) goto done;
     e = t_error_laplace(ns, s, q, nt, t, out, 4, NSAMPLE);
-    CHECK_ERR(e.pot, 1e-6, "cluster of radius 1e-3 about (%g, %g, %g), p = 6: potential", c, c, c);
-    CHECK_ERR(e.grad, 4e-5, "cluster of radius 1e-3 about (%g, %g, %g), p = 6: gradient", c, c, c);
+    CHECK_ERR(e.pot, 1e-6, "%s on a sphere of radius 1e-3 about (%g, %g, %g), p = 6: potential",
+              targets ? "targets" : "sources", c, c, c);
+    CHECK_ERR(e.grad, 4e-5, "%s on a sphere of radius 1e-3 about (%g, %g, %g), p = 6: gradient",
+              targets ? "targets" : "sources", c, c, c);
+done:
     free(s);
     free(t);
     free(q);
@@ -221,9 +232,11 @@ int main(void)
     test_separate(0.0, BOUND_P6);
     test_separate(0.5, BOUND_P6);
     t_group("p = 6, a small cluster far from its targets");
-    test_small_cluster(0.5);
-    test_small_cluster(0.0);
-    test_small_cluster(0.3);
+    test_small_cluster(0.5, 0);
+    test_small_cluster(0.0, 0);
+    test_small_cluster(0.3, 0);
+    test_small_cluster(0.5, 1);
+    test_small_cluster(0.0, 1);
     printf("test_accuracy: %.1fs\n", t_wall() - t0);
     return t_finish();
 }
