@@ -5925,16 +5925,8 @@ KIFMM__FN int32_t KIFMM__F(__fft_slab)(const KIFMM_NAME *c, int l, int kept, int
  * ue: the level's first upward density of vector r): their lattice
  * densities (conv) transformed into the spectra buffer, slot b at value b F
  * 16 of every chunk; sch[9 b] lists the children that have sources. */
-/* v[0 .. n) *= s (a power of two: exact) */
-KIFMM__FN void KIFMM__F(__scale)(const KIFMM_NAME *c, KIFMM__R *v, size_t n, double s)
-{
-    (void)c; /* used by the OpenMP pragma only */
-    KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads) if (n > 65536))
-    for (size_t i = 0; i < n; i++) v[i] = (KIFMM__R)((double)v[i] * s);
-}
-
 KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
-                                       const KIFMM__R *ue, int32_t nneed, double sc)
+                                       const KIFMM__R *ue, int32_t nneed)
 {
     const kifmm__tree *t = &c->tree;
     const kifmm__fft *pl = &c->fft.plan;
@@ -5954,8 +5946,6 @@ KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__
             if (kifmm__has_src(t, ch0 + q)) h[1 + h[0]++] = (unsigned char)q;
         for (j = 1; j < KIFMM__SD; j++) memcpy(h + 9 * j, h, 9);
         KIFMM__F(__conv8)(o->conv, nc, ne, ue + (size_t)8 * c->fft.need[b] * ne, m);
-        if (sc != 1.0)
-            for (q = 0; q < 8 * nc; q++) m[q] *= sc;
         for (j = 0; j < KIFMM__SD; j++) {
             const size_t sj = (size_t)j * KIFMM__FFT_F * 16;
             if (s.f) kifmm__fft_forward8f(pl, m, KIFMM__SD, j, s.f + sj, cstride, work.f);
@@ -6077,44 +6067,16 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const int32_t ni = t->ioff[l] - t->ioff[l - 1];
     const int kept = o->kbf || o->kbd;
     const size_t per = (size_t)t->nbox * c->surf.ne;
-    const size_t nchk = (size_t)KIFMM__LVL(c, l) * c->surf.nc;
     int32_t s0, s1, e, nneed;
     int tv[27 * 64], r;
-    double sc[KIFMM__RHS_MAX];
     kifmm__fft_tvmap(tv);
-    /* float spectra (c->fft.specf): the level's upward densities, whose size
-     * goes with the kernel's degree over the box's (a dipole's in boxes of
-     * 1e-45: 1e45; of 1e45: 1e-45), are brought to a largest of [0.5, 1)
-     * by a power of two, and the check vectors by the same around the
-     * products: exact, and no float overflows or loses digits to
-     * subnormals (laplace_dipole, p = 4, points spread over 1e45: 4.4e-2
-     * without, 1.9e-4 as over 1) */
-    for (r = 0; r < nrhs; r++) {
-        const KIFMM__R *u = w->ue + r * per + (size_t)t->loff[l] * c->surf.ne;
-        const size_t nu = (size_t)(t->loff[l + 1] - t->loff[l]) * c->surf.ne;
-        double m = 0.0;
-        int ex = 0;
-        sc[r] = 1.0;
-        if (!c->fft.specf) continue;
-        KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads) reduction(max : m) if (nu > 65536))
-        for (size_t i = 0; i < nu; i++) {
-            const double v = fabs((double)u[i]);
-            m = v > m ? v : m;
-        }
-        if (m > 0.0) (void)frexp(m, &ex);
-        ex = ex < -900 ? -900 : ex > 900 ? 900 : ex;
-        sc[r] = ldexp(1.0, -ex);
-    }
     for (s0 = 0; s0 < ni; s0 = s1) {
         s1 = KIFMM__F(__fft_slab)(c, l, kept, s0, &nneed);
         for (r = 0; r < nrhs; r++) {
-            KIFMM__R *chk = w->chk + (size_t)r * nchk;
-            if (sc[r] != 1.0) KIFMM__F(__scale)(c, chk, nchk, sc[r]);
-            KIFMM__F(__fft_forward)(c, l, o, w->ue + r * per + (size_t)t->loff[l] * c->surf.ne, nneed,
-                                    sc[r]);
+            KIFMM__R *chk = w->chk + (size_t)r * KIFMM__LVL(c, l) * c->surf.nc;
+            KIFMM__F(__fft_forward)(c, l, o, w->ue + r * per + (size_t)t->loff[l] * c->surf.ne, nneed);
             if (kept) KIFMM__F(__fft_by_parents)(c, l, o, s0, s1, chk);
             else KIFMM__F(__fft_by_chunks)(c, l, o, tv, s0, s1, chk);
-            if (sc[r] != 1.0) KIFMM__F(__scale)(c, chk, nchk, 1.0 / sc[r]);
         }
         for (e = 0; e < nneed; e++) c->fft.loc[c->fft.need[e]] = -1;
     }

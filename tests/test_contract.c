@@ -20,16 +20,12 @@
  *     float M2L spectra of p <= 4 had overflowed (KIFMM_ERR_OVERFLOW) or
  *     lost every digit;
  *   - coincident points at 2.5e-161: outputs 0 (the AVX-512 gradient loop
- *     had given NaN there);
- *   - dipoles over extents of 1e-40, 1e45 and 1e100 against direct sums:
- *     the float M2L spectra had overflowed or lost every digit. */
+ *     had given NaN there). */
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace
 #define KIFMM_REAL float
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace_grad
-#include "kifmm.h"
-#define KIFMM_KERNEL laplace_dipole
 #include "kifmm.h"
 
 #include "ewald.h"
@@ -413,57 +409,6 @@ static void test_density_max(void)
     }
 }
 
-/* Dipoles over extents far from 1 (laplace_dipole, p = 4: float M2L
- * spectra), against direct sums in long double: the upward densities go
- * with the dipoles over the box width (1e45 in boxes of 1e-45), and the
- * float products had overflowed (1e-40: KIFMM_ERR_OVERFLOW) or lost their
- * digits to subnormals (1e45: 3.3e-2, 1e100: 4.2e-2, with success); each
- * now as accurate as over 1 (1.4e-4). */
-static void test_dipole_scale(void)
-{
-    enum { N = 2000, NC = 20 };
-    static const double ext[] = {1.0, 1e-40, 1e45, 1e100};
-    t_rng r = t_rng_seed(2);
-    double *u = t_doubles(3 * N), *x = t_doubles(3 * N), *d = t_doubles(3 * N), *o = t_doubles(N);
-    double err[4];
-    kifmm_opts op = t_opts(4, 0, 0);
-    int k, c, rc;
-    t_gen_cube(&r, N, u, 0.0, 1.0);
-    for (k = 0; k < 3 * N; k++) d[k] = t_rand01(&r) - 0.5;
-    for (k = 0; k < 4; k++) {
-        kifmm_laplace_dipole *h = NULL;
-        long double e = 0.0L, sn = 0.0L;
-        int64_t i, j;
-        for (i = 0; i < 3 * N; i++) x[i] = u[i] * ext[k];
-        rc = kifmm_laplace_dipole_create(&h, &op, N, x, N, x);
-        if (!rc) rc = kifmm_laplace_dipole_evaluate(h, d, o);
-        kifmm_laplace_dipole_destroy(h);
-        CHECK(rc == KIFMM_SUCCESS, "laplace_dipole over %g: %s", ext[k], kifmm_strerror(rc));
-        for (c = 0; c < NC && !rc; c++) {
-            long double v = 0.0L, ref;
-            i = (int64_t)c * N / NC;
-            for (j = 0; j < N; j++) {
-                const long double dx = (long double)x[3 * i] - x[3 * j];
-                const long double dy = (long double)x[3 * i + 1] - x[3 * j + 1];
-                const long double dz = (long double)x[3 * i + 2] - x[3 * j + 2];
-                const long double r2 = dx * dx + dy * dy + dz * dz;
-                if (j != i) v += (d[3 * j] * dx + d[3 * j + 1] * dy + d[3 * j + 2] * dz) / (r2 * sqrtl(r2));
-            }
-            ref = v / (4.0L * (long double)T_PI);
-            e += (o[i] - ref) * (o[i] - ref);
-            sn += ref * ref;
-        }
-        err[k] = rc ? 1.0 : (double)sqrtl(e / sn);
-    }
-    for (k = 1; k < 4; k++)
-        CHECK(err[k] <= 1.5 * err[0], "laplace_dipole p = 4 over %g: error %.3e, over 1 %.3e",
-              ext[k], err[k], err[0]);
-    free(u);
-    free(x);
-    free(d);
-    free(o);
-}
-
 int main(void)
 {
     t_group("direct: NULL densities without targets, overlap");
@@ -482,7 +427,5 @@ int main(void)
     test_coincident_tiny();
     t_group("densities near DBL_MAX");
     test_density_max();
-    t_group("dipoles over extents far from 1");
-    test_dipole_scale();
     return t_finish();
 }
