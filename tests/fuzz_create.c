@@ -32,8 +32,14 @@
  *   - evaluate and evaluate_many with one vector agree bit for bit (the
  *     documented determinism), zero outputs without sources;
  *   - for free-space sets far from overflow, evaluate agrees with direct at
- *     a few targets within 5 % of the sum of |terms| there: loose enough for
- *     any order and tree, tight enough to catch a wrong far field;
+ *     a few targets within 5 % of the sum of |terms| there from order 4 on,
+ *     10 % at order 3 and 25 % at order 2: loose enough for any tree, tight
+ *     enough to catch a wrong far field.  The most singular output decides
+ *     the sum (|q| / r^3 for a Hessian), and a Hessian's truncation error at
+ *     low orders is a sizeable part of it: laplace_hess on 20 to 300 points
+ *     spread over 2^-60 to 2^60 (150 sets, leaves of 1 to 20) measured up to
+ *     8.9 % at order 2, 3.0 % at 3, 0.45 % at 4 and 0.023 % at 6; uniform
+ *     points 7.2 %, 0.82 %, 0.31 % and 0.013 %;
  *   - stats and options report finite, resolved values.
  *
  * Documented behaviour the checks allow (-DFUZZ_NO_SKIPS turns it off):
@@ -959,7 +965,9 @@ static void run_one(const uint8_t *data, size_t size)
                 if (rc == KIFMM_SUCCESS && eval_rc == KIFMM_SUCCESS && lb < (a->fl ? 25.0L : 280.0L)) {
                     for (i = 0; i < k * a->td; i++) {
                         double e = at(a, out1, i), x = at(a, ref, i);
-                        long double tolr = 0.05L * abs_sum[i / a->td] +
+                        long double frac = used.order <= 2 ? 0.25L
+                                           : used.order == 3 ? 0.10L : 0.05L;
+                        long double tolr = frac * abs_sum[i / a->td] +
                                            (a->fl ? 1e-30L : 1e-290L);
                         CHECK(fabsl((long double)e - (long double)x) <= tolr,
                               "%s evaluate out[%lld] = %.17g, direct %.17g, allowed %Lg",
