@@ -1253,8 +1253,8 @@ KIFMM__FN void kifmm__centre_axis(kifmm__tree *t, int d, double c, double half)
  * sample of at most 4,096 of each (one per block of n / 4,096, at a hashed
  * place in the block, so that no period in the caller's order, such as
  * species interleaved, hides a crowd; targets crowding a corner of the
- * cell, sources spread, Laplace with two periodic directions, p = 6: 1.1e-4
- * counting the sources alone, 1.7e-5 with the targets). The frame moves
+ * cell, sources spread, Laplace with two periodic directions, p = 6: 4.3e-5
+ * counting the sources alone, 8.7e-6 with the targets). The frame moves
  * only where a candidate has a tenth fewer than 0: where the counts differ
  * by less, they differ by the sample's chance, not by a crowd. A third keeps the cell's faces and its dyadic planes
  * (centre, quarters) a third of a box from every box face; the sevenths
@@ -2403,8 +2403,8 @@ KIFMM__FN int kifmm__check_diff(int p, int fft, int sd)
 #endif
 }
 
-/* Three periodic directions: the order of the far images' exchange about
- * the root (__ewald_root) for expansions of order p. Where every box of
+/* Periodic trees: the order of the far images' exchange about the root
+ * (__far_root) for expansions of order p. Where every box of
  * the exchange's level that holds points splits, the boxes' own expansions
  * of order p carry it, and p + 1 and p + 2 gave the same errors to a few
  * per cent (docs/algorithm.md), p + 2 at 2 times the cost; where one is a
@@ -2486,9 +2486,11 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
 /* A periodic tree's field from the images of the cell beyond its 26
  * neighbours (which the lists reach: the root's colleagues are its images),
  * as one operator T from the root's upward equivalent density to its
- * downward check potential (three periodic directions of a scale-invariant
- * kernel: from Ewald sums and between the boxes of level 1 instead, see
- * __ewald_root), built from the kernel alone by recursion over
+ * downward check potential, of order p (not applied to the root: the far
+ * images are exchanged with the boxes of level 1 at a higher order, and
+ * T(3 h) is the super-cell's part of that exchange, see __far_root; with
+ * three periodic directions of a scale-invariant kernel Ewald sums take
+ * its place), built from the kernel alone by recursion over
  * super-cells of 3 x 3 x 3 cells (3 or 3 x 3 along fewer periodic
  * directions). With a cell of half-width h and its super-cell of 3 h:
  *   A: the cell's own images in the super-cell's 26 neighbours (2 <= |n|
@@ -2512,6 +2514,7 @@ typedef struct {
                             unit point source at the centre, with S e = I */
     double *mu;          /* SD x QD: the densities' sum per component of a unit
                             point source of each kind (kernel component) */
+    kifmm__ops sup;      /* with e: the super-cell's two fits (for __far_pairs) */
 } kifmm__lat;
 
 KIFMM__FN void kifmm__lat_free(kifmm__lat *L)
@@ -2521,6 +2524,7 @@ KIFMM__FN void kifmm__lat_free(kifmm__lat *L)
     kifmm__free(L->c);
     kifmm__free(L->e);
     kifmm__free(L->mu);
+    kifmm__ops_free(&L->sup);
     memset(L, 0, sizeof *L);
 }
 
@@ -3762,8 +3766,8 @@ typedef struct {
     KIFMM__R *stack;         /* 316 ne x (M2L block columns) */
     KIFMM__R *m2l_out;       /* kd x (M2L block columns) */
     KIFMM__R *qs;            /* densities in sorted order */
-    KIFMM__R *lat;           /* three periodic directions: U's potentials, D's
-                                densities (__ewald_apply) */
+    KIFMM__R *lat;           /* periodic trees: U's potentials, D's densities
+                                (__far_apply) */
     /* Outputs: either all of them in sorted order (outs), gathered into the
      * caller's order at the end; or, when that saves memory, each task sums
      * its targets in its thread's part of lbuf (lbuf_per values) and adds
@@ -3824,12 +3828,11 @@ struct KIFMM_NAME {
         double *foutd;         /* parents (slots of them), chunk-major; or NULL */
     } fft;
     struct {                   /* periodic trees: the far images (kifmm__lat) */
-        KIFMM__R *t;           /* root density -> root check vector (nc x ne) */
         double *mu;            /* scale-invariant kernels: SD x QD monopole map, and */
         int neutral;           /* whether the densities must sum to zero */
         double *bq;            /* three periodic directions of a scale-invariant kernel:
                                   the background's quadratic (__background_fit), */
-        KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__ewald_root): its three
+        KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__far_root): its three
                                   factors (zku x SD nzu, zkd x zku, SD nzu x zkd), */
         KIFMM__R *zp;          /* and U's points (D's too) about the root's centre, */
         KIFMM__R *zt;          /* and in the tree's frame (D's field at the targets of
@@ -4919,6 +4922,11 @@ KIFMM__FN int KIFMM__F(__lat_level)(const KIFMM_NAME *c, double h, int want_e, k
         kifmm__gemm(0, 0, nc, nc, o.kd, o.sigma, t, nc, o.ut_dn, o.kd, 0.0, L->b, nc);
     }
     if (!rc && want_e) rc = KIFMM__F(__lat_centre)(c, &o, H, L);
+    if (!rc && want_e) { /* kept */
+        kifmm__ops_free(&L->sup);
+        L->sup = o;
+        memset(&o, 0, sizeof o);
+    }
     kifmm__ops_free(&o);
     kifmm__free(k);
     kifmm__free(t);
@@ -5086,6 +5094,8 @@ KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, d
     return rc;
 }
 
+#endif /* KIFMM__EWALD */
+
 /* The pseudo-inverse of K(check surface uc, nsc points at radius rc <-
  * equivalent surface ue, nse points at radius re), both about 0 at
  * half-width 1, as its two factors (kifmm__pinv) of K / big, *big the
@@ -5117,18 +5127,105 @@ KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int n
     return err;
 }
 
-/* Three periodic directions of a scale-invariant kernel. The far images
- * (all of them beyond the 26 neighbours, from Ewald sums) reach every box of
- * the cell; through the root's own expansions of order p (the operator T of
- * the other periodic trees) their field would carry the root's truncation
- * error, largest in the cell's corners. So they are exchanged with the
- * boxes of level 1 (the root when it is a leaf), through surfaces about the
- * root of order q = p + KIFMM_EWALD_RAISE (kifmm__ewald_order):
+/* G (me x me, me = SD ne): the far images' field (the images of the cell
+ * of half-width h beyond its 26 neighbours) between the ne points of the
+ * order-q unit surface ue placed at radius ai h, E's images -> E's points.
+ * Three periodic directions of a scale-invariant kernel: the Ewald far
+ * sums (__lat_ewald_sums, h = 1). Any other periodic tree: the recursion
+ * of kifmm__lat with E in place of the cell's surfaces,
+ *   G = A_q + B' T(3 h) C',
+ * A_q the cell's images in the super-cell's neighbours summed directly
+ * between E's points (__lat_ring_sums: the ring, which the order-p T
+ * carried through the root's expansions, largest at its corners), C' E's
+ * 27 (9, 3) copies -> the super-cell's upward density and B' its downward
+ * density -> E's points, both of order p at 3 h, and T(3 h) the super-cell's
+ * far images of order p (given: __lattice_build; sup, where not NULL, the
+ * super-cell's fits at 3 h, else built here): their field at the
+ * cell, a third of the super-cell, carries a small part of the order-p
+ * error at the super-cell's corners. */
+KIFMM__FN int KIFMM__F(__far_pairs)(const KIFMM_NAME *c, double h, int q, const double *ue, int ne,
+                                    const double *T, const kifmm__ops *sup, double *g)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const int w = 2 * q - 1, me = ne * KIFMM__SD, nc = c->surf.nc, nq = c->surf.ne, nsc = c->surf.nsc;
+    const double H = 3.0 * h, ai = c->surf.ai, ao = c->surf.ao, zero[3] = {0.0, 0.0, 0.0};
+    double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
+    double *k1 = NULL, *k2 = NULL, *cq = NULL, *bq = NULL, *x = NULL, *y = NULL;
+    int m[27 * 3], nm, i, np = c->tree.per[0] + c->tree.per[1] + c->tree.per[2];
+    int rc = gs ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    kifmm__ops own;
+    const kifmm__ops *o = sup ? sup : &own;
+    memset(&own, 0, sizeof own);
+#if KIFMM__EWALD
+    if (np == 3) { /* a scale-invariant kernel (KIFMM__EWALD): Ewald */
+        if (!rc) rc = KIFMM__F(__lat_ewald_sums)(c, h, q, gs);
+        if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
+        kifmm__free(gs);
+        return rc;
+    }
+#endif
+    (void)np;
+    if (!rc) rc = KIFMM__F(__lat_ring_sums)(c, h, q, gs);
+    if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
+    kifmm__free(gs);
+    k1 = (double *)kifmm__alloc((size_t)nc * me, sizeof(double));
+    k2 = (double *)kifmm__alloc((size_t)me * (nc > nq ? nc : nq), sizeof(double));
+    cq = (double *)kifmm__alloc((size_t)nq * me, sizeof(double));
+    bq = (double *)kifmm__alloc((size_t)me * nc, sizeof(double));
+    x = (double *)kifmm__alloc((size_t)(nc > me ? nc : me) * (nc > nq ? nc : nq) + 1, sizeof(double));
+    y = (double *)kifmm__alloc((size_t)nc * me, sizeof(double));
+    if (!rc && (!T || !k1 || !k2 || !cq || !bq || !x || !y)) rc = KIFMM_ERR_NOMEM;
+    /* the super-cell's two fits (given, or built here) */
+    if (!rc && !sup) rc = KIFMM__F(__c2e_kernels)(c, H, ao, &own);
+    if (!rc && !sup) rc = KIFMM__F(__c2e_solve)(c, &own);
+    /* C': E's copies -> the super-cell's check (k1, nc x me) -> its density */
+    nm = kifmm__lat_offsets(&c->tree, 0, m);
+    if (!rc) memset(k1, 0, (size_t)nc * me * sizeof(double));
+    for (i = 0; i < nm && !rc; i++) {
+        const double ec[3] = {2.0 * h * m[3 * i], 2.0 * h * m[3 * i + 1], 2.0 * h * m[3 * i + 2]};
+        size_t j;
+        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, nsc, zero, ao * H, ue, ne, ec, ai * h, 1.0, y,
+                                   (size_t)nc, NULL);
+        for (j = 0; j < (size_t)nc * me && !rc; j++) k1[j] += y[j];
+    }
+    if (!rc) {
+        kifmm__gemm(0, 0, o->ku, me, nc, 1.0, o->ut_up, o->ku, k1, nc, 0.0, x, o->ku);
+        kifmm__gemm(0, 0, nq, me, o->ku, o->sigma, o->vs_up, nq, x, o->ku, 0.0, cq, nq);
+    }
+    /* B': the super-cell's check -> its downward density -> E's points */
+    if (!rc) rc = KIFMM__F(__surf_kmat)(c, ue, ne, zero, ai * h, c->surf.unit_e, c->surf.nse, zero,
+                                        ao * H, 1.0, k2, (size_t)me, NULL);
+    if (!rc) {
+        kifmm__gemm(0, 0, me, o->kd, nq, 1.0, k2, me, o->vs_dn, nq, 0.0, x, me);
+        kifmm__gemm(0, 0, me, nc, o->kd, o->sigma, x, me, o->ut_dn, o->kd, 0.0, bq, me);
+        /* G += B' T C' */
+        kifmm__gemm(0, 0, nc, me, nq, 1.0, T, nc, cq, nq, 0.0, y, nc);
+        kifmm__gemm(0, 0, me, me, nc, 1.0, bq, me, y, nc, 1.0, g, me);
+    }
+    for (i = 0; i < me * me && !rc; i++)
+        if (!(fabs(g[i]) <= DBL_MAX)) rc = KIFMM_ERR_KERNEL;
+    kifmm__ops_free(&own);
+    kifmm__free(k1);
+    kifmm__free(k2);
+    kifmm__free(cq);
+    kifmm__free(bq);
+    kifmm__free(x);
+    kifmm__free(y);
+    return rc;
+}
+
+/* The far images' exchange with the boxes of level 1 (the root when it is
+ * a leaf), every periodic tree. Through the root's own expansions of order
+ * p (the operator T of kifmm__lat, once applied to the root's density) the
+ * far images' field carried the root's truncation error, largest in its
+ * corners: with targets crowding a corner of the cell at p = 6, 5.7e-5
+ * (Laplace, three directions), 1.7e-5 (two; with the frame of the sources
+ * alone 1.1e-4). So they are exchanged through surfaces
+ * about the root of order q = p + KIFMM_EWALD_RAISE (kifmm__ewald_order):
  *   U: check surface at ao (order q + cd), the boxes' upward densities'
  *      potentials there, directly (at evaluate);
  *   E: equivalent surface at ai (order q), fitted to those: Kup^+;
- *   G: the Ewald far sums between E's points (on the order-q lattice: at the
- *      (2q - 1)^3 offsets, __lat_ewald_sums), E's images -> E's points;
+ *   G: the far images' field between E's points (__far_pairs);
  *   D: equivalent surface at ao on U's points (more than E's: the fit is
  *      underdetermined, its minimum-norm density smooth, D being far from
  *      E), fitted to that: Kdn^+; with it q = p + 1 gives the errors q = p
@@ -5138,30 +5235,35 @@ KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int n
  * and D's field at the boxes' downward check surfaces (directly). Kept:
  * Kdn^+ G Kup^+ (U -> D) as three factors, ut of Kup^+ (zu), the middle
  * ut G vs (zm) and vs of Kdn^+ (zd), built at half-width 1 and scaled to
- * the root's (h^-a for a kernel of degree a). Applied one after the other,
- * each pseudo-inverse's rounding stays in the directions its other factor
+ * the root's (h^-a for a kernel of degree a; a kernel that is not scale
+ * invariant at the root's own). Applied one after the other, each
+ * pseudo-inverse's rounding stays in the directions its other factor
  * brings back (formed into one matrix, p = 10 lost all digits); and the
- * placed points of U and D about the root's centre. */
-KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
+ * placed points of U and D about the root's centre. T3, sup: the
+ * super-cell's far images, T(3 h), and its fits (unused with Ewald sums). A G of zeros (a kernel that
+ * has decayed below double's range one period away), or fits whose
+ * kernel is below the instance's smallest normal number (Yukawa, lambda
+ * 100 in a float instance with a period of 1), leave the exchange out: the
+ * far images' field is below the instance's resolution of the near one. */
+KIFMM__FN int KIFMM__F(__far_root)(KIFMM_NAME *c, const double *T3, const kifmm__ops *sup)
 {
-    enum { SD2 = KIFMM__SD * KIFMM__SD };
     const int q = kifmm__ewald_order(c->opts.order, c->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
-    const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q), w = 2 * q - 1;
+    const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q);
     const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD;
-    const double ao = kifmm__alpha_outer(cd, KIFMM__SD), ai = c->surf.ai, h = 0.5 * c->tree.width;
+    const double h = 0.5 * c->tree.width, hf = KIFMM__SI ? 1.0 : h;
+    const double ao = kifmm__alpha_outer(cd, KIFMM__SD) * hf, ai = c->surf.ai * hf;
     const double zero[3] = {0.0, 0.0, 0.0};
     double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne), sizeof(double));
     double *g = (double *)kifmm__alloc((size_t)me * me, sizeof(double));
-    double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
     double *x = (double *)kifmm__alloc((size_t)me * me, sizeof(double)), *ue = uu + 3 * nu;
     double *utu = NULL, *vsu = NULL, *utd = NULL, *vsd = NULL, *m = NULL, bu = 0.0, bd = 0.0;
-    int rc = uu && g && gs && x ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, ku = 0, kd = 0, sym = 0;
+    int rc = uu && g && x ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, ku = 0, kd = 0, sym = 0;
     if (!rc) {
         kifmm__surf_unit(q + cd, uu);
         kifmm__surf_unit(q, ue);
-        rc = KIFMM__F(__lat_ewald_sums)(c, 1.0, q, gs);
+        rc = KIFMM__F(__far_pairs)(c, hf, q, ue, ne, T3, sup, g);
     }
-    if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
+    if (!rc && !(kifmm__max_abs(g, (size_t)me * me) > 0.0)) goto done; /* nothing reaches */
     if (!rc)
         rc = KIFMM__F(__ewald_fit)(c, uu, nu, ao, ue, ne, ai, &utu, &vsu, &ku, &bu,
                                    KIFMM_EWALD_OWN_FIT ? NULL : &sym);
@@ -5171,10 +5273,17 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
     } else if (!rc) {
         rc = KIFMM__F(__ewald_fit)(c, ue, ne, ai, uu, nu, ao, &utd, &vsd, &kd, &bd, NULL);
     }
+    /* as a level's operators (__c2e_kernels): a kernel below the instance's
+     * smallest normal number at the surfaces' distance gives no far field */
+    if (!rc && !(bu >= KIFMM__TINY && bd >= KIFMM__TINY)) goto done;
     if (!rc && !(m = (double *)kifmm__alloc((size_t)kd * ku + 1, sizeof(double)))) rc = KIFMM_ERR_NOMEM;
     if (!rc) {
-        kifmm__gemm(0, 0, me, ku, me, 1.0, g, me, vsu, me, 0.0, x, me);
-        kifmm__gemm(0, 0, kd, ku, me, pow(h, -c->ops.degree) / (bu * bd), utd, kd, x, me, 0.0, m, kd);
+        kifmm__gemm(0, 0, me, ku, me, 1.0 / bu, g, me, vsu, me, 0.0, x, me);
+        kifmm__gemm(0, 0, kd, ku, me, (KIFMM__SI ? pow(h, -c->ops.degree) : 1.0) / bd, utd, kd, x,
+                    me, 0.0, m, kd);
+        /* and the middle factor (about 1 / bd) within the instance's range */
+        if (!(kifmm__max_abs(m, (size_t)kd * ku) <= 1e-6 * (KIFMM__FLOAT ? FLT_MAX : DBL_MAX)))
+            goto done;
         c->lat.nzu = nu, c->lat.zku = ku, c->lat.zkd = kd;
         c->lat.zp = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * nu, sizeof(KIFMM__R));
         c->lat.zt = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * nu, sizeof(KIFMM__R));
@@ -5186,12 +5295,12 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
     if (!rc) {
         double c0[3], h0;
         kifmm__box_center(&c->tree, 0, c0, &h0);
-        KIFMM__F(__place)(uu, nu, zero, ao * h, c->lat.zp);
-        KIFMM__F(__place)(uu, nu, c0, ao * h, c->lat.zt);
+        KIFMM__F(__place)(uu, nu, zero, kifmm__alpha_outer(cd, KIFMM__SD) * h, c->lat.zp);
+        KIFMM__F(__place)(uu, nu, c0, kifmm__alpha_outer(cd, KIFMM__SD) * h, c->lat.zt);
     }
+done:
     kifmm__free(uu);
     kifmm__free(g);
-    kifmm__free(gs);
     kifmm__free(x);
     kifmm__free(utu);
     kifmm__free(vsu);
@@ -5201,40 +5310,29 @@ KIFMM__FN int KIFMM__F(__ewald_root)(KIFMM_NAME *c)
     return rc;
 }
 
-/* Three periodic directions of a scale-invariant kernel: the far images'
- * exchange (__ewald_root; the field of the images beyond the 26 neighbours,
- * less the background, which evaluate adds at the targets from the
- * densities' moments: __background), and the background's quadratic. */
-KIFMM__FN int KIFMM__F(__lat_ewald)(KIFMM_NAME *c)
-{
-    int rc = KIFMM__F(__ewald_root)(c);
-    return rc ? rc : KIFMM__F(__background_fit)(c);
-}
-#else
-KIFMM__FN int KIFMM__F(__lat_ewald)(KIFMM_NAME *c)
-{
-    (void)c;
-    return KIFMM_ERR_PERIODIC; /* the kernel has no Ewald split or background */
-}
-#endif
-
-/* The periodic tree's far-image operator, in the instance's precision,
- * times the root's check scale: c->lat.t (nc x ne); and for scale-invariant
- * kernels the monopole map c->lat.mu. */
+/* The periodic tree's far images: the exchange with level 1 (__far_root),
+ * and for scale-invariant kernels the monopole map c->lat.mu. */
 KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
 {
     const size_t nn = (size_t)c->surf.nc * c->surf.ne;
-    const double h0 = 0.5 * c->tree.width;
-    double *T, s0;
+    double *T;
     kifmm__lat L;
     size_t i;
     int rc, d, np = 0;
     for (d = 0; d < 3; d++) np += c->tree.per[d];
-    if (KIFMM__SI && np == 3) return KIFMM__F(__lat_ewald)(c); /* no T: see __ewald_root */
+    if (KIFMM__SI && np == 3) { /* Ewald sums (__far_pairs) */
+#if KIFMM__EWALD
+        rc = KIFMM__F(__far_root)(c, NULL, NULL);
+        return rc ? rc : KIFMM__F(__background_fit)(c);
+#else
+        return KIFMM_ERR_PERIODIC; /* the kernel has no Ewald split or background */
+#endif
+    }
+    /* T(3 h), the super-cell's far images, for __far_pairs */
     T = (double *)kifmm__alloc(nn, sizeof(double));
     rc = T ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
     memset(&L, 0, sizeof L);
-    if (!rc && KIFMM__SI) {
+    if (!rc && KIFMM__SI) { /* at h = 1: 3^a T(1) */
         rc = KIFMM__F(__lat_level)(c, 1.0, 1, &L);
         if (!rc) rc = KIFMM__F(__lat_fixed)(c, &L, T);
         if (!rc) {
@@ -5242,12 +5340,11 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
             L.mu = NULL;
             c->held += kifmm__size(c->lat.mu);
         }
+        for (i = 0; i < nn && !rc; i++) T[i] *= pow(3.0, c->ops.degree);
     } else if (!rc) {
-        rc = KIFMM__F(__lat_sum)(c, h0, T);
+        rc = KIFMM__F(__lat_sum)(c, 1.5 * c->tree.width, T);
     }
-    s0 = c->ops.at[0].sigma; /* the root's check scale: see __level_scale */
-    for (i = 0; i < nn && !rc; i++) T[i] *= s0;
-    if (!rc && !(c->lat.t = KIFMM__F(__own)(&c->held, &T, nn))) rc = KIFMM_ERR_NOMEM;
+    if (!rc) rc = KIFMM__F(__far_root)(c, T, KIFMM__SI ? &L.sup : NULL);
     kifmm__free(T);
     kifmm__lat_free(&L);
     return rc;
@@ -6195,19 +6292,8 @@ KIFMM__FN void KIFMM__F(__m2l_solve)(KIFMM_NAME *c, const KIFMM__F(__work) *w, i
     c->stats.t_l2l += (t1 - t0) + (kifmm__now() - t2);
 }
 
-/* A periodic tree's root: its check vectors from the far images, through
- * the operator of __lattice_build. */
-KIFMM__FN void KIFMM__F(__lattice_apply)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
-{
-    const size_t per = (size_t)c->tree.nbox * (size_t)c->surf.ne;
-    int r;
-    for (r = 0; r < nrhs; r++)
-        KIFMM__F(__gemm)(c->surf.nc, 1, c->surf.ne, c->lat.t, c->surf.nc, w->ue + r * per,
-                         c->surf.ne, 0, w->chk + (size_t)r * c->surf.nc, c->surf.nc);
-}
-
-/* Three periodic directions: the far images' field at the check surfaces of
- * the boxes of level l = lat.zl, added (__ewald_root): the boxes' upward
+/* A periodic tree: the far images' field at the check surfaces of the
+ * boxes of level l = lat.zl, added (__far_root): the boxes' upward
  * densities' potentials at U (each block of U's points its own rows), Z,
  * then D's field at the check surfaces of the boxes that split (each box
  * its own). A leaf's points give their potentials at U themselves, and its
@@ -6215,8 +6301,8 @@ KIFMM__FN void KIFMM__F(__lattice_apply)(const KIFMM_NAME *c, const KIFMM__F(__w
  * order p at both ends, whose error at a leaf's corners (the whole cell's,
  * when the root is a leaf) was most of the error of a few charges: eight,
  * three on a face, at p = 6 potential 2.0e-5 and gradient 9.4e-5. */
-KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                       int l)
+KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
+                                     int l)
 {
     enum { BLK = 32 };
     const kifmm__tree *t = &c->tree;
@@ -6237,8 +6323,9 @@ KIFMM__FN void KIFMM__F(__ewald_apply)(const KIFMM_NAME *c, const KIFMM__F(__wor
         double cb[3], hb;
         int32_t b;
         for (b = t->loff[l]; b < t->loff[l + 1]; b++) {
-            if (t->s1[b] == t->s0[b]) continue;
-            if (t->child[b] < 0) { /* a leaf's points themselves */
+            const int img = t->alias && t->alias[b] >= 0; /* an image above the cell */
+            if (!kifmm__has_src(t, b)) continue;
+            if (t->child[b] < 0 && !img) { /* a leaf's points themselves */
                 const int64_t s0 = t->s0[b], ns = t->s1[b] - s0;
                 size_t ld = (size_t)t->ns;
                 double f0[3] = {0.0, 0.0, 0.0};
@@ -6286,9 +6373,8 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
     const double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now();
     double t1;
     if (l > kifmm__lmin(t)) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
-    else if (l == 0 && c->lat.t) KIFMM__F(__lattice_apply)(c, w, nrhs); /* the far images */
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
-    if (c->lat.zu && l == c->lat.zl) KIFMM__F(__ewald_apply)(c, w, nrhs, l); /* the far images */
+    if (c->lat.zu && l == c->lat.zl) KIFMM__F(__far_apply)(c, w, nrhs, l); /* the far images */
     t1 = kifmm__now();
     /* box b writes its own check vectors and its own targets' outputs */
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
@@ -6685,7 +6771,6 @@ KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->fft.loc); kifmm__free(h->fft.need); kifmm__free(h->fft.cjl);
     kifmm__free(h->fft.sch);
     kifmm__free(h->near.chunk);
-    kifmm__free(h->lat.t);
     kifmm__free(h->lat.mu);
     kifmm__free(h->lat.bq);
     kifmm__free(h->lat.zu);
@@ -6857,8 +6942,8 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
     c->pts.src = c->tree.src;
     c->pts.trg = c->tree.trg;
 #endif
-    /* three periodic directions: the far images reach level 1 (__ewald_root) */
-    c->lat.zl = KIFMM__SI && c->tree.per[0] && c->tree.per[1] && c->tree.per[2] && c->tree.nlev > 1;
+    /* the far images reach level 1 (__far_root) */
+    c->lat.zl = c->tree.periodic && c->tree.nlev > 1;
     {
         int32_t b;
         for (b = c->tree.loff[c->lat.zl]; b < c->tree.loff[c->lat.zl + 1]; b++)
@@ -7537,22 +7622,17 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
     return (double)n * sizeof(KIFMM__F(__ops)) + sets * per + m2ls * m2l;
 }
 
-/* A periodic tree's far images (__lattice_build): the root's map, nc x ne;
- * with three periodic directions of a scale-invariant kernel the exchange
- * instead (__ewald_root): U's points, its three factors (ranks at most SD
- * times the points of its equivalent surface) and their workspace. */
+/* A periodic tree's far images (__lattice_build): the exchange (__far_root):
+ * U's points, its three factors (ranks at most SD times the points of its
+ * equivalent surface) and their workspace. */
 KIFMM__FN double KIFMM__F(__bytes_lattice)(const KIFMM_NAME *h)
 {
-    const kifmm__tree *t = &h->tree;
     const double r = sizeof(KIFMM__R);
-    if (!t->periodic) return 0.0;
-    if (KIFMM__SI && t->per[0] && t->per[1] && t->per[2]) {
-        const int q = kifmm__ewald_order(h->opts.order, h->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
-        const double nu = kifmm__surf_count(q + cd), mu = nu * KIFMM__SD;
-        const double me = (double)kifmm__surf_count(q) * KIFMM__SD;
-        return (6.0 * nu + 2.0 * mu * me + me * me + 2.0 * (mu + me)) * r;
-    }
-    return (double)h->surf.nc * h->surf.ne * r;
+    const int q = kifmm__ewald_order(h->opts.order, h->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
+    const double nu = kifmm__surf_count(q + cd), mu = nu * KIFMM__SD;
+    const double me = (double)kifmm__surf_count(q) * KIFMM__SD;
+    if (!h->tree.periodic) return 0.0;
+    return (6.0 * nu + 2.0 * mu * me + me * me + 2.0 * (mu + me)) * r;
 }
 
 /* One vector's workspace (__work_new): the expansions, the check vectors of
@@ -7608,7 +7688,7 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
         return KIFMM_ERR_COUNT;
     if ((rc = KIFMM__F(__validate)(opts, 0, NULL, 0, NULL, &o))) return rc;
     if (KIFMM__SI && !KIFMM__EWALD && o.period[0] > 0.0 && o.period[1] > 0.0 && o.period[2] > 0.0)
-        return KIFMM_ERR_PERIODIC; /* as create: __lat_ewald */
+        return KIFMM_ERR_PERIODIC; /* as create: __lattice_build */
     if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
     h->held = sizeof *h;
     h->opts = o;

@@ -203,7 +203,8 @@ static void test_invalid_inputs(const t_api *api, const double *x)
 }
 
 /* periodic directions (mask) of the next test_many_ run: with them, create
- * also builds the far images' operator (levels of super-cells) */
+ * also builds the far images' operators (levels of super-cells, or the
+ * fixed point, and the exchange with level 1) */
 static int many_period;
 
 /* Create under failing allocation for an instance P with real type R
@@ -222,6 +223,13 @@ static int many_period;
         for (i = 0; i < 3; i++) o.period[i] = many_period >> i & 1 ? 1.0 : 0.0;             \
         for (i = 0; i < 3 * N; i++) xr[i] = (R)x[i];                                         \
         for (i = 0; i < 3 * N * (SD); i++) q[i] = (R)((i % 7) - 3);                          \
+        for (i = 0; i < 3 * (SD); i++) { /* each vector's components sum to zero */         \
+            R *v = q + (size_t)(i / (SD)) * N * (SD) + i % (SD);                             \
+            double m = 0.0;                                                                  \
+            int j;                                                                           \
+            for (j = 0; j < N; j++) m += (double)v[(size_t)j * (SD)];                        \
+            for (j = 0; j < N; j++) v[(size_t)j * (SD)] = (R)((double)v[(size_t)j * (SD)] - m / N); \
+        }                                                                                    \
         for (k = 0; k < MAX_K; k++) {                                                        \
             alloc_reset(k);                                                                  \
             rc = P##_create(&h, &o, N, xr, N, xr);                                           \
@@ -257,6 +265,7 @@ static int many_period;
     }
 
 DEFINE_MANY_TEST(kifmm_yukawa, double, 1, 1)
+DEFINE_MANY_TEST(kifmm_laplace, double, 1, 1)
 DEFINE_MANY_TEST(kifmm_stokesf, float, 3, 3)
 
 int main(void)
@@ -287,6 +296,11 @@ int main(void)
     t_group("periodic boundaries: the same, three periodic directions");
     many_period = 7;
     test_many_kifmm_yukawa(x);
+    t_group("periodic boundaries: one and two periodic directions");
+    many_period = 1;
+    test_many_kifmm_yukawa(x);
+    many_period = 3;
+    test_many_kifmm_laplace(x);
     many_period = 0;
 
     free(x);

@@ -13,8 +13,10 @@
  * on points spread over the cell, crowding one face, crowding one corner
  * (given partly outside the cell, so that they wrap), far from the origin,
  * and with separate targets (crowding a face or corner, the sources spread
- * over the cell); relative L2 error at p = 6 at most 1e-5 and at p = 10 at
- * most 1e-8, the documented bounds (docs/api.md). And the errors:
+ * over the cell: where the far images came through the root's expansions,
+ * targets crowding a corner measured up to 1.1e-4 at p = 6); relative L2
+ * error at p = 6 at most 1e-5 and at p = 10 at most 1e-8, the documented
+ * bounds (docs/api.md). And the errors:
  * bad periods, points wider than 1024 periods in a free direction, net
  * charge where it must be zero (out untouched). Three periodic directions
  * of scale-invariant kernels: test_periodic3.c. */
@@ -24,6 +26,9 @@
 #define KIFMM_REAL float
 #include "kifmm.h"
 #define KIFMM_KERNEL stokes
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa
+#define KIFMM_REAL float
 #include "kifmm.h"
 
 #include "ewald.h"
@@ -265,6 +270,55 @@ static void test_float(void)
     free(of);
 }
 
+/* Yukawa kernels that decay below float's range within a period (lambda L =
+ * 100 to 700): the float instance drops the far images as its operators
+ * do (they are below its resolution) and agrees with the double one; the
+ * far images' exchange once gave KIFMM_ERR_OVERFLOW there */
+static void test_float_decayed(void)
+{
+    static const double lams[] = {30.0, 100.0, 300.0, 700.0};
+    const int64_t n = 300;
+    t_rng r = t_rng_seed(21);
+    double *x = t_doubles(3 * n), *q = t_doubles(n), *o = t_doubles(n);
+    float *xf = (float *)t_malloc_or_die((size_t)n * 3 * sizeof(float));
+    float *qf = (float *)t_malloc_or_die((size_t)n * sizeof(float));
+    float *of = (float *)t_malloc_or_die((size_t)n * sizeof(float));
+    int64_t i;
+    int k, pm;
+    gen_set(&r, UNIFORM, 7, n, x);
+    for (i = 0; i < 3 * n; i++) x[i] = (double)(xf[i] = (float)x[i]);
+    for (i = 0; i < n; i++) q[i] = (double)(qf[i] = (float)(t_rand01(&r) - 0.5));
+    for (pm = 1; pm <= 7; pm += 6)
+        for (k = 0; k < 4; k++) {
+            kifmm_opts op = popts(6, pm);
+            kifmm_yukawa *h = NULL;
+            kifmm_yukawaf *hf = NULL;
+            double e = 0.0, s = 0.0;
+            int rc, rcf;
+            op.kernel_param[0] = lams[k];
+            rc = kifmm_yukawa_create(&h, &op, n, x, n, x);
+            if (!rc) rc = kifmm_yukawa_evaluate(h, q, o);
+            rcf = kifmm_yukawaf_create(&hf, &op, n, xf, n, xf);
+            if (!rcf) rcf = kifmm_yukawaf_evaluate(hf, qf, of);
+            kifmm_yukawa_destroy(h);
+            kifmm_yukawaf_destroy(hf);
+            for (i = 0; i < n && !rc && !rcf; i++) {
+                e += (of[i] - o[i]) * (of[i] - o[i]);
+                s += o[i] * o[i];
+            }
+            CHECK(rc == KIFMM_SUCCESS && rcf == KIFMM_SUCCESS, "yukawa, lambda %g, period mask %d: "
+                  "double %s, float %s", lams[k], pm, kifmm_strerror(rc), kifmm_strerror(rcf));
+            CHECK_ERR(rc || rcf || !(s > 0.0) ? 1.0 : sqrt(e / s), 1e-4,
+                      "yukawaf against yukawa, lambda %g, period mask %d, p = 6", lams[k], pm);
+        }
+    free(x);
+    free(q);
+    free(o);
+    free(xf);
+    free(qf);
+    free(of);
+}
+
 static void test_errors(void)
 {
     const int64_t n = 64;
@@ -324,22 +378,27 @@ int main(void)
     run_case(4.0, 7, CORNER, 1, 6, 10);
     run_case(1.0, 1, FACE, 1, 6, 44);
     run_case(3.0, 3, UNIFORM, 1, 6, 14);
+    run_case(3.0, 3, CORNER, 1, 6, 14); /* 3.6e-5 through the root's expansions */
     run_dense(3);
     t_group("Laplace, one periodic direction, neutral charges");
     for (s = UNIFORM; s <= FAR; s++) run_case(0.0, s == CORNER ? 4 : s == FAR ? 2 : 1, s, 0, 6, 100);
     run_case(0.0, 2, UNIFORM, 1, 6, 100);
+    run_case(0.0, 1, CORNER, 1, 6, 100); /* 4.1e-5 through the root's expansions */
     t_group("Laplace, two periodic directions (x, y), neutral charges");
     for (s = UNIFORM; s <= FAR; s++) run_case(0.0, 3, s, 0, 6, 0);
     run_case(0.0, 3, FACE, 1, 6, 0);
+    run_case(0.0, 3, CORNER, 1, 6, 0); /* 1.1e-4 through the root's expansions */
     t_group("p = 10");
     run_case(0.0, 1, CORNER, 0, 10, 100);
 #ifndef KIFMM_TEST_QUICK /* the full tables' configuration: a second apiece */
     run_case(4.0, 7, FACE, 0, 10, 10);
     run_case(0.0, 3, FACE, 1, 10, 0);
+    run_case(0.0, 3, CORNER, 1, 10, 0); /* 2.5e-8 through the root's expansions */
 #endif
     t_group("Stokes");
     test_stokes();
     t_group("float");
     test_float();
+    test_float_decayed();
     return t_finish();
 }
