@@ -647,10 +647,14 @@ KIFMM__FN void kifmm__gemm(int ta, int tb, int m, int n, int k, double alpha,
                            double beta, double *c, int ldc)
 {
     if (m <= 0 || n <= 0) return;
-    if (k <= 0) {
+    if (k <= 0) { /* C = beta C, and beta = 0 sets C (as in BLAS, C need not be
+                     set on input: 0 times its NaN was NaN) */
         int i, j;
         for (j = 0; j < n; j++)
-            for (i = 0; i < m; i++) c[i + (size_t)j * ldc] *= beta;
+            for (i = 0; i < m; i++) {
+                double *v = c + i + (size_t)j * ldc;
+                *v = beta == 0.0 ? 0.0 : beta * *v;
+            }
         return;
     }
     cblas_dgemm(CblasColMajor, ta ? CblasTrans : CblasNoTrans, tb ? CblasTrans : CblasNoTrans,
