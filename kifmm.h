@@ -5146,39 +5146,22 @@ KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int n
  * far images of order p (given: __lattice_build; sup, where not NULL, the
  * super-cell's fits at 3 h, else built here): their field at the
  * cell, a third of the super-cell, carries a small part of the order-p
- * error at the super-cell's corners. */
-KIFMM__FN int KIFMM__F(__far_pairs)(const KIFMM_NAME *c, double h, int q, const double *ue, int ne,
+ * error at the super-cell's corners. __far_super adds B' T(3 h) C' to g. */
+KIFMM__FN int KIFMM__F(__far_super)(const KIFMM_NAME *c, double h, const double *ue, int ne,
                                     const double *T, const kifmm__ops *sup, double *g)
 {
-    enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const int w = 2 * q - 1, me = ne * KIFMM__SD, nc = c->surf.nc, nq = c->surf.ne, nsc = c->surf.nsc;
+    const int me = ne * KIFMM__SD, nc = c->surf.nc, nq = c->surf.ne, nsc = c->surf.nsc;
     const double H = 3.0 * h, ai = c->surf.ai, ao = c->surf.ao, zero[3] = {0.0, 0.0, 0.0};
-    double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
-    double *k1 = NULL, *k2 = NULL, *cq = NULL, *bq = NULL, *x = NULL, *y = NULL;
-    int m[27 * 3], nm, i, np = c->tree.per[0] + c->tree.per[1] + c->tree.per[2];
-    int rc = gs ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    double *k1 = (double *)kifmm__alloc((size_t)nc * me, sizeof(double));
+    double *k2 = (double *)kifmm__alloc((size_t)me * (nc > nq ? nc : nq), sizeof(double));
+    double *cq = (double *)kifmm__alloc((size_t)nq * me, sizeof(double));
+    double *bq = (double *)kifmm__alloc((size_t)me * nc, sizeof(double));
+    double *x = (double *)kifmm__alloc((size_t)(nc > me ? nc : me) * (nc > nq ? nc : nq) + 1, sizeof(double));
+    double *y = (double *)kifmm__alloc((size_t)nc * me, sizeof(double));
+    int m[27 * 3], nm, i, rc = T && k1 && k2 && cq && bq && x && y ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
     kifmm__ops own;
     const kifmm__ops *o = sup ? sup : &own;
     memset(&own, 0, sizeof own);
-#if KIFMM__EWALD
-    if (np == 3) { /* a scale-invariant kernel (KIFMM__EWALD): Ewald */
-        if (!rc) rc = KIFMM__F(__lat_ewald_sums)(c, h, q, gs);
-        if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
-        kifmm__free(gs);
-        return rc;
-    }
-#endif
-    (void)np;
-    if (!rc) rc = KIFMM__F(__lat_ring_sums)(c, h, q, gs);
-    if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
-    kifmm__free(gs);
-    k1 = (double *)kifmm__alloc((size_t)nc * me, sizeof(double));
-    k2 = (double *)kifmm__alloc((size_t)me * (nc > nq ? nc : nq), sizeof(double));
-    cq = (double *)kifmm__alloc((size_t)nq * me, sizeof(double));
-    bq = (double *)kifmm__alloc((size_t)me * nc, sizeof(double));
-    x = (double *)kifmm__alloc((size_t)(nc > me ? nc : me) * (nc > nq ? nc : nq) + 1, sizeof(double));
-    y = (double *)kifmm__alloc((size_t)nc * me, sizeof(double));
-    if (!rc && (!T || !k1 || !k2 || !cq || !bq || !x || !y)) rc = KIFMM_ERR_NOMEM;
     /* the super-cell's two fits (given, or built here) */
     if (!rc && !sup) rc = KIFMM__F(__c2e_kernels)(c, H, ao, &own);
     if (!rc && !sup) rc = KIFMM__F(__c2e_solve)(c, &own);
@@ -5202,12 +5185,9 @@ KIFMM__FN int KIFMM__F(__far_pairs)(const KIFMM_NAME *c, double h, int q, const 
     if (!rc) {
         kifmm__gemm(0, 0, me, o->kd, nq, 1.0, k2, me, o->vs_dn, nq, 0.0, x, me);
         kifmm__gemm(0, 0, me, nc, o->kd, o->sigma, x, me, o->ut_dn, o->kd, 0.0, bq, me);
-        /* G += B' T C' */
         kifmm__gemm(0, 0, nc, me, nq, 1.0, T, nc, cq, nq, 0.0, y, nc);
-        kifmm__gemm(0, 0, me, me, nc, 1.0, bq, me, y, nc, 1.0, g, me);
+        kifmm__gemm(0, 0, me, me, nc, 1.0, bq, me, y, nc, 1.0, g, me); /* G += B' T C' */
     }
-    for (i = 0; i < me * me && !rc; i++)
-        if (!(fabs(g[i]) <= DBL_MAX)) rc = KIFMM_ERR_KERNEL;
     kifmm__ops_free(&own);
     kifmm__free(k1);
     kifmm__free(k2);
@@ -5215,6 +5195,30 @@ KIFMM__FN int KIFMM__F(__far_pairs)(const KIFMM_NAME *c, double h, int q, const 
     kifmm__free(bq);
     kifmm__free(x);
     kifmm__free(y);
+    return rc;
+}
+
+KIFMM__FN int KIFMM__F(__far_pairs)(const KIFMM_NAME *c, double h, int q, const double *ue, int ne,
+                                    const double *T, const kifmm__ops *sup, double *g)
+{
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    const int w = 2 * q - 1, me = ne * KIFMM__SD;
+    double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
+    int i, rc = gs ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+#if KIFMM__EWALD
+    if (c->tree.per[0] + c->tree.per[1] + c->tree.per[2] == 3) { /* a scale-invariant kernel: Ewald */
+        if (!rc) rc = KIFMM__F(__lat_ewald_sums)(c, h, q, gs);
+        if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
+        kifmm__free(gs);
+        return rc;
+    }
+#endif
+    if (!rc) rc = KIFMM__F(__lat_ring_sums)(c, h, q, gs);
+    if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
+    kifmm__free(gs);
+    if (!rc) rc = KIFMM__F(__far_super)(c, h, ue, ne, T, sup, g);
+    for (i = 0; i < me * me && !rc; i++)
+        if (!(fabs(g[i]) <= DBL_MAX)) rc = KIFMM_ERR_KERNEL;
     return rc;
 }
 
