@@ -294,6 +294,10 @@ typedef struct kifmm_stats {
                                    512 (AVX-512), 256 (AVX2 + FMA), 0 (none:
                                    compiled without -march or -mavx2 -mfma) */
     char build[256];            /* the code paths of this instance, in words */
+    double t_plan;              /* create: options, surfaces, operators (the plan) */
+    double t_points;            /* create: the tree, the lists and what else the
+                                   points decide */
+    double t_workspace;         /* create: the workspace */
 } kifmm_stats;
 
 #endif /* KIFMM_H_TYPES */
@@ -629,6 +633,17 @@ KIFMM__FN void kifmm__drop(size_t *held, void *p)
 {
     *held -= kifmm__size(p);
     kifmm__free(p);
+}
+
+/* A copy of block p (NULL for NULL) counted in *held; *fail set when the
+ * allocation fails. */
+KIFMM__FN void *kifmm__dup(size_t *held, const void *p, int *fail)
+{
+    void *q;
+    if (!p) return NULL;
+    if ((q = kifmm__take(held, kifmm__size(p), 1))) memcpy(q, p, kifmm__size(p));
+    else *fail = 1;
+    return q;
 }
 
 /* Do the byte ranges [a, a + na) and [b, b + nb) overlap? */
@@ -1399,7 +1414,8 @@ KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, int64_t nt, cons
     }
 }
 
-/* Step 1, the root cube: the smallest cube around every source and target,
+/* Step 1, the root cube (a fixed box where one is given): the
+ * smallest cube around every source and target,
  * padded so that no point sits on its outer faces, or a wider one where
  * that keeps crowds of points off the boxes' faces (kifmm__free_frame).
  * Each axis is shifted by
@@ -1410,11 +1426,16 @@ KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, int64_t nt, cons
  * is within a width of the origin anyway, so surfaces lose at most a bit or
  * two there. */
 KIFMM__FN int kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
-                                 const double *trg, int nth)
+                                 const double *trg, int nth, const double *domain)
 {
     double lo[3], hi[3], ctr[3], half = 0.0;
     int d;
     if (t->periodic) return kifmm__tree_bounds_periodic(t, ns, src, nt, trg, nth);
+    if (domain && domain[3] > 0.0) { /* a fixed box (centre, half-width), as it is */
+        for (d = 0; d < 3; d++) kifmm__centre_axis(t, d, domain[d], domain[3]);
+        t->width = 2.0 * domain[3];
+        return KIFMM_SUCCESS;
+    }
     for (d = 0; d < 3; d++) kifmm__extent(ns, src, nt, trg, d, nth, &lo[d], &hi[d]);
     for (d = 0; d < 3; d++)
         if (0.5 * (hi[d] - lo[d]) > half) half = 0.5 * (hi[d] - lo[d]);
@@ -1678,7 +1699,7 @@ KIFMM__FN int kifmm__tree_lists(kifmm__tree *t, int nth, int vlists); /* >>lists
  * interaction lists (kifmm__tree_lists, with V entries if vlists). */
 KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, int64_t nt,
                                 const double *trg, int leaf, int maxdepth, int nth, int vlists,
-                                const double *period)
+                                const double *period, const double *domain)
 {
     uint64_t *skey = NULL, *tkey = NULL;
     kifmm__keys in[KIFMM__D + 1];
@@ -1692,7 +1713,7 @@ KIFMM__FN int kifmm__tree_build(kifmm__tree *t, int64_t ns, const double *src, i
             t->per[l] = t->periodic = 1;
             t->width = t->cell = period[l];
         }
-    rc = kifmm__tree_bounds(t, ns, src, nt, trg, nth);
+    rc = kifmm__tree_bounds(t, ns, src, nt, trg, nth, domain);
     /* levels count from the cell */
     if (maxdepth + t->kc < KIFMM__D) maxdepth += t->kc;
     else maxdepth = KIFMM__D;
@@ -3732,7 +3753,7 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
  * one slot per parent and component: slot b SD + j, F 16 values per chunk. */
 #define KIFMM__FFT_KBN ((size_t)27 * 128 * KIFMM__FFT_F * KIFMM__SD * KIFMM__SD)
 #define KIFMM__FFT_PN ((size_t)KIFMM__FFT_F * 16 * KIFMM__SD)
-#define KIFMM__FFT_OUTN(c) ((size_t)(c)->fft.plan.nfp * (size_t)(c)->fft.ftb * 16 * KIFMM__SD)
+#define KIFMM__FFT_OUTN(c) ((size_t)(c)->pl->fft.nfp * (size_t)(c)->fft.ftb * 16 * KIFMM__SD)
 
 /* Singular value cutoff of the check-to-equivalent pseudo-inverses; the
  * smallest kernel magnitude on the surfaces for which a level keeps its far
@@ -3780,17 +3801,17 @@ typedef struct {
     size_t lbuf_per;
 } KIFMM__F(__work);
 
-/* The handle, its state grouped by purpose. Every block it allocates is
- * counted where it is allocated (kifmm__take): in held, tree.held, and the
- * workspace's held. */
-struct KIFMM_NAME {
-    size_t held;               /* bytes of the blocks below, tree and workspace apart */
-    kifmm_opts opts;           /* options, defaults resolved (with the kernel's
-                                  parameters in opts.kernel_param) */
-    kifmm__tree tree;          /* boxes, lists, and the sorted points in double */
-    struct {                   /* the sorted points in the instance's precision */
-        KIFMM__R *src, *trg;   /* structure of arrays; the tree's own in double */
-    } pts;
+/* The plan: what depends on the options alone and, for kernels that are
+ * not scale invariant, on the box widths (and for periodic trees on the
+ * root's width and whether level 1 holds leaves): the surfaces, the
+ * operators of every level, the FFT's transforms, the periodic far images'
+ * operators. Built by create, kept while it still fits the tree
+ * (__plan_fits), read-only to the passes. Every block it allocates is
+ * counted in its held. */
+typedef struct {
+    size_t held;               /* bytes of the blocks below */
+    int refs;                  /* handles that use it */
+    kifmm_opts opts;           /* the options it was built for, defaults resolved */
     struct {                   /* the equivalent and check surfaces */
         int nse, nsc;          /* points */
         int cdiff;             /* check order - equivalent order (kifmm__check_diff) */
@@ -3802,14 +3823,49 @@ struct KIFMM_NAME {
         KIFMM__F(__ops) *at;   /* at[l] for the levels that use them (at[0]: all
                                   levels, for scale-invariant kernels) */
         int n;
+        double *r;             /* the half-width each set was built at (0: none) */
         double degree;
-        int m2l_cols;          /* dense M2L: columns (box x vector) per GEMM */
         int mono_on;           /* the upward densities' sums are set (__mono_fix) */
         double mono[KIFMM__SD * KIFMM__QD]; /* density kind s -> sum of the surface
                                   component a of its equivalent density, at a + s SD */
     } ops;
+    kifmm__fft fft;            /* the FFT M2L's transforms of the check-order lattice */
+    unsigned char nz[KIFMM__SD * KIFMM__SD]; /* kernel components (a, b) whose spectra
+                                  are not all zero at some level: only those are
+                                  multiplied (the blocks of _laplace3 off the diagonal
+                                  are zero, those between the Stokeslet and the charge
+                                  of _stokes_pl too) */
+    struct {                   /* periodic trees: the far images (kifmm__lat) */
+        int built;             /* built for the key below (__lattice_build) */
+        double width;          /* key: the root's width, */
+        int zl, zsmall, kc;    /* the level the exchange reaches, whether its boxes
+                                  with points are leaves, levels above the cell */
+        double *mu;            /* scale-invariant kernels: SD x QD monopole map, and */
+        int neutral;           /* whether the densities must sum to zero */
+        double *bq;            /* three periodic directions of a scale-invariant kernel:
+                                  the background's quadratic (__background_fit), */
+        KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__far_root): its three
+                                  factors (zku x SD nzu, zkd x zku, SD nzu x zkd), */
+        KIFMM__R *zp;          /* U's points (D's too) about the root's centre, */
+        double *zunit, zrad;   /* and on the unit surface, and their radius */
+        int nzu, zku, zkd;     /* points of U (and D); the factors' ranks */
+    } lat;
+} KIFMM__F(__plan);
+
+/* The handle: its plan (shared with nobody yet), the points and what is
+ * built from them (tree, lists, FFT slabs, near-field chunks), and the
+ * workspace. Every block it allocates is counted where it is allocated
+ * (kifmm__take): in held, tree.held, the plan's and the workspace's held. */
+struct KIFMM_NAME {
+    size_t held;               /* bytes of the blocks below, plan, tree and workspace apart */
+    kifmm_opts opts;           /* options, defaults resolved (with the kernel's
+                                  parameters in opts.kernel_param) */
+    KIFMM__F(__plan) *pl;      /* surfaces and operators */
+    kifmm__tree tree;          /* boxes, lists, and the sorted points in double */
+    struct {                   /* the sorted points in the instance's precision */
+        KIFMM__R *src, *trg;   /* structure of arrays; the tree's own in double */
+    } pts;
     struct {                   /* the FFT M2L */
-        kifmm__fft plan;       /* transforms of the check-order lattice */
         int32_t *co, *cj;      /* internal colleagues of internal boxes, and */
         unsigned char *cc;     /* their offset codes */
         float *specf;          /* child spectra of one slab, in the spectra's */
@@ -3818,11 +3874,6 @@ struct KIFMM_NAME {
         int32_t m, mc;         /* sizes of loc/need and cjl */
         int32_t *loc, *need, *cjl; /* slab: slot of a parent, parents, local colleagues */
         unsigned char *sch;    /* per slot: number of children with sources, then which */
-        unsigned char nz[KIFMM__SD * KIFMM__SD]; /* kernel components (a, b) whose spectra
-                                  are not all zero at some level: only those are
-                                  multiplied (the blocks of _laplace3 off the diagonal
-                                  are zero, those between the Stokeslet and the charge
-                                  of _stokes_pl too) */
         float *bf;             /* per thread: blocks, products, transform work (fper */
         double *bd;            /* values of the spectra's type) */
         double *mbuf;          /* per thread: one lattice density of 8 lanes, 8 nc */
@@ -3831,18 +3882,10 @@ struct KIFMM_NAME {
         float *foutf;          /* without kept blocks: products of a slab's target */
         double *foutd;         /* parents (slots of them), chunk-major; or NULL */
     } fft;
-    struct {                   /* periodic trees: the far images (kifmm__lat) */
-        double *mu;            /* scale-invariant kernels: SD x QD monopole map, and */
-        int neutral;           /* whether the densities must sum to zero */
-        double *bq;            /* three periodic directions of a scale-invariant kernel:
-                                  the background's quadratic (__background_fit), */
-        KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__far_root): its three
-                                  factors (zku x SD nzu, zkd x zku, SD nzu x zkd), */
-        KIFMM__R *zp;          /* and U's points (D's too) about the root's centre, */
-        KIFMM__R *zt;          /* and in the tree's frame (D's field at the targets of
-                                  the leaves of level zl, in __leaf) */
-        int nzu, zku, zkd;     /* points of U (and D); the factors' ranks */
-        int zl;                /* the level whose boxes it reaches (0 or 1) */
+    struct {                   /* periodic trees: the far images' points */
+        KIFMM__R *zt;          /* U's points in the tree's frame (D's field at the
+                                  targets of the leaves of level zl, in __leaf) */
+        int zl;                /* the level whose boxes the exchange reaches (0 or 1) */
         int zsmall;            /* a box of level zl with points is a leaf (kifmm__ewald_order) */
     } lat;
     struct {                   /* the mutual near field (sources = targets) */
@@ -3858,6 +3901,7 @@ struct KIFMM_NAME {
         size_t gbuf_n;
         int32_t *act;          /* boxes of each level the solves visit (kifmm__active) */
         int mb;                /* most boxes on one level */
+        int m2l_cols;          /* dense M2L: columns (box x vector) per GEMM */
     } work;
     kifmm_stats stats;         /* written by create and evaluate */
 };
@@ -4077,22 +4121,22 @@ KIFMM__FN int KIFMM__F(__surf_kmat)(const KIFMM_NAME *c, const double *uc, int n
 KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, double ao, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const size_t nn = (size_t)c->surf.nc * (size_t)c->surf.ne;
+    const size_t nn = (size_t)c->pl->surf.nc * (size_t)c->pl->surf.ne;
     double big = 0.0;
     size_t i;
     int rc;
     o->kup = (double *)kifmm__alloc(nn, sizeof(double));
     o->kdn = (double *)kifmm__alloc(nn, sizeof(double));
     if (!o->kup || !o->kdn) return KIFMM_ERR_NOMEM;
-    rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, ao * r, c->surf.unit_e,
-                               c->surf.nse, zero, c->surf.ai * r, 1.0, o->kup,
-                               (size_t)c->surf.nc, &big);
+    rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, ao * r, c->pl->surf.unit_e,
+                               c->pl->surf.nse, zero, c->pl->surf.ai * r, 1.0, o->kup,
+                               (size_t)c->pl->surf.nc, &big);
     if (rc) return rc;
     o->sigma = big >= KIFMM__TINY ? 1.0 / big : 0.0;
     for (i = 0; i < nn; i++) o->kup[i] *= o->sigma;
-    return KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ai * r,
-                                 c->surf.unit_e, c->surf.nse, zero, ao * r, o->sigma, o->kdn,
-                                 (size_t)c->surf.nc, NULL);
+    return KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ai * r,
+                                 c->pl->surf.unit_e, c->pl->surf.nse, zero, ao * r, o->sigma, o->kdn,
+                                 (size_t)c->pl->surf.nc, NULL);
 }
 
 /* The two pseudo-inverses of those matrices (which they destroy). With the
@@ -4103,7 +4147,7 @@ KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, double ao, 
  * took 4.2 ms, now 0.5 ms for the matrices and 2.4 ms for the one SVD). */
 KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
 {
-    const int nc = c->surf.nc, ne = c->surf.ne;
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne;
     int i, j, tr = nc == ne, rc;
     for (j = 0; j < ne && tr; j++)
         for (i = 0; i < nc && tr; i++) tr = o->kdn[i + (size_t)j * nc] == o->kup[j + (size_t)i * nc];
@@ -4127,13 +4171,13 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
  * values of a level not computed). */
 KIFMM__FN int KIFMM__F(__m2m_mirror)(const KIFMM_NAME *c, kifmm__ops *o)
 {
-    const int nc = c->surf.nc, ne = c->surf.ne, p = c->opts.order;
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, p = c->opts.order;
     int *mc = (int *)kifmm__alloc((size_t)nc + ne, sizeof(int)), *me = mc + nc, m, i, j;
     int rc = KIFMM_SUCCESS;
     if (!mc) return KIFMM_ERR_NOMEM;
     for (m = 1; m < 8 && !rc; m++) {
         double *a = o->m2m + (size_t)m * ne * nc, *b = o->l2l + (size_t)m * nc;
-        rc = kifmm__surf_mirror(p + c->surf.cdiff, m, mc);
+        rc = kifmm__surf_mirror(p + c->pl->surf.cdiff, m, mc);
         if (!rc) rc = kifmm__surf_mirror(p, m, me);
         for (j = 0; j < ne && !rc; j++)
             for (i = 0; i < nc; i++) {
@@ -4153,7 +4197,7 @@ KIFMM__FN int KIFMM__F(__m2m_mirror)(const KIFMM_NAME *c, kifmm__ops *o)
 KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const size_t nc = (size_t)c->surf.nc, ne = (size_t)c->surf.ne;
+    const size_t nc = (size_t)c->pl->surf.nc, ne = (size_t)c->pl->surf.ne;
     int oct, d, rc = KIFMM_SUCCESS;
     o->m2m = (double *)kifmm__alloc(nc * 8 * ne, sizeof(double));
     o->l2l = (double *)kifmm__alloc(8 * nc * ne, sizeof(double));
@@ -4166,12 +4210,12 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
             cm[d] = 0.5 * r * sgn[d];
             cl[d] = -r * sgn[d];
         }
-        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, cm,
-                                   c->surf.ai * 0.5 * r, o->sigma,
+        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ao * r, c->pl->surf.unit_e, c->pl->surf.nse, cm,
+                                   c->pl->surf.ai * 0.5 * r, o->sigma,
                                    o->m2m + (size_t)oct * ne * nc, nc, NULL);
         if (!rc)
-            rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ai * r,
-                                       c->surf.unit_e, c->surf.nse, cl, c->surf.ao * 2.0 * r, o->sigma,
+            rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ai * r,
+                                       c->pl->surf.unit_e, c->pl->surf.nse, cl, c->pl->surf.ao * 2.0 * r, o->sigma,
                                        o->l2l + (size_t)oct * nc, 8 * nc, NULL);
     }
     if (!rc && KIFMM__RADIAL) rc = KIFMM__F(__m2m_mirror)(c, o);
@@ -4193,21 +4237,21 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
 KIFMM__FN int KIFMM__F(__build_conv)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const int nc = c->surf.nc, ne = c->surf.ne, qf = c->opts.order + c->surf.cdiff + (KIFMM__SD > 1);
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, qf = c->opts.order + c->pl->surf.cdiff + (KIFMM__SD > 1);
     const int nsf = kifmm__surf_count(qf), nf = nsf * KIFMM__SD;
     double *kb, *a, *ut = NULL, *vs = NULL, *tmp = NULL, *uf;
     int k = 0, rc = KIFMM_SUCCESS;
-    if (c->surf.cdiff == 0) return KIFMM_SUCCESS;
+    if (c->pl->surf.cdiff == 0) return KIFMM_SUCCESS;
     kb = (double *)kifmm__alloc((size_t)nf * ne, sizeof(double));
     a = (double *)kifmm__alloc((size_t)nf * nc, sizeof(double));
     uf = (double *)kifmm__alloc((size_t)3 * nsf, sizeof(double));
     if (!kb || !a || !uf) { rc = KIFMM_ERR_NOMEM; goto done; }
     kifmm__surf_unit(qf, uf);
-    rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->surf.ao * r, c->surf.unit_e, c->surf.nse, zero,
-                               c->surf.ai * r, 1.0, kb, (size_t)nf, NULL);
+    rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->pl->surf.ao * r, c->pl->surf.unit_e, c->pl->surf.nse, zero,
+                               c->pl->surf.ai * r, 1.0, kb, (size_t)nf, NULL);
     if (!rc)
-        rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->surf.ao * r, c->surf.unit_c, c->surf.nsc,
-                                   zero, c->surf.ai * r, 1.0, a, (size_t)nf, NULL);
+        rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->pl->surf.ao * r, c->pl->surf.unit_c, c->pl->surf.nsc,
+                                   zero, c->pl->surf.ai * r, 1.0, a, (size_t)nf, NULL);
     if (!rc) rc = kifmm__pinv(a, nf, nc, KIFMM__CUTOFF, &ut, &vs, &k);
     if (rc) goto done;
     tmp = (double *)kifmm__alloc((size_t)k * ne, sizeof(double));
@@ -4236,10 +4280,10 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
                                     double *kt, double *big)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const kifmm__fft *pl = &c->fft.plan;
+    const kifmm__fft *pl = &c->pl->fft;
     const int n = pl->n, p = pl->p;
     const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
-    const double h = 2.0 * c->surf.ai * r / (p - 1);
+    const double h = 2.0 * c->pl->surf.ai * r / (p - 1);
     double *gall = (double *)kifmm__alloc((size_t)nth * per, sizeof(double)), mx = 0.0;
     int bad = 0;
     if (!gall) return KIFMM_ERR_NOMEM;
@@ -4279,7 +4323,7 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
 KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, kifmm__ops *o)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const kifmm__fft *pl = &c->fft.plan;
+    const kifmm__fft *pl = &c->pl->fft;
     const size_t nk = (size_t)KIFMM__NT * SD2 * 2 * pl->nfp;
     double *kt; /* spectra per transfer vector */
     double big = 0.0;
@@ -4341,7 +4385,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
 {
     enum { CH = 16 };
     const double zero[3] = {0.0, 0.0, 0.0};
-    const int nc = c->surf.nc, ne = c->surf.ne;
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne;
     double *kall = (double *)kifmm__alloc((size_t)nc * CH * ne, sizeof(double));
     int bad = 0;
     o->m2l = (double *)kifmm__alloc((size_t)o->kd * KIFMM__NT * ne, sizeof(double));
@@ -4360,8 +4404,8 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
             cs[0] = 2.0 * r * d[0];
             cs[1] = 2.0 * r * d[1];
             cs[2] = 2.0 * r * d[2];
-            bad |= KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, c->surf.ai * r,
-                                         c->surf.unit_e, c->surf.nse, cs, c->surf.ai * r,
+            bad |= KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ai * r,
+                                         c->pl->surf.unit_e, c->pl->surf.nse, cs, c->pl->surf.ai * r,
                                          o->sigma, kall + (size_t)k * nc * ne, (size_t)nc,
                                          NULL) != KIFMM_SUCCESS;
         }
@@ -4383,7 +4427,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
 KIFMM__FN int KIFMM__F(__ops_kernels)(const KIFMM_NAME *c, double r, int m2l, int nth,
                                       kifmm__ops *o)
 {
-    int rc = KIFMM__F(__c2e_kernels)(c, r, c->surf.ao, o);
+    int rc = KIFMM__F(__c2e_kernels)(c, r, c->pl->surf.ao, o);
     if (!rc) rc = KIFMM__F(__build_m2m_l2l)(c, r, o);
 #if KIFMM__FFT
     if (!rc && m2l) rc = KIFMM__F(__build_m2l_fft)(c, r, nth, o);
@@ -4405,29 +4449,29 @@ KIFMM__FN int KIFMM__F(__ops_solves)(const KIFMM_NAME *c, double r, int m2l, kif
     return rc;
 }
 
-/* c->fft.nz[ab] = 1 for the kernel components ab with a nonzero value in
+/* c->pl->nz[ab] = 1 for the kernel components ab with a nonzero value in
  * the spectra khat (kifmm__build_m2l_fft's layout) */
 KIFMM__FN void KIFMM__F(__m2l_nonzero)(KIFMM_NAME *c, const double *khat)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const size_t n = (size_t)c->fft.plan.nfp * KIFMM__NT * SD2;
+    const size_t n = (size_t)c->pl->fft.nfp * KIFMM__NT * SD2;
     size_t f;
     int ab, left = 0;
     if (SD2 == 1) return; /* one block: always multiplied */
-    for (ab = 0; ab < SD2; ab++) left += !c->fft.nz[ab];
+    for (ab = 0; ab < SD2; ab++) left += !c->pl->nz[ab];
     for (f = 0; f < n && left > 0; f++) /* f = (frequency 316 + t) SD2 + ab */
-        if (!c->fft.nz[f % SD2] && (khat[2 * f] != 0.0 || khat[2 * f + 1] != 0.0)) {
-            c->fft.nz[f % SD2] = 1;
+        if (!c->pl->nz[f % SD2] && (khat[2 * f] != 0.0 || khat[2 * f + 1] != 0.0)) {
+            c->pl->nz[f % SD2] = 1;
             left--;
         }
 }
 
 /* Keep one level's operators (built in double, freed here) in the
- * instance's precision, counted in c->held. */
+ * instance's precision, counted in the plan's held. */
 KIFMM__FN int KIFMM__F(__ops_keep)(KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(__ops) *out)
 {
-    const size_t ne = (size_t)c->surf.ne, nc = (size_t)c->surf.nc;
-    size_t *held = &c->held;
+    const size_t ne = (size_t)c->pl->surf.ne, nc = (size_t)c->pl->surf.nc;
+    size_t *held = &c->pl->held;
     int rc = KIFMM_SUCCESS;
     out->sigma = o->sigma;
     out->ku = o->ku;
@@ -4453,6 +4497,27 @@ KIFMM__FN int KIFMM__F(__ops_keep)(KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(__ops)
     return rc;
 }
 
+/* A copy of one level's operators (an earlier plan's, built at the same
+ * half-width), counted in the plan's held. */
+KIFMM__FN int KIFMM__F(__ops_copy)(KIFMM_NAME *c, const KIFMM__F(__ops) *in, KIFMM__F(__ops) *out)
+{
+    size_t *held = &c->pl->held;
+    int fail = 0;
+    *out = *in;
+    out->ut_up = (KIFMM__R *)kifmm__dup(held, in->ut_up, &fail);
+    out->vs_up = (KIFMM__R *)kifmm__dup(held, in->vs_up, &fail);
+    out->ut_dn = (KIFMM__R *)kifmm__dup(held, in->ut_dn, &fail);
+    out->vs_dn = (KIFMM__R *)kifmm__dup(held, in->vs_dn, &fail);
+    out->m2m = (KIFMM__R *)kifmm__dup(held, in->m2m, &fail);
+    out->l2l = (KIFMM__R *)kifmm__dup(held, in->l2l, &fail);
+    out->m2l = (KIFMM__R *)kifmm__dup(held, in->m2l, &fail);
+    out->conv = (KIFMM__R *)kifmm__dup(held, in->conv, &fail);
+    out->khat = (double *)kifmm__dup(held, in->khat, &fail);
+    out->kbf = NULL, out->kbd = NULL; /* __keep_blocks decides for the new plan */
+    if (out->khat) KIFMM__F(__m2l_nonzero)(c, out->khat);
+    return fail ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS;
+}
+
 KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
 {
     kifmm__free(o->ut_up); kifmm__free(o->vs_up);
@@ -4473,19 +4538,19 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
  * 0.08 s at 200k), 3.3 against 4.8 s at p = 8 (72 MiB, 2M points). */
 KIFMM__FN int KIFMM__F(__keep_blocks)(KIFMM_NAME *c)
 {
-    const kifmm__fft *pl = &c->fft.plan;
+    const kifmm__fft *pl = &c->pl->fft;
     const size_t per = KIFMM__FFT_KBN, all = per * (size_t)pl->nchunk;
     const size_t bytes = all * (pl->single ? sizeof(float) : sizeof(double));
     int tvm[27 * 64], n = 0, l;
-    for (l = 0; l < c->ops.n; l++) n += c->ops.at[l].khat != NULL;
+    for (l = 0; l < c->pl->ops.n; l++) n += c->pl->ops.at[l].khat != NULL;
     if (n == 0 || bytes * (size_t)n > (size_t)KIFMM__FFT_KB_MB << 20)
         return KIFMM_SUCCESS;
     kifmm__fft_tvmap(tvm);
-    for (l = 0; l < c->ops.n; l++) {
-        KIFMM__F(__ops) *o = &c->ops.at[l];
+    for (l = 0; l < c->pl->ops.n; l++) {
+        KIFMM__F(__ops) *o = &c->pl->ops.at[l];
         if (!o->khat) continue;
-        if (pl->single) o->kbf = (float *)kifmm__take(&c->held, all, sizeof(float));
-        else o->kbd = (double *)kifmm__take(&c->held, all, sizeof(double));
+        if (pl->single) o->kbf = (float *)kifmm__take(&c->pl->held, all, sizeof(float));
+        else o->kbd = (double *)kifmm__take(&c->pl->held, all, sizeof(double));
         if (!o->kbf && !o->kbd) return KIFMM_ERR_NOMEM;
         /* each chunk writes its own blocks */
         KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
@@ -4504,12 +4569,16 @@ KIFMM__FN int KIFMM__F(__keep_blocks)(KIFMM_NAME *c)
  * 100k uniform points, levels 2 to 4 on 2 threads: 0.04 s side by side,
  * 0.05 s one after the other). */
 KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const double *r,
-                                      const int *m2l, kifmm__ops *o, int *rc)
+                                      const int *m2l, const int *from, kifmm__ops *o, int *rc)
 {
-    const int nth = c->opts.nthreads, outer = nl - l0 >= nth;
-    /* each level l writes its own o[l] and rc[l] */
+    int l, todo = 0;
+    for (l = l0; l < nl; l++) todo += from[l] < 0;
+    const int nth = c->opts.nthreads, outer = todo >= nth;
+    /* each level l writes its own o[l] and rc[l]; levels copied from an
+     * earlier plan (from[l] >= 0) are skipped */
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) if(outer))
-    for (int l = l0; l < nl; l++) rc[l] = KIFMM__F(__ops_kernels)(c, r[l], m2l[l], outer ? 1 : nth, &o[l]);
+    for (int k = l0; k < nl; k++)
+        if (from[k] < 0) rc[k] = KIFMM__F(__ops_kernels)(c, r[k], m2l[k], outer ? 1 : nth, &o[k]);
 }
 
 /* Scale-invariant kernels: one set at half-width 1, rescaled per level.
@@ -4521,7 +4590,7 @@ KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const
  * for a tree of fewer than 3 levels (a direct sum), and the M2L's only for
  * levels with boxes that have V lists. */
 /* The monopole map of a scale-invariant kernel whose surfaces carry 1 / r
- * sources (charges, Stokeslets: degree -1): c->ops.mono[a + s SD], the sum
+ * sources (charges, Stokeslets: degree -1): c->pl->ops.mono[a + s SD], the sum
  * over the surface points of component a of the upward equivalent density
  * fitted to one unit density of kind s at a box's centre (o: the unit box's
  * operators, in double). The sums of a density are its far field's leading
@@ -4530,7 +4599,7 @@ KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const
  * Stokeslet part) sum to rounding, set to 0. */
 KIFMM__FN int KIFMM__F(__mono_map)(KIFMM_NAME *c, const kifmm__ops *o)
 {
-    const int nc = c->surf.nc, ne = c->surf.ne, nsc = c->surf.nsc;
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, nsc = c->pl->surf.nsc;
     double *pc = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
     double *k = (double *)kifmm__alloc((size_t)nc * KIFMM__QD, sizeof(double));
     double *t = (double *)kifmm__alloc((size_t)o->ku * KIFMM__QD + 1, sizeof(double));
@@ -4539,7 +4608,7 @@ KIFMM__FN int KIFMM__F(__mono_map)(KIFMM_NAME *c, const kifmm__ops *o)
     const double zero[3] = {0.0, 0.0, 0.0};
     int i, a, s, ok = 1, rc = KIFMM_SUCCESS;
     if (!pc || !k || !t || !x) { rc = KIFMM_ERR_NOMEM; goto done; }
-    kifmm__surf_place(c->surf.unit_c, nsc, zero, c->surf.ao, pc);
+    kifmm__surf_place(c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao, pc);
     for (i = 0; i < nsc; i++) {
         KIFMM__R_(QC, _eval)(c->opts.kernel_param, pc[i], pc[nsc + i], pc[2 * nsc + i], kv);
         for (a = 0; a < KIFMM__SD; a++)
@@ -4553,11 +4622,11 @@ KIFMM__FN int KIFMM__F(__mono_map)(KIFMM_NAME *c, const kifmm__ops *o)
         for (a = 0; a < KIFMM__SD; a++) m[a] = 0.0;
         for (i = 0; i < ne; i++) m[i % KIFMM__SD] += x[i + (size_t)s * ne];
         for (a = 0; a < KIFMM__SD; a++) {
-            c->ops.mono[a + s * KIFMM__SD] = fabs(m[a]) > 1e-6 ? m[a] : 0.0;
+            c->pl->ops.mono[a + s * KIFMM__SD] = fabs(m[a]) > 1e-6 ? m[a] : 0.0;
             ok &= isfinite(m[a]) != 0;
         }
     }
-    c->ops.mono_on = ok; /* a map that is not finite: the densities keep their fit */
+    c->pl->ops.mono_on = ok; /* a map that is not finite: the densities keep their fit */
 done:
     kifmm__free(pc);
     kifmm__free(k);
@@ -4566,33 +4635,64 @@ done:
     return rc;
 }
 
-KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
+/* The level of plan `old` (NULL: none) built at half-width r, with the
+ * M2L's operators if m2l, or -1. */
+KIFMM__FN int KIFMM__F(__ops_find)(const KIFMM__F(__plan) *old, double r, int m2l)
+{
+    int j;
+    for (j = 0; old && j < old->ops.n; j++)
+        if (old->ops.r[j] == r && (!m2l || old->ops.at[j].m2l || old->ops.at[j].khat)) return j;
+    return -1;
+}
+
+/* The half-width (r) and the M2L's need (m2l) of each of the n operator
+ * sets the tree uses (r = 0: none at that level); 0 when it uses none. */
+KIFMM__FN int KIFMM__F(__ops_wanted)(const kifmm__tree *t, int n, double *r, int *m2l)
+{
+    int l, l0 = KIFMM__SI ? 0 : kifmm__lmin(t);
+    for (l = 0; l < n; l++) r[l] = 0.0, m2l[l] = 0;
+    if (t->nlev <= kifmm__lmin(t)) return 0; /* a direct sum: none */
+    for (l = 1; l < t->nlev; l++) m2l[KIFMM__SI ? 0 : l] |= t->m2lo[l + 1] > t->m2lo[l];
+    for (l = l0; l < n; l++) r[l] = KIFMM__SI ? 1.0 : 0.5 * t->width / (double)((int64_t)1 << l);
+    return 1;
+}
+
+/* The operators the handle's tree needs, into its plan: each level copied
+ * from plan `old` (NULL: none) where it holds one built at the same
+ * half-width (__ops_find), else built. */
+KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c, const KIFMM__F(__plan) *old)
 {
     const kifmm__tree *t = &c->tree;
     const int n = KIFMM__SI ? 1 : (t->nlev > 1 ? t->nlev : 1), l0 = KIFMM__SI ? 0 : kifmm__lmin(t);
     kifmm__ops *o = (kifmm__ops *)kifmm__calloc((size_t)n, sizeof(kifmm__ops));
-    double *r = (double *)kifmm__alloc((size_t)n, sizeof(double));
+    double *r = (double *)kifmm__take(&c->pl->held, (size_t)n, sizeof(double));
     int *m2l = (int *)kifmm__calloc((size_t)n, sizeof(int)), *rcs = (int *)kifmm__calloc((size_t)n, sizeof(int));
-    int l, rc = KIFMM_SUCCESS;
-    c->ops.n = n;
-    c->ops.at = (KIFMM__F(__ops) *)kifmm__takez(&c->held, (size_t)n, sizeof(KIFMM__F(__ops)));
-    if (!c->ops.at || !o || !r || !m2l || !rcs) rc = KIFMM_ERR_NOMEM;
-    for (l = 1; l < t->nlev && !rc; l++) m2l[KIFMM__SI ? 0 : l] |= t->m2lo[l + 1] > t->m2lo[l];
-    for (l = l0; l < n && !rc; l++) r[l] = KIFMM__SI ? 1.0 : 0.5 * t->width / (double)((int64_t)1 << l);
-    if (!rc && t->nlev > kifmm__lmin(t)) KIFMM__F(__ops_levels)(c, l0, n, r, m2l, o, rcs);
-    for (l = l0; l < n && t->nlev > kifmm__lmin(t) && !rc; l++) {
+    int *from = (int *)kifmm__alloc((size_t)n, sizeof(int));
+    int l, rc = KIFMM_SUCCESS, any = 0;
+    c->pl->ops.n = n;
+    c->pl->ops.r = r;
+    c->pl->ops.at = (KIFMM__F(__ops) *)kifmm__takez(&c->pl->held, (size_t)n, sizeof(KIFMM__F(__ops)));
+    if (!c->pl->ops.at || !o || !r || !m2l || !rcs || !from) rc = KIFMM_ERR_NOMEM;
+    if (!rc) any = KIFMM__F(__ops_wanted)(t, n, r, m2l);
+    for (l = 0; l < n && !rc; l++) from[l] = KIFMM__SI || l < l0 ? -1 : KIFMM__F(__ops_find)(old, r[l], m2l[l]);
+    if (!rc && any) KIFMM__F(__ops_levels)(c, l0, n, r, m2l, from, o, rcs);
+    for (l = l0; l < n && any && !rc; l++) {
+        if (from[l] >= 0) {
+            rc = KIFMM__F(__ops_copy)(c, &old->ops.at[from[l]], &c->pl->ops.at[l]);
+            continue;
+        }
         rc = rcs[l];
         if (!rc) rc = KIFMM__F(__ops_solves)(c, r[l], m2l[l], &o[l]);
 #if KIFMM__SI && KIFMM__DEGREE == -1 && KIFMM_MONO_FIX
         if (!rc) rc = KIFMM__F(__mono_map)(c, &o[l]); /* before __ops_keep takes o's factors */
 #endif
-        if (!rc) rc = KIFMM__F(__ops_keep)(c, &o[l], &c->ops.at[l]);
+        if (!rc) rc = KIFMM__F(__ops_keep)(c, &o[l], &c->pl->ops.at[l]);
     }
     for (l = 0; o && l < n; l++) kifmm__ops_free(&o[l]);
     kifmm__free(o);
-    kifmm__free(r);
     kifmm__free(m2l);
     kifmm__free(rcs);
+    kifmm__free(from);
 #if KIFMM__FFT
     if (!rc) rc = KIFMM__F(__keep_blocks)(c);
 #endif
@@ -4720,15 +4820,15 @@ KIFMM__FN int KIFMM__F(__lat_kmat)(const KIFMM_NAME *c, double crad, double erad
                                    const int *m, int nm, double *out)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const size_t nn = (size_t)c->surf.nc * c->surf.ne;
+    const size_t nn = (size_t)c->pl->surf.nc * c->pl->surf.ne;
     double *k = (double *)kifmm__alloc(nn, sizeof(double));
     int i, rc = k ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
     size_t j;
     memset(out, 0, nn * sizeof(double));
     for (i = 0; i < nm && !rc; i++) {
         const double ec[3] = {2.0 * sp * m[3 * i], 2.0 * sp * m[3 * i + 1], 2.0 * sp * m[3 * i + 2]};
-        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, c->surf.nsc, zero, crad, c->surf.unit_e,
-                                   c->surf.nse, ec, erad, 1.0, k, (size_t)c->surf.nc, NULL);
+        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, crad, c->pl->surf.unit_e,
+                                   c->pl->surf.nse, ec, erad, 1.0, k, (size_t)c->pl->surf.nc, NULL);
         for (j = 0; j < nn && !rc; j++) out[j] += k[j];
     }
     kifmm__free(k);
@@ -4744,7 +4844,7 @@ KIFMM__FN int KIFMM__F(__lat_ring_sums)(const KIFMM_NAME *c, double h, int q, do
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
     const int w = 2 * q - 1;
-    const double g = 2.0 * c->surf.ai * h / (q - 1);
+    const double g = 2.0 * c->pl->surf.ai * h / (q - 1);
     int bad = 0, m[3 * 729];
     const int nm = kifmm__lat_offsets(&c->tree, 1, m);
     /* each offset e writes its own sum */
@@ -4774,7 +4874,7 @@ KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, double *
 {
     int m[3 * 729];
     const int nm = kifmm__lat_offsets(&c->tree, 1, m);
-    return KIFMM__F(__lat_kmat)(c, c->surf.ai * h, c->surf.ai * h, h, m, nm, a);
+    return KIFMM__F(__lat_kmat)(c, c->pl->surf.ai * h, c->pl->surf.ai * h, h, m, nm, a);
 }
 #endif
 
@@ -4814,23 +4914,23 @@ KIFMM__FN int KIFMM__F(__lat_gather)(int q, const double *u, int n, const double
 KIFMM__FN int KIFMM__F(__lat_ring)(const KIFMM_NAME *c, double h, double *a)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
-    const int q = c->opts.order + c->surf.cdiff, w = 2 * q - 1, nc = c->surf.nc;
+    const int q = c->opts.order + c->pl->surf.cdiff, w = 2 * q - 1, nc = c->pl->surf.nc;
     double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
-    double *acc = c->surf.cdiff ? (double *)kifmm__alloc((size_t)nc * nc, sizeof(double)) : a;
-    const int pairs = c->surf.cdiff && !KIFMM__FFT; /* pair by pair, below */
+    double *acc = c->pl->surf.cdiff ? (double *)kifmm__alloc((size_t)nc * nc, sizeof(double)) : a;
+    const int pairs = c->pl->surf.cdiff && !KIFMM__FFT; /* pair by pair, below */
     int rc;
     kifmm__ops o;
     memset(&o, 0, sizeof o);
     if (!gs || !acc) rc = KIFMM_ERR_NOMEM;
     else if (pairs) rc = KIFMM_SUCCESS;
     else rc = KIFMM__F(__lat_ring_sums)(c, h, q, gs);
-    if (!rc && !pairs) rc = KIFMM__F(__lat_gather)(q, c->surf.unit_c, c->surf.nsc, gs, acc, (size_t)nc);
+    if (!rc && !pairs) rc = KIFMM__F(__lat_gather)(q, c->pl->surf.unit_c, c->pl->surf.nsc, gs, acc, (size_t)nc);
 #if KIFMM__FFT
-    if (!rc && c->surf.cdiff) rc = KIFMM__F(__build_conv)(c, h, &o);
-    if (!rc && c->surf.cdiff)
-        kifmm__gemm(0, 0, nc, c->surf.ne, nc, 1.0, acc, nc, o.conv, nc, 0.0, a, nc);
+    if (!rc && c->pl->surf.cdiff) rc = KIFMM__F(__build_conv)(c, h, &o);
+    if (!rc && c->pl->surf.cdiff)
+        kifmm__gemm(0, 0, nc, c->pl->surf.ne, nc, 1.0, acc, nc, o.conv, nc, 0.0, a, nc);
 #else
-    if (!rc && c->surf.cdiff) rc = KIFMM__F(__lat_ring_pairs)(c, h, a);
+    if (!rc && c->pl->surf.cdiff) rc = KIFMM__F(__lat_ring_pairs)(c, h, a);
 #endif
     kifmm__ops_free(&o);
     if (acc != a) kifmm__free(acc);
@@ -4846,7 +4946,7 @@ KIFMM__FN int KIFMM__F(__lat_ring)(const KIFMM_NAME *c, double h, double *a)
 KIFMM__FN int KIFMM__F(__lat_centre)(const KIFMM_NAME *c, const kifmm__ops *o, double H,
                                      kifmm__lat *L)
 {
-    const int nc = c->surf.nc, ne = c->surf.ne, nsc = c->surf.nsc;
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, nsc = c->pl->surf.nsc;
     double *pc = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
     double *k = (double *)kifmm__alloc((size_t)nc * (KIFMM__SD + KIFMM__QD), sizeof(double));
     double *t = (double *)kifmm__alloc((size_t)o->ku * (KIFMM__SD + KIFMM__QD) + 1, sizeof(double));
@@ -4857,7 +4957,7 @@ KIFMM__FN int KIFMM__F(__lat_centre)(const KIFMM_NAME *c, const kifmm__ops *o, d
     L->e = (double *)kifmm__alloc((size_t)ne * KIFMM__SD, sizeof(double));
     L->mu = (double *)kifmm__alloc((size_t)KIFMM__SD * KIFMM__QD, sizeof(double));
     if (!pc || !k || !t || !x || !L->e || !L->mu) { rc = KIFMM_ERR_NOMEM; goto done; }
-    kifmm__surf_place(c->surf.unit_c, nsc, zero, c->surf.ao * H, pc);
+    kifmm__surf_place(c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao * H, pc);
     for (i = 0; i < nsc; i++) {
         KIFMM__R_(SC, _eval)(c->opts.kernel_param, pc[i], pc[nsc + i], pc[2 * nsc + i], kv);
         for (a = 0; a < KIFMM__SD; a++)
@@ -4893,8 +4993,8 @@ done:
  * (want_e) the centre's densities. */
 KIFMM__FN int KIFMM__F(__lat_level)(const KIFMM_NAME *c, double h, int want_e, kifmm__lat *L)
 {
-    const int nc = c->surf.nc, ne = c->surf.ne, big = nc > ne ? nc : ne;
-    const double H = 3.0 * h, ai = c->surf.ai, ao = c->surf.ao;
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, big = nc > ne ? nc : ne;
+    const double H = 3.0 * h, ai = c->pl->surf.ai, ao = c->pl->surf.ao;
     const int zero[3] = {0, 0, 0};
     int m[27 * 3], nm, rc;
     kifmm__ops o;
@@ -4945,7 +5045,7 @@ KIFMM__FN int KIFMM__F(__lat_level)(const KIFMM_NAME *c, double h, int want_e, k
 KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, double *T)
 {
     const int nc = L->nc, ne = L->ne, sd = L->sd;
-    const double beta = pow(3.0, c->ops.degree);
+    const double beta = pow(3.0, c->pl->ops.degree);
     double dprev = HUGE_VAL;
     double *x = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
     double *y = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
@@ -4989,7 +5089,7 @@ KIFMM__FN int KIFMM__F(__lat_fixed)(const KIFMM_NAME *c, kifmm__lat *L, double *
  * get there (a kernel that does not decay). */
 KIFMM__FN int KIFMM__F(__lat_sum)(const KIFMM_NAME *c, double h, double *T)
 {
-    const int nc = c->surf.nc, ne = c->surf.ne;
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne;
     double *bacc = (double *)kifmm__calloc((size_t)nc * nc, sizeof(double));
     double *cacc = (double *)kifmm__calloc((size_t)ne * ne, sizeof(double));
     double *x = (double *)kifmm__alloc((size_t)nc * (nc > ne ? nc : ne), sizeof(double));
@@ -5058,8 +5158,8 @@ KIFMM__FN int KIFMM__F(__background_fit)(KIFMM_NAME *c)
         KIFMM__R_(QT, _background)(prm, -u[0] - v[0], -u[1] - v[1], -u[2] - v[2], bmm);
         for (i = 0; i < TQ; i++) bq[10 * i + 4 + j] = 0.25 * (bpp[i] - bpm[i] - bmp[i] + bmm[i]);
     }
-    c->lat.bq = bq;
-    c->held += kifmm__size(bq);
+    c->pl->lat.bq = bq;
+    c->pl->held += kifmm__size(bq);
     return KIFMM_SUCCESS;
 }
 
@@ -5074,7 +5174,7 @@ KIFMM__FN int KIFMM__F(__lat_ewald_sums)(const KIFMM_NAME *c, double h, int q, d
     enum { SD2 = KIFMM__SD * KIFMM__SD };
     const int w = 2 * q - 1, sym = KIFMM__RADIAL;
     const int64_t nw = (int64_t)w * w * w;
-    const double g = c->surf.ai / (q - 1); /* in cell widths, 2 h */
+    const double g = c->pl->surf.ai / (q - 1); /* in cell widths, 2 h */
     double *d = (double *)kifmm__alloc((size_t)3 * nw, sizeof(double));
     double *gc = sym ? (double *)kifmm__alloc((size_t)nw * SD2, sizeof(double)) : gs;
     int *slot = sym ? (int *)kifmm__alloc((size_t)q * q * q, sizeof(int)) : NULL;
@@ -5150,8 +5250,8 @@ KIFMM__FN int KIFMM__F(__ewald_fit)(const KIFMM_NAME *c, const double *uc, int n
 KIFMM__FN int KIFMM__F(__far_super)(const KIFMM_NAME *c, double h, const double *ue, int ne,
                                     const double *T, const kifmm__ops *sup, double *g)
 {
-    const int me = ne * KIFMM__SD, nc = c->surf.nc, nq = c->surf.ne, nsc = c->surf.nsc;
-    const double H = 3.0 * h, ai = c->surf.ai, ao = c->surf.ao, zero[3] = {0.0, 0.0, 0.0};
+    const int me = ne * KIFMM__SD, nc = c->pl->surf.nc, nq = c->pl->surf.ne, nsc = c->pl->surf.nsc;
+    const double H = 3.0 * h, ai = c->pl->surf.ai, ao = c->pl->surf.ao, zero[3] = {0.0, 0.0, 0.0};
     double *k1 = (double *)kifmm__alloc((size_t)nc * me, sizeof(double));
     double *k2 = (double *)kifmm__alloc((size_t)me * (nc > nq ? nc : nq), sizeof(double));
     double *cq = (double *)kifmm__alloc((size_t)nq * me, sizeof(double));
@@ -5171,7 +5271,7 @@ KIFMM__FN int KIFMM__F(__far_super)(const KIFMM_NAME *c, double h, const double 
     for (i = 0; i < nm && !rc; i++) {
         const double ec[3] = {2.0 * h * m[3 * i], 2.0 * h * m[3 * i + 1], 2.0 * h * m[3 * i + 2]};
         size_t j;
-        rc = KIFMM__F(__surf_kmat)(c, c->surf.unit_c, nsc, zero, ao * H, ue, ne, ec, ai * h, 1.0, y,
+        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, nsc, zero, ao * H, ue, ne, ec, ai * h, 1.0, y,
                                    (size_t)nc, NULL);
         for (j = 0; j < (size_t)nc * me && !rc; j++) k1[j] += y[j];
     }
@@ -5180,7 +5280,7 @@ KIFMM__FN int KIFMM__F(__far_super)(const KIFMM_NAME *c, double h, const double 
         kifmm__gemm(0, 0, nq, me, o->ku, o->sigma, o->vs_up, nq, x, o->ku, 0.0, cq, nq);
     }
     /* B': the super-cell's check -> its downward density -> E's points */
-    if (!rc) rc = KIFMM__F(__surf_kmat)(c, ue, ne, zero, ai * h, c->surf.unit_e, c->surf.nse, zero,
+    if (!rc) rc = KIFMM__F(__surf_kmat)(c, ue, ne, zero, ai * h, c->pl->surf.unit_e, c->pl->surf.nse, zero,
                                         ao * H, 1.0, k2, (size_t)me, NULL);
     if (!rc) {
         kifmm__gemm(0, 0, me, o->kd, nq, 1.0, k2, me, o->vs_dn, nq, 0.0, x, me);
@@ -5259,7 +5359,7 @@ KIFMM__FN int KIFMM__F(__far_root)(KIFMM_NAME *c, const double *T3, const kifmm_
     const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q);
     const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD;
     const double h = 0.5 * c->tree.width, hf = KIFMM__SI ? 1.0 : h;
-    const double ao = kifmm__alpha_outer(cd, KIFMM__SD) * hf, ai = c->surf.ai * hf;
+    const double ao = kifmm__alpha_outer(cd, KIFMM__SD) * hf, ai = c->pl->surf.ai * hf;
     const double zero[3] = {0.0, 0.0, 0.0};
     double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne), sizeof(double));
     double *g = (double *)kifmm__alloc((size_t)me * me, sizeof(double));
@@ -5287,24 +5387,24 @@ KIFMM__FN int KIFMM__F(__far_root)(KIFMM_NAME *c, const double *T3, const kifmm_
     if (!rc && !(m = (double *)kifmm__alloc((size_t)kd * ku + 1, sizeof(double)))) rc = KIFMM_ERR_NOMEM;
     if (!rc) {
         kifmm__gemm(0, 0, me, ku, me, 1.0 / bu, g, me, vsu, me, 0.0, x, me);
-        kifmm__gemm(0, 0, kd, ku, me, (KIFMM__SI ? pow(h, -c->ops.degree) : 1.0) / bd, utd, kd, x,
+        kifmm__gemm(0, 0, kd, ku, me, (KIFMM__SI ? pow(h, -c->pl->ops.degree) : 1.0) / bd, utd, kd, x,
                     me, 0.0, m, kd);
         /* and the middle factor (about 1 / bd) within the instance's range */
         if (!(kifmm__max_abs(m, (size_t)kd * ku) <= 1e-6 * (KIFMM__FLOAT ? FLT_MAX : DBL_MAX)))
             goto done;
-        c->lat.nzu = nu, c->lat.zku = ku, c->lat.zkd = kd;
-        c->lat.zp = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * nu, sizeof(KIFMM__R));
-        c->lat.zt = (KIFMM__R *)kifmm__take(&c->held, (size_t)3 * nu, sizeof(KIFMM__R));
-        c->lat.zu = KIFMM__F(__own)(&c->held, &utu, (size_t)ku * mu);
-        c->lat.zm = KIFMM__F(__own)(&c->held, &m, (size_t)kd * ku);
-        c->lat.zd = KIFMM__F(__own)(&c->held, &vsd, (size_t)mu * kd);
-        if (!c->lat.zp || !c->lat.zt || !c->lat.zu || !c->lat.zm || !c->lat.zd) rc = KIFMM_ERR_NOMEM;
+        c->pl->lat.nzu = nu, c->pl->lat.zku = ku, c->pl->lat.zkd = kd;
+        c->pl->lat.zp = (KIFMM__R *)kifmm__take(&c->pl->held, (size_t)3 * nu, sizeof(KIFMM__R));
+        c->pl->lat.zunit = (double *)kifmm__take(&c->pl->held, (size_t)3 * nu, sizeof(double));
+        c->pl->lat.zu = KIFMM__F(__own)(&c->pl->held, &utu, (size_t)ku * mu);
+        c->pl->lat.zm = KIFMM__F(__own)(&c->pl->held, &m, (size_t)kd * ku);
+        c->pl->lat.zd = KIFMM__F(__own)(&c->pl->held, &vsd, (size_t)mu * kd);
+        if (!c->pl->lat.zp || !c->pl->lat.zunit || !c->pl->lat.zu || !c->pl->lat.zm || !c->pl->lat.zd)
+            rc = KIFMM_ERR_NOMEM;
     }
     if (!rc) {
-        double c0[3], h0;
-        kifmm__box_center(&c->tree, 0, c0, &h0);
-        KIFMM__F(__place)(uu, nu, zero, kifmm__alpha_outer(cd, KIFMM__SD) * h, c->lat.zp);
-        KIFMM__F(__place)(uu, nu, c0, kifmm__alpha_outer(cd, KIFMM__SD) * h, c->lat.zt);
+        c->pl->lat.zrad = kifmm__alpha_outer(cd, KIFMM__SD) * h;
+        memcpy(c->pl->lat.zunit, uu, (size_t)3 * nu * sizeof(double));
+        KIFMM__F(__place)(uu, nu, zero, c->pl->lat.zrad, c->pl->lat.zp);
     }
 done:
     kifmm__free(uu);
@@ -5319,10 +5419,10 @@ done:
 }
 
 /* The periodic tree's far images: the exchange with level 1 (__far_root),
- * and for scale-invariant kernels the monopole map c->lat.mu. */
+ * and for scale-invariant kernels the monopole map c->pl->lat.mu. */
 KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
 {
-    const size_t nn = (size_t)c->surf.nc * c->surf.ne;
+    const size_t nn = (size_t)c->pl->surf.nc * c->pl->surf.ne;
     double *T;
     kifmm__lat L;
     size_t i;
@@ -5344,11 +5444,11 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
         rc = KIFMM__F(__lat_level)(c, 1.0, 1, &L);
         if (!rc) rc = KIFMM__F(__lat_fixed)(c, &L, T);
         if (!rc) {
-            c->lat.mu = L.mu;
+            c->pl->lat.mu = L.mu;
             L.mu = NULL;
-            c->held += kifmm__size(c->lat.mu);
+            c->pl->held += kifmm__size(c->pl->lat.mu);
         }
-        for (i = 0; i < nn && !rc; i++) T[i] *= pow(3.0, c->ops.degree);
+        for (i = 0; i < nn && !rc; i++) T[i] *= pow(3.0, c->pl->ops.degree);
     } else if (!rc) {
         rc = KIFMM__F(__lat_sum)(c, 1.5 * c->tree.width, T);
     }
@@ -5360,7 +5460,7 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
 
 KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 {
-    return KIFMM__SI ? &c->ops.at[0] : &c->ops.at[l];
+    return KIFMM__SI ? &c->pl->ops.at[0] : &c->pl->ops.at[l];
 }
 
 /* Factor multiplying check potentials computed directly from points at
@@ -5370,8 +5470,8 @@ KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 KIFMM__FN double KIFMM__F(__level_scale)(const KIFMM_NAME *c, int l)
 {
     double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-    return KIFMM__SI ? pow(half, -c->ops.degree) * c->ops.at[0].sigma
-                                      : c->ops.at[l].sigma;
+    return KIFMM__SI ? pow(half, -c->pl->ops.degree) * c->pl->ops.at[0].sigma
+                                      : c->pl->ops.at[l].sigma;
 }
 
 // >>workspace
@@ -5388,9 +5488,9 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
 /* Per-vector sizes of the workspace arrays, in elements. */
 KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 {
-    size_t big = (size_t)(c->surf.nc > c->surf.ne ? c->surf.nc : c->surf.ne);
-    sz[0] = (size_t)c->tree.nbox * (size_t)c->surf.ne;                  /* ue, de */
-    sz[1] = (size_t)c->work.mb * (size_t)c->surf.nc;                         /* chk */
+    size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.ne ? c->pl->surf.nc : c->pl->surf.ne);
+    sz[0] = (size_t)c->tree.nbox * (size_t)c->pl->surf.ne;                  /* ue, de */
+    sz[1] = (size_t)c->work.mb * (size_t)c->pl->surf.nc;                         /* chk */
 #if KIFMM__FFT
     sz[2] = 0;
     (void)big;
@@ -5409,7 +5509,7 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
 {
     const kifmm__tree *t = &c->tree;
-    int64_t m = c->surf.nsc, all = t->nt * (int64_t)nrhs * KIFMM__TD;
+    int64_t m = c->pl->surf.nsc, all = t->nt * (int64_t)nrhs * KIFMM__TD;
     int32_t i;
     for (i = 0; i < t->nleaves; i++)
         if (t->t1[t->leaves[i]] - t->t0[t->leaves[i]] > m)
@@ -5458,7 +5558,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__lbuf)(const KIFMM__F(__work) *w, int nrhs, int64_
 KIFMM__FN void KIFMM__F(__work_zero)(const KIFMM_NAME *c, KIFMM__F(__work) *w, size_t per)
 {
     const kifmm__tree *t = &c->tree;
-    const size_t ne = (size_t)c->surf.ne;
+    const size_t ne = (size_t)c->pl->surf.ne;
     int32_t b;
     int r;
     for (r = 0; r < w->nrhs; r++)
@@ -5475,7 +5575,7 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
 {
     KIFMM__F(__work) *w = (KIFMM__F(__work) *)kifmm__calloc(1, sizeof *w);
     size_t sz[5], n = (size_t)nrhs, *held;
-    const size_t big = (size_t)(c->surf.nc > c->surf.ne ? c->surf.nc : c->surf.ne);
+    const size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.ne ? c->pl->surf.nc : c->pl->surf.ne);
     if (!w) return NULL;
     held = &w->held;
     KIFMM__F(__work_sizes)(c, sz);
@@ -5484,20 +5584,20 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     w->de = (KIFMM__R *)kifmm__take(held, n * sz[0], sizeof(KIFMM__R));
     w->chk = (KIFMM__R *)kifmm__take(held, n * sz[1], sizeof(KIFMM__R));
     w->qs = (KIFMM__R *)kifmm__take(held, n * sz[3], sizeof(KIFMM__R));
-    if (c->lat.zu)
-        w->lat = (KIFMM__R *)kifmm__take(held, n * ((size_t)2 * c->lat.nzu * KIFMM__SD +
-                                         (size_t)c->lat.zku + (size_t)c->lat.zkd), sizeof(KIFMM__R));
+    if (c->pl->lat.zu)
+        w->lat = (KIFMM__R *)kifmm__take(held, n * ((size_t)2 * c->pl->lat.nzu * KIFMM__SD +
+                                         (size_t)c->pl->lat.zku + (size_t)c->pl->lat.zkd), sizeof(KIFMM__R));
     if (!KIFMM__FFT) {
         w->tmp = (KIFMM__R *)kifmm__take(held, n * sz[2], sizeof(KIFMM__R));
-        w->stack = (KIFMM__R *)kifmm__take(held, (size_t)c->ops.m2l_cols * KIFMM__NT * (size_t)c->surf.ne,
+        w->stack = (KIFMM__R *)kifmm__take(held, (size_t)c->work.m2l_cols * KIFMM__NT * (size_t)c->pl->surf.ne,
                                            sizeof(KIFMM__R));
-        w->m2l_out = (KIFMM__R *)kifmm__take(held, (size_t)c->ops.m2l_cols * big, sizeof(KIFMM__R));
+        w->m2l_out = (KIFMM__R *)kifmm__take(held, (size_t)c->work.m2l_cols * big, sizeof(KIFMM__R));
     }
     w->lbuf_per = KIFMM__F(__lbuf_per)(c, nrhs);
     if (w->lbuf_per)
         w->lbuf = (KIFMM__R *)kifmm__take(held, (size_t)c->opts.nthreads * w->lbuf_per, sizeof(KIFMM__R));
     else w->outs = (KIFMM__R *)kifmm__take(held, n * sz[4], sizeof(KIFMM__R));
-    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf) || (c->lat.zu && !w->lat) ||
+    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf) || (c->pl->lat.zu && !w->lat) ||
         (!KIFMM__FFT && (!w->tmp || !w->stack || !w->m2l_out))) {
         KIFMM__F(__work_free)(w);
         return NULL;
@@ -5512,8 +5612,8 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
  * thread with AVX2 (the passes run in parallel), else one. */
 KIFMM__FN size_t KIFMM__F(__gbuf_per)(const KIFMM_NAME *c)
 {
-    const size_t big = (size_t)(c->surf.nc > c->surf.ne ? c->surf.nc : c->surf.ne);
-    return ((size_t)c->surf.ne + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
+    const size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.ne ? c->pl->surf.nc : c->pl->surf.ne);
+    return ((size_t)c->pl->surf.ne + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
 }
 
 /* The calling thread's buffer (thread 0 outside parallel regions). */
@@ -5531,7 +5631,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__gbuf)(const KIFMM_NAME *c)
  * (periodic trees) the image of a box's sources, c->work.ipts points. */
 KIFMM__FN size_t KIFMM__F(__scratch_per)(const KIFMM_NAME *c)
 {
-    return 9 * (size_t)(c->surf.nsc > c->surf.nse ? c->surf.nsc : c->surf.nse) +
+    return 9 * (size_t)(c->pl->surf.nsc > c->pl->surf.nse ? c->pl->surf.nsc : c->pl->surf.nse) +
            3 * c->work.fpts + 3 * c->work.ipts;
 }
 
@@ -5544,7 +5644,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
 /* The calling thread's frame buffer: after its three surfaces. */
 KIFMM__FN KIFMM__R *KIFMM__F(__framebuf)(const KIFMM_NAME *c)
 {
-    return KIFMM__F(__scratch)(c) + 9 * (size_t)(c->surf.nsc > c->surf.nse ? c->surf.nsc : c->surf.nse);
+    return KIFMM__F(__scratch)(c) + 9 * (size_t)(c->pl->surf.nsc > c->pl->surf.nse ? c->pl->surf.nsc : c->pl->surf.nse);
 }
 
 /* The sources of box a moved by image s (a shift code) into the thread's
@@ -5615,7 +5715,7 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     const int32_t *ai = c->work.act + (up ? 0 : t->nbox) + t->loff[l];
     const int na = c->work.act[2 * t->nbox + 2 * l + !up];
     const int ppv = (na + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
-    const size_t per = (size_t)t->nbox * (size_t)c->surf.ne;
+    const size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
     KIFMM__R *eq = up ? w->ue : w->de;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
     for (int p = 0; p < np; p++) {
@@ -5626,18 +5726,18 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
         const KIFMM__R *bp[KIFMM__GC_NC], *tb[KIFMM__GC_NC];
         KIFMM__R *tp[KIFMM__GC_NC], *cp[KIFMM__GC_NC];
         KIFMM__R *buf = KIFMM__F(__gbuf)(c);
-        const size_t per_t = (size_t)c->surf.ne * KIFMM__GC_NC;
+        const size_t per_t = (size_t)c->pl->surf.ne * KIFMM__GC_NC;
         const int r = p / ppv, j0 = (p % ppv) * KIFMM__GC_NC;
         int q, nq = na - j0;
         if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
         for (q = 0; q < nq; q++) {
             const size_t b = (size_t)ai[j0 + q]; /* within the level */
-            bp[q] = w->chk + ((size_t)r * n + b) * c->surf.nc;
+            bp[q] = w->chk + ((size_t)r * n + b) * c->pl->surf.nc;
             tb[q] = tp[q] = buf + (size_t)q * k;
-            cp[q] = eq + (size_t)r * per + ((size_t)t->loff[l] + b) * c->surf.ne;
+            cp[q] = eq + (size_t)r * per + ((size_t)t->loff[l] + b) * c->pl->surf.ne;
         }
-        KIFMM__GEMM_COLS(k, c->surf.nc, up ? o->ut_up : o->ut_dn, k, nq, bp, tp, 0, buf + per_t);
-        KIFMM__GEMM_COLS(c->surf.ne, k, up ? o->vs_up : o->vs_dn, c->surf.ne, nq, tb, cp, 0, buf + per_t);
+        KIFMM__GEMM_COLS(k, c->pl->surf.nc, up ? o->ut_up : o->ut_dn, k, nq, bp, tp, 0, buf + per_t);
+        KIFMM__GEMM_COLS(c->pl->surf.ne, k, up ? o->vs_up : o->vs_dn, c->pl->surf.ne, nq, tb, cp, 0, buf + per_t);
     }
 }
 
@@ -5653,8 +5753,8 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
     const kifmm__tree *t = &c->tree;
     const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
     const int ppv = (ni + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
-    const int m = down ? 8 * c->surf.nc : c->surf.nc, k = down ? c->surf.ne : 8 * c->surf.ne;
-    const size_t per = (size_t)t->nbox * (size_t)c->surf.ne;
+    const int m = down ? 8 * c->pl->surf.nc : c->pl->surf.nc, k = down ? c->pl->surf.ne : 8 * c->pl->surf.ne;
+    const size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
     const KIFMM__R *op = down ? KIFMM__F(__ops_at)(c, lp + 1)->l2l : KIFMM__F(__ops_at)(c, lp)->m2m;
     if (ni == 0 || lp + 1 >= t->nlev) return;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
@@ -5668,15 +5768,15 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
             const int jb = j0 + q;
             const int32_t b = t->inner[t->ioff[lp] + jb];
             if (down) {
-                bp[q] = w->de + jr * per + (size_t)b * c->surf.ne;
-                cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * c->surf.nc;
+                bp[q] = w->de + jr * per + (size_t)b * c->pl->surf.ne;
+                cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * c->pl->surf.nc;
             } else {
-                bp[q] = w->ue + jr * per + ((size_t)t->loff[lp + 1] + 8 * (size_t)jb) * c->surf.ne;
-                cp[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[lp])) * c->surf.nc;
+                bp[q] = w->ue + jr * per + ((size_t)t->loff[lp + 1] + 8 * (size_t)jb) * c->pl->surf.ne;
+                cp[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[lp])) * c->pl->surf.nc;
             }
         }
         KIFMM__GEMM_COLS(m, k, op, m, nq, bp, cp, !down,
-                         KIFMM__F(__gbuf)(c) + (size_t)c->surf.ne * KIFMM__GC_NC);
+                         KIFMM__F(__gbuf)(c) + (size_t)c->pl->surf.ne * KIFMM__GC_NC);
     }
 }
 
@@ -5685,7 +5785,7 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
 KIFMM__FN void KIFMM__F(__alias_fill)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
     const kifmm__tree *t = &c->tree;
-    const size_t ne = (size_t)c->surf.ne, per = (size_t)t->nbox * ne;
+    const size_t ne = (size_t)c->pl->surf.ne, per = (size_t)t->nbox * ne;
     int32_t b;
     int r;
     for (r = 0; r < nrhs; r++)
@@ -5696,7 +5796,7 @@ KIFMM__FN void KIFMM__F(__alias_fill)(const KIFMM_NAME *c, const KIFMM__F(__work
 }
 
 /* After the upward solve of level l: each box's equivalent density gets the
- * sums of its sources' (c->ops.mono times the densities: a leaf) or of its
+ * sums of its sources' (c->pl->ops.mono times the densities: a leaf) or of its
  * children's densities (an internal box), by a uniform shift of each
  * component over the surface points. The fit leaves a relative error in
  * those sums, and where a box's sources cancel (dipoles, force pairs, a
@@ -5710,9 +5810,9 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
 {
     const kifmm__tree *t = &c->tree;
     const int32_t *ai = c->work.act + t->loff[l];
-    const int na = c->work.act[2 * t->nbox + 2 * l], nse = c->surf.nse, ne = c->surf.ne;
+    const int na = c->work.act[2 * t->nbox + 2 * l], nse = c->pl->surf.nse, ne = c->pl->surf.ne;
     const size_t per = (size_t)t->nbox * (size_t)ne, ldq = (size_t)t->ns * KIFMM__QD;
-    if (!c->ops.mono_on) return;
+    if (!c->pl->ops.mono_on) return;
     KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
     for (int j = 0; j < na * nrhs; j++) {
         const int r = j / na;
@@ -5731,7 +5831,7 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
             for (s = t->s0[b]; s < t->s1[b]; s++)
                 for (k = 0; k < KIFMM__QD; k++) sq[k] += (double)q[(size_t)s * KIFMM__QD + k];
             for (k = 0; k < KIFMM__QD; k++)
-                for (a = 0; a < KIFMM__SD; a++) m[a] += c->ops.mono[a + k * KIFMM__SD] * sq[k];
+                for (a = 0; a < KIFMM__SD; a++) m[a] += c->pl->ops.mono[a + k * KIFMM__SD] * sq[k];
         } else {
             int ch;
             /* every child: those without sources hold zeros, and above the
@@ -5758,7 +5858,7 @@ KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
     const kifmm__tree *t = &c->tree;
     int nl = KIFMM__LVL(c, l);
     double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1;
-    memset(w->chk, 0, (size_t)nl * nrhs * c->surf.nc * sizeof(KIFMM__R));
+    memset(w->chk, 0, (size_t)nl * nrhs * c->pl->surf.nc * sizeof(KIFMM__R));
     /* each leaf b writes its own check vector (its thread's scratch) */
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
@@ -5772,11 +5872,11 @@ KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
         memcpy(fc, ctr, sizeof fc);
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, ns, fc, KIFMM__F(__framebuf)(c));
         kifmm__sub3(ctr, fc, rc);
-        KIFMM__F(__place)(c->surf.unit_c, c->surf.nsc, rc, c->surf.ao * half, pc);
-        KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc, c->surf.nsc, xs, xs + ld,
+        KIFMM__F(__place)(c->pl->surf.unit_c, c->pl->surf.nsc, rc, c->pl->surf.ao * half, pc);
+        KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, xs + ld,
                               xs + 2 * ld, w->qs + s0 * KIFMM__QD, ns, nrhs,
                               (size_t)t->ns * KIFMM__QD, scale,
-                              w->chk + (size_t)(b - t->loff[l]) * c->surf.nc, (size_t)nl * c->surf.nc);
+                              w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc, (size_t)nl * c->pl->surf.nc);
     }
     t1 = kifmm__now();
     c->stats.t_p2m += t1 - t0;
@@ -5799,16 +5899,16 @@ KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work
     const kifmm__tree *t = &c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd, r;
-    size_t per = (size_t)t->nbox * (size_t)c->surf.ne;
+    size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
     if (step == 0) {
-        KIFMM__F(__gemm)(k, n * nrhs, c->surf.nc, up ? o->ut_up : o->ut_dn, k, w->chk, c->surf.nc, 0, w->tmp,
+        KIFMM__F(__gemm)(k, n * nrhs, c->pl->surf.nc, up ? o->ut_up : o->ut_dn, k, w->chk, c->pl->surf.nc, 0, w->tmp,
                          k);
         return;
     }
     for (r = 0; r < nrhs; r++)
-        KIFMM__F(__gemm)(c->surf.ne, n, k, up ? o->vs_up : o->vs_dn, c->surf.ne,
+        KIFMM__F(__gemm)(c->pl->surf.ne, n, k, up ? o->vs_up : o->vs_dn, c->pl->surf.ne,
                          w->tmp + (size_t)r * n * k, k, 0,
-                         (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * c->surf.ne, c->surf.ne);
+                         (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * c->pl->surf.ne, c->pl->surf.ne);
 }
 
 KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
@@ -5816,9 +5916,9 @@ KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
 {
     const kifmm__tree *t = &c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
-    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, blk = c->ops.m2l_cols / nrhs;
+    int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, blk = c->work.m2l_cols / nrhs;
     int nl = KIFMM__LVL(c, l);
-    size_t col = (size_t)KIFMM__NT * c->surf.ne, per = (size_t)t->nbox * (size_t)c->surf.ne;
+    size_t col = (size_t)KIFMM__NT * c->pl->surf.ne, per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
     if (blk < 1) blk = 1;
     for (b0 = 0; b0 < n; b0 += blk) {
         int32_t nb = n - b0 < blk ? n - b0 : blk;
@@ -5829,8 +5929,8 @@ KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
             KIFMM__R *st = w->stack + (size_t)j * col;
             memset(st, 0, col * sizeof(KIFMM__R));
             for (e = t->vo[b]; e < t->vo[b + 1]; e++)
-                memcpy(st + (size_t)t->vt[e] * c->surf.ne, ue + (size_t)t->v[e] * c->surf.ne,
-                       (size_t)c->surf.ne * sizeof(KIFMM__R));
+                memcpy(st + (size_t)t->vt[e] * c->pl->surf.ne, ue + (size_t)t->v[e] * c->pl->surf.ne,
+                       (size_t)c->pl->surf.ne * sizeof(KIFMM__R));
         }
         KIFMM__F(__gemm)(o->kd, nb * nrhs, (int)col, o->m2l, o->kd, w->stack, (int)col, 0,
                          w->m2l_out, o->kd);
@@ -5873,7 +5973,7 @@ KIFMM__FN KIFMM__F(__sp) KIFMM__F(__fbuf)(const KIFMM_NAME *c, size_t off)
 
 KIFMM__FN double *KIFMM__F(__mbuf)(const KIFMM_NAME *c)
 {
-    return c->fft.mbuf + (size_t)kifmm__thread_num() * 8 * (size_t)c->surf.nc;
+    return c->fft.mbuf + (size_t)kifmm__thread_num() * 8 * (size_t)c->pl->surf.nc;
 }
 
 /* The densities of 8 multipoles u_v (ne values each, consecutive) on the
@@ -5963,7 +6063,7 @@ KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32
         if (KIFMM__SD > 1) { /* the (parent, component) pairs of row a's nonzero blocks */
             for (m = 0, e = 0; e < nn; e++)
                 for (b = 0; b < KIFMM__SD; b++)
-                    if (c->fft.nz[a * KIFMM__SD + b]) {
+                    if (c->pl->nz[a * KIFMM__SD + b]) {
                         nb2[m] = nbr[e] * KIFMM__SD + b;
                         no2[m++] = (unsigned char)(cc[e] * KIFMM__SD + b);
                     }
@@ -5984,15 +6084,15 @@ KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, KIF
                                       size_t ocs, KIFMM__R *chk)
 {
     const kifmm__tree *t = &c->tree;
-    const int nc = c->surf.nc;
+    const int nc = c->pl->surf.nc;
     const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
     double *dchk = KIFMM__F(__mbuf)(c);
     KIFMM__F(__sp) work = KIFMM__F(__fbuf)(c, woff);
     int q, i, a;
     for (a = 0; a < KIFMM__SD; a++) {
         const size_t oa = (size_t)a * KIFMM__FFT_F * 16;
-        if (op.f) kifmm__fft_inverse8f(&c->fft.plan, op.f + oa, ocs, KIFMM__SD, a, dchk, work.f);
-        else kifmm__fft_inverse8d(&c->fft.plan, op.d + oa, ocs, KIFMM__SD, a, dchk, work.d);
+        if (op.f) kifmm__fft_inverse8f(&c->pl->fft, op.f + oa, ocs, KIFMM__SD, a, dchk, work.f);
+        else kifmm__fft_inverse8d(&c->pl->fft, op.d + oa, ocs, KIFMM__SD, a, dchk, work.d);
     }
     for (q = 0; q < 8; q++) {
         const int32_t lb = 8 * j + q, box = t->loff[l] + lb;
@@ -6041,8 +6141,8 @@ KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__
                                        const KIFMM__R *ue, int32_t nneed)
 {
     const kifmm__tree *t = &c->tree;
-    const kifmm__fft *pl = &c->fft.plan;
-    const int ne = c->surf.ne, nc = c->surf.nc;
+    const kifmm__fft *pl = &c->pl->fft;
+    const int ne = c->pl->surf.ne, nc = c->pl->surf.nc;
     const size_t cstride = (size_t)c->fft.slots * KIFMM__FFT_F * 16;
     const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
     /* each b writes its own slot and its own sch entry */
@@ -6078,7 +6178,7 @@ KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM
     const size_t fcs = (size_t)c->fft.slots * KIFMM__FFT_F * 16; /* fout chunk */
     /* chunk ch writes its own part of fout (its thread's blocks) */
     KIFMM__OMP(parallel for schedule(dynamic, 2) num_threads(c->opts.nthreads))
-    for (int ch = 0; ch < c->fft.plan.nchunk; ch++) {
+    for (int ch = 0; ch < c->pl->fft.nchunk; ch++) {
         const KIFMM__F(__sp) kb = KIFMM__F(__fbuf)(c, 0);
         int32_t P;
         if (kb.f) kifmm__fft_blocksf(o->khat, tv, KIFMM__SD, ch, kb.f);
@@ -6113,7 +6213,7 @@ KIFMM__FN void KIFMM__F(__fft_task)(const KIFMM_NAME *c, int l, const KIFMM__F(_
 {
     const kifmm__tree *t = &c->tree;
     const int32_t base = t->ioff[l - 1], *co = c->fft.co, *cjl = c->fft.cjl;
-    const int nchunk = c->fft.plan.nchunk;
+    const int nchunk = c->pl->fft.nchunk;
     int ch;
     int32_t P;
     for (ch = 0; ch < nchunk; ch++) {
@@ -6178,15 +6278,15 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     const int32_t ni = t->ioff[l] - t->ioff[l - 1];
     const int kept = o->kbf || o->kbd;
-    const size_t per = (size_t)t->nbox * c->surf.ne;
+    const size_t per = (size_t)t->nbox * c->pl->surf.ne;
     int32_t s0, s1, e, nneed;
     int tv[27 * 64], r;
     kifmm__fft_tvmap(tv);
     for (s0 = 0; s0 < ni; s0 = s1) {
         s1 = KIFMM__F(__fft_slab)(c, l, kept, s0, &nneed);
         for (r = 0; r < nrhs; r++) {
-            KIFMM__R *chk = w->chk + (size_t)r * KIFMM__LVL(c, l) * c->surf.nc;
-            KIFMM__F(__fft_forward)(c, l, o, w->ue + r * per + (size_t)t->loff[l] * c->surf.ne, nneed);
+            KIFMM__R *chk = w->chk + (size_t)r * KIFMM__LVL(c, l) * c->pl->surf.nc;
+            KIFMM__F(__fft_forward)(c, l, o, w->ue + r * per + (size_t)t->loff[l] * c->pl->surf.ne, nneed);
             if (kept) KIFMM__F(__fft_by_parents)(c, l, o, s0, s1, chk);
             else KIFMM__F(__fft_by_chunks)(c, l, o, tv, s0, s1, chk);
         }
@@ -6241,20 +6341,20 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const kifmm__tree *t = &c->tree;
     const double zero[3] = {0.0, 0.0, 0.0};
     const int32_t a = l >= 1 ? t->dsrc[t->parent[b]] : -1;
-    const int nsc = c->surf.nsc, nse = c->surf.nse;
+    const int nsc = c->pl->surf.nsc, nse = c->pl->surf.nse;
     KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (nsc > nse ? nsc : nse);
     double ctr[3], half;
     int32_t e;
     kifmm__box_center(t, b, ctr, &half);
-    KIFMM__F(__place)(c->surf.unit_c, nsc, KIFMM__FLOAT ? zero : ctr, c->surf.ai * half, pc);
+    KIFMM__F(__place)(c->pl->surf.unit_c, nsc, KIFMM__FLOAT ? zero : ctr, c->pl->surf.ai * half, pc);
     if (a >= 0 && a != t->parent[b]) {
         double ac[3], ah;
         kifmm__box_center(t, a, ac, &ah);
         if (KIFMM__FLOAT) kifmm__sub3(ac, ctr, ac);
-        KIFMM__F(__place)(c->surf.unit_e, nse, ac, c->surf.ao * ah, pe);
+        KIFMM__F(__place)(c->pl->surf.unit_e, nse, ac, c->pl->surf.ao * ah, pe);
         KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, pe, pe + nse,
-                           pe + 2 * nse, w->de + (size_t)a * c->surf.ne, nse, nrhs,
-                           (size_t)t->nbox * c->surf.ne, scale, chk, cst);
+                           pe + 2 * nse, w->de + (size_t)a * c->pl->surf.ne, nse, nrhs,
+                           (size_t)t->nbox * c->pl->surf.ne, scale, chk, cst);
     }
     for (e = t->xo[b]; e < t->xo[b + 1] && t->t1[b] - t->t0[b] >= nsc; e++) {
         const int32_t xb = t->x[e];
@@ -6269,7 +6369,7 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
         for (d = 0; d < 3; d++) fc[d] = cs[d] = ctr[d] - sh[d] * t->cell;
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
         if (!KIFMM__FLOAT && t->periodic)
-            KIFMM__F(__place)(c->surf.unit_c, nsc, cs, c->surf.ai * half, pc);
+            KIFMM__F(__place)(c->pl->surf.unit_c, nsc, cs, c->pl->surf.ai * half, pc);
         KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, xs, xs + ld,
                            xs + 2 * ld, w->qs + s0 * KIFMM__QD, t->s1[xb] - s0, nrhs,
                            (size_t)t->ns * KIFMM__QD, scale, chk, cst);
@@ -6314,11 +6414,11 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
 {
     enum { BLK = 32 };
     const kifmm__tree *t = &c->tree;
-    const int nu = c->lat.nzu, mu = nu * KIFMM__SD; /* D shares U's points */
-    const size_t per = (size_t)t->nbox * (size_t)c->surf.ne, cst = (size_t)KIFMM__LVL(c, l) * c->surf.nc;
+    const int nu = c->pl->lat.nzu, mu = nu * KIFMM__SD; /* D shares U's points */
+    const size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne, cst = (size_t)KIFMM__LVL(c, l) * c->pl->surf.nc;
     const double scale = KIFMM__F(__level_scale)(c, l);
-    const KIFMM__R *pu = c->lat.zp;
-    const int ku = c->lat.zku, kd = c->lat.zkd;
+    const KIFMM__R *pu = c->pl->lat.zp;
+    const int ku = c->pl->lat.zku, kd = c->pl->lat.zkd;
     KIFMM__R *phi = w->lat, *psi = phi + (size_t)nrhs * mu, *t1 = psi + (size_t)nrhs * mu;
     KIFMM__R *t2 = t1 + (size_t)nrhs * ku;
     double c0[3], h0;
@@ -6346,15 +6446,15 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
             }
             kifmm__box_center(t, b, cb, &hb);
             kifmm__sub3(cb, c0, cb);
-            KIFMM__F(__place)(c->surf.unit_e, c->surf.nse, cb, c->surf.ai * hb, pe);
+            KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, cb, c->pl->surf.ai * hb, pe);
             KIFMM__F(__p2p_sc)(c->opts.kernel_param, pu + i0, pu + nu + i0, pu + 2 * nu + i0, n, pe,
-                               pe + c->surf.nse, pe + 2 * c->surf.nse, w->ue + (size_t)b * c->surf.ne,
-                               c->surf.nse, nrhs, per, 1.0, phi + (size_t)i0 * KIFMM__SD, (size_t)mu);
+                               pe + c->pl->surf.nse, pe + 2 * c->pl->surf.nse, w->ue + (size_t)b * c->pl->surf.ne,
+                               c->pl->surf.nse, nrhs, per, 1.0, phi + (size_t)i0 * KIFMM__SD, (size_t)mu);
         }
     }
-    KIFMM__F(__gemm)(ku, nrhs, mu, c->lat.zu, ku, phi, mu, 0, t1, ku);
-    KIFMM__F(__gemm)(kd, nrhs, ku, c->lat.zm, kd, t1, ku, 0, t2, kd);
-    KIFMM__F(__gemm)(mu, nrhs, kd, c->lat.zd, mu, t2, kd, 0, psi, mu);
+    KIFMM__F(__gemm)(ku, nrhs, mu, c->pl->lat.zu, ku, phi, mu, 0, t1, ku);
+    KIFMM__F(__gemm)(kd, nrhs, ku, c->pl->lat.zm, kd, t1, ku, 0, t2, kd);
+    KIFMM__F(__gemm)(mu, nrhs, kd, c->pl->lat.zd, mu, t2, kd, 0, psi, mu);
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
         KIFMM__R *pc = KIFMM__F(__scratch)(c);
@@ -6363,10 +6463,10 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
         if (t->t1[b] == t->t0[b] || t->child[b] < 0) continue;
         kifmm__box_center(t, b, cb, &hb);
         kifmm__sub3(cb, c0, cb);
-        KIFMM__F(__place)(c->surf.unit_c, c->surf.nsc, cb, c->surf.ai * hb, pc);
-        KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc,
-                           c->surf.nsc, pu, pu + nu, pu + 2 * nu, psi, nu, nrhs, (size_t)mu, scale,
-                           w->chk + (size_t)(b - t->loff[l]) * c->surf.nc, cst);
+        KIFMM__F(__place)(c->pl->surf.unit_c, c->pl->surf.nsc, cb, c->pl->surf.ai * hb, pc);
+        KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc,
+                           c->pl->surf.nsc, pu, pu + nu, pu + 2 * nu, psi, nu, nrhs, (size_t)mu, scale,
+                           w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc, cst);
     }
 }
 
@@ -6377,25 +6477,25 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
 KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
     const kifmm__tree *t = &c->tree;
-    const size_t cst = (size_t)KIFMM__LVL(c, l) * c->surf.nc;
+    const size_t cst = (size_t)KIFMM__LVL(c, l) * c->pl->surf.nc;
     const double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now();
     double t1;
     if (l > kifmm__lmin(t)) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
-    if (c->lat.zu && l == c->lat.zl) KIFMM__F(__far_apply)(c, w, nrhs, l); /* the far images */
+    if (c->pl->lat.zu && l == c->lat.zl) KIFMM__F(__far_apply)(c, w, nrhs, l); /* the far images */
     t1 = kifmm__now();
     /* box b writes its own check vectors and its own targets' outputs */
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
-        KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * c->surf.nc;
+        KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc;
         int r;
-        if (t->t1[b] - t->t0[b] < c->surf.nsc && t->xo[b + 1] > t->xo[b])
+        if (t->t1[b] - t->t0[b] < c->pl->surf.nsc && t->xo[b + 1] > t->xo[b])
             KIFMM__F(__x_direct)(c, w, nrhs, b);
         if (t->dsrc[b] == b) {
             KIFMM__F(__p2l_box)(c, w, nrhs, l, b, scale, chk, cst);
             continue;
         }
-        for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)c->surf.nc * sizeof(KIFMM__R));
+        for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)c->pl->surf.nc * sizeof(KIFMM__R));
     }
     c->stats.t_l2l += t1 - t0;
     c->stats.t_p2l += kifmm__now() - t1;
@@ -6419,9 +6519,9 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
     kifmm__box_center(&c->tree, a, ctr, &half);
     kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree.cell - fc[d]; /* in the targets' frame */
-    KIFMM__F(__place)(c->surf.unit_e, c->surf.nse, ctr, alpha * half, pe);
-    KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + c->surf.nse, pe + 2 * c->surf.nse, dens, c->surf.nse,
-                    nrhs, (size_t)c->tree.nbox * c->surf.ne, 1.0, out, old);
+    KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, ctr, alpha * half, pe);
+    KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + c->pl->surf.nse, pe + 2 * c->pl->surf.nse, dens, c->pl->surf.nse,
+                    nrhs, (size_t)c->tree.nbox * c->pl->surf.ne, 1.0, out, old);
     (void)w;
 }
 
@@ -6510,10 +6610,10 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     double c0 = kifmm__now(), c1, c2, fc[3] = {0.0, 0.0, 0.0}, half;
     size_t ld = (size_t)t->nt;
     int32_t e;
-    if (c->lat.zu && t->lev[b] == c->lat.zl) { /* before xf: it takes the frame buffer */
+    if (c->pl->lat.zu && t->lev[b] == c->lat.zl) { /* before xf: it takes the frame buffer */
         const KIFMM__R *xt;
         double f0[3] = {0.0, 0.0, 0.0};
-        const int nu = c->lat.nzu;
+        const int nu = c->pl->lat.nzu;
         const KIFMM__R *psi = w->lat + (size_t)nrhs * nu * KIFMM__SD;
         size_t l2 = (size_t)t->nt;
         xt = KIFMM__F(__frame)(c->pts.trg, &l2, t0, ntb, f0, KIFMM__F(__framebuf)(c));
@@ -6527,18 +6627,18 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
         xf = KIFMM__F(__frame)(c->pts.trg, &ld, t0, ntb, fc, KIFMM__F(__framebuf)(c));
     }
     if (t->dsrc[b] >= 0)
-        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__NOSHIFT, c->surf.ao,
-                                 w->de + (size_t)t->dsrc[b] * c->surf.ne, fc, xf, xf + ld,
+        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__NOSHIFT, c->pl->surf.ao,
+                                 w->de + (size_t)t->dsrc[b] * c->pl->surf.ne, fc, xf, xf + ld,
                                  xf + 2 * ld, ntb, pe, out, old);
     c1 = kifmm__now();
     for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
         const int32_t a = t->w[e];
         const int s = KIFMM__SH(t->ws, e);
-        if (t->s1[a] - t->s0[a] <= c->surf.nse)
+        if (t->s1[a] - t->s0[a] <= c->pl->surf.nse)
             KIFMM__F(__from_sources)(c, w, nrhs, a, s, tx, ty, tz, ntb, out, old);
         else
-            KIFMM__F(__from_surface)(c, w, nrhs, a, s, c->surf.ai,
-                                     w->ue + (size_t)a * c->surf.ne, fc, xf, xf + ld, xf + 2 * ld,
+            KIFMM__F(__from_surface)(c, w, nrhs, a, s, c->pl->surf.ai,
+                                     w->ue + (size_t)a * c->pl->surf.ne, fc, xf, xf + ld, xf + 2 * ld,
                                      ntb, pe, out, old);
     }
     c2 = kifmm__now();
@@ -6672,7 +6772,7 @@ KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work
                 /* B / V in the cell's width: B's terms of degree k in the
                  * offset times width^(k - 3), divided one width at a time
                  * (a cube of the width leaves double's range first) */
-                const double *B0 = c->lat.bq + 10 * ((size_t)o * KIFMM__QD + b), *m = mo + 10 * b;
+                const double *B0 = c->pl->lat.bq + 10 * ((size_t)o * KIFMM__QD + b), *m = mo + 10 * b;
                 double *p = P + 10 * o, B[10];
                 B[0] = B0[0] / wd / wd / wd;
                 for (j = 1; j < 4; j++) B[j] = B0[j] / wd / wd;
@@ -6728,7 +6828,7 @@ KIFMM__FN int KIFMM__F(__pair_plan)(KIFMM_NAME *c)
     for (pass = 0; pass < 2; pass++) {
         for (i = 0; i < t->nleaves; i++) {
             int32_t b = t->leaves[i], e;
-            double wk = (double)c->surf.nse * (1 + t->wo[b + 1] - t->wo[b]);
+            double wk = (double)c->pl->surf.nse * (1 + t->wo[b + 1] - t->wo[b]);
             for (e = t->uo[b]; e < t->uo[b + 1]; e++)
                 wk += 0.5 * (double)(t->s1[t->u[e]] - t->s0[t->u[e]]);
             wk *= (double)(t->t1[b] - t->t0[b]);
@@ -6751,27 +6851,49 @@ KIFMM__FN int KIFMM__F(__pair_plan)(KIFMM_NAME *c)
 /* Bytes held by the handle: counted where they were allocated. */
 KIFMM__FN double KIFMM__F(__held)(const KIFMM_NAME *h)
 {
-    return (double)h->held + (double)h->tree.held + (double)(h->work.w ? h->work.w->held : 0);
+    return (double)h->held + (double)h->tree.held + (double)(h->work.w ? h->work.w->held : 0) +
+           (double)(h->pl ? h->pl->held : 0);
 }
 
-KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
+KIFMM__FN void KIFMM__F(__plan_free)(KIFMM__F(__plan) *pl)
 {
     int i;
-    if (!h) return;
+    if (!pl) return;
+    for (i = 0; pl->ops.at && i < pl->ops.n; i++) KIFMM__F(__ops_free)(&pl->ops.at[i]);
+    kifmm__free(pl->ops.at);
+    kifmm__free(pl->ops.r);
+    kifmm__free(pl->surf.unit_e);
+    kifmm__free(pl->surf.unit_c);
+    kifmm__fft_free(&pl->fft);
+    kifmm__free(pl->lat.mu);
+    kifmm__free(pl->lat.bq);
+    kifmm__free(pl->lat.zu);
+    kifmm__free(pl->lat.zm);
+    kifmm__free(pl->lat.zd);
+    kifmm__free(pl->lat.zp);
+    kifmm__free(pl->lat.zunit);
+    kifmm__free(pl);
+}
+
+/* A handle lets go of its plan: freed with its last handle. */
+KIFMM__FN void KIFMM__F(__plan_release)(KIFMM__F(__plan) *pl)
+{
+    if (pl && --pl->refs == 0) KIFMM__F(__plan_free)(pl);
+}
+
+/* What a handle holds beside its plan: the points, the tree and what is
+ * built from them, the workspace. */
+KIFMM__FN void KIFMM__F(__points_free)(KIFMM_NAME *h)
+{
     if (KIFMM__FLOAT) {
         kifmm__free(h->pts.src);
         if (h->pts.trg != h->pts.src) kifmm__free(h->pts.trg);
     }
     kifmm__tree_free(&h->tree);
-    for (i = 0; h->ops.at && i < h->ops.n; i++) KIFMM__F(__ops_free)(&h->ops.at[i]);
-    kifmm__free(h->ops.at);
-    kifmm__free(h->surf.unit_e);
-    kifmm__free(h->surf.unit_c);
     kifmm__free(h->work.scratch);
     kifmm__free(h->work.gbuf);
     kifmm__free(h->work.act);
     KIFMM__F(__work_free)(h->work.w);
-    kifmm__fft_free(&h->fft.plan);
     kifmm__free(h->fft.co); kifmm__free(h->fft.cj); kifmm__free(h->fft.cc);
     kifmm__free(h->fft.specf); kifmm__free(h->fft.specd);
     kifmm__free(h->fft.bf); kifmm__free(h->fft.bd); kifmm__free(h->fft.mbuf);
@@ -6779,13 +6901,14 @@ KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
     kifmm__free(h->fft.loc); kifmm__free(h->fft.need); kifmm__free(h->fft.cjl);
     kifmm__free(h->fft.sch);
     kifmm__free(h->near.chunk);
-    kifmm__free(h->lat.mu);
-    kifmm__free(h->lat.bq);
-    kifmm__free(h->lat.zu);
-    kifmm__free(h->lat.zm);
-    kifmm__free(h->lat.zd);
-    kifmm__free(h->lat.zp);
     kifmm__free(h->lat.zt);
+}
+
+KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
+{
+    if (!h) return;
+    KIFMM__F(__points_free)(h);
+    KIFMM__F(__plan_release)(h->pl);
     kifmm__free(h);
 }
 
@@ -6856,6 +6979,30 @@ KIFMM__FN const double *KIFMM__F(__tol_errors)(void)
 #endif
 }
 
+/* Create's checks on both point sets, for options
+ * o (resolved): counts, pointers, finite coordinates in range, and in
+ * free space an extent the squared distances can hold. */
+KIFMM__FN int KIFMM__F(__check_sets)(const kifmm_opts *o, int64_t ns, const KIFMM__R *src,
+                                     int64_t nt, const KIFMM__R *trg)
+{
+    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    int d, rc = KIFMM__F(__check_points)(ns, src, o->nthreads, lo, hi);
+    if (!rc) rc = KIFMM__F(__check_points)(nt, trg, o->nthreads, lo, hi);
+    if (rc) return rc;
+    /* squared distances must stay in range: periods of KIFMM__EMIN to
+     * KIFMM__CMAX, and in free space a spread set's extent of at least
+     * KIFMM__EMIN (a periodic tree's root is the cell) */
+    for (d = 0; d < 3; d++)
+        if (o->period[d] > 0.0 && !(o->period[d] >= KIFMM__EMIN && o->period[d] <= KIFMM__CMAX))
+            return KIFMM_ERR_RANGE;
+    if (!(o->period[0] > 0.0 || o->period[1] > 0.0 || o->period[2] > 0.0)) {
+        double ext = 0.0; /* free space: the root's width */
+        for (d = 0; d < 3; d++) ext = hi[d] - lo[d] > ext ? hi[d] - lo[d] : ext;
+        if (ext > 0.0 && ext < KIFMM__EMIN) return KIFMM_ERR_RANGE;
+    }
+    return KIFMM_SUCCESS;
+}
+
 /* Create's checks: the options, both point sets and the kernel's
  * parameters; *o gets the options with every default resolved. */
 KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIFMM__R *src,
@@ -6865,49 +7012,57 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
     int rc = kifmm__resolve_opts(opts, KIFMM__LEAF_MULTI, KIFMM__F(__tol_errors)(), o);
     /* float's floor: at order 6 laplacef measured up to 1.05e-5 */
     if (!rc && KIFMM__FLOAT && o->tol != 0.0 && o->tol < 2e-5) rc = KIFMM_ERR_TOL;
-    double lo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    int d;
-    if (!rc) rc = KIFMM__F(__check_points)(ns, src, o->nthreads, lo, hi);
-    if (!rc) rc = KIFMM__F(__check_points)(nt, trg, o->nthreads, lo, hi);
-    /* squared distances must stay in range: periods of KIFMM__EMIN to
-     * KIFMM__CMAX, and in free space a spread set's extent of at least
-     * KIFMM__EMIN (a periodic tree's root is the cell) */
-    for (d = 0; d < 3 && !rc; d++)
-        if (o->period[d] > 0.0 && !(o->period[d] >= KIFMM__EMIN && o->period[d] <= KIFMM__CMAX))
-            rc = KIFMM_ERR_RANGE;
-    if (!rc && !(o->period[0] > 0.0 || o->period[1] > 0.0 || o->period[2] > 0.0)) {
-        double ext = 0.0; /* free space: the root's width */
-        for (d = 0; d < 3; d++) ext = hi[d] - lo[d] > ext ? hi[d] - lo[d] : ext;
-        if (ext > 0.0 && ext < KIFMM__EMIN) rc = KIFMM_ERR_RANGE;
-    }
+    if (!rc) rc = KIFMM__F(__check_sets)(o, ns, src, nt, trg);
     if (!rc) rc = KIFMM__F(__params)(o->kernel_param, param);
     if (!rc) memcpy(o->kernel_param, param, sizeof param);
     return rc;
 }
 
-/* The surfaces: their orders, radii and unit points. */
-KIFMM__FN int KIFMM__F(__plan_surfaces)(KIFMM_NAME *h)
+/* A new plan for options o (resolved): the surfaces (their orders, radii
+ * and unit points) and the FFT's transforms; the operators come with the
+ * first tree (__plan_ops). NULL on allocation failure. */
+KIFMM__FN KIFMM__F(__plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
 {
-    const int p = h->opts.order;
-    h->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT, KIFMM__SD);
-    h->surf.ao = kifmm__alpha_outer(h->surf.cdiff, KIFMM__SD);
-    h->surf.ai = kifmm__alpha_inner(KIFMM__SD, KIFMM__IS_ONE(KIFMM__R_(SC, _INNER_NARROW)));
-    h->surf.nse = kifmm__surf_count(p);
-    h->surf.nsc = kifmm__surf_count(p + h->surf.cdiff);
-    h->surf.ne = h->surf.nse * KIFMM__SD;
-    h->surf.nc = h->surf.nsc * KIFMM__SD;
-    h->surf.unit_e = (double *)kifmm__take(&h->held, (size_t)3 * h->surf.nse, sizeof(double));
-    h->surf.unit_c = (double *)kifmm__take(&h->held, (size_t)3 * h->surf.nsc, sizeof(double));
-    if (!h->surf.unit_e || !h->surf.unit_c) return KIFMM_ERR_NOMEM;
-    kifmm__surf_unit(p, h->surf.unit_e);
-    kifmm__surf_unit(p + h->surf.cdiff, h->surf.unit_c);
-    return KIFMM_SUCCESS;
+    KIFMM__F(__plan) *pl = (KIFMM__F(__plan) *)kifmm__calloc(1, sizeof *pl);
+    int p, rc = KIFMM_SUCCESS;
+    if (!pl) return NULL;
+    pl->held = sizeof *pl;
+    pl->refs = 1;
+    pl->opts = *o;
+    pl->ops.degree = (double)(KIFMM__DEGREE);
+    p = o->order;
+    pl->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT, KIFMM__SD);
+    pl->surf.ao = kifmm__alpha_outer(pl->surf.cdiff, KIFMM__SD);
+    pl->surf.ai = kifmm__alpha_inner(KIFMM__SD, KIFMM__IS_ONE(KIFMM__R_(SC, _INNER_NARROW)));
+    pl->surf.nse = kifmm__surf_count(p);
+    pl->surf.nsc = kifmm__surf_count(p + pl->surf.cdiff);
+    pl->surf.ne = pl->surf.nse * KIFMM__SD;
+    pl->surf.nc = pl->surf.nsc * KIFMM__SD;
+    pl->surf.unit_e = (double *)kifmm__take(&pl->held, (size_t)3 * pl->surf.nse, sizeof(double));
+    pl->surf.unit_c = (double *)kifmm__take(&pl->held, (size_t)3 * pl->surf.nsc, sizeof(double));
+    if (!pl->surf.unit_e || !pl->surf.unit_c) rc = KIFMM_ERR_NOMEM;
+    if (!rc) {
+        kifmm__surf_unit(p, pl->surf.unit_e);
+        kifmm__surf_unit(p + pl->surf.cdiff, pl->surf.unit_c);
+    }
+#if KIFMM__FFT
+    if (!rc) rc = kifmm__fft_init(&pl->fft, p + pl->surf.cdiff, &pl->held);
+    /* float spectra for float instances, and on request for double
+     * instances of scale-invariant kernels (whose spectra's range fits float
+     * at every level, unlike those of a Yukawa kernel at large lambda r) */
+    pl->fft.single = KIFMM__FLOAT || (KIFMM__SI && p <= KIFMM_FFT_SINGLE_MAX_ORDER);
+#endif
+    if (rc) {
+        KIFMM__F(__plan_free)(pl);
+        return NULL;
+    }
+    return pl;
 }
 
 /* The tree over the points given in the instance's precision: double goes
  * straight in, float through a double copy; pts.src and pts.trg, the sorted
  * points in the instance's precision. */
-KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, int64_t nt,
+KIFMM__FN int KIFMM__F(__points_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, int64_t nt,
                                     const KIFMM__R *trg)
 {
     const kifmm_opts *o = &c->opts;
@@ -6929,7 +7084,7 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
         for (int64_t i = 0; i < 3 * nt; i++) g[i] = trg[i];
     }
     rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads,
-                           !KIFMM__FFT, o->period);
+                           !KIFMM__FFT, o->period, NULL);
     kifmm__free(s);
     if (!same) kifmm__free(g);
     if (rc) return rc;
@@ -6945,7 +7100,7 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
     if (!c->pts.src || !c->pts.trg) return KIFMM_ERR_NOMEM;
 #else
     rc = kifmm__tree_build(&c->tree, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads,
-                           !KIFMM__FFT, o->period);
+                           !KIFMM__FFT, o->period, NULL);
     if (rc) return rc;
     c->pts.src = c->tree.src;
     c->pts.trg = c->tree.trg;
@@ -6958,7 +7113,7 @@ KIFMM__FN int KIFMM__F(__plan_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *s
             if (c->tree.child[b] < 0 && (c->tree.s1[b] > c->tree.s0[b] || c->tree.t1[b] > c->tree.t0[b]))
                 c->lat.zsmall = 1;
     }
-    kifmm__tree_dsrc(&c->tree, c->surf.nsc, c->lat.zl); /* X lists of boxes with few targets go direct */
+    kifmm__tree_dsrc(&c->tree, c->pl->surf.nsc, c->lat.zl); /* X lists of boxes with few targets go direct */
     return KIFMM_SUCCESS;
 }
 
@@ -6969,13 +7124,13 @@ KIFMM__FN void KIFMM__F(__frame_points)(KIFMM_NAME *h, size_t maxleaf)
 {
     h->work.fpts = KIFMM__FLOAT ? maxleaf : 0;
     h->work.ipts = h->tree.periodic ? maxleaf : 0;
-    if (h->tree.periodic && h->work.ipts < (size_t)h->surf.nse) h->work.ipts = (size_t)h->surf.nse;
+    if (h->tree.periodic && h->work.ipts < (size_t)h->pl->surf.nse) h->work.ipts = (size_t)h->pl->surf.nse;
 }
 
 /* Per-thread buffers of the passes: three surfaces and, for float
  * instances, the frame of the largest leaf (see __frame); and the level
  * passes' column buffers, for trees that have levels 2 and deeper. */
-KIFMM__FN int KIFMM__F(__plan_buffers)(KIFMM_NAME *h)
+KIFMM__FN int KIFMM__F(__work_buffers)(KIFMM_NAME *h)
 {
     const size_t nth = (size_t)h->opts.nthreads;
     KIFMM__F(__frame_points)(h, (size_t)kifmm__max_leaf(&h->tree));
@@ -7003,8 +7158,8 @@ KIFMM__FN int KIFMM__F(__plan_buffers)(KIFMM_NAME *h)
  * both caps. */
 KIFMM__FN int32_t KIFMM__F(__fft_slots)(const KIFMM_NAME *h, size_t esz, int32_t m)
 {
-    const size_t slot = (size_t)h->fft.plan.nfp * 16 * esz * KIFMM__SD, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
-    size_t budget = (size_t)h->tree.nbox * (size_t)h->surf.ne * sizeof(KIFMM__R);
+    const size_t slot = (size_t)h->pl->fft.nfp * 16 * esz * KIFMM__SD, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
+    size_t budget = (size_t)h->tree.nbox * (size_t)h->pl->surf.ne * sizeof(KIFMM__R);
     int32_t slots;
     if (h->tree.periodic) budget *= 4; /* see above */
     budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
@@ -7015,7 +7170,7 @@ KIFMM__FN int32_t KIFMM__F(__fft_slots)(const KIFMM_NAME *h, size_t esz, int32_t
 
 /* The FFT M2L's slab bookkeeping: the largest level's internal boxes (m) and
  * colleague entries (mc), the spectra buffer's slots, their index arrays. */
-KIFMM__FN int KIFMM__F(__plan_slabs)(KIFMM_NAME *h, size_t esz)
+KIFMM__FN int KIFMM__F(__points_slabs)(KIFMM_NAME *h, size_t esz)
 {
     const kifmm__tree *t = &h->tree;
     size_t *held = &h->held;
@@ -7046,16 +7201,16 @@ KIFMM__FN int KIFMM__F(__plan_slabs)(KIFMM_NAME *h, size_t esz)
  * ftb target parents (128, at most about 4 MiB) and the transform work. */
 KIFMM__FN void KIFMM__F(__fft_per)(KIFMM_NAME *h, size_t esz)
 {
-    const kifmm__fft *pl = &h->fft.plan;
+    const kifmm__fft *pl = &h->pl->fft;
     h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz * KIFMM__SD));
     h->fft.ftb = h->fft.ftb > 128 ? 128 : h->fft.ftb < 1 ? 1 : h->fft.ftb;
     h->fft.per = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(h) + kifmm__fft_work8(pl);
     h->fft.per = (h->fft.per + 15) / 16 * 16; /* each thread's part 64-byte aligned */
 }
 
-KIFMM__FN int KIFMM__F(__plan_fft_buffers)(KIFMM_NAME *h, size_t esz)
+KIFMM__FN int KIFMM__F(__work_fft)(KIFMM_NAME *h, size_t esz)
 {
-    const kifmm__fft *pl = &h->fft.plan;
+    const kifmm__fft *pl = &h->pl->fft;
     const size_t nth = (size_t)h->opts.nthreads, chunk = (size_t)h->fft.slots * KIFMM__FFT_F * 16;
     const size_t nspec = (size_t)h->fft.slots * (size_t)pl->nfp * 16;
     size_t *held = &h->held;
@@ -7069,46 +7224,32 @@ KIFMM__FN int KIFMM__F(__plan_fft_buffers)(KIFMM_NAME *h, size_t esz)
         h->fft.bd = (double *)kifmm__take(held, nth * h->fft.per, sizeof(double));
         if (h->fft.specd && pl->nfp > pl->nf) memset(h->fft.specd + nspec - chunk, 0, chunk * esz);
     }
-    h->fft.mbuf = (double *)kifmm__take(held, nth * 8 * (size_t)h->surf.nc, sizeof(double));
+    h->fft.mbuf = (double *)kifmm__take(held, nth * 8 * (size_t)h->pl->surf.nc, sizeof(double));
     return (h->fft.specf || h->fft.specd) && (h->fft.bf || h->fft.bd) && h->fft.mbuf
                ? KIFMM_SUCCESS
                : KIFMM_ERR_NOMEM;
 }
 
-/* Float spectra for float instances, and on request for double instances
- * of scale-invariant kernels (whose spectra's range fits float at every
- * level, unlike those of a Yukawa kernel at large lambda r). */
-KIFMM__FN int KIFMM__F(__fft_single)(const KIFMM_NAME *h)
+/* The FFT M2L's colleagues and slabs. */
+KIFMM__FN int KIFMM__F(__points_fft)(KIFMM_NAME *h)
 {
-    return KIFMM__FLOAT || (KIFMM__SI && h->opts.order <= KIFMM_FFT_SINGLE_MAX_ORDER);
-}
-
-/* The FFT M2L: the plan, the colleagues, the slabs and buffers. */
-KIFMM__FN int KIFMM__F(__plan_fft)(KIFMM_NAME *h)
-{
-    size_t esz;
-    int rc = kifmm__fft_init(&h->fft.plan, h->opts.order + h->surf.cdiff, &h->held);
-    h->fft.plan.single = KIFMM__F(__fft_single)(h);
-    esz = h->fft.plan.single ? sizeof(float) : sizeof(double);
-    if (!rc)
-        rc = kifmm__colleagues(&h->tree, h->opts.nthreads, &h->held, &h->fft.co, &h->fft.cj,
+    const size_t esz = h->pl->fft.single ? sizeof(float) : sizeof(double);
+    int rc = kifmm__colleagues(&h->tree, h->opts.nthreads, &h->held, &h->fft.co, &h->fft.cj,
                                &h->fft.cc);
-    if (!rc) rc = KIFMM__F(__plan_slabs)(h, esz);
-    if (!rc) rc = KIFMM__F(__plan_fft_buffers)(h, esz);
-    return rc;
+    return rc ? rc : KIFMM__F(__points_slabs)(h, esz);
 }
 
 /* A level whose products' blocks are not kept runs its products over chunks
  * of frequencies (each chunk's blocks built once per slab), into one output
  * buffer for the slab's target parents. */
-KIFMM__FN int KIFMM__F(__plan_fout)(KIFMM_NAME *h)
+KIFMM__FN int KIFMM__F(__work_fout)(KIFMM_NAME *h)
 {
-    const size_t n = (size_t)h->fft.slots * (size_t)h->fft.plan.nfp * 16;
+    const size_t n = (size_t)h->fft.slots * (size_t)h->pl->fft.nfp * 16;
     int l;
-    for (l = 0; l < h->ops.n; l++)
-        if (h->ops.at[l].khat && !h->ops.at[l].kbf && !h->ops.at[l].kbd) break;
-    if (l == h->ops.n) return KIFMM_SUCCESS;
-    if (h->fft.plan.single) h->fft.foutf = (float *)kifmm__take(&h->held, n, sizeof(float));
+    for (l = 0; l < h->pl->ops.n; l++)
+        if (h->pl->ops.at[l].khat && !h->pl->ops.at[l].kbf && !h->pl->ops.at[l].kbd) break;
+    if (l == h->pl->ops.n) return KIFMM_SUCCESS;
+    if (h->pl->fft.single) h->fft.foutf = (float *)kifmm__take(&h->held, n, sizeof(float));
     else h->fft.foutd = (double *)kifmm__take(&h->held, n, sizeof(double));
     return h->fft.foutf || h->fft.foutd ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
 }
@@ -7118,7 +7259,7 @@ KIFMM__FN int KIFMM__F(__plan_fout)(KIFMM_NAME *h)
  * most RHS_MAX per box of the largest level. */
 KIFMM__FN int KIFMM__F(__m2l_cols)(const KIFMM_NAME *h)
 {
-    size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->surf.ne);
+    size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->pl->surf.ne);
     if (cols < KIFMM__RHS_MAX) cols = KIFMM__RHS_MAX;
     if (cols > (size_t)h->work.mb * KIFMM__RHS_MAX) cols = (size_t)h->work.mb * KIFMM__RHS_MAX;
     return (int)cols;
@@ -7126,13 +7267,13 @@ KIFMM__FN int KIFMM__F(__m2l_cols)(const KIFMM_NAME *h)
 
 /* The workspace of the passes for one vector, and what it is sized by: the
  * boxes the solves visit, the largest level, the dense M2L's columns. */
-KIFMM__FN int KIFMM__F(__plan_work)(KIFMM_NAME *h)
+KIFMM__FN int KIFMM__F(__work_solves)(KIFMM_NAME *h, int nrhs)
 {
     h->work.mb = kifmm__max_level_boxes(&h->tree);
     if (!(h->work.act = kifmm__active(&h->tree, &h->held))) return KIFMM_ERR_NOMEM;
     /* none in a tree without M2L */
-    h->ops.m2l_cols = h->tree.m2lo[h->tree.nlev] ? KIFMM__F(__m2l_cols)(h) : 0;
-    h->work.w = KIFMM__F(__work_new)(h, 1);
+    h->work.m2l_cols = h->tree.m2lo[h->tree.nlev] ? KIFMM__F(__m2l_cols)(h) : 0;
+    h->work.w = KIFMM__F(__work_new)(h, nrhs);
     return h->work.w ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
 }
 
@@ -7161,7 +7302,7 @@ KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
              "near field: %s, %s; level passes: %s; M2L: %s%s; %s %d thread%s", KIFMM__SIMD_NAME,
              near, KIFMM__GC_FAST ? KIFMM__SIMD_NAME " column GEMM" : "BLAS",
              KIFMM__FFT ? "FFT, " KIFMM__SIMD_NAME " products, " : "dense BLAS",
-             KIFMM__FFT ? (h->fft.plan.single ? "float spectra" : "double spectra") : "",
+             KIFMM__FFT ? (h->pl->fft.single ? "float spectra" : "double spectra") : "",
 #ifdef _OPENMP
              "OpenMP,",
 #else
@@ -7170,76 +7311,193 @@ KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
              h->opts.nthreads, h->opts.nthreads == 1 ? "" : "s");
 }
 
-/* opts.verbose: create's stages (after create) or evaluate's passes (after
- * an evaluate), one line each on stderr, with the memory held. */
-KIFMM__FN void KIFMM__F(__report)(const KIFMM_NAME *h, int create)
+/* opts.verbose: create's stages (stage 1, after create) or evaluate's
+ * passes (0, after an evaluate), one line each on stderr, with the memory
+ * held. */
+KIFMM__FN void KIFMM__F(__report)(const KIFMM_NAME *h, int stage)
 {
     static const char *pass[8] = {"P2M", "M2M and upward solves", "M2L", "L2L and downward solves",
                                   "P2L (X lists)", "L2P", "M2P (W lists)", "P2P (U lists)"};
+    static const char *what[2] = {"evaluate", "create"};
     const kifmm_stats *s = &h->stats;
     const double t[8] = {s->t_p2m, s->t_m2m, s->t_m2l, s->t_l2l, s->t_p2l, s->t_l2p, s->t_m2p, s->t_p2p};
     const char *name = KIFMM__STR(KIFMM_NAME);
     int k;
-    if (create) {
-        fprintf(stderr, "%s create: tree and lists %.4f s (%d levels, %lld boxes, %lld leaves)\n",
-                name, s->t_tree, s->levels, (long long)s->boxes, (long long)s->leaves);
-        fprintf(stderr, "%s create: operators and workspace %.4f s (order %d, leaf size %d)\n", name,
-                s->t_operators, h->opts.order, h->opts.leaf_size);
+    if (stage) {
+        fprintf(stderr, "%s %s: points: tree and lists %.4f s (%d levels, %lld boxes, %lld leaves)\n",
+                name, what[stage], s->t_points, s->levels, (long long)s->boxes, (long long)s->leaves);
+        fprintf(stderr, "%s %s: plan: surfaces and operators %.4f s (order %d, leaf size %d)\n",
+                name, what[stage], s->t_plan, h->opts.order,
+                h->opts.leaf_size);
+        fprintf(stderr, "%s %s: workspace %.4f s\n", name, what[stage], s->t_workspace);
     } else {
         for (k = 0; k < 8; k++) fprintf(stderr, "%s evaluate: %s %.4f s\n", name, pass[k], t[k]);
     }
-    fprintf(stderr, "%s %s: %.4f s, %.1f MiB held\n", name, create ? "create" : "evaluate",
-            create ? s->t_tree + s->t_operators : s->t_evaluate, s->bytes / 1048576.0);
+    fprintf(stderr, "%s %s: %.4f s, %.1f MiB held\n", name, what[stage],
+            stage == 1 ? s->t_plan + s->t_points + s->t_workspace : s->t_evaluate,
+            s->bytes / 1048576.0);
+}
+
+/* The points' part of a handle: the tree over them and what it decides
+ * (the FFT M2L's colleagues and slabs, the mutual near field's chunks). */
+KIFMM__FN int KIFMM__F(__points_build)(KIFMM_NAME *h, int64_t ns, const KIFMM__R *src, int64_t nt,
+                                       const KIFMM__R *trg)
+{
+    int rc = KIFMM__F(__points_tree)(h, ns, src, nt, trg);
+#if KIFMM__FFT
+    if (!rc) rc = KIFMM__F(__points_fft)(h);
+#endif
+    if (!rc && KIFMM__MUTUAL && h->tree.same) rc = KIFMM__F(__pair_plan)(h);
+    return rc;
+}
+
+/* Does the handle's plan hold what its tree needs: every operator set at
+ * the half-width and with the M2L's part create would build it (__ops_wanted),
+ * and a periodic tree's far images built for its root (width, levels above
+ * the cell, the exchange's level and order)? */
+KIFMM__FN int KIFMM__F(__plan_fits)(const KIFMM_NAME *h)
+{
+    const KIFMM__F(__plan) *pl = h->pl;
+    const kifmm__tree *t = &h->tree;
+    const int n = KIFMM__SI ? 1 : (t->nlev > 1 ? t->nlev : 1);
+    double r[KIFMM__D + 2];
+    int m2l[KIFMM__D + 2], l;
+    if (!pl->ops.at) return 0;
+    if (KIFMM__F(__ops_wanted)(t, n, r, m2l))
+        for (l = 0; l < n; l++)
+            if (r[l] > 0.0 && !(l < pl->ops.n && pl->ops.r[l] == r[l] &&
+                                (!m2l[l] || pl->ops.at[l].m2l || pl->ops.at[l].khat)))
+                return 0;
+    return !t->periodic || (pl->lat.built && pl->lat.width == t->width && pl->lat.kc == t->kc &&
+                            pl->lat.zl == h->lat.zl && pl->lat.zsmall == h->lat.zsmall);
+}
+
+/* The plan's operators for the handle's tree (levels of plan `old` built at
+ * the same half-widths are copied, __precompute) and a periodic tree's far
+ * images (__lattice_build), with the key they were built for. */
+KIFMM__FN int KIFMM__F(__plan_ops)(KIFMM_NAME *h, const KIFMM__F(__plan) *old)
+{
+    KIFMM__F(__plan) *pl = h->pl;
+    int rc = KIFMM__F(__precompute)(h, old);
+    if (!rc && h->tree.periodic) rc = KIFMM__F(__lattice_build)(h);
+    pl->lat.built = !rc && h->tree.periodic;
+    pl->lat.width = h->tree.width;
+    pl->lat.kc = h->tree.kc;
+    pl->lat.zl = h->lat.zl;
+    pl->lat.zsmall = h->lat.zsmall;
+    pl->lat.neutral = h->tree.periodic && KIFMM__SI && !pl->lat.bq;
+    return rc;
+}
+
+/* U's points (__far_root) in the tree's frame: about the root's centre. */
+KIFMM__FN int KIFMM__F(__points_lattice)(KIFMM_NAME *h)
+{
+    const KIFMM__F(__plan) *pl = h->pl;
+    double c0[3], h0;
+    if (!pl->lat.zu) return KIFMM_SUCCESS;
+    h->lat.zt = (KIFMM__R *)kifmm__take(&h->held, (size_t)3 * pl->lat.nzu, sizeof(KIFMM__R));
+    if (!h->lat.zt) return KIFMM_ERR_NOMEM;
+    kifmm__box_center(&h->tree, 0, c0, &h0);
+    KIFMM__F(__place)(pl->lat.zunit, pl->lat.nzu, c0, pl->lat.zrad, h->lat.zt);
+    return KIFMM_SUCCESS;
+}
+
+/* The workspace: per-thread buffers, the FFT M2L's spectra and products,
+ * the solves' boxes and the expansions of nrhs vectors. */
+KIFMM__FN int KIFMM__F(__work_build)(KIFMM_NAME *h, int nrhs)
+{
+    int rc = KIFMM__F(__work_buffers)(h);
+#if KIFMM__FFT
+    if (!rc) rc = KIFMM__F(__work_fft)(h, h->pl->fft.single ? sizeof(float) : sizeof(double));
+    if (!rc) rc = KIFMM__F(__work_fout)(h);
+#endif
+    if (!rc) rc = KIFMM__F(__work_solves)(h, nrhs);
+    return rc;
+}
+
+/* The handle's figures for <prefix>_stats after create. */
+KIFMM__FN void KIFMM__F(__stats_set)(KIFMM_NAME *h)
+{
+    KIFMM__F(__describe)(h);
+    h->stats.levels = h->tree.nlev;
+    h->stats.boxes = h->tree.nbox;
+    h->stats.leaves = h->tree.nleaves;
+    h->stats.bytes = KIFMM__F(__held)(h);
+}
+
+/* A handle on plan pl (one more handle of it) for these points, checked:
+ * the points' part, the plan's operators where pl lacks them (fresh: pl is
+ * create's own, still without operators, and gets them; else a new plan,
+ * copying pl's levels that still fit), the workspace for nrhs vectors.
+ * *out is NULL on failure, and pl as it was (but for a fresh one's
+ * operators). */
+KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(__plan) *pl, int fresh, int nrhs,
+                                const kifmm_opts *o, int64_t ns, const KIFMM__R *src, int64_t nt,
+                                const KIFMM__R *trg)
+{
+    KIFMM_NAME *h;
+    double t0 = kifmm__now(), t1, t2;
+    int rc = KIFMM_SUCCESS;
+    *out = NULL;
+    if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
+    h->held = sizeof *h;
+    h->opts = *o;
+    h->pl = pl;
+    pl->refs++;
+    h->tree.ns = ns;
+    h->tree.nt = nt;
+    t1 = t2 = t0;
+    if (ns > 0 && nt > 0) {
+        rc = KIFMM__F(__points_build)(h, ns, src, nt, trg);
+        t1 = kifmm__now();
+        if (!rc && !KIFMM__F(__plan_fits)(h)) {
+            KIFMM__F(__plan) *np;
+            if (fresh) { /* create's own plan: built in place */
+                rc = KIFMM__F(__plan_ops)(h, NULL);
+            } else if (!(np = KIFMM__F(__plan_new)(o))) {
+                rc = KIFMM_ERR_NOMEM;
+            } else { /* pl stays as it is for its other handles */
+                h->pl = np;
+                rc = KIFMM__F(__plan_ops)(h, pl);
+                KIFMM__F(__plan_release)(pl);
+            }
+        }
+        t2 = kifmm__now();
+        if (!rc) rc = KIFMM__F(__points_lattice)(h);
+        if (!rc) rc = KIFMM__F(__work_build)(h, nrhs);
+    }
+    if (rc) {
+        KIFMM__F(_destroy)(h);
+        return rc;
+    }
+    h->stats.t_points = t1 - t0;
+    h->stats.t_plan = t2 - t1;
+    h->stats.t_workspace = kifmm__now() - t2;
+    KIFMM__F(__stats_set)(h);
+    *out = h;
+    return KIFMM_SUCCESS;
 }
 
 KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
                                  const KIFMM__R *src_xyz, int64_t ntargets,
                                  const KIFMM__R *trg_xyz)
 {
-    KIFMM_NAME *h;
+    KIFMM__F(__plan) *pl;
     kifmm_opts o;
-    double t0, t1;
+    double t0 = kifmm__now();
     int rc;
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if ((rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o))) return rc;
-    if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
-    h->held = sizeof *h;
-    h->opts = o;
-    h->ops.degree = (double)(KIFMM__DEGREE);
-    h->tree.ns = nsources;
-    h->tree.nt = ntargets;
-    t0 = kifmm__now();
-    if (nsources > 0 && ntargets > 0) {
-        rc = KIFMM__F(__plan_surfaces)(h);
-        if (!rc) rc = KIFMM__F(__plan_tree)(h, nsources, src_xyz, ntargets, trg_xyz);
-        t1 = kifmm__now();
-        if (!rc) rc = KIFMM__F(__plan_buffers)(h);
-#if KIFMM__FFT
-        if (!rc) rc = KIFMM__F(__plan_fft)(h);
-#endif
-        if (!rc && KIFMM__MUTUAL && h->tree.same) rc = KIFMM__F(__pair_plan)(h);
-        if (!rc) rc = KIFMM__F(__precompute)(h);
-        if (!rc && h->tree.periodic) rc = KIFMM__F(__lattice_build)(h);
-        h->lat.neutral = h->tree.periodic && KIFMM__SI && !h->lat.bq;
-#if KIFMM__FFT
-        if (!rc) rc = KIFMM__F(__plan_fout)(h);
-#endif
-        if (!rc) rc = KIFMM__F(__plan_work)(h);
-        if (rc) {
-            KIFMM__F(_destroy)(h);
-            return rc;
-        }
-        h->stats.t_tree = t1 - t0;
-        h->stats.t_operators = kifmm__now() - t1;
-    }
-    KIFMM__F(__describe)(h);
-    h->stats.levels = h->tree.nlev;
-    h->stats.boxes = h->tree.nbox;
-    h->stats.leaves = h->tree.nleaves;
-    h->stats.bytes = KIFMM__F(__held)(h);
-    if (h->opts.verbose) KIFMM__F(__report)(h, 1);
-    *out = h;
+    if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
+    rc = KIFMM__F(__build)(out, pl, 1, 1, &o, nsources, src_xyz, ntargets, trg_xyz);
+    KIFMM__F(__plan_release)(pl); /* the handle's alone now, or freed */
+    if (rc) return rc;
+    (*out)->stats.t_plan += kifmm__now() - t0 - (*out)->stats.t_points - (*out)->stats.t_plan -
+                            (*out)->stats.t_workspace; /* the checks and the plan's surfaces */
+    (*out)->stats.t_tree = (*out)->stats.t_points;
+    (*out)->stats.t_operators = (*out)->stats.t_plan + (*out)->stats.t_workspace;
+    if (o.verbose) KIFMM__F(__report)(*out, 1);
     return KIFMM_SUCCESS;
 }
 
@@ -7358,7 +7616,7 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     for (l = t->nlev - 1; l >= kifmm__lmin(t); l--) KIFMM__F(__upward)(h, w, nr, l);
     for (l = kifmm__lmin(t); l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
     KIFMM__F(__leaves)(h, w, nr);
-    if (h->lat.bq) KIFMM__F(__background)(h, w, nr);
+    if (h->pl->lat.bq) KIFMM__F(__background)(h, w, nr);
     w->dst = NULL;
     if (!w->outs) {
         for (r = 0; r < nr && scaled; r++) {
@@ -7391,7 +7649,7 @@ KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIF
     const kifmm__tree *t = &h->tree;
     const double tol = KIFMM__FLOAT ? 1e-4 : 1e-10;
     int r, b, bad = 0;
-    if (!h->lat.neutral) return KIFMM_SUCCESS;
+    if (!h->pl->lat.neutral) return KIFMM_SUCCESS;
     for (r = 0; r < nrhs; r++) {
         double q[KIFMM__SD], m[KIFMM__SD];
         for (b = 0; b < KIFMM__SD; b++) q[b] = m[b] = 0.0;
@@ -7402,8 +7660,8 @@ KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIF
                                    d + (size_t)r * t->ns * KIFMM__UD + (size_t)i * KIFMM__UD, lin);
             for (b = 0; b < KIFMM__SD; b++)
                 for (k = 0; k < KIFMM__QD; k++) {
-                    q[b] += h->lat.mu[b + k * KIFMM__SD] * lin[k];
-                    m[b] += fabs(h->lat.mu[b + k * KIFMM__SD] * lin[k]);
+                    q[b] += h->pl->lat.mu[b + k * KIFMM__SD] * lin[k];
+                    m[b] += fabs(h->pl->lat.mu[b + k * KIFMM__SD] * lin[k]);
                 }
         }
         for (b = 0; b < KIFMM__SD; b++) bad |= !(fabs(q[b]) <= tol * m[b]);
@@ -7562,15 +7820,13 @@ KIFMM__FN int KIFMM__F(__model)(KIFMM_NAME *h, const kifmm__shape *s)
     t->nlev = s->nlev;
     t->nbox = (int32_t)(s->box < cap ? s->box : cap);
     h->work.mb = (int)(s->mb < cap ? s->mb : cap);
-    if ((rc = KIFMM__F(__plan_surfaces)(h))) return rc;
     KIFMM__F(__frame_points)(h, (size_t)s->maxleaf);
-    h->ops.m2l_cols = KIFMM__F(__m2l_cols)(h);
+    h->work.m2l_cols = KIFMM__F(__m2l_cols)(h);
+    rc = KIFMM_SUCCESS;
 #if KIFMM__FFT
-    rc = kifmm__fft_init(&h->fft.plan, h->opts.order + h->surf.cdiff, &h->held);
-    h->fft.plan.single = KIFMM__F(__fft_single)(h);
     h->fft.m = (int32_t)(s->mi < 1.0 ? 1.0 : s->mi < cap ? s->mi : cap);
-    h->fft.slots = KIFMM__F(__fft_slots)(h, h->fft.plan.single ? 4 : 8, h->fft.m);
-    KIFMM__F(__fft_per)(h, h->fft.plan.single ? 4 : 8);
+    h->fft.slots = KIFMM__F(__fft_slots)(h, h->pl->fft.single ? 4 : 8, h->fft.m);
+    KIFMM__F(__fft_per)(h, h->pl->fft.single ? 4 : 8);
 #endif
     return rc;
 }
@@ -7606,33 +7862,34 @@ KIFMM__FN double KIFMM__F(__bytes_tree)(const KIFMM_NAME *h, const kifmm__shape 
  * products need a slab's output buffer (blocks not kept). */
 KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *s, double *fout)
 {
-    const double ne = h->surf.ne, nc = h->surf.nc, r = sizeof(KIFMM__R);
+    const double ne = h->pl->surf.ne, nc = h->pl->surf.nc, r = sizeof(KIFMM__R);
     const int lmin = kifmm__lmin(&h->tree), n = KIFMM__SI ? 1 : h->tree.nlev > 1 ? h->tree.nlev : 1;
     const double sets = h->tree.nlev <= lmin ? 0.0 : KIFMM__SI ? 1.0 : (double)(n - lmin);
     const double m2ls = KIFMM__SI ? s->vany : s->vlev;
-    const double c2e = h->surf.cdiff ? nc * ne : 0.0; /* the check-to-equivalent map */
+    const double c2e = h->pl->surf.cdiff ? nc * ne : 0.0; /* the check-to-equivalent map */
     const double per = r * (2.0 * ne * (nc + ne) + 16.0 * nc * ne + c2e);
     double m2l;
 #if KIFMM__FFT
-    const kifmm__fft *pl = &h->fft.plan;
+    const kifmm__fft *pl = &h->pl->fft;
     const double kb = (double)KIFMM__FFT_KBN * pl->nchunk * (pl->single ? 4.0 : 8.0);
     m2l = (double)KIFMM__NT * KIFMM__SD * KIFMM__SD * 2.0 * pl->nfp * sizeof(double);
     if (kb * (m2ls > 1.0 ? m2ls : 1.0) <= (double)((size_t)KIFMM__FFT_KB_MB << 20)) {
         m2l += kb;
         *fout = 0.0;
     } else {
-        *fout = m2ls < 1.0 ? m2ls : 1.0; /* __plan_fout */
+        *fout = m2ls < 1.0 ? m2ls : 1.0; /* __work_fout */
     }
 #else
     m2l = (double)KIFMM__NT * ne * ne * r;
     *fout = 0.0;
 #endif
-    return (double)n * sizeof(KIFMM__F(__ops)) + sets * per + m2ls * m2l;
+    return (double)n * (sizeof(KIFMM__F(__ops)) + sizeof(double)) + sets * per + m2ls * m2l;
 }
 
 /* A periodic tree's far images (__lattice_build): the exchange (__far_root):
- * U's points, its three factors (ranks at most SD times the points of its
- * equivalent surface) and their workspace. */
+ * U's points (placed, in the tree's frame, and on the unit surface), its
+ * three factors (ranks at most SD times the points of its equivalent
+ * surface) and their workspace. */
 KIFMM__FN double KIFMM__F(__bytes_lattice)(const KIFMM_NAME *h)
 {
     const double r = sizeof(KIFMM__R);
@@ -7640,22 +7897,22 @@ KIFMM__FN double KIFMM__F(__bytes_lattice)(const KIFMM_NAME *h)
     const double nu = kifmm__surf_count(q + cd), mu = nu * KIFMM__SD;
     const double me = (double)kifmm__surf_count(q) * KIFMM__SD;
     if (!h->tree.periodic) return 0.0;
-    return (6.0 * nu + 2.0 * mu * me + me * me + 2.0 * (mu + me)) * r;
+    return (6.0 * nu + 2.0 * mu * me + me * me + 2.0 * (mu + me)) * r + 3.0 * nu * sizeof(double);
 }
 
 /* One vector's workspace (__work_new): the expansions, the check vectors of
  * a level, the dense M2L's level buffer, the sorted densities and the
  * outputs (all of them, or per thread a leaf's or a mutual chunk's:
  * __lbuf_per); per thread the scratch and the column GEMMs' buffer
- * (__plan_buffers); the dense M2L's stacked columns and products (in a tree
+ * (__work_buffers); the dense M2L's stacked columns and products (in a tree
  * with V lists); the FFT M2L's spectra of a slab, the products of one
  * without kept blocks, and per thread its blocks, products and transforms
- * (__plan_fft_buffers). */
+ * (__work_fft). */
 KIFMM__FN double KIFMM__F(__bytes_work)(const KIFMM_NAME *h, const kifmm__shape *s, double fout)
 {
     const kifmm__tree *t = &h->tree;
     const double r = sizeof(KIFMM__R), nth = h->opts.nthreads;
-    double sz[5], b, m = s->maxleaf > h->surf.nsc ? s->maxleaf : h->surf.nsc;
+    double sz[5], b, m = s->maxleaf > h->pl->surf.nsc ? s->maxleaf : h->pl->surf.nsc;
     size_t z[5];
     int k;
     KIFMM__F(__work_sizes)(h, z);
@@ -7669,13 +7926,13 @@ KIFMM__FN double KIFMM__F(__bytes_work)(const KIFMM_NAME *h, const kifmm__shape 
         b += (KIFMM__GC_FAST ? nth : 1.0) * (double)KIFMM__F(__gbuf_per)(h) * r;
 #if KIFMM__FFT
     {
-        const double esz = h->fft.plan.single ? 4.0 : 8.0;
-        const double spec = (double)h->fft.slots * h->fft.plan.nfp * 16.0 * esz;
-        b += spec * (1.0 + fout) + nth * ((double)h->fft.per * esz + 64.0 * h->surf.nc);
+        const double esz = h->pl->fft.single ? 4.0 : 8.0;
+        const double spec = (double)h->fft.slots * h->pl->fft.nfp * 16.0 * esz;
+        b += spec * (1.0 + fout) + nth * ((double)h->fft.per * esz + 64.0 * h->pl->surf.nc);
     }
 #else
-    b += s->vany * h->ops.m2l_cols * r *
-         (KIFMM__NT * h->surf.ne + (h->surf.nc > h->surf.ne ? h->surf.nc : h->surf.ne));
+    b += s->vany * h->work.m2l_cols * r *
+         (KIFMM__NT * h->pl->surf.ne + (h->pl->surf.nc > h->pl->surf.ne ? h->pl->surf.nc : h->pl->surf.ne));
     (void)fout;
 #endif
     return b;
@@ -7704,10 +7961,11 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
     h->tree.nt = nt;
     h->tree.same = same;
     for (d = 0; d < 3; d++) h->tree.periodic |= h->tree.per[d] = o.period[d] > 0.0;
-    /* as __plan_tree finds on uniform points: leaves at level 1 */
+    /* as __points_tree finds on uniform points: leaves at level 1 */
     h->lat.zsmall = nsources / 8 <= o.leaf_size && nt / 8 <= o.leaf_size;
     b = 0.0;
-    if (nsources > 0 && nt > 0) {
+    if (!(h->pl = KIFMM__F(__plan_new)(&o))) rc = KIFMM_ERR_NOMEM; /* as create: the surfaces */
+    if (!rc && nsources > 0 && nt > 0) {
         kifmm__shape_uniform(nsources, nt, same, o.leaf_size, o.max_depth, h->tree.per, &s);
         rc = KIFMM__F(__model)(h, &s);
         if (!rc) {
@@ -7715,7 +7973,7 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
             b += KIFMM__F(__bytes_lattice)(h) + KIFMM__F(__bytes_work)(h, &s, fout);
         }
     }
-    b += (double)h->held;
+    b += (double)h->held + (h->pl ? (double)h->pl->held : 0.0);
     KIFMM__F(_destroy)(h);
     if (!rc) *bytes = b;
     return rc;

@@ -40,10 +40,10 @@ static void run(const char *name, int sphere, int p, double bound)
     if (rc != KIFMM_SUCCESS) goto done;
     /* the override reached the handle: order p + 1 on the check surfaces, at
      * the least-squares radius */
-    CHECK(h->surf.cdiff == 1, "%s p=%d check order difference %d, want 1", name, p, h->surf.cdiff);
-    CHECK(h->surf.nsc == kifmm__surf_count(p + 1) && h->surf.nse == kifmm__surf_count(p),
-          "%s p=%d surface sizes %d / %d", name, p, h->surf.nsc, h->surf.nse);
-    CHECK(h->surf.ao == KIFMM__ALPHA_OUTER_LSQ, "%s p=%d outer radius %g", name, p, h->surf.ao);
+    CHECK(h->pl->surf.cdiff == 1, "%s p=%d check order difference %d, want 1", name, p, h->pl->surf.cdiff);
+    CHECK(h->pl->surf.nsc == kifmm__surf_count(p + 1) && h->pl->surf.nse == kifmm__surf_count(p),
+          "%s p=%d surface sizes %d / %d", name, p, h->pl->surf.nsc, h->pl->surf.nse);
+    CHECK(h->pl->surf.ao == KIFMM__ALPHA_OUTER_LSQ, "%s p=%d outer radius %g", name, p, h->pl->surf.ao);
     t_fill(4 * n, out, NAN);
     rc = kifmm_laplace_grad_evaluate(h, q, out);
     CHECK(rc == KIFMM_SUCCESS, "%s p=%d evaluate rc=%d", name, p, rc);

@@ -52,11 +52,11 @@ static void soa(int n, const double *xyz, double *s)
 /* Check vector -> equivalent density with the handle's two factors. */
 static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 {
-    const kifmm_laplace__ops *o = &c->ops.at[0];
+    const kifmm_laplace__ops *o = &c->pl->ops.at[0];
     int k = up ? o->ku : o->kd;
     double *tmp = t_doubles(k);
-    kifmm__gemm(0, 0, k, 1, c->surf.nc, 1.0, up ? o->ut_up : o->ut_dn, k, chk, c->surf.nc, 0.0, tmp, k);
-    kifmm__gemm(0, 0, c->surf.ne, 1, k, 1.0, up ? o->vs_up : o->vs_dn, c->surf.ne, tmp, k, 0.0, eq, c->surf.ne);
+    kifmm__gemm(0, 0, k, 1, c->pl->surf.nc, 1.0, up ? o->ut_up : o->ut_dn, k, chk, c->pl->surf.nc, 0.0, tmp, k);
+    kifmm__gemm(0, 0, c->pl->surf.ne, 1, k, 1.0, up ? o->vs_up : o->vs_dn, c->pl->surf.ne, tmp, k, 0.0, eq, c->pl->surf.ne);
     free(tmp);
 }
 
@@ -66,12 +66,12 @@ static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, const double *x,
                 const double *q, double *ue)
 {
-    double *pc = t_doubles(3 * c->surf.nsc), *chk = t_doubles(c->surf.nc), *xs = t_doubles(3 * ns);
-    kifmm__surf_place(c->surf.unit_c, c->surf.nsc, ctr, c->surf.ao * r, pc);
+    double *pc = t_doubles(3 * c->pl->surf.nsc), *chk = t_doubles(c->pl->surf.nc), *xs = t_doubles(3 * ns);
+    kifmm__surf_place(c->pl->surf.unit_c, c->pl->surf.nsc, ctr, c->pl->surf.ao * r, pc);
     soa(ns, x, xs);
-    t_fill(c->surf.nc, chk, 0.0);
-    kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc, c->surf.nsc, xs, xs + ns,
-                             xs + 2 * ns, q, ns, 1, 0, r * c->ops.at[0].sigma, chk, 0);
+    t_fill(c->pl->surf.nc, chk, 0.0);
+    kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, xs + ns,
+                             xs + 2 * ns, q, ns, 1, 0, r * c->pl->ops.at[0].sigma, chk, 0);
     solve(c, 1, chk, ue);
     free(pc);
     free(chk);
@@ -117,7 +117,7 @@ static kifmm_laplace *handle(int order)
     int n;
     double *x = ops_points(&n);
     kifmm_opts o = t_opts(order, 8, 0);
-    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == 0 && h->ops.at[0].khat != NULL,
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == 0 && h->pl->ops.at[0].khat != NULL,
           "create order %d, operators built", order);
     return h;
 }
@@ -138,16 +138,16 @@ static void test_upward(int p)
     double ctr[3] = {0.3, -0.2, 0.1}, r = 0.25, *x, *q, *y, *pot, *ue, *uec, *chk, *pe;
     int ns = 400, ny = 300, o;
     x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
-    ue = t_doubles(c->surf.ne); uec = t_doubles(8 * c->surf.ne); chk = t_doubles(c->surf.nc);
-    pe = t_doubles(3 * c->surf.nse);
+    ue = t_doubles(c->pl->surf.ne); uec = t_doubles(8 * c->pl->surf.ne); chk = t_doubles(c->pl->surf.nc);
+    pe = t_doubles(3 * c->pl->surf.nse);
 
     /* P2M alone, evaluated where M2L would use it (beyond the check surface) */
     points_in_box(&g, ns, ctr, r, x);
     t_gen_charges(&g, ns, q, -1, 1);
     points_far(&g, ny, ctr, r, 3.0, 7.0, y);
     p2m(c, ctr, r, ns, x, q, ue);
-    kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, c->surf.ai * r, pe);
-    eval_equiv(c, c->surf.nse, pe, ue, ny, y, pot);
+    kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, ctr, c->pl->surf.ai * r, pe);
+    eval_equiv(c, c->pl->surf.nse, pe, ue, ny, y, pot);
     CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2M p=%d, far field", p);
 
     /* M2M: eight children, each P2M'd alone, shifted to the parent */
@@ -155,12 +155,12 @@ static void test_upward(int p)
         double cc[3] = {ctr[0] + (o >> 2 & 1 ? 0.5 : -0.5) * r, ctr[1] + (o >> 1 & 1 ? 0.5 : -0.5) * r,
                         ctr[2] + (o & 1 ? 0.5 : -0.5) * r};
         points_in_box(&g, ns / 8, cc, 0.5 * r, x + 3 * (ns / 8) * o);
-        p2m(c, cc, 0.5 * r, ns / 8, x + 3 * (ns / 8) * o, q + (ns / 8) * o, uec + o * c->surf.ne);
+        p2m(c, cc, 0.5 * r, ns / 8, x + 3 * (ns / 8) * o, q + (ns / 8) * o, uec + o * c->pl->surf.ne);
     }
-    kifmm__gemm(0, 0, c->surf.nc, 1, 8 * c->surf.ne, 1.0, c->ops.at[0].m2m, c->surf.nc, uec, 8 * c->surf.ne, 0.0, chk,
-                c->surf.nc);
+    kifmm__gemm(0, 0, c->pl->surf.nc, 1, 8 * c->pl->surf.ne, 1.0, c->pl->ops.at[0].m2m, c->pl->surf.nc, uec, 8 * c->pl->surf.ne, 0.0, chk,
+                c->pl->surf.nc);
     solve(c, 1, chk, ue);
-    eval_equiv(c, c->surf.nse, pe, ue, ny, y, pot);
+    eval_equiv(c, c->pl->surf.nse, pe, ue, ny, y, pot);
     CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "M2M p=%d, far field", p);
     free(x); free(q); free(y); free(pot); free(ue); free(uec); free(chk); free(pe);
     kifmm_laplace_destroy(h);
@@ -172,22 +172,22 @@ static void test_upward(int p)
  * solve. */
 static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de)
 {
-    kifmm__fft plan = c->fft.plan; /* this helper works in double throughout */
+    kifmm__fft plan = c->pl->fft; /* this helper works in double throughout */
     const kifmm__fft *pl = &plan;
-    const kifmm_laplace__ops *o = &c->ops.at[0];
+    const kifmm_laplace__ops *o = &c->pl->ops.at[0];
     const size_t cs = 16 * KIFMM__FFT_F;
     double *spec = t_doubles(16 * pl->nfp), *prod = t_doubles(16 * pl->nfp);
-    double *work = t_doubles((int64_t)kifmm__fft_work8(pl)), *chk = t_doubles(8 * c->surf.nc);
-    double *m = t_doubles(c->surf.nc), *m8 = t_doubles(8 * c->surf.nc);
+    double *work = t_doubles((int64_t)kifmm__fft_work8(pl)), *chk = t_doubles(8 * c->pl->surf.nc);
+    double *m = t_doubles(c->pl->surf.nc), *m8 = t_doubles(8 * c->pl->surf.nc);
     int f, i;
     plan.single = 0;
     t_fill(16 * pl->nfp, spec, 0.0);
     t_fill(16 * pl->nfp, prod, 0.0);
-    if (o->conv) kifmm__gemm(0, 0, c->surf.nc, 1, c->surf.ne, 1.0, o->conv, c->surf.nc, ue, c->surf.ne, 0.0, m, c->surf.nc);
-    else memcpy(m, ue, (size_t)c->surf.nc * sizeof(double)); /* lattice = equivalent surface */
+    if (o->conv) kifmm__gemm(0, 0, c->pl->surf.nc, 1, c->pl->surf.ne, 1.0, o->conv, c->pl->surf.nc, ue, c->pl->surf.ne, 0.0, m, c->pl->surf.nc);
+    else memcpy(m, ue, (size_t)c->pl->surf.nc * sizeof(double)); /* lattice = equivalent surface */
     /* lane 3 of the batched transforms carries the density, the others 0 */
-    t_fill(8 * c->surf.nc, m8, 0.0);
-    for (i = 0; i < c->surf.nc; i++) m8[8 * i + 3] = m[i];
+    t_fill(8 * c->pl->surf.nc, m8, 0.0);
+    for (i = 0; i < c->pl->surf.nc; i++) m8[8 * i + 3] = m[i];
     kifmm__fft_forward8d(pl, m8, 1, 0, spec, cs, work);
     for (f = 0; f < pl->nf; f++) {
         size_t a = (size_t)(f / KIFMM__FFT_F) * cs + (size_t)(f % KIFMM__FFT_F) * 16 + 3;
@@ -196,7 +196,7 @@ static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de
         prod[a + 8] = spec[a] * k[1] + spec[a + 8] * k[0];
     }
     kifmm__fft_inverse8d(pl, prod, cs, 1, 0, chk, work);
-    for (i = 0; i < c->surf.nc; i++) m[i] = chk[8 * i + 3];
+    for (i = 0; i < c->pl->surf.nc; i++) m[i] = chk[8 * i + 3];
     solve(c, 0, m, de);
     free(spec); free(prod); free(work); free(chk); free(m); free(m8);
 }
@@ -216,9 +216,9 @@ static double m2l_case(const kifmm_laplace *c, t_rng *g, const int *d, const dou
     t_gen_charges(g, ns, q, -1, 1);
     points_in_box(g, ny, ctr, r, y);
     p2m(c, cs, r, ns, x, q, ue);
-    kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, c->surf.ao * r, pe);
+    kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, ctr, c->pl->surf.ao * r, pe);
     m2l_fft(c, kifmm__transfer_index(d[0], d[1], d[2]), ue, de);
-    eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
+    eval_equiv(c, c->pl->surf.nse, pe, de, ny, y, pot);
     return rel_err_at(ny, y, pot, ns, x, q);
 }
 
@@ -233,14 +233,14 @@ static void test_downward(int p)
     int ns = 300, ny = 300, tv, o, k;
     static const int vecs[4][3] = {{2, 0, 0}, {3, -2, 1}, {-3, -3, -3}, {0, 2, -2}};
     x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
-    ue = t_doubles(c->surf.ne); de = t_doubles(c->surf.ne); dec = t_doubles(c->surf.ne);
-    chk = t_doubles(8 * c->surf.nc); pe = t_doubles(3 * c->surf.nse); pc = t_doubles(3 * c->surf.nsc);
+    ue = t_doubles(c->pl->surf.ne); de = t_doubles(c->pl->surf.ne); dec = t_doubles(c->pl->surf.ne);
+    chk = t_doubles(8 * c->pl->surf.nc); pe = t_doubles(3 * c->pl->surf.nse); pc = t_doubles(3 * c->pl->surf.nsc);
     xs = t_doubles(3 * ns);
     {
         int n;
         double *xo = ops_points(&n);
         kifmm_opts o = t_opts(p, 8, 0);
-        CHECK(kifmm_laplace_dense_create(&hd, &o, n, xo, n, xo) == 0 && hd->ops.at[0].m2l != NULL,
+        CHECK(kifmm_laplace_dense_create(&hd, &o, n, xo, n, xo) == 0 && hd->pl->ops.at[0].m2l != NULL,
               "dense create %d, operators built", p);
     }
 
@@ -252,17 +252,17 @@ static void test_downward(int p)
         CHECK_ERR(m2l_case(c, &g, d, ctr, r, ns, ny, x, q, y, pot, ue, de, pe), bound_for(p),
                   "M2L (FFT) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
         /* dense path: the stored matrices include the first factor of the
-         * solve; its downward equivalent surface has its own radius (hd->surf.ao:
+         * solve; its downward equivalent surface has its own radius (hd->pl->surf.ao:
          * the dense instance checks on order p + 1) */
         {
-            const kifmm_laplace_dense__ops *od = &hd->ops.at[0];
-            kifmm__gemm(0, 0, od->kd, 1, c->surf.ne, 1.0, od->m2l + (size_t)tv * c->surf.ne * od->kd,
-                        od->kd, ue, c->surf.ne, 0.0, chk, od->kd);
-            kifmm__gemm(0, 0, c->surf.ne, 1, od->kd, 1.0, od->vs_dn, c->surf.ne, chk, od->kd, 0.0, de,
-                        c->surf.ne);
+            const kifmm_laplace_dense__ops *od = &hd->pl->ops.at[0];
+            kifmm__gemm(0, 0, od->kd, 1, c->pl->surf.ne, 1.0, od->m2l + (size_t)tv * c->pl->surf.ne * od->kd,
+                        od->kd, ue, c->pl->surf.ne, 0.0, chk, od->kd);
+            kifmm__gemm(0, 0, c->pl->surf.ne, 1, od->kd, 1.0, od->vs_dn, c->pl->surf.ne, chk, od->kd, 0.0, de,
+                        c->pl->surf.ne);
         }
-        kifmm__surf_place(c->surf.unit_e, c->surf.nse, ctr, hd->surf.ao * r, pe);
-        eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
+        kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, ctr, hd->pl->surf.ao * r, pe);
+        eval_equiv(c, c->pl->surf.nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
                   "M2L (dense) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
     }
@@ -295,24 +295,24 @@ static void test_downward(int p)
         points_in_box(&g, ns, cs, 2 * r, x);
         t_gen_charges(&g, ns, q, -1, 1);
         soa(ns, x, xs);
-        kifmm__surf_place(c->surf.unit_c, c->surf.nsc, cp, c->surf.ai * 2 * r, pc);
-        t_fill(c->surf.nc, chk, 0.0);
-        kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->surf.nsc, pc + 2 * c->surf.nsc, c->surf.nsc, xs, xs + ns,
-                                 xs + 2 * ns, q, ns, 1, 0, 2 * r * c->ops.at[0].sigma, chk, 0);
+        kifmm__surf_place(c->pl->surf.unit_c, c->pl->surf.nsc, cp, c->pl->surf.ai * 2 * r, pc);
+        t_fill(c->pl->surf.nc, chk, 0.0);
+        kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, xs + ns,
+                                 xs + 2 * ns, q, ns, 1, 0, 2 * r * c->pl->ops.at[0].sigma, chk, 0);
         solve(c, 0, chk, de);
-        kifmm__surf_place(c->surf.unit_e, c->surf.nse, cp, c->surf.ao * 2 * r, pe);
+        kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, cp, c->pl->surf.ao * 2 * r, pe);
         points_in_box(&g, ny, cp, 2 * r, y);
-        eval_equiv(c, c->surf.nse, pe, de, ny, y, pot);
+        eval_equiv(c, c->pl->surf.nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2L p=%d, inside the box", p);
-        kifmm__gemm(0, 0, 8 * c->surf.nc, 1, c->surf.ne, 1.0, c->ops.at[0].l2l, 8 * c->surf.nc, de, c->surf.ne, 0.0, chk,
-                    8 * c->surf.nc);
+        kifmm__gemm(0, 0, 8 * c->pl->surf.nc, 1, c->pl->surf.ne, 1.0, c->pl->ops.at[0].l2l, 8 * c->pl->surf.nc, de, c->pl->surf.ne, 0.0, chk,
+                    8 * c->pl->surf.nc);
         for (o = 0; o < 8; o++) {
             double cc[3] = {cp[0] + (o >> 2 & 1 ? r : -r), cp[1] + (o >> 1 & 1 ? r : -r),
                             cp[2] + (o & 1 ? r : -r)};
-            solve(c, 0, chk + (size_t)o * c->surf.nc, dec);
-            kifmm__surf_place(c->surf.unit_e, c->surf.nse, cc, c->surf.ao * r, pe);
+            solve(c, 0, chk + (size_t)o * c->pl->surf.nc, dec);
+            kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, cc, c->pl->surf.ao * r, pe);
             points_in_box(&g, ny, cc, r, y);
-            eval_equiv(c, c->surf.nse, pe, dec, ny, y, pot);
+            eval_equiv(c, c->pl->surf.nse, pe, dec, ny, y, pot);
             CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "L2L p=%d, child %d", p, o);
         }
     }
@@ -348,7 +348,7 @@ static void test_tree(const char *name, int64_t n, const double *xyz, int leaf)
     /* the handle's tree again, with its V entries (the FFT M2L keeps only
      * their counts): the same builder, the same options */
     CHECK(kifmm__tree_build(&tree, n, xyz, n, xyz, h->opts.leaf_size, h->opts.max_depth,
-                            h->opts.nthreads, 1, NULL) == 0,
+                            h->opts.nthreads, 1, NULL, NULL) == 0,
           "tree with V entries, %s", name);
     CHECK(tree.nbox == h->tree.nbox && tree.nlev == h->tree.nlev &&
               !memcmp(tree.vo, h->tree.vo, ((size_t)tree.nbox + 1) * sizeof(int32_t)) &&

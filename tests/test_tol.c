@@ -274,8 +274,8 @@ static int verbose_run(int v, int *ncreate, int *neval)
 static void check_verbose(void)
 {
     int nc, ne, rc = verbose_run(1, &nc, &ne);
-    CHECK(rc == KIFMM_SUCCESS && nc == 3 && ne == 9,
-          "verbose 1: %d lines from create (3), %d from evaluate (9): %s", nc, ne, kifmm_strerror(rc));
+    CHECK(rc == KIFMM_SUCCESS && nc == 4 && ne == 9,
+          "verbose 1: %d lines from create (4), %d from evaluate (9): %s", nc, ne, kifmm_strerror(rc));
     rc = verbose_run(0, &nc, &ne);
     CHECK(rc == KIFMM_SUCCESS && nc == 0 && ne == 0, "verbose 0: nothing (%d, %d lines)", nc, ne);
     rc = verbose_run(2, &nc, &ne);

@@ -120,6 +120,9 @@ class _Stats(ctypes.Structure):
         ("threads", ctypes.c_int),
         ("simd", ctypes.c_int),
         ("build", ctypes.c_char * 256),
+        ("t_plan", ctypes.c_double),
+        ("t_points", ctypes.c_double),
+        ("t_workspace", ctypes.c_double),
     ]
 
 
