@@ -20,14 +20,16 @@
  *   4. Kernel template, once per include, in the instance's precision:
  *        >>params    the instance's name, precision, kernel traits and roles
  *        >>api       the public functions' declarations
- *        >>handle    the handle, its state grouped by purpose
+ *        >>handle    the plan (options, surfaces, operators) and the handle
+ *                    (its plan, the points and tree, the workspace)
  *        >>kernels   the direct-interaction loops of the four kernel roles
  *        >>operators one builder per operator, called in order by ops_build
  *        >>workspace expansions and per-thread buffers
  *        >>upward    P2M, M2M, the upward solve
  *        >>downward  L2L, P2L, M2L (FFT or dense), the downward solve
  *        >>leaves    L2P, M2P, P2P
- *        >>create    planning steps, create, evaluate, destroy, stats, options
+ *        >>create    create's steps (plan, points, workspace), create,
+ *                    update_points, evaluate, destroy, stats, options
  *   5. >>epilogue: #undef of the template parameters; license
  *
  * 1. QUICK START
@@ -40,6 +42,8 @@
  *   if (rc < 0) fprintf(stderr, "kifmm: %s\n", kifmm_strerror(rc));
  *   rc = kifmm_laplace_evaluate(fmm, charges, pot);   // as often as needed
  *   rc = kifmm_laplace_evaluate_many(fmm, 4, q4, pot4); // 4 density vectors at once
+ *   rc = kifmm_laplace_update_points(fmm, ns, moved_xyz, nt, moved_trg); // a time step:
+ *                                           // a new tree, the operators kept
  *   kifmm_laplace_destroy(fmm);
  *
  *   cc -O2 -march=native -fopenmp app.c -llapacke -lopenblas -lm
@@ -234,7 +238,10 @@ extern "C++" {
     X(KIFMM_ERR_OVERLAP, -20, "direct: the output array overlaps the source or target points") \
     X(KIFMM_ERR_OVERFLOW, -21,                                                                \
       "an output is not finite: the densities are too large or points too close for the "     \
-      "precision's range")
+      "precision's range")                                                                    \
+    X(KIFMM_ERR_DOMAIN, -22,                                                                  \
+      "opts.domain: a point lies outside the box, or the box is not finite, its half-width "  \
+      "not positive, or it is set together with opts.period")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -273,6 +280,12 @@ typedef struct kifmm_opts {
                                "Tolerance"); 0: order decides */
     int verbose;            /* 1: create and evaluate print one line per stage, with
                                its time, and the memory held, on stderr; 0: quiet */
+    double domain[4];       /* free space: a fixed root box, centre x, y, z and
+                               half-width h > 0, holding every point (|x - c| <= h
+                               per axis, else KIFMM_ERR_DOMAIN), so that points
+                               moved by update_points inside it keep every
+                               operator; all 0: the box from the points (the
+                               default). Not with opts.period (docs/api.md) */
 } kifmm_opts;
 
 /* What a handle is made of and where the last evaluation spent its time. */
@@ -295,9 +308,10 @@ typedef struct kifmm_stats {
                                    compiled without -march or -mavx2 -mfma) */
     char build[256];            /* the code paths of this instance, in words */
     double t_plan;              /* create: options, surfaces, operators (the plan) */
-    double t_points;            /* create: the tree, the lists and what else the
-                                   points decide */
-    double t_workspace;         /* create: the workspace */
+    double t_points;            /* create or the last update_points: the tree, the
+                                   lists and what else the points decide */
+    double t_workspace;         /* create or the last update_points: the workspace */
+    double t_update;            /* the last update_points, total (0: none yet) */
 } kifmm_stats;
 
 #endif /* KIFMM_H_TYPES */
@@ -554,6 +568,11 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, const double 
         if (!(o.period[d] >= 0.0 && o.period[d] <= DBL_MAX)) return KIFMM_ERR_PERIOD;
         if (o.period[d] > 0.0 && L > 0.0 && o.period[d] != L) return KIFMM_ERR_PERIOD;
         if (o.period[d] > 0.0) L = o.period[d];
+    }
+    if (o.domain[0] != 0.0 || o.domain[1] != 0.0 || o.domain[2] != 0.0 || o.domain[3] != 0.0) {
+        for (d = 0; d < 3; d++)
+            if (!(fabs(o.domain[d]) <= DBL_MAX)) return KIFMM_ERR_DOMAIN;
+        if (!(o.domain[3] > 0.0 && o.domain[3] <= DBL_MAX) || L > 0.0) return KIFMM_ERR_DOMAIN;
     }
 #ifdef _OPENMP
     if (o.nthreads == 0) o.nthreads = omp_get_max_threads();
@@ -1414,7 +1433,7 @@ KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, int64_t nt, cons
     }
 }
 
-/* Step 1, the root cube (a fixed box where one is given): the
+/* Step 1, the root cube (opts.domain's box where one is given): the
  * smallest cube around every source and target,
  * padded so that no point sits on its outer faces, or a wider one where
  * that keeps crowds of points off the boxes' faces (kifmm__free_frame).
@@ -1431,7 +1450,7 @@ KIFMM__FN int kifmm__tree_bounds(kifmm__tree *t, int64_t ns, const double *src, 
     double lo[3], hi[3], ctr[3], half = 0.0;
     int d;
     if (t->periodic) return kifmm__tree_bounds_periodic(t, ns, src, nt, trg, nth);
-    if (domain && domain[3] > 0.0) { /* a fixed box (centre, half-width), as it is */
+    if (domain && domain[3] > 0.0) { /* opts.domain: the caller's box, as it is */
         for (d = 0; d < 3; d++) kifmm__centre_axis(t, d, domain[d], domain[3]);
         t->width = 2.0 * domain[3];
         return KIFMM_SUCCESS;
@@ -3508,6 +3527,21 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
                                  const KIFMM__R *src_xyz, int64_t ntargets,
                                  const KIFMM__R *trg_xyz);
 
+/* <prefix>_update_points: new points for the handle, as create would take
+ * them (counts may change; targets may be the sources, the same array),
+ * keeping its options and its operators: the tree, the lists and the
+ * workspace are built anew; the operators are kept where they still apply
+ * (scale-invariant kernels: always; others: the levels whose box width is
+ * unchanged, all of them with opts.domain; periodic trees: the far images
+ * unless the root or the level-1 leaves change). Results are those of a
+ * handle created afresh on the same points with the same options. Returns
+ * KIFMM_SUCCESS, or create's errors for the points (KIFMM_ERR_NULL,
+ * KIFMM_ERR_COUNT, KIFMM_ERR_NONFINITE, KIFMM_ERR_RANGE, KIFMM_ERR_DOMAIN,
+ * KIFMM_ERR_PERIOD, KIFMM_ERR_NOMEM, ...), and then the handle is as it was,
+ * valid for its old points. Not thread safe on one handle. */
+KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const KIFMM__R *src_xyz,
+                                        int64_t ntargets, const KIFMM__R *trg_xyz);
+
 /* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
  * order, from densities[i*SRC_DIM + d]. Outputs are overwritten. Returns
  * KIFMM_SUCCESS; KIFMM_ERR_NULL, KIFMM_ERR_DENSITY (a density NaN or
@@ -3805,7 +3839,7 @@ typedef struct {
  * not scale invariant, on the box widths (and for periodic trees on the
  * root's width and whether level 1 holds leaves): the surfaces, the
  * operators of every level, the FFT's transforms, the periodic far images'
- * operators. Built by create, kept while it still fits the tree
+ * operators. Built by create, kept by update_points where it still fits
  * (__plan_fits), read-only to the passes. Every block it allocates is
  * counted in its held. */
 typedef struct {
@@ -6979,9 +7013,10 @@ KIFMM__FN const double *KIFMM__F(__tol_errors)(void)
 #endif
 }
 
-/* Create's checks on both point sets, for options
- * o (resolved): counts, pointers, finite coordinates in range, and in
- * free space an extent the squared distances can hold. */
+/* The checks of create and update_points on both point sets, for options
+ * o (resolved): counts, pointers, finite coordinates in range, opts.domain
+ * holding every point (KIFMM_ERR_DOMAIN), and in free space an extent the
+ * squared distances can hold. */
 KIFMM__FN int KIFMM__F(__check_sets)(const kifmm_opts *o, int64_t ns, const KIFMM__R *src,
                                      int64_t nt, const KIFMM__R *trg)
 {
@@ -6989,6 +7024,16 @@ KIFMM__FN int KIFMM__F(__check_sets)(const kifmm_opts *o, int64_t ns, const KIFM
     int d, rc = KIFMM__F(__check_points)(ns, src, o->nthreads, lo, hi);
     if (!rc) rc = KIFMM__F(__check_points)(nt, trg, o->nthreads, lo, hi);
     if (rc) return rc;
+    if (o->domain[3] > 0.0) {
+        /* the box in range as the points are, and every point in it */
+        for (d = 0; d < 3; d++)
+            if (!(fabs(o->domain[d]) + o->domain[3] <= KIFMM__CMAX) || !(o->domain[3] >= KIFMM__EMIN))
+                return KIFMM_ERR_RANGE;
+        for (d = 0; d < 3; d++)
+            if (lo[d] <= hi[d] && !(lo[d] >= o->domain[d] - o->domain[3] && hi[d] <= o->domain[d] + o->domain[3]))
+                return KIFMM_ERR_DOMAIN;
+        return KIFMM_SUCCESS;
+    }
     /* squared distances must stay in range: periods of KIFMM__EMIN to
      * KIFMM__CMAX, and in free space a spread set's extent of at least
      * KIFMM__EMIN (a periodic tree's root is the cell) */
@@ -7084,7 +7129,7 @@ KIFMM__FN int KIFMM__F(__points_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R 
         for (int64_t i = 0; i < 3 * nt; i++) g[i] = trg[i];
     }
     rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads,
-                           !KIFMM__FFT, o->period, NULL);
+                           !KIFMM__FFT, o->period, o->domain);
     kifmm__free(s);
     if (!same) kifmm__free(g);
     if (rc) return rc;
@@ -7100,7 +7145,7 @@ KIFMM__FN int KIFMM__F(__points_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R 
     if (!c->pts.src || !c->pts.trg) return KIFMM_ERR_NOMEM;
 #else
     rc = kifmm__tree_build(&c->tree, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads,
-                           !KIFMM__FFT, o->period, NULL);
+                           !KIFMM__FFT, o->period, o->domain);
     if (rc) return rc;
     c->pts.src = c->tree.src;
     c->pts.trg = c->tree.trg;
@@ -7311,14 +7356,14 @@ KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
              h->opts.nthreads, h->opts.nthreads == 1 ? "" : "s");
 }
 
-/* opts.verbose: create's stages (stage 1, after create) or evaluate's
- * passes (0, after an evaluate), one line each on stderr, with the memory
- * held. */
+/* opts.verbose: create's stages (stage 1, after create), update_points'
+ * (2) or evaluate's passes (0, after an evaluate), one line each on stderr,
+ * with the memory held. */
 KIFMM__FN void KIFMM__F(__report)(const KIFMM_NAME *h, int stage)
 {
     static const char *pass[8] = {"P2M", "M2M and upward solves", "M2L", "L2L and downward solves",
                                   "P2L (X lists)", "L2P", "M2P (W lists)", "P2P (U lists)"};
-    static const char *what[2] = {"evaluate", "create"};
+    static const char *what[3] = {"evaluate", "create", "update_points"};
     const kifmm_stats *s = &h->stats;
     const double t[8] = {s->t_p2m, s->t_m2m, s->t_m2l, s->t_l2l, s->t_p2l, s->t_l2p, s->t_m2p, s->t_p2p};
     const char *name = KIFMM__STR(KIFMM_NAME);
@@ -7334,7 +7379,7 @@ KIFMM__FN void KIFMM__F(__report)(const KIFMM_NAME *h, int stage)
         for (k = 0; k < 8; k++) fprintf(stderr, "%s evaluate: %s %.4f s\n", name, pass[k], t[k]);
     }
     fprintf(stderr, "%s %s: %.4f s, %.1f MiB held\n", name, what[stage],
-            stage == 1 ? s->t_plan + s->t_points + s->t_workspace : s->t_evaluate,
+            stage == 1 ? s->t_plan + s->t_points + s->t_workspace : stage == 2 ? s->t_update : s->t_evaluate,
             s->bytes / 1048576.0);
 }
 
@@ -7415,7 +7460,7 @@ KIFMM__FN int KIFMM__F(__work_build)(KIFMM_NAME *h, int nrhs)
     return rc;
 }
 
-/* The handle's figures for <prefix>_stats after create. */
+/* The handle's figures for <prefix>_stats after create or update_points. */
 KIFMM__FN void KIFMM__F(__stats_set)(KIFMM_NAME *h)
 {
     KIFMM__F(__describe)(h);
@@ -7498,6 +7543,33 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
     (*out)->stats.t_tree = (*out)->stats.t_points;
     (*out)->stats.t_operators = (*out)->stats.t_plan + (*out)->stats.t_workspace;
     if (o.verbose) KIFMM__F(__report)(*out, 1);
+    return KIFMM_SUCCESS;
+}
+
+KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const KIFMM__R *src_xyz,
+                                        int64_t ntargets, const KIFMM__R *trg_xyz)
+{
+    KIFMM_NAME *n, tmp;
+    kifmm_stats st;
+    double t0 = kifmm__now();
+    int rc;
+    if (!h) return KIFMM_ERR_NULL;
+    if ((rc = KIFMM__F(__check_sets)(&h->opts, nsources, src_xyz, ntargets, trg_xyz))) return rc;
+    /* as many vectors' workspace as the handle has grown to */
+    if ((rc = KIFMM__F(__build)(&n, h->pl, 0, h->work.w ? h->work.w->nrhs : 1, &h->opts, nsources,
+                                src_xyz, ntargets, trg_xyz)))
+        return rc;
+    /* the new state into the caller's handle; the old one freed (and its
+     * plan with it, where the new one has its own) */
+    st = h->stats;
+    tmp = *h;
+    *h = *n;
+    *n = tmp;
+    KIFMM__F(_destroy)(n);
+    h->stats.t_tree = st.t_tree;
+    h->stats.t_operators = st.t_operators;
+    h->stats.t_update = kifmm__now() - t0;
+    if (h->opts.verbose) KIFMM__F(__report)(h, 2);
     return KIFMM_SUCCESS;
 }
 

@@ -207,6 +207,56 @@ static void test_invalid_inputs(const t_api *api, const double *x)
  * fixed point, and the exchange with level 1) */
 static int many_period;
 
+/* update_points under failing allocation on handle h (points xr, 3
+ * density vectors q; out: room for 3 vectors' outputs): the points shrunk
+ * towards the centre (a new width: the per-level operators are rebuilt,
+ * or copied where the widths agree). Each failure returns KIFMM_ERR_NOMEM,
+ * leaks nothing, and leaves the handle evaluating its old points as before
+ * (bit for bit); the update that succeeds gives a fresh handle's outputs. */
+#define DEFINE_UPDATE_ALLOC(P, R, SD, TD)                                                    \
+    static void P##_update_alloc(P *h, const R *xr, const R *q, R *out)                      \
+    {                                                                                        \
+        R *y = (R *)malloc(sizeof(R) * 3 * N), *ref = (R *)malloc(sizeof(R) * 3 * N * (TD)); \
+        P *g = NULL;                                                                         \
+        long k, bad = 0, changed = 0, live_before;                                           \
+        int rc = KIFMM_ERR_NOMEM, i;                                                         \
+        for (i = 0; i < 3 * N; i++) y[i] = (R)(0.25 + 0.5 * (double)xr[i]);                  \
+        alloc_reset(-1);                                                                     \
+        rc = P##_evaluate_many(h, 3, q, ref);                                                \
+        live_before = alloc_live;                                                            \
+        for (k = 0; k < MAX_K && rc == KIFMM_SUCCESS; k++) {                                 \
+            alloc_reset(k);                                                                  \
+            rc = P##_update_points(h, N, y, N, y);                                           \
+            if (rc == KIFMM_SUCCESS) break;                                                  \
+            if (rc != KIFMM_ERR_NOMEM || alloc_live != live_before) bad++;                   \
+            alloc_reset(-1);                                                                 \
+            rc = P##_evaluate_many(h, 3, q, out);                                            \
+            if (rc != KIFMM_SUCCESS || memcmp(out, ref, sizeof(R) * 3 * N * (TD))) changed++; \
+            rc = KIFMM_SUCCESS;                                                              \
+        }                                                                                    \
+        alloc_reset(-1);                                                                     \
+        printf("  %s: update_points succeeded after %ld injected failures\n", #P, k);        \
+        CHECK(rc == KIFMM_SUCCESS && k > 0 && bad == 0, "%s: %ld failing update_points misbehaved", \
+              #P, bad);                                                                      \
+        CHECK(changed == 0, "%s: %ld failed updates changed the handle's outputs", #P, changed); \
+        {                                                                                    \
+            kifmm_opts o;                                                                    \
+            P##_options(h, &o);                                                              \
+            rc = P##_create(&g, &o, N, y, N, y);                                             \
+        }                                                                                    \
+        CHECK(rc == KIFMM_SUCCESS && P##_evaluate_many(h, 3, q, out) == KIFMM_SUCCESS &&      \
+                  P##_evaluate_many(g, 3, q, ref) == KIFMM_SUCCESS &&                        \
+                  !memcmp(out, ref, sizeof(R) * 3 * N * (TD)),                               \
+              "%s: after update_points the outputs differ from a fresh handle's", #P);        \
+        P##_destroy(g);                                                                      \
+        free(y);                                                                             \
+        free(ref);                                                                           \
+    }
+
+DEFINE_UPDATE_ALLOC(kifmm_yukawa, double, 1, 1)
+DEFINE_UPDATE_ALLOC(kifmm_laplace, double, 1, 1)
+DEFINE_UPDATE_ALLOC(kifmm_stokesf, float, 3, 3)
+
 /* Create under failing allocation for an instance P with real type R
  * (non-scale-invariant operators per level, float arrays), then
  * evaluate_many: growing the workspace for 3 vectors fails cleanly (NOMEM,
@@ -254,6 +304,7 @@ static int many_period;
         CHECK(k > 0 && bad == 0, "%s: %ld failing evaluate_many calls misbehaved", #P, bad);  \
         CHECK(untouched_bad == 0, "%s: failing evaluate_many wrote %ld outputs", #P,          \
               untouched_bad);                                                                \
+        if (rc == KIFMM_SUCCESS) P##_update_alloc(h, xr, q, out);                            \
         P##_destroy(h);                                                                      \
         CHECK(alloc_live == 0 && alloc_bad_free == 0, "%s: %ld blocks live after destroy", #P, \
               alloc_live);                                                                   \

@@ -46,7 +46,7 @@ _INT_MAX = 2**31 - 1  # the C options are ints
 
 # kifmm.h's result codes that the checks made here stand for
 _ERR_COUNT, _ERR_ORDER, _ERR_LEAF_SIZE, _ERR_DEPTH, _ERR_NTHREADS, _ERR_PARAM = -2, -4, -5, -6, -7, -8
-_ERR_PERIOD, _ERR_TOL = -13, -16
+_ERR_PERIOD, _ERR_TOL, _ERR_DOMAIN = -13, -16, -22
 
 
 def kernel_help(kernel):
@@ -95,6 +95,7 @@ class _Opts(ctypes.Structure):
         ("period", ctypes.c_double * 3),
         ("tol", ctypes.c_double),
         ("verbose", ctypes.c_int),
+        ("domain", ctypes.c_double * 4),
     ]
 
 
@@ -123,6 +124,7 @@ class _Stats(ctypes.Structure):
         ("t_plan", ctypes.c_double),
         ("t_points", ctypes.c_double),
         ("t_workspace", ctypes.c_double),
+        ("t_update", ctypes.c_double),
     ]
 
 
@@ -160,8 +162,9 @@ def _api(kernel, dtype):
             pre = "kifmm_" + kernel + ("f" if dtype == np.float32 else "")
             f = {n: getattr(_lib, f"{pre}_{n}") for n in
                  ("create", "evaluate", "evaluate_many", "destroy", "stats", "options", "direct",
-                  "estimate_bytes")}
+                  "estimate_bytes", "update_points")}
             f["create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
+            f["update_points"].argtypes = [_P, _I64, _P, _I64, _P]
             f["evaluate"].argtypes = [_P, _P, _P]
             f["evaluate_many"].argtypes = [_P, ctypes.c_int, _P, _P]
             f["destroy"].argtypes = [_P]
@@ -310,6 +313,19 @@ def _period(v, where):
     return per.tolist()
 
 
+def _domain(v, period, where):
+    """domain: None (the box from the points) or (centre x, y, z, half-width)"""
+    if v is None:
+        return [0.0] * 4
+    dom = _reals(v, "domain", where, [(4,)], _ERR_DOMAIN)
+    if not (np.all(np.isfinite(dom)) and dom[3] > 0.0):
+        raise OptionError(_ERR_DOMAIN, where, f"domain must be (x, y, z, half-width), finite, "
+                          f"with a half-width > 0, not {dom.tolist()}")
+    if any(x > 0.0 for x in period):
+        raise OptionError(_ERR_DOMAIN, where, "domain cannot be set together with period")
+    return dom.tolist()
+
+
 def _verbose(v, where):
     if not isinstance(v, (bool, np.bool_)):
         raise TypeError(f"{where}: verbose must be True or False, not {_show(v)}")
@@ -317,7 +333,7 @@ def _verbose(v, where):
 
 
 def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size=None,
-          period=None, tol=None, verbose=False, max_depth=None):
+          period=None, tol=None, verbose=False, max_depth=None, domain=None):
     o = _Opts()
     o.order = _order(order, where)
     o.tol = _tol(tol, o.order, where)
@@ -330,8 +346,11 @@ def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size
     o.verbose = _verbose(verbose, where)
     for i, x in enumerate(_kernel_param(kernel, kernel_param, where)):
         o.kernel_param[i] = x
-    for i, x in enumerate(_period(period, where)):
+    per = _period(period, where)
+    for i, x in enumerate(per):
         o.period[i] = x
+    for i, x in enumerate(_domain(domain, per, where)):
+        o.domain[i] = x
     return o
 
 
@@ -386,6 +405,10 @@ class FMM:
                   stay leaves whatever they hold
     period        a period L (or 3 of them, 0 = free) for periodic
                   boundaries; finite, >= 0, every nonzero one the same
+    domain        (x, y, z, h): a fixed root box, centre and half-width,
+                  holding every point (else KifmmError, code -22); points
+                  moved by update_points inside it keep every operator (None:
+                  the box from the points; not with period)
     verbose       True: one line per stage of create and evaluate, with its
                   time and the memory held, on stderr
 
@@ -422,7 +445,7 @@ class FMM:
 
     def __init__(self, kernel, sources, targets=None, *, order=None, tol=None, dtype=np.float64,
                  nthreads=None, kernel_param=None, leaf_size=None, period=None, verbose=False,
-                 max_depth=None):
+                 max_depth=None, domain=None):
         self._lock = threading.Lock()
         self._h = None
         self.kernel = kernel
@@ -431,7 +454,7 @@ class FMM:
         self._f = _api(kernel, self.dtype)
         self._destroy = self._f["destroy"]
         opts = _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size, period, tol,
-                     verbose, max_depth)
+                     verbose, max_depth, domain)
         src = _points(sources, self.dtype, "sources")
         trg = src if targets is None else _points(targets, self.dtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
@@ -479,6 +502,23 @@ class FMM:
             raise KifmmError(rc, f"kifmm_{self.kernel}_evaluate")
         return out
 
+    def update_points(self, sources, targets=None):
+        """New points for this FMM (counts may change; targets None: the
+        sources themselves), keeping its options and the operators that
+        still apply: a time step costs the tree and the lists, not the
+        operators. The results are those of a new FMM on the same points.
+        On an error (KifmmError) the FMM keeps its old points and stays
+        usable. The GIL is released while the library runs."""
+        src = _points(sources, self.dtype, "sources")
+        trg = src if targets is None else _points(targets, self.dtype, "targets")
+        with self._lock:
+            h = self._handle()
+            rc = self._f["update_points"](h, src.shape[0], _ptr(src), trg.shape[0], _ptr(trg))
+            if rc == 0:
+                self.nsources, self.ntargets = src.shape[0], trg.shape[0]
+        if rc != 0:
+            raise KifmmError(rc, f"kifmm_{self.kernel}_update_points")
+
     @property
     def stats(self):
         """The tree, the memory held and the last evaluate's times (dict)."""
@@ -501,7 +541,8 @@ class FMM:
             raise KifmmError(rc, f"kifmm_{self.kernel}_options")
         return {"order": o.order, "leaf_size": o.leaf_size, "max_depth": o.max_depth,
                 "nthreads": o.nthreads, "kernel_param": list(o.kernel_param),
-                "period": list(o.period), "tol": o.tol, "verbose": bool(o.verbose)}
+                "period": list(o.period), "tol": o.tol, "verbose": bool(o.verbose),
+                "domain": list(o.domain) if any(o.domain) else None}
 
     def close(self):
         """Free the library's handle now (also done when the object goes);

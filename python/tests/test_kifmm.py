@@ -218,6 +218,48 @@ def test_verbose_lines(capfd):
     assert fmm.options["verbose"] is True
 
 
+@pytest.mark.parametrize("kernel,dtype", [("laplace_grad", np.float64), ("yukawa", np.float32),
+                                          ("stokes", np.float64)])
+def test_update_points(kernel, dtype):
+    """update_points gives what a new FMM on the new points gives, bit for
+    bit, matches kifmm.direct, and an error leaves the old points in place"""
+    sd, td = kifmm.KERNELS[kernel]
+    x0, x1, t1 = points(3000, 40), points(4500, 41) * 1.5 - 0.2, points(800, 42)
+    q = np.random.default_rng(43).random((4500, sd)) - 0.5
+    fmm = kifmm.FMM(kernel, x0, order=5, dtype=dtype)
+    fmm.update_points(x1, t1)
+    assert (fmm.nsources, fmm.ntargets) == (4500, 800)
+    got = fmm.evaluate(q)
+    with kifmm.FMM(kernel, x1, t1, order=5, dtype=dtype) as fresh:
+        assert np.array_equal(got, fresh.evaluate(q))
+    ref = kifmm.direct(kernel, x1, q, t1[:200], dtype=dtype)
+    tol = 2e-3 if dtype == np.float32 else 1e-4
+    assert np.linalg.norm(got[:200] - ref) <= tol * np.linalg.norm(ref)
+    bad = x1.copy()
+    bad[7, 1] = np.nan
+    with pytest.raises(kifmm.KifmmError) as e:
+        fmm.update_points(bad, t1)
+    assert e.value.code == -3
+    assert np.array_equal(fmm.evaluate(q), got)
+    assert fmm.stats["t_update"] > 0
+
+
+def test_domain_option():
+    x = points(2000, 44)
+    q = np.random.default_rng(45).random(2000) - 0.5
+    fmm = kifmm.FMM("yukawa", x, domain=(0.5, 0.5, 0.5, 0.5), kernel_param=2.0)
+    assert fmm.options["domain"] == [0.5, 0.5, 0.5, 0.5]
+    a = fmm.evaluate(q)
+    with pytest.raises(kifmm.KifmmError) as e:
+        fmm.update_points(x + 0.6)
+    assert e.value.code == -22
+    assert np.array_equal(fmm.evaluate(q), a)
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace", x, domain=(0.5, 0.5, 0.5, 0.0))
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace", x, domain=(0.5, 0.5, 0.5, 1.0), period=1.0)
+
+
 def test_gil_released():
     """create and evaluate of 300,000 points in a thread while this one counts"""
     x = points(300000, 16)
