@@ -10,6 +10,8 @@
 #                   package in build/pyvenv, pytest)
 #   make custom     build and run examples/custom_kernel.c (a kernel written in
 #                   the example file, checked against direct summation)
+#   make timestep   build and run examples/timestep.c (a Plummer sphere stepped
+#                   with leapfrog, update_points + evaluate per step; ARGS="N steps order")
 #   make double_layer  build and run examples/double_layer.c (the Laplace
 #                   double layer of a unit density on a sphere: -1 inside, -1/2 on, 0 outside)
 #   make examples   build the examples into build/
@@ -54,7 +56,7 @@ CBLAS_CFLAGS := $(shell \
     [ -n "$$d" ] && echo "-I$$(dirname $$d)"; \
   fi)
 
-.PHONY: all run custom double_layer test examples deps clean lib install uninstall
+.PHONY: all run custom double_layer timestep test examples deps clean lib install uninstall
 
 all: examples
 
@@ -111,7 +113,10 @@ $(BUILD)/custom_kernel: examples/custom_kernel.c kifmm.h kifmm_kernels.h | $(BUI
 $(BUILD)/double_layer: examples/double_layer.c kifmm.h kifmm_kernels.h | $(BUILD)
 	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. $< -o $@ $(LDLIBS)
 
-examples: $(BUILD)/laplace $(BUILD)/custom_kernel $(BUILD)/double_layer
+$(BUILD)/timestep: examples/timestep.c kifmm.h kifmm_kernels.h | $(BUILD)
+	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. $< -o $@ $(LDLIBS)
+
+examples: $(BUILD)/laplace $(BUILD)/custom_kernel $(BUILD)/double_layer $(BUILD)/timestep
 
 # a user-defined kernel (examples/custom_kernel.c), checked against direct sums
 custom: deps
@@ -123,6 +128,11 @@ double_layer: deps
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/double_layer $(ARGS)
 
+# a Plummer sphere stepped with leapfrog: update_points + evaluate per step
+timestep: deps
+	@$(MAKE) --no-print-directory examples
+	./$(BUILD)/timestep $(ARGS)
+
 run: deps
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/laplace $(ARGS)
@@ -132,6 +142,7 @@ test: deps
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/custom_kernel 20000 6
 	./$(BUILD)/double_layer 64 6
+	./$(BUILD)/timestep 20000 3 6
 	bash tests/install.sh
 	bash tests/python.sh
 	FUZZ_TIME=60 FUZZ_SEED=1 EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/fuzz.sh

@@ -2,7 +2,9 @@
 # bench/run.sh - build bench/bench.c and run the benchmark table of kifmm.h,
 # with a comparison against FMM3D (fmm3dpy) when it can be imported or installed.
 #
-#   bash bench/run.sh            cube, sphere, clustered x N = 1e4, 1e5, 1e6 x p = 4, 6, 8
+#   bash bench/run.sh            cube, sphere, clustered x N = 1e4, 1e5, 1e6 x p = 4, 6, 8, then
+#                                float and evaluate_many, kernels side by side, periodic
+#                                boundaries, time stepping (update_points)
 #   bash bench/run.sh --quick    cube x N = 1e4, 1e5 x p = 6
 #
 # Environment (all optional; `make bench BIG=1 P=10` passes them through):
@@ -304,6 +306,39 @@ if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. b
 else
     echo "bench_periodic: build failed"
     FAILED="$FAILED periodic/build"
+fi
+
+# ---------------------------------------------------------------- time stepping
+# update_points against create (bench/bench_update.c), and a step of
+# examples/timestep.c (a Plummer sphere, leapfrog) against create + evaluate
+if [ "$QUICK" = 1 ]; then UNS="2e5"; TSN="2e5"; TSP=6; else UNS="2e5 1e6"; TSN="1e6"; TSP=8; fi
+UNS=${BENCH_UNS:-$UNS}
+echo
+echo "== time stepping: update_points + evaluate against create + evaluate, ${OMP_NUM_THREADS} threads"
+# shellcheck disable=SC2086
+if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. bench/bench_update.c \
+        -o "$OUT/bench_update" -llapacke -lopenblas -lm &&
+   $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. examples/timestep.c \
+        -o "$OUT/timestep" -llapacke -lopenblas -lm; then
+    for n in $UNS; do
+        wait_quiet
+        if run_measured "$OUT/bench_update" "$n" --repeat 3 > "$OUT/.urows"; then
+            sed "/points (the unit cube)\|^kernel /!s/\$/    $BG/" "$OUT/.urows"
+        else
+            echo "update $n: FAILED"
+            FAILED="$FAILED update/$n"
+        fi
+    done
+    wait_quiet
+    if run_measured "$OUT/timestep" "$TSN" 3 "$TSP" > "$OUT/.ts"; then
+        sed "1s/\$/    $BG/" "$OUT/.ts"
+    else
+        echo "timestep $TSN: FAILED"
+        FAILED="$FAILED timestep/$TSN"
+    fi
+else
+    echo "bench_update or timestep: build failed"
+    FAILED="$FAILED update/build"
 fi
 
 # ---------------------------------------------------------------- FMM3D table
