@@ -1316,7 +1316,7 @@ KIFMM__FN double kifmm__frame_offset(const kifmm__tree *t, int64_t ns, const dou
             const double u0 = kifmm__coord(t, x[3 * i + d], d) / t->cell;
             for (c = 0; c < 4; c++)
                 for (l = 1; l <= 8; l++) {
-                    double f = ldexp(u0 + cand[c], l); /* position in the root of offset cand[c] */
+                    double f = (u0 + cand[c]) * (double)(1 << l); /* in the root of offset cand[c] */
                     f -= floor(f);
                     cnt[c] += f < 0.125 || f > 0.875;
                 }
@@ -1414,7 +1414,7 @@ KIFMM__FN void kifmm__free_frame(int64_t ns, const double *src, int64_t nt, cons
                     const double u = c == 0 ? (v - la) / (2.0 * h0)
                                             : (v - (lo[d] - cand[c - 1] * slack)) / w1;
                     for (l = 1; l <= 8; l++) {
-                        double f = ldexp(u, l);
+                        double f = u * (double)(1 << l); /* as ldexp(u, l), without the call */
                         f -= floor(f);
                         cnt[c] += f < 0.125 || f > 0.875;
                     }
