@@ -312,6 +312,10 @@ typedef struct kifmm_stats {
                                    lists and what else the points decide */
     double t_workspace;         /* create or the last update_points: the workspace */
     double t_update;            /* the last update_points, total (0: none yet) */
+    double plan_bytes;          /* memory held by the handle's plan (surfaces and
+                                   operators), when the handle was made or moved;
+                                   in bytes unless the plan came from plan_create
+                                   and is shared */
 } kifmm_stats;
 
 #endif /* KIFMM_H_TYPES */
@@ -409,6 +413,34 @@ extern "C++" {
 #define KIFMM__OMP(x) KIFMM__PRAGMA(omp x)
 #else
 #define KIFMM__OMP(x)
+#endif
+
+/* A lock for a plan that several handles share (>>handle): OpenMP's where
+ * the build has OpenMP; else a spin lock on the compiler's atomic builtins
+ * (gcc, clang), for hosts that run their own threads; else none (a plan
+ * shared by threads then needs the host to order creates and destroys). */
+#ifdef _OPENMP
+typedef omp_lock_t kifmm__lock;
+KIFMM__FN void kifmm__lock_init(kifmm__lock *l) { omp_init_lock(l); }
+KIFMM__FN void kifmm__lock_fini(kifmm__lock *l) { omp_destroy_lock(l); }
+KIFMM__FN void kifmm__lock_take(kifmm__lock *l) { omp_set_lock(l); }
+KIFMM__FN void kifmm__lock_give(kifmm__lock *l) { omp_unset_lock(l); }
+#elif defined(__GNUC__)
+typedef struct { char v; } kifmm__lock;
+KIFMM__FN void kifmm__lock_init(kifmm__lock *l) { __atomic_clear(&l->v, __ATOMIC_RELEASE); }
+KIFMM__FN void kifmm__lock_fini(kifmm__lock *l) { (void)l; }
+KIFMM__FN void kifmm__lock_take(kifmm__lock *l)
+{
+    while (__atomic_test_and_set(&l->v, __ATOMIC_ACQUIRE)) {
+    }
+}
+KIFMM__FN void kifmm__lock_give(kifmm__lock *l) { __atomic_clear(&l->v, __ATOMIC_RELEASE); }
+#else
+typedef struct { char v; } kifmm__lock;
+KIFMM__FN void kifmm__lock_init(kifmm__lock *l) { (void)l; }
+KIFMM__FN void kifmm__lock_fini(kifmm__lock *l) { (void)l; }
+KIFMM__FN void kifmm__lock_take(kifmm__lock *l) { (void)l; }
+KIFMM__FN void kifmm__lock_give(kifmm__lock *l) { (void)l; }
 #endif
 
 /* restrict in C99, its extension in C++ */
@@ -3513,6 +3545,10 @@ KIFMM__FN void KIFMM__P(kifmm__fft_products)(int nn, const int32_t *nb, const un
 /* The handle: opaque to the caller; defined in >>handle. */
 typedef struct KIFMM_NAME KIFMM_NAME;
 
+/* A plan: options, surfaces and operators that several handles share
+ * (<prefix>_plan_create); opaque, defined in >>handle. */
+typedef struct KIFMM__F(_plan) KIFMM__F(_plan);
+
 /* <prefix>_create: build the tree and the operators for these points.
  *   out      (out) the new handle; NULL on failure
  *   opts     (in)  options, NULL for all defaults (see kifmm_opts)
@@ -3541,6 +3577,30 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
  * valid for its old points. Not thread safe on one handle. */
 KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const KIFMM__R *src_xyz,
                                         int64_t ntargets, const KIFMM__R *trg_xyz);
+
+/* <prefix>_plan_create: a plan for the options opts (NULL: the defaults),
+ * to share between handles (<prefix>_create_with_plan): the surfaces, the
+ * FFT's transforms, and the operators each handle's tree needs, built by
+ * the first handle that needs them and kept while a handle uses them
+ * (scale-invariant kernels: their one set, built here and kept with the
+ * plan). The options are checked as create checks them. Returns
+ * KIFMM_SUCCESS or create's errors for options; *out is NULL on failure.
+ * Thread safe. */
+KIFMM__API int KIFMM__F(_plan_create)(KIFMM__F(_plan) **out, const kifmm_opts *opts);
+
+/* <prefix>_create_with_plan: a handle on these points (as create) that
+ * takes its options and operators from plan and holds its own tree and
+ * workspace; stats.bytes leaves the plan out. Handles on one plan may be
+ * created, updated, evaluated and destroyed from different threads at once
+ * (each handle used by one thread at a time). Returns create's errors for
+ * points, KIFMM_ERR_NULL for a NULL plan. */
+KIFMM__API int KIFMM__F(_create_with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *plan, int64_t nsources,
+                                           const KIFMM__R *src_xyz, int64_t ntargets,
+                                           const KIFMM__R *trg_xyz);
+
+/* <prefix>_plan_destroy: the caller's reference to the plan let go; the
+ * plan lives until its last handle is destroyed too. NULL is a no-op. */
+KIFMM__API void KIFMM__F(_plan_destroy)(KIFMM__F(_plan) *plan);
 
 /* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
  * order, from densities[i*SRC_DIM + d]. Outputs are overwritten. Returns
@@ -3803,8 +3863,15 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
 
 // >>handle
 
-/* Operators of one level in the instance's precision (see kifmm__ops). */
+/* One set of operators in the instance's precision (see kifmm__ops), built
+ * at half-width r: a plan's entry, shared by the handles whose levels have
+ * that half-width (all levels of a scale-invariant kernel: r = 1). Never
+ * changed once in a plan; freed when no handle uses it. */
 typedef struct {
+    double r;     /* the half-width it was built at */
+    int has_m2l;  /* it has the M2L's operators */
+    int refs;     /* handles that use it, and 1 for a plan_create's own */
+    size_t held;  /* bytes of the arrays below */
     double sigma; /* scale of the level's check potentials (see build_c2e) */
     int ku, kd;
     KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l, *conv;
@@ -3812,7 +3879,33 @@ typedef struct {
     float *kbf;   /* FFT M2L: the 8 x 8 blocks of every chunk (kifmm__fft_blocks), in */
     double *kbd;  /* the spectra's precision, or NULL when they would take too much
                      memory and are built per task */
+    unsigned char nz[KIFMM__SD * KIFMM__SD]; /* kernel components (a, b) whose spectra
+                     are not all zero: only those are multiplied (the blocks of
+                     _laplace3 off the diagonal are zero, those between the
+                     Stokeslet and the charge of _stokes_pl too) */
+    int mono_on;  /* scale-invariant kernels: the upward densities' sums are set */
+    double mono[KIFMM__SD * KIFMM__QD]; /* (__mono_fix): density kind s -> sum of the
+                     surface component a of its equivalent density, at a + s SD */
 } KIFMM__F(__ops);
+
+/* A periodic tree's far images (kifmm__lat): a plan's entry for the roots
+ * of one width and levels above the cell whose level zl (0 or 1) is, or is
+ * not, made of leaves (zsmall), shared as the operator sets are. */
+typedef struct {
+    double width;          /* the key: the root's width, */
+    int kc, zl, zsmall;    /* levels above the cell, the exchange's level, its leaves */
+    int refs;              /* handles that use it */
+    size_t held;           /* bytes of the arrays below */
+    double *mu;            /* scale-invariant kernels: SD x QD monopole map, and */
+    int neutral;           /* whether the densities must sum to zero */
+    double *bq;            /* three periodic directions of a scale-invariant kernel:
+                              the background's quadratic (__background_fit), */
+    KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__far_root): its three
+                              factors (zku x SD nzu, zkd x zku, SD nzu x zkd), */
+    KIFMM__R *zp;          /* U's points (D's too) about the root's centre, */
+    double *zunit, zrad;   /* and on the unit surface, and their radius */
+    int nzu, zku, zkd;     /* points of U (and D); the factors' ranks */
+} KIFMM__F(__far);
 
 /* Expansions and workspace for up to `nrhs` density vectors, rhs-major:
  * vector r of an array starts at r times the array's per-vector size. */
@@ -3837,14 +3930,18 @@ typedef struct {
 
 /* The plan: what depends on the options alone and, for kernels that are
  * not scale invariant, on the box widths (and for periodic trees on the
- * root's width and whether level 1 holds leaves): the surfaces, the
- * operators of every level, the FFT's transforms, the periodic far images'
- * operators. Built by create, kept by update_points where it still fits
- * (__plan_fits), read-only to the passes. Every block it allocates is
- * counted in its held. */
-typedef struct {
-    size_t held;               /* bytes of the blocks below */
-    int refs;                  /* handles that use it */
+ * root's width and whether level 1 holds leaves): the surfaces, the FFT's
+ * transforms, and a cache of operator sets (one per half-width) and of
+ * far images (one per root), each shared by the handles that use it and
+ * freed with the last of them. create makes a plan for its handle alone;
+ * plan_create one for several (create_with_plan). The passes only read it
+ * (a handle reads the entries it holds, which nobody changes); entries are
+ * added and dropped under the lock, by create, update_points and destroy.
+ * Every block it allocates is counted in its held (entries in theirs too). */
+struct KIFMM__F(_plan) {
+    size_t held;               /* bytes of the plan and of its entries */
+    int refs;                  /* handles that use it, and 1 for plan_create's caller */
+    kifmm__lock lock;          /* over refs, the entries and held */
     kifmm_opts opts;           /* the options it was built for, defaults resolved */
     struct {                   /* the equivalent and check surfaces */
         int nse, nsc;          /* points */
@@ -3853,38 +3950,18 @@ typedef struct {
         int ne, nc;            /* vector lengths: points x SD */
         double *unit_e, *unit_c; /* unit surfaces (SoA) */
     } surf;
-    struct {                   /* the operators */
-        KIFMM__F(__ops) *at;   /* at[l] for the levels that use them (at[0]: all
-                                  levels, for scale-invariant kernels) */
-        int n;
-        double *r;             /* the half-width each set was built at (0: none) */
+    struct {                   /* the operator sets */
+        KIFMM__F(__ops) **set; /* n of them (cap allocated) */
+        int n, cap;
         double degree;
-        int mono_on;           /* the upward densities' sums are set (__mono_fix) */
-        double mono[KIFMM__SD * KIFMM__QD]; /* density kind s -> sum of the surface
-                                  component a of its equivalent density, at a + s SD */
+        size_t kept;           /* bytes of the products' blocks kept (__keep_blocks) */
     } ops;
+    struct {                   /* the periodic far images */
+        KIFMM__F(__far) **set;
+        int n, cap;
+    } far;
     kifmm__fft fft;            /* the FFT M2L's transforms of the check-order lattice */
-    unsigned char nz[KIFMM__SD * KIFMM__SD]; /* kernel components (a, b) whose spectra
-                                  are not all zero at some level: only those are
-                                  multiplied (the blocks of _laplace3 off the diagonal
-                                  are zero, those between the Stokeslet and the charge
-                                  of _stokes_pl too) */
-    struct {                   /* periodic trees: the far images (kifmm__lat) */
-        int built;             /* built for the key below (__lattice_build) */
-        double width;          /* key: the root's width, */
-        int zl, zsmall, kc;    /* the level the exchange reaches, whether its boxes
-                                  with points are leaves, levels above the cell */
-        double *mu;            /* scale-invariant kernels: SD x QD monopole map, and */
-        int neutral;           /* whether the densities must sum to zero */
-        double *bq;            /* three periodic directions of a scale-invariant kernel:
-                                  the background's quadratic (__background_fit), */
-        KIFMM__R *zu, *zm, *zd; /* the far images' exchange (__far_root): its three
-                                  factors (zku x SD nzu, zkd x zku, SD nzu x zkd), */
-        KIFMM__R *zp;          /* U's points (D's too) about the root's centre, */
-        double *zunit, zrad;   /* and on the unit surface, and their radius */
-        int nzu, zku, zkd;     /* points of U (and D); the factors' ranks */
-    } lat;
-} KIFMM__F(__plan);
+};
 
 /* The handle: its plan (shared with nobody yet), the points and what is
  * built from them (tree, lists, FFT slabs, near-field chunks), and the
@@ -3894,7 +3971,13 @@ struct KIFMM_NAME {
     size_t held;               /* bytes of the blocks below, plan, tree and workspace apart */
     kifmm_opts opts;           /* options, defaults resolved (with the kernel's
                                   parameters in opts.kernel_param) */
-    KIFMM__F(__plan) *pl;      /* surfaces and operators */
+    KIFMM__F(_plan) *pl;       /* surfaces and operator sets */
+    int shared;                /* pl came from plan_create (stats.bytes leave it out) */
+    KIFMM__F(__ops) *lv[KIFMM__D + 2]; /* the operator set of each level that has
+                                  one (pl's entries, one reference each) */
+    KIFMM__F(__far) *far;      /* periodic trees: the far images (pl's), else NULL */
+    unsigned char nz[KIFMM__SD * KIFMM__SD]; /* the union of lv's nz */
+    double pbytes;             /* the plan's bytes when the handle was built */
     kifmm__tree tree;          /* boxes, lists, and the sorted points in double */
     struct {                   /* the sorted points in the instance's precision */
         KIFMM__R *src, *trg;   /* structure of arrays; the tree's own in double */
@@ -4483,29 +4566,29 @@ KIFMM__FN int KIFMM__F(__ops_solves)(const KIFMM_NAME *c, double r, int m2l, kif
     return rc;
 }
 
-/* c->pl->nz[ab] = 1 for the kernel components ab with a nonzero value in
+/* nz[ab] = 1 for the kernel components ab with a nonzero value in
  * the spectra khat (kifmm__build_m2l_fft's layout) */
-KIFMM__FN void KIFMM__F(__m2l_nonzero)(KIFMM_NAME *c, const double *khat)
+KIFMM__FN void KIFMM__F(__m2l_nonzero)(const KIFMM_NAME *c, const double *khat, unsigned char *nz)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
     const size_t n = (size_t)c->pl->fft.nfp * KIFMM__NT * SD2;
     size_t f;
     int ab, left = 0;
     if (SD2 == 1) return; /* one block: always multiplied */
-    for (ab = 0; ab < SD2; ab++) left += !c->pl->nz[ab];
+    for (ab = 0; ab < SD2; ab++) left += !nz[ab];
     for (f = 0; f < n && left > 0; f++) /* f = (frequency 316 + t) SD2 + ab */
-        if (!c->pl->nz[f % SD2] && (khat[2 * f] != 0.0 || khat[2 * f + 1] != 0.0)) {
-            c->pl->nz[f % SD2] = 1;
+        if (!nz[f % SD2] && (khat[2 * f] != 0.0 || khat[2 * f + 1] != 0.0)) {
+            nz[f % SD2] = 1;
             left--;
         }
 }
 
 /* Keep one level's operators (built in double, freed here) in the
- * instance's precision, counted in the plan's held. */
-KIFMM__FN int KIFMM__F(__ops_keep)(KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(__ops) *out)
+ * instance's precision, counted in the entry's held. */
+KIFMM__FN int KIFMM__F(__ops_keep)(const KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(__ops) *out)
 {
     const size_t ne = (size_t)c->pl->surf.ne, nc = (size_t)c->pl->surf.nc;
-    size_t *held = &c->pl->held;
+    size_t *held = &out->held;
     int rc = KIFMM_SUCCESS;
     out->sigma = o->sigma;
     out->ku = o->ku;
@@ -4521,7 +4604,7 @@ KIFMM__FN int KIFMM__F(__ops_keep)(KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(__ops)
         rc = KIFMM_ERR_NOMEM;
     if (o->khat) {
         *held += kifmm__size(o->khat);
-        KIFMM__F(__m2l_nonzero)(c, o->khat);
+        KIFMM__F(__m2l_nonzero)(c, o->khat, out->nz);
     }
     out->khat = o->khat;
     o->khat = NULL;
@@ -4529,27 +4612,6 @@ KIFMM__FN int KIFMM__F(__ops_keep)(KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(__ops)
         rc = KIFMM_ERR_NOMEM;
     kifmm__ops_free(o);
     return rc;
-}
-
-/* A copy of one level's operators (an earlier plan's, built at the same
- * half-width), counted in the plan's held. */
-KIFMM__FN int KIFMM__F(__ops_copy)(KIFMM_NAME *c, const KIFMM__F(__ops) *in, KIFMM__F(__ops) *out)
-{
-    size_t *held = &c->pl->held;
-    int fail = 0;
-    *out = *in;
-    out->ut_up = (KIFMM__R *)kifmm__dup(held, in->ut_up, &fail);
-    out->vs_up = (KIFMM__R *)kifmm__dup(held, in->vs_up, &fail);
-    out->ut_dn = (KIFMM__R *)kifmm__dup(held, in->ut_dn, &fail);
-    out->vs_dn = (KIFMM__R *)kifmm__dup(held, in->vs_dn, &fail);
-    out->m2m = (KIFMM__R *)kifmm__dup(held, in->m2m, &fail);
-    out->l2l = (KIFMM__R *)kifmm__dup(held, in->l2l, &fail);
-    out->m2l = (KIFMM__R *)kifmm__dup(held, in->m2l, &fail);
-    out->conv = (KIFMM__R *)kifmm__dup(held, in->conv, &fail);
-    out->khat = (double *)kifmm__dup(held, in->khat, &fail);
-    out->kbf = NULL, out->kbd = NULL; /* __keep_blocks decides for the new plan */
-    if (out->khat) KIFMM__F(__m2l_nonzero)(c, out->khat);
-    return fail ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS;
 }
 
 KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
@@ -4562,29 +4624,31 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
 }
 
 #if KIFMM__FFT
-/* The products' blocks of every chunk (kifmm__fft_blocks), built once when
- * all of them fit in KIFMM__FFT_KB_MB (float spectra, one set of operators:
+/* The products' blocks of every chunk (kifmm__fft_blocks) for the n new
+ * operator sets e, built once when they all fit, with the blocks the plan
+ * keeps already, in KIFMM__FFT_KB_MB (float spectra, one set of operators:
  * 5.6 MiB at p = 4); otherwise the products build each chunk's blocks once
  * per slab, in the thread's cache. Kept blocks larger than that are read
  * from memory by every task: uniform points, 2 threads, M2L by chunks
  * against kept blocks: the same at p = 4 and 5 (kept: less memory, no slab
  * outputs), 0.68 against 0.81 s at p = 6 (16 MiB, 1M points; 0.07 against
- * 0.08 s at 200k), 3.3 against 4.8 s at p = 8 (72 MiB, 2M points). */
-KIFMM__FN int KIFMM__F(__keep_blocks)(KIFMM_NAME *c)
+ * 0.08 s at 200k), 3.3 against 4.8 s at p = 8 (72 MiB, 2M points). Under
+ * the plan's lock. */
+KIFMM__FN int KIFMM__F(__keep_blocks)(const KIFMM_NAME *c, KIFMM__F(__ops) **e, int n)
 {
     const kifmm__fft *pl = &c->pl->fft;
     const size_t per = KIFMM__FFT_KBN, all = per * (size_t)pl->nchunk;
     const size_t bytes = all * (pl->single ? sizeof(float) : sizeof(double));
-    int tvm[27 * 64], n = 0, l;
-    for (l = 0; l < c->pl->ops.n; l++) n += c->pl->ops.at[l].khat != NULL;
-    if (n == 0 || bytes * (size_t)n > (size_t)KIFMM__FFT_KB_MB << 20)
+    int tvm[27 * 64], nk = 0, k;
+    for (k = 0; k < n; k++) nk += e[k]->khat != NULL;
+    if (nk == 0 || c->pl->ops.kept + bytes * (size_t)nk > (size_t)KIFMM__FFT_KB_MB << 20)
         return KIFMM_SUCCESS;
     kifmm__fft_tvmap(tvm);
-    for (l = 0; l < c->pl->ops.n; l++) {
-        KIFMM__F(__ops) *o = &c->pl->ops.at[l];
+    for (k = 0; k < n; k++) {
+        KIFMM__F(__ops) *o = e[k];
         if (!o->khat) continue;
-        if (pl->single) o->kbf = (float *)kifmm__take(&c->pl->held, all, sizeof(float));
-        else o->kbd = (double *)kifmm__take(&c->pl->held, all, sizeof(double));
+        if (pl->single) o->kbf = (float *)kifmm__take(&o->held, all, sizeof(float));
+        else o->kbd = (double *)kifmm__take(&o->held, all, sizeof(double));
         if (!o->kbf && !o->kbd) return KIFMM_ERR_NOMEM;
         /* each chunk writes its own blocks */
         KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
@@ -4615,23 +4679,15 @@ KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const
         if (from[k] < 0) rc[k] = KIFMM__F(__ops_kernels)(c, r[k], m2l[k], outer ? 1 : nth, &o[k]);
 }
 
-/* Scale-invariant kernels: one set at half-width 1, rescaled per level.
- * Others: one set per level that uses operators (levels 2 and deeper, all
- * in a periodic tree), their
- * kernel values built side by side (Yukawa, p = 6, 1M clustered points, 10
- * levels, 2 threads: operators 0.16 -> 0.11 s, 0.05 s with the symmetries of
- * c2e_solve and KIFMM__RADIAL). Only what the tree uses: none
- * for a tree of fewer than 3 levels (a direct sum), and the M2L's only for
- * levels with boxes that have V lists. */
 /* The monopole map of a scale-invariant kernel whose surfaces carry 1 / r
- * sources (charges, Stokeslets: degree -1): c->pl->ops.mono[a + s SD], the sum
+ * sources (charges, Stokeslets: degree -1): e->mono[a + s SD], the sum
  * over the surface points of component a of the upward equivalent density
  * fitted to one unit density of kind s at a box's centre (o: the unit box's
  * operators, in double). The sums of a density are its far field's leading
  * term, and the surfaces' sources are 1 / r points, so the sum of their
  * densities is theirs; kinds without a monopole (dipoles, the double layer's
  * Stokeslet part) sum to rounding, set to 0. */
-KIFMM__FN int KIFMM__F(__mono_map)(KIFMM_NAME *c, const kifmm__ops *o)
+KIFMM__FN int KIFMM__F(__mono_map)(const KIFMM_NAME *c, const kifmm__ops *o, KIFMM__F(__ops) *e)
 {
     const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, nsc = c->pl->surf.nsc;
     double *pc = (double *)kifmm__alloc((size_t)3 * nsc, sizeof(double));
@@ -4656,11 +4712,11 @@ KIFMM__FN int KIFMM__F(__mono_map)(KIFMM_NAME *c, const kifmm__ops *o)
         for (a = 0; a < KIFMM__SD; a++) m[a] = 0.0;
         for (i = 0; i < ne; i++) m[i % KIFMM__SD] += x[i + (size_t)s * ne];
         for (a = 0; a < KIFMM__SD; a++) {
-            c->pl->ops.mono[a + s * KIFMM__SD] = fabs(m[a]) > 1e-6 ? m[a] : 0.0;
+            e->mono[a + s * KIFMM__SD] = fabs(m[a]) > 1e-6 ? m[a] : 0.0;
             ok &= isfinite(m[a]) != 0;
         }
     }
-    c->pl->ops.mono_on = ok; /* a map that is not finite: the densities keep their fit */
+    e->mono_on = ok; /* a map that is not finite: the densities keep their fit */
 done:
     kifmm__free(pc);
     kifmm__free(k);
@@ -4669,67 +4725,157 @@ done:
     return rc;
 }
 
-/* The level of plan `old` (NULL: none) built at half-width r, with the
- * M2L's operators if m2l, or -1. */
-KIFMM__FN int KIFMM__F(__ops_find)(const KIFMM__F(__plan) *old, double r, int m2l)
+/* ---- the plan's operator sets ------------------------------------------ */
+
+/* The set of plan pl built at half-width r, with the M2L's operators if
+ * m2l, or NULL. Under the plan's lock. */
+KIFMM__FN KIFMM__F(__ops) *KIFMM__F(__ops_find)(const KIFMM__F(_plan) *pl, double r, int m2l)
 {
     int j;
-    for (j = 0; old && j < old->ops.n; j++)
-        if (old->ops.r[j] == r && (!m2l || old->ops.at[j].m2l || old->ops.at[j].khat)) return j;
-    return -1;
+    for (j = 0; j < pl->ops.n; j++)
+        if (pl->ops.set[j]->r == r && (!m2l || pl->ops.set[j]->has_m2l)) return pl->ops.set[j];
+    return NULL;
 }
 
-/* The half-width (r) and the M2L's need (m2l) of each of the n operator
- * sets the tree uses (r = 0: none at that level); 0 when it uses none. */
-KIFMM__FN int KIFMM__F(__ops_wanted)(const kifmm__tree *t, int n, double *r, int *m2l)
+/* Bytes of the products' blocks a set keeps (__keep_blocks). */
+KIFMM__FN size_t KIFMM__F(__ops_kept)(const KIFMM__F(__ops) *e)
+{
+    return kifmm__size(e->kbf) + kifmm__size(e->kbd);
+}
+
+/* A new set e (refs 1) into plan pl; NULL: e is freed. Under the lock. */
+KIFMM__FN int KIFMM__F(__ops_add)(KIFMM__F(_plan) *pl, KIFMM__F(__ops) *e)
+{
+    if (pl->ops.n == pl->ops.cap) {
+        const int cap = 2 * pl->ops.cap + 4;
+        KIFMM__F(__ops) **set = (KIFMM__F(__ops) **)kifmm__alloc((size_t)cap, sizeof *set);
+        if (!set) {
+            KIFMM__F(__ops_free)(e);
+            kifmm__free(e);
+            return KIFMM_ERR_NOMEM;
+        }
+        if (pl->ops.n) memcpy(set, pl->ops.set, (size_t)pl->ops.n * sizeof *set);
+        pl->held += (size_t)(cap - pl->ops.cap) * sizeof *set;
+        kifmm__free(pl->ops.set);
+        pl->ops.set = set;
+        pl->ops.cap = cap;
+    }
+    e->refs = 1;
+    pl->ops.set[pl->ops.n++] = e;
+    pl->held += sizeof *e + e->held;
+    pl->ops.kept += KIFMM__F(__ops_kept)(e);
+    return KIFMM_SUCCESS;
+}
+
+/* One user of set e lets go: freed, and out of the plan, with its last.
+ * Under the lock. */
+KIFMM__FN void KIFMM__F(__ops_drop)(KIFMM__F(_plan) *pl, KIFMM__F(__ops) *e)
+{
+    int j;
+    if (--e->refs > 0) return;
+    for (j = 0; j < pl->ops.n && pl->ops.set[j] != e; j++) {
+    }
+    if (j < pl->ops.n) pl->ops.set[j] = pl->ops.set[--pl->ops.n];
+    pl->held -= sizeof *e + e->held;
+    pl->ops.kept -= KIFMM__F(__ops_kept)(e);
+    KIFMM__F(__ops_free)(e);
+    kifmm__free(e);
+}
+
+/* The half-width (r) and the M2L's need (m2l) of the operator set of each
+ * of the tree's nlev levels (r = 0: none at that level; scale-invariant
+ * kernels: one set at half-width 1, wanted at level 0, with the M2L's if any
+ * level has V lists); 0 when the tree uses none (a direct sum). */
+KIFMM__FN int KIFMM__F(__ops_wanted)(const kifmm__tree *t, double *r, int *m2l)
 {
     int l, l0 = KIFMM__SI ? 0 : kifmm__lmin(t);
-    for (l = 0; l < n; l++) r[l] = 0.0, m2l[l] = 0;
-    if (t->nlev <= kifmm__lmin(t)) return 0; /* a direct sum: none */
+    const int n = KIFMM__SI ? 1 : t->nlev;
+    for (l = 0; l < t->nlev; l++) r[l] = 0.0, m2l[l] = 0;
+    if (t->nlev <= kifmm__lmin(t)) return 0;
     for (l = 1; l < t->nlev; l++) m2l[KIFMM__SI ? 0 : l] |= t->m2lo[l + 1] > t->m2lo[l];
     for (l = l0; l < n; l++) r[l] = KIFMM__SI ? 1.0 : 0.5 * t->width / (double)((int64_t)1 << l);
     return 1;
 }
 
-/* The operators the handle's tree needs, into its plan: each level copied
- * from plan `old` (NULL: none) where it holds one built at the same
- * half-width (__ops_find), else built. */
-KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c, const KIFMM__F(__plan) *old)
+/* n new sets (r[l], m2l[l] for the levels l of `build`) for handle c, built
+ * (the kernel values of the levels side by side, __ops_levels), into
+ * e[0..n) in the order of `build` (NULL where it failed). */
+KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double *r, const int *m2l,
+                                    const int *from, KIFMM__F(__ops) **e)
 {
-    const kifmm__tree *t = &c->tree;
-    const int n = KIFMM__SI ? 1 : (t->nlev > 1 ? t->nlev : 1), l0 = KIFMM__SI ? 0 : kifmm__lmin(t);
-    kifmm__ops *o = (kifmm__ops *)kifmm__calloc((size_t)n, sizeof(kifmm__ops));
-    double *r = (double *)kifmm__take(&c->pl->held, (size_t)n, sizeof(double));
-    int *m2l = (int *)kifmm__calloc((size_t)n, sizeof(int)), *rcs = (int *)kifmm__calloc((size_t)n, sizeof(int));
-    int *from = (int *)kifmm__alloc((size_t)n, sizeof(int));
-    int l, rc = KIFMM_SUCCESS, any = 0;
-    c->pl->ops.n = n;
-    c->pl->ops.r = r;
-    c->pl->ops.at = (KIFMM__F(__ops) *)kifmm__takez(&c->pl->held, (size_t)n, sizeof(KIFMM__F(__ops)));
-    if (!c->pl->ops.at || !o || !r || !m2l || !rcs || !from) rc = KIFMM_ERR_NOMEM;
-    if (!rc) any = KIFMM__F(__ops_wanted)(t, n, r, m2l);
-    for (l = 0; l < n && !rc; l++) from[l] = KIFMM__SI || l < l0 ? -1 : KIFMM__F(__ops_find)(old, r[l], m2l[l]);
-    if (!rc && any) KIFMM__F(__ops_levels)(c, l0, n, r, m2l, from, o, rcs);
-    for (l = l0; l < n && any && !rc; l++) {
-        if (from[l] >= 0) {
-            rc = KIFMM__F(__ops_copy)(c, &old->ops.at[from[l]], &c->pl->ops.at[l]);
-            continue;
-        }
-        rc = rcs[l];
+    kifmm__ops *o = (kifmm__ops *)kifmm__calloc((size_t)nlev, sizeof(kifmm__ops));
+    int *rcs = (int *)kifmm__calloc((size_t)nlev, sizeof(int));
+    int l, rc = o && rcs ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, k = 0;
+    if (!rc) KIFMM__F(__ops_levels)(c, 0, nlev, r, m2l, from, o, rcs);
+    for (l = 0; l < nlev; l++) {
+        KIFMM__F(__ops) *x;
+        if (from[l] >= 0) continue;
+        x = rc ? NULL : (KIFMM__F(__ops) *)kifmm__calloc(1, sizeof *x);
+        if (!rc && !x) rc = KIFMM_ERR_NOMEM;
+        if (!rc) rc = rcs[l];
         if (!rc) rc = KIFMM__F(__ops_solves)(c, r[l], m2l[l], &o[l]);
 #if KIFMM__SI && KIFMM__DEGREE == -1 && KIFMM_MONO_FIX
-        if (!rc) rc = KIFMM__F(__mono_map)(c, &o[l]); /* before __ops_keep takes o's factors */
+        if (!rc) rc = KIFMM__F(__mono_map)(c, &o[l], x); /* before __ops_keep takes o's factors */
 #endif
-        if (!rc) rc = KIFMM__F(__ops_keep)(c, &o[l], &c->pl->ops.at[l]);
+        if (!rc) rc = KIFMM__F(__ops_keep)(c, &o[l], x);
+        if (x) x->r = r[l], x->has_m2l = m2l[l];
+        if (rc && x) {
+            KIFMM__F(__ops_free)(x);
+            kifmm__free(x);
+            x = NULL;
+        }
+        e[k++] = x;
     }
-    for (l = 0; o && l < n; l++) kifmm__ops_free(&o[l]);
+    for (l = 0; o && l < nlev; l++) kifmm__ops_free(&o[l]);
     kifmm__free(o);
-    kifmm__free(m2l);
     kifmm__free(rcs);
-    kifmm__free(from);
+    return rc;
+}
+
+/* The operator sets the handle's tree needs, c->lv[l] for each level that
+ * has one: the plan's where it holds one built at the same half-width (and
+ * with the M2L's where the level needs them), else built and added to it.
+ * Scale-invariant kernels: one set at half-width 1, rescaled per level.
+ * Others: one set per level that uses operators (levels 2 and deeper, all
+ * in a periodic tree), their kernel values built side by side (Yukawa, p =
+ * 6, 1M clustered points, 10 levels, 2 threads: operators 0.16 -> 0.11 s,
+ * 0.05 s with the symmetries of c2e_solve and KIFMM__RADIAL). Only what the
+ * tree uses: none for a tree of fewer than 3 levels (a direct sum), and the
+ * M2L's only for levels with boxes that have V lists. Under the plan's
+ * lock; on failure the sets taken stay in c->lv (the handle's destroy lets
+ * them go). */
+KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
+{
+    const kifmm__tree *t = &c->tree;
+    const int nl = t->nlev, n = KIFMM__SI ? 1 : nl;
+    double r[KIFMM__D + 2];
+    int m2l[KIFMM__D + 2], from[KIFMM__D + 2], l, k, nb = 0, rc = KIFMM_SUCCESS;
+    KIFMM__F(__ops) *e[KIFMM__D + 2] = {NULL};
+    if (!KIFMM__F(__ops_wanted)(t, r, m2l)) return KIFMM_SUCCESS;
+    for (l = 0; l < nl; l++) {
+        KIFMM__F(__ops) *x = l < n && r[l] > 0.0 ? KIFMM__F(__ops_find)(c->pl, r[l], m2l[l]) : NULL;
+        from[l] = x || !(l < n && r[l] > 0.0) ? l : -1; /* -1: to build */
+        if (x) x->refs++;
+        c->lv[l] = x;
+        nb += from[l] < 0;
+    }
+    if (nb) rc = KIFMM__F(__ops_build)(c, n, r, m2l, from, e);
 #if KIFMM__FFT
-    if (!rc) rc = KIFMM__F(__keep_blocks)(c);
+    if (!rc && nb) rc = KIFMM__F(__keep_blocks)(c, e, nb);
 #endif
+    for (l = 0, k = 0; l < n; l++) {
+        if (from[l] >= 0) continue;
+        c->lv[l] = e[k++];
+        if (!c->lv[l]) continue;
+        if (rc) { /* not in the plan: freed here */
+            KIFMM__F(__ops_free)(c->lv[l]);
+            kifmm__free(c->lv[l]);
+            c->lv[l] = NULL;
+        } else if ((rc = KIFMM__F(__ops_add)(c->pl, c->lv[l]))) {
+            c->lv[l] = NULL;
+        }
+    }
+    for (l = 1; l < nl && KIFMM__SI; l++) c->lv[l] = c->lv[0]; /* one reference, the first */
     return rc;
 }
 
@@ -5192,8 +5338,8 @@ KIFMM__FN int KIFMM__F(__background_fit)(KIFMM_NAME *c)
         KIFMM__R_(QT, _background)(prm, -u[0] - v[0], -u[1] - v[1], -u[2] - v[2], bmm);
         for (i = 0; i < TQ; i++) bq[10 * i + 4 + j] = 0.25 * (bpp[i] - bpm[i] - bmp[i] + bmm[i]);
     }
-    c->pl->lat.bq = bq;
-    c->pl->held += kifmm__size(bq);
+    c->far->bq = bq;
+    c->far->held += kifmm__size(bq);
     return KIFMM_SUCCESS;
 }
 
@@ -5426,19 +5572,19 @@ KIFMM__FN int KIFMM__F(__far_root)(KIFMM_NAME *c, const double *T3, const kifmm_
         /* and the middle factor (about 1 / bd) within the instance's range */
         if (!(kifmm__max_abs(m, (size_t)kd * ku) <= 1e-6 * (KIFMM__FLOAT ? FLT_MAX : DBL_MAX)))
             goto done;
-        c->pl->lat.nzu = nu, c->pl->lat.zku = ku, c->pl->lat.zkd = kd;
-        c->pl->lat.zp = (KIFMM__R *)kifmm__take(&c->pl->held, (size_t)3 * nu, sizeof(KIFMM__R));
-        c->pl->lat.zunit = (double *)kifmm__take(&c->pl->held, (size_t)3 * nu, sizeof(double));
-        c->pl->lat.zu = KIFMM__F(__own)(&c->pl->held, &utu, (size_t)ku * mu);
-        c->pl->lat.zm = KIFMM__F(__own)(&c->pl->held, &m, (size_t)kd * ku);
-        c->pl->lat.zd = KIFMM__F(__own)(&c->pl->held, &vsd, (size_t)mu * kd);
-        if (!c->pl->lat.zp || !c->pl->lat.zunit || !c->pl->lat.zu || !c->pl->lat.zm || !c->pl->lat.zd)
+        c->far->nzu = nu, c->far->zku = ku, c->far->zkd = kd;
+        c->far->zp = (KIFMM__R *)kifmm__take(&c->far->held, (size_t)3 * nu, sizeof(KIFMM__R));
+        c->far->zunit = (double *)kifmm__take(&c->far->held, (size_t)3 * nu, sizeof(double));
+        c->far->zu = KIFMM__F(__own)(&c->far->held, &utu, (size_t)ku * mu);
+        c->far->zm = KIFMM__F(__own)(&c->far->held, &m, (size_t)kd * ku);
+        c->far->zd = KIFMM__F(__own)(&c->far->held, &vsd, (size_t)mu * kd);
+        if (!c->far->zp || !c->far->zunit || !c->far->zu || !c->far->zm || !c->far->zd)
             rc = KIFMM_ERR_NOMEM;
     }
     if (!rc) {
-        c->pl->lat.zrad = kifmm__alpha_outer(cd, KIFMM__SD) * h;
-        memcpy(c->pl->lat.zunit, uu, (size_t)3 * nu * sizeof(double));
-        KIFMM__F(__place)(uu, nu, zero, c->pl->lat.zrad, c->pl->lat.zp);
+        c->far->zrad = kifmm__alpha_outer(cd, KIFMM__SD) * h;
+        memcpy(c->far->zunit, uu, (size_t)3 * nu * sizeof(double));
+        KIFMM__F(__place)(uu, nu, zero, c->far->zrad, c->far->zp);
     }
 done:
     kifmm__free(uu);
@@ -5453,7 +5599,7 @@ done:
 }
 
 /* The periodic tree's far images: the exchange with level 1 (__far_root),
- * and for scale-invariant kernels the monopole map c->pl->lat.mu. */
+ * and for scale-invariant kernels the monopole map c->far->mu. */
 KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
 {
     const size_t nn = (size_t)c->pl->surf.nc * c->pl->surf.ne;
@@ -5478,9 +5624,9 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
         rc = KIFMM__F(__lat_level)(c, 1.0, 1, &L);
         if (!rc) rc = KIFMM__F(__lat_fixed)(c, &L, T);
         if (!rc) {
-            c->pl->lat.mu = L.mu;
+            c->far->mu = L.mu;
             L.mu = NULL;
-            c->pl->held += kifmm__size(c->pl->lat.mu);
+            c->far->held += kifmm__size(c->far->mu);
         }
         for (i = 0; i < nn && !rc; i++) T[i] *= pow(3.0, c->pl->ops.degree);
     } else if (!rc) {
@@ -5492,9 +5638,11 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
     return rc;
 }
 
+/* The operator set of level l (c->lv: one set for all levels of a
+ * scale-invariant kernel). */
 KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 {
-    return KIFMM__SI ? &c->pl->ops.at[0] : &c->pl->ops.at[l];
+    return c->lv[l];
 }
 
 /* Factor multiplying check potentials computed directly from points at
@@ -5504,8 +5652,7 @@ KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
 KIFMM__FN double KIFMM__F(__level_scale)(const KIFMM_NAME *c, int l)
 {
     double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
-    return KIFMM__SI ? pow(half, -c->pl->ops.degree) * c->pl->ops.at[0].sigma
-                                      : c->pl->ops.at[l].sigma;
+    return KIFMM__SI ? pow(half, -c->pl->ops.degree) * c->lv[l]->sigma : c->lv[l]->sigma;
 }
 
 // >>workspace
@@ -5618,9 +5765,9 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     w->de = (KIFMM__R *)kifmm__take(held, n * sz[0], sizeof(KIFMM__R));
     w->chk = (KIFMM__R *)kifmm__take(held, n * sz[1], sizeof(KIFMM__R));
     w->qs = (KIFMM__R *)kifmm__take(held, n * sz[3], sizeof(KIFMM__R));
-    if (c->pl->lat.zu)
-        w->lat = (KIFMM__R *)kifmm__take(held, n * ((size_t)2 * c->pl->lat.nzu * KIFMM__SD +
-                                         (size_t)c->pl->lat.zku + (size_t)c->pl->lat.zkd), sizeof(KIFMM__R));
+    if (c->far && c->far->zu)
+        w->lat = (KIFMM__R *)kifmm__take(held, n * ((size_t)2 * c->far->nzu * KIFMM__SD +
+                                         (size_t)c->far->zku + (size_t)c->far->zkd), sizeof(KIFMM__R));
     if (!KIFMM__FFT) {
         w->tmp = (KIFMM__R *)kifmm__take(held, n * sz[2], sizeof(KIFMM__R));
         w->stack = (KIFMM__R *)kifmm__take(held, (size_t)c->work.m2l_cols * KIFMM__NT * (size_t)c->pl->surf.ne,
@@ -5631,7 +5778,7 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     if (w->lbuf_per)
         w->lbuf = (KIFMM__R *)kifmm__take(held, (size_t)c->opts.nthreads * w->lbuf_per, sizeof(KIFMM__R));
     else w->outs = (KIFMM__R *)kifmm__take(held, n * sz[4], sizeof(KIFMM__R));
-    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf) || (c->pl->lat.zu && !w->lat) ||
+    if (!w->ue || !w->de || !w->chk || !w->qs || (!w->outs && !w->lbuf) || (c->far && c->far->zu && !w->lat) ||
         (!KIFMM__FFT && (!w->tmp || !w->stack || !w->m2l_out))) {
         KIFMM__F(__work_free)(w);
         return NULL;
@@ -5846,7 +5993,8 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
     const int32_t *ai = c->work.act + t->loff[l];
     const int na = c->work.act[2 * t->nbox + 2 * l], nse = c->pl->surf.nse, ne = c->pl->surf.ne;
     const size_t per = (size_t)t->nbox * (size_t)ne, ldq = (size_t)t->ns * KIFMM__QD;
-    if (!c->pl->ops.mono_on) return;
+    const KIFMM__F(__ops) *e = c->lv[l];
+    if (!e || !e->mono_on) return;
     KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
     for (int j = 0; j < na * nrhs; j++) {
         const int r = j / na;
@@ -5865,7 +6013,7 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
             for (s = t->s0[b]; s < t->s1[b]; s++)
                 for (k = 0; k < KIFMM__QD; k++) sq[k] += (double)q[(size_t)s * KIFMM__QD + k];
             for (k = 0; k < KIFMM__QD; k++)
-                for (a = 0; a < KIFMM__SD; a++) m[a] += c->pl->ops.mono[a + k * KIFMM__SD] * sq[k];
+                for (a = 0; a < KIFMM__SD; a++) m[a] += e->mono[a + k * KIFMM__SD] * sq[k];
         } else {
             int ch;
             /* every child: those without sources hold zeros, and above the
@@ -6097,7 +6245,7 @@ KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32
         if (KIFMM__SD > 1) { /* the (parent, component) pairs of row a's nonzero blocks */
             for (m = 0, e = 0; e < nn; e++)
                 for (b = 0; b < KIFMM__SD; b++)
-                    if (c->pl->nz[a * KIFMM__SD + b]) {
+                    if (c->nz[a * KIFMM__SD + b]) {
                         nb2[m] = nbr[e] * KIFMM__SD + b;
                         no2[m++] = (unsigned char)(cc[e] * KIFMM__SD + b);
                     }
@@ -6448,11 +6596,11 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
 {
     enum { BLK = 32 };
     const kifmm__tree *t = &c->tree;
-    const int nu = c->pl->lat.nzu, mu = nu * KIFMM__SD; /* D shares U's points */
+    const int nu = c->far->nzu, mu = nu * KIFMM__SD; /* D shares U's points */
     const size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne, cst = (size_t)KIFMM__LVL(c, l) * c->pl->surf.nc;
     const double scale = KIFMM__F(__level_scale)(c, l);
-    const KIFMM__R *pu = c->pl->lat.zp;
-    const int ku = c->pl->lat.zku, kd = c->pl->lat.zkd;
+    const KIFMM__R *pu = c->far->zp;
+    const int ku = c->far->zku, kd = c->far->zkd;
     KIFMM__R *phi = w->lat, *psi = phi + (size_t)nrhs * mu, *t1 = psi + (size_t)nrhs * mu;
     KIFMM__R *t2 = t1 + (size_t)nrhs * ku;
     double c0[3], h0;
@@ -6486,9 +6634,9 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
                                c->pl->surf.nse, nrhs, per, 1.0, phi + (size_t)i0 * KIFMM__SD, (size_t)mu);
         }
     }
-    KIFMM__F(__gemm)(ku, nrhs, mu, c->pl->lat.zu, ku, phi, mu, 0, t1, ku);
-    KIFMM__F(__gemm)(kd, nrhs, ku, c->pl->lat.zm, kd, t1, ku, 0, t2, kd);
-    KIFMM__F(__gemm)(mu, nrhs, kd, c->pl->lat.zd, mu, t2, kd, 0, psi, mu);
+    KIFMM__F(__gemm)(ku, nrhs, mu, c->far->zu, ku, phi, mu, 0, t1, ku);
+    KIFMM__F(__gemm)(kd, nrhs, ku, c->far->zm, kd, t1, ku, 0, t2, kd);
+    KIFMM__F(__gemm)(mu, nrhs, kd, c->far->zd, mu, t2, kd, 0, psi, mu);
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
         KIFMM__R *pc = KIFMM__F(__scratch)(c);
@@ -6516,7 +6664,7 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
     double t1;
     if (l > kifmm__lmin(t)) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
     else memset(w->chk, 0, (size_t)nrhs * cst * sizeof(KIFMM__R));
-    if (c->pl->lat.zu && l == c->lat.zl) KIFMM__F(__far_apply)(c, w, nrhs, l); /* the far images */
+    if (c->far && c->far->zu && l == c->lat.zl) KIFMM__F(__far_apply)(c, w, nrhs, l); /* the far images */
     t1 = kifmm__now();
     /* box b writes its own check vectors and its own targets' outputs */
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
@@ -6644,10 +6792,10 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     double c0 = kifmm__now(), c1, c2, fc[3] = {0.0, 0.0, 0.0}, half;
     size_t ld = (size_t)t->nt;
     int32_t e;
-    if (c->pl->lat.zu && t->lev[b] == c->lat.zl) { /* before xf: it takes the frame buffer */
+    if (c->far && c->far->zu && t->lev[b] == c->lat.zl) { /* before xf: it takes the frame buffer */
         const KIFMM__R *xt;
         double f0[3] = {0.0, 0.0, 0.0};
-        const int nu = c->pl->lat.nzu;
+        const int nu = c->far->nzu;
         const KIFMM__R *psi = w->lat + (size_t)nrhs * nu * KIFMM__SD;
         size_t l2 = (size_t)t->nt;
         xt = KIFMM__F(__frame)(c->pts.trg, &l2, t0, ntb, f0, KIFMM__F(__framebuf)(c));
@@ -6806,7 +6954,7 @@ KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work
                 /* B / V in the cell's width: B's terms of degree k in the
                  * offset times width^(k - 3), divided one width at a time
                  * (a cube of the width leaves double's range first) */
-                const double *B0 = c->pl->lat.bq + 10 * ((size_t)o * KIFMM__QD + b), *m = mo + 10 * b;
+                const double *B0 = c->far->bq + 10 * ((size_t)o * KIFMM__QD + b), *m = mo + 10 * b;
                 double *p = P + 10 * o, B[10];
                 B[0] = B0[0] / wd / wd / wd;
                 for (j = 1; j < 4; j++) B[j] = B0[j] / wd / wd;
@@ -6882,37 +7030,77 @@ KIFMM__FN int KIFMM__F(__pair_plan)(KIFMM_NAME *c)
 
 // >>create
 
-/* Bytes held by the handle: counted where they were allocated. */
-KIFMM__FN double KIFMM__F(__held)(const KIFMM_NAME *h)
+/* Bytes held by the handle: counted where they were allocated; a plan from
+ * plan_create is left out (plan_bytes snapshots the plan's, taken under its
+ * lock when the handle was built). */
+KIFMM__FN double KIFMM__F(__held)(const KIFMM_NAME *h, double plan_bytes)
 {
     return (double)h->held + (double)h->tree.held + (double)(h->work.w ? h->work.w->held : 0) +
-           (double)(h->pl ? h->pl->held : 0);
+           (h->shared ? 0.0 : plan_bytes);
 }
 
-KIFMM__FN void KIFMM__F(__plan_free)(KIFMM__F(__plan) *pl)
+/* A far-images entry, freed. */
+KIFMM__FN void KIFMM__F(__far_free)(KIFMM__F(__far) *f)
+{
+    if (!f) return;
+    kifmm__free(f->mu);
+    kifmm__free(f->bq);
+    kifmm__free(f->zu);
+    kifmm__free(f->zm);
+    kifmm__free(f->zd);
+    kifmm__free(f->zp);
+    kifmm__free(f->zunit);
+    kifmm__free(f);
+}
+
+KIFMM__FN void KIFMM__F(__plan_free)(KIFMM__F(_plan) *pl)
 {
     int i;
     if (!pl) return;
-    for (i = 0; pl->ops.at && i < pl->ops.n; i++) KIFMM__F(__ops_free)(&pl->ops.at[i]);
-    kifmm__free(pl->ops.at);
-    kifmm__free(pl->ops.r);
+    for (i = 0; i < pl->ops.n; i++) {
+        KIFMM__F(__ops_free)(pl->ops.set[i]);
+        kifmm__free(pl->ops.set[i]);
+    }
+    for (i = 0; i < pl->far.n; i++) KIFMM__F(__far_free)(pl->far.set[i]);
+    kifmm__free(pl->ops.set);
+    kifmm__free(pl->far.set);
     kifmm__free(pl->surf.unit_e);
     kifmm__free(pl->surf.unit_c);
     kifmm__fft_free(&pl->fft);
-    kifmm__free(pl->lat.mu);
-    kifmm__free(pl->lat.bq);
-    kifmm__free(pl->lat.zu);
-    kifmm__free(pl->lat.zm);
-    kifmm__free(pl->lat.zd);
-    kifmm__free(pl->lat.zp);
-    kifmm__free(pl->lat.zunit);
+    kifmm__lock_fini(&pl->lock);
     kifmm__free(pl);
 }
 
-/* A handle lets go of its plan: freed with its last handle. */
-KIFMM__FN void KIFMM__F(__plan_release)(KIFMM__F(__plan) *pl)
+/* One user of far-images entry f lets go: freed with its last. Under the
+ * plan's lock. */
+KIFMM__FN void KIFMM__F(__far_drop)(KIFMM__F(_plan) *pl, KIFMM__F(__far) *f)
 {
-    if (pl && --pl->refs == 0) KIFMM__F(__plan_free)(pl);
+    int j;
+    if (--f->refs > 0) return;
+    for (j = 0; j < pl->far.n && pl->far.set[j] != f; j++) {
+    }
+    if (j < pl->far.n) pl->far.set[j] = pl->far.set[--pl->far.n];
+    pl->held -= sizeof *f + f->held;
+    KIFMM__F(__far_free)(f);
+}
+
+/* A handle lets go of its operator sets, its far images and its plan,
+ * freed with their last user. */
+KIFMM__FN void KIFMM__F(__plan_release)(KIFMM_NAME *h)
+{
+    KIFMM__F(_plan) *pl = h->pl;
+    int l, last;
+    if (!pl) return;
+    kifmm__lock_take(&pl->lock);
+    for (l = 0; l < KIFMM__D + 2; l++) /* the same set at consecutive levels: one reference */
+        if (h->lv[l] && (l == 0 || h->lv[l] != h->lv[l - 1])) KIFMM__F(__ops_drop)(pl, h->lv[l]);
+    if (h->far) KIFMM__F(__far_drop)(pl, h->far);
+    last = --pl->refs == 0;
+    kifmm__lock_give(&pl->lock);
+    memset(h->lv, 0, sizeof h->lv);
+    h->far = NULL;
+    h->pl = NULL;
+    if (last) KIFMM__F(__plan_free)(pl);
 }
 
 /* What a handle holds beside its plan: the points, the tree and what is
@@ -6942,7 +7130,7 @@ KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
 {
     if (!h) return;
     KIFMM__F(__points_free)(h);
-    KIFMM__F(__plan_release)(h->pl);
+    KIFMM__F(__plan_release)(h);
     kifmm__free(h);
 }
 
@@ -7066,11 +7254,12 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
 /* A new plan for options o (resolved): the surfaces (their orders, radii
  * and unit points) and the FFT's transforms; the operators come with the
  * first tree (__plan_ops). NULL on allocation failure. */
-KIFMM__FN KIFMM__F(__plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
+KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
 {
-    KIFMM__F(__plan) *pl = (KIFMM__F(__plan) *)kifmm__calloc(1, sizeof *pl);
+    KIFMM__F(_plan) *pl = (KIFMM__F(_plan) *)kifmm__calloc(1, sizeof *pl);
     int p, rc = KIFMM_SUCCESS;
     if (!pl) return NULL;
+    kifmm__lock_init(&pl->lock);
     pl->held = sizeof *pl;
     pl->refs = 1;
     pl->opts = *o;
@@ -7291,9 +7480,9 @@ KIFMM__FN int KIFMM__F(__work_fout)(KIFMM_NAME *h)
 {
     const size_t n = (size_t)h->fft.slots * (size_t)h->pl->fft.nfp * 16;
     int l;
-    for (l = 0; l < h->pl->ops.n; l++)
-        if (h->pl->ops.at[l].khat && !h->pl->ops.at[l].kbf && !h->pl->ops.at[l].kbd) break;
-    if (l == h->pl->ops.n) return KIFMM_SUCCESS;
+    for (l = 0; l < h->tree.nlev; l++)
+        if (h->lv[l] && h->lv[l]->khat && !h->lv[l]->kbf && !h->lv[l]->kbd) break;
+    if (l == h->tree.nlev) return KIFMM_SUCCESS;
     if (h->pl->fft.single) h->fft.foutf = (float *)kifmm__take(&h->held, n, sizeof(float));
     else h->fft.foutd = (double *)kifmm__take(&h->held, n, sizeof(double));
     return h->fft.foutf || h->fft.foutd ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
@@ -7396,54 +7585,75 @@ KIFMM__FN int KIFMM__F(__points_build)(KIFMM_NAME *h, int64_t ns, const KIFMM__R
     return rc;
 }
 
-/* Does the handle's plan hold what its tree needs: every operator set at
- * the half-width and with the M2L's part create would build it (__ops_wanted),
- * and a periodic tree's far images built for its root (width, levels above
- * the cell, the exchange's level and order)? */
-KIFMM__FN int KIFMM__F(__plan_fits)(const KIFMM_NAME *h)
+/* The far images of the handle's periodic tree: the plan's entry built for
+ * the same root (width, levels above the cell, the exchange's level and
+ * whether its boxes are leaves), else built and added. Under the lock. */
+KIFMM__FN int KIFMM__F(__plan_far)(KIFMM_NAME *h)
 {
-    const KIFMM__F(__plan) *pl = h->pl;
+    KIFMM__F(_plan) *pl = h->pl;
     const kifmm__tree *t = &h->tree;
-    const int n = KIFMM__SI ? 1 : (t->nlev > 1 ? t->nlev : 1);
-    double r[KIFMM__D + 2];
-    int m2l[KIFMM__D + 2], l;
-    if (!pl->ops.at) return 0;
-    if (KIFMM__F(__ops_wanted)(t, n, r, m2l))
-        for (l = 0; l < n; l++)
-            if (r[l] > 0.0 && !(l < pl->ops.n && pl->ops.r[l] == r[l] &&
-                                (!m2l[l] || pl->ops.at[l].m2l || pl->ops.at[l].khat)))
-                return 0;
-    return !t->periodic || (pl->lat.built && pl->lat.width == t->width && pl->lat.kc == t->kc &&
-                            pl->lat.zl == h->lat.zl && pl->lat.zsmall == h->lat.zsmall);
+    KIFMM__F(__far) *f;
+    int j, rc;
+    for (j = 0; j < pl->far.n; j++) {
+        f = pl->far.set[j];
+        if (f->width == t->width && f->kc == t->kc && f->zl == h->lat.zl && f->zsmall == h->lat.zsmall) {
+            f->refs++;
+            h->far = f;
+            return KIFMM_SUCCESS;
+        }
+    }
+    if (pl->far.n == pl->far.cap) {
+        const int cap = 2 * pl->far.cap + 2;
+        KIFMM__F(__far) **set = (KIFMM__F(__far) **)kifmm__alloc((size_t)cap, sizeof *set);
+        if (!set) return KIFMM_ERR_NOMEM;
+        if (pl->far.n) memcpy(set, pl->far.set, (size_t)pl->far.n * sizeof *set);
+        pl->held += (size_t)(cap - pl->far.cap) * sizeof *set;
+        kifmm__free(pl->far.set);
+        pl->far.set = set;
+        pl->far.cap = cap;
+    }
+    if (!(f = (KIFMM__F(__far) *)kifmm__calloc(1, sizeof *f))) return KIFMM_ERR_NOMEM;
+    f->width = t->width, f->kc = t->kc, f->zl = h->lat.zl, f->zsmall = h->lat.zsmall;
+    h->far = f; /* the builders write into h->far */
+    rc = KIFMM__F(__lattice_build)(h);
+    f->neutral = KIFMM__SI && !f->bq;
+    if (rc) {
+        KIFMM__F(__far_free)(f);
+        h->far = NULL;
+        return rc;
+    }
+    f->refs = 1;
+    pl->far.set[pl->far.n++] = f;
+    pl->held += sizeof *f + f->held;
+    return KIFMM_SUCCESS;
 }
 
-/* The plan's operators for the handle's tree (levels of plan `old` built at
- * the same half-widths are copied, __precompute) and a periodic tree's far
- * images (__lattice_build), with the key they were built for. */
-KIFMM__FN int KIFMM__F(__plan_ops)(KIFMM_NAME *h, const KIFMM__F(__plan) *old)
+/* The handle's operator sets (__precompute) and a periodic tree's far
+ * images (__plan_far) from its plan, built into it where it lacks them;
+ * *bytes: the plan's size after. Under the plan's lock. */
+KIFMM__FN int KIFMM__F(__plan_ops)(KIFMM_NAME *h, double *bytes)
 {
-    KIFMM__F(__plan) *pl = h->pl;
-    int rc = KIFMM__F(__precompute)(h, old);
-    if (!rc && h->tree.periodic) rc = KIFMM__F(__lattice_build)(h);
-    pl->lat.built = !rc && h->tree.periodic;
-    pl->lat.width = h->tree.width;
-    pl->lat.kc = h->tree.kc;
-    pl->lat.zl = h->lat.zl;
-    pl->lat.zsmall = h->lat.zsmall;
-    pl->lat.neutral = h->tree.periodic && KIFMM__SI && !pl->lat.bq;
+    int rc, l, a;
+    kifmm__lock_take(&h->pl->lock);
+    rc = KIFMM__F(__precompute)(h);
+    if (!rc && h->tree.periodic) rc = KIFMM__F(__plan_far)(h);
+    *bytes = (double)h->pl->held;
+    kifmm__lock_give(&h->pl->lock);
+    for (l = 0; l < h->tree.nlev; l++)
+        for (a = 0; h->lv[l] && a < KIFMM__SD * KIFMM__SD; a++) h->nz[a] |= h->lv[l]->nz[a];
     return rc;
 }
 
 /* U's points (__far_root) in the tree's frame: about the root's centre. */
 KIFMM__FN int KIFMM__F(__points_lattice)(KIFMM_NAME *h)
 {
-    const KIFMM__F(__plan) *pl = h->pl;
+    const KIFMM__F(__far) *f = h->far;
     double c0[3], h0;
-    if (!pl->lat.zu) return KIFMM_SUCCESS;
-    h->lat.zt = (KIFMM__R *)kifmm__take(&h->held, (size_t)3 * pl->lat.nzu, sizeof(KIFMM__R));
+    if (!f || !f->zu) return KIFMM_SUCCESS;
+    h->lat.zt = (KIFMM__R *)kifmm__take(&h->held, (size_t)3 * f->nzu, sizeof(KIFMM__R));
     if (!h->lat.zt) return KIFMM_ERR_NOMEM;
     kifmm__box_center(&h->tree, 0, c0, &h0);
-    KIFMM__F(__place)(pl->lat.zunit, pl->lat.nzu, c0, pl->lat.zrad, h->lat.zt);
+    KIFMM__F(__place)(f->zunit, f->nzu, c0, f->zrad, h->lat.zt);
     return KIFMM_SUCCESS;
 }
 
@@ -7467,16 +7677,16 @@ KIFMM__FN void KIFMM__F(__stats_set)(KIFMM_NAME *h)
     h->stats.levels = h->tree.nlev;
     h->stats.boxes = h->tree.nbox;
     h->stats.leaves = h->tree.nleaves;
-    h->stats.bytes = KIFMM__F(__held)(h);
+    h->stats.bytes = KIFMM__F(__held)(h, h->pbytes);
+    h->stats.plan_bytes = h->pbytes;
 }
 
-/* A handle on plan pl (one more handle of it) for these points, checked:
- * the points' part, the plan's operators where pl lacks them (fresh: pl is
- * create's own, still without operators, and gets them; else a new plan,
- * copying pl's levels that still fit), the workspace for nrhs vectors.
- * *out is NULL on failure, and pl as it was (but for a fresh one's
- * operators). */
-KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(__plan) *pl, int fresh, int nrhs,
+/* A handle on plan pl (one more of its handles) for these points, checked
+ * (options o, pl's): the points' part; the operator sets and far images
+ * the tree needs, from pl where it has them, else built into it; the
+ * workspace for nrhs vectors. *out is NULL on failure, with nothing of pl
+ * taken. */
+KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int shared, int nrhs,
                                 const kifmm_opts *o, int64_t ns, const KIFMM__R *src, int64_t nt,
                                 const KIFMM__R *trg)
 {
@@ -7487,26 +7697,19 @@ KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(__plan) *pl, int fres
     if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
     h->held = sizeof *h;
     h->opts = *o;
-    h->pl = pl;
+    h->shared = shared;
+    kifmm__lock_take(&pl->lock);
     pl->refs++;
+    h->pbytes = (double)pl->held;
+    kifmm__lock_give(&pl->lock);
+    h->pl = pl;
     h->tree.ns = ns;
     h->tree.nt = nt;
     t1 = t2 = t0;
     if (ns > 0 && nt > 0) {
         rc = KIFMM__F(__points_build)(h, ns, src, nt, trg);
         t1 = kifmm__now();
-        if (!rc && !KIFMM__F(__plan_fits)(h)) {
-            KIFMM__F(__plan) *np;
-            if (fresh) { /* create's own plan: built in place */
-                rc = KIFMM__F(__plan_ops)(h, NULL);
-            } else if (!(np = KIFMM__F(__plan_new)(o))) {
-                rc = KIFMM_ERR_NOMEM;
-            } else { /* pl stays as it is for its other handles */
-                h->pl = np;
-                rc = KIFMM__F(__plan_ops)(h, pl);
-                KIFMM__F(__plan_release)(pl);
-            }
-        }
+        if (!rc) rc = KIFMM__F(__plan_ops)(h, &h->pbytes);
         t2 = kifmm__now();
         if (!rc) rc = KIFMM__F(__points_lattice)(h);
         if (!rc) rc = KIFMM__F(__work_build)(h, nrhs);
@@ -7527,7 +7730,8 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
                                  const KIFMM__R *src_xyz, int64_t ntargets,
                                  const KIFMM__R *trg_xyz)
 {
-    KIFMM__F(__plan) *pl;
+    KIFMM__F(_plan) *pl;
+    KIFMM_NAME tmp;
     kifmm_opts o;
     double t0 = kifmm__now();
     int rc;
@@ -7535,8 +7739,10 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
     *out = NULL;
     if ((rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o))) return rc;
     if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
-    rc = KIFMM__F(__build)(out, pl, 1, 1, &o, nsources, src_xyz, ntargets, trg_xyz);
-    KIFMM__F(__plan_release)(pl); /* the handle's alone now, or freed */
+    rc = KIFMM__F(__build)(out, pl, 0, 1, &o, nsources, src_xyz, ntargets, trg_xyz);
+    memset(&tmp, 0, sizeof tmp); /* the plan is the handle's alone now, or freed */
+    tmp.pl = pl;
+    KIFMM__F(__plan_release)(&tmp);
     if (rc) return rc;
     (*out)->stats.t_plan += kifmm__now() - t0 - (*out)->stats.t_points - (*out)->stats.t_plan -
                             (*out)->stats.t_workspace; /* the checks and the plan's surfaces */
@@ -7555,22 +7761,89 @@ KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const K
     int rc;
     if (!h) return KIFMM_ERR_NULL;
     if ((rc = KIFMM__F(__check_sets)(&h->opts, nsources, src_xyz, ntargets, trg_xyz))) return rc;
-    /* as many vectors' workspace as the handle has grown to */
-    if ((rc = KIFMM__F(__build)(&n, h->pl, 0, h->work.w ? h->work.w->nrhs : 1, &h->opts, nsources,
-                                src_xyz, ntargets, trg_xyz)))
+    /* on the same plan, which keeps the operator sets both trees use; as
+     * many vectors' workspace as the handle has grown to */
+    if ((rc = KIFMM__F(__build)(&n, h->pl, h->shared, h->work.w ? h->work.w->nrhs : 1, &h->opts,
+                                nsources, src_xyz, ntargets, trg_xyz)))
         return rc;
-    /* the new state into the caller's handle; the old one freed (and its
-     * plan with it, where the new one has its own) */
+    /* the new state into the caller's handle, the old one freed (and the
+     * plan's entries only it used) */
     st = h->stats;
     tmp = *h;
     *h = *n;
     *n = tmp;
     KIFMM__F(_destroy)(n);
-    h->stats.t_tree = st.t_tree;
+    h->stats.t_tree = st.t_tree; /* create's, and the last evaluate's */
     h->stats.t_operators = st.t_operators;
+    h->stats.t_p2m = st.t_p2m, h->stats.t_m2m = st.t_m2m, h->stats.t_m2l = st.t_m2l;
+    h->stats.t_l2l = st.t_l2l, h->stats.t_p2l = st.t_p2l, h->stats.t_l2p = st.t_l2p;
+    h->stats.t_m2p = st.t_m2p, h->stats.t_p2p = st.t_p2p, h->stats.t_evaluate = st.t_evaluate;
     h->stats.t_update = kifmm__now() - t0;
     if (h->opts.verbose) KIFMM__F(__report)(h, 2);
     return KIFMM_SUCCESS;
+}
+
+KIFMM__API int KIFMM__F(_plan_create)(KIFMM__F(_plan) **out, const kifmm_opts *opts)
+{
+    KIFMM__F(_plan) *pl;
+    kifmm_opts o;
+    int rc;
+    if (!out) return KIFMM_ERR_NULL;
+    *out = NULL;
+    if ((rc = KIFMM__F(__validate)(opts, 0, NULL, 0, NULL, &o))) return rc;
+    if (KIFMM__SI && !KIFMM__EWALD && o.period[0] > 0.0 && o.period[1] > 0.0 && o.period[2] > 0.0)
+        return KIFMM_ERR_PERIODIC; /* as create: __lattice_build */
+    if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
+#if KIFMM__SI
+    { /* the one set of every tree, with the M2L's: built now, kept with the plan */
+        KIFMM_NAME *c = (KIFMM_NAME *)kifmm__calloc(1, sizeof *c);
+        KIFMM__F(__ops) *e = NULL;
+        const double r = 1.0;
+        const int m2l = 1, from = -1;
+        rc = c ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+        if (c) c->opts = o, c->pl = pl;
+        if (!rc) rc = KIFMM__F(__ops_build)(c, 1, &r, &m2l, &from, &e);
+#if KIFMM__FFT
+        if (!rc) rc = KIFMM__F(__keep_blocks)(c, &e, 1);
+#endif
+        if (!rc) rc = KIFMM__F(__ops_add)(pl, e);
+        else if (e) KIFMM__F(__ops_free)(e), kifmm__free(e);
+        kifmm__free(c);
+        if (rc) {
+            KIFMM__F(__plan_free)(pl);
+            return rc;
+        }
+    }
+#endif
+    *out = pl;
+    return KIFMM_SUCCESS;
+}
+
+KIFMM__API int KIFMM__F(_create_with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *plan, int64_t nsources,
+                                           const KIFMM__R *src_xyz, int64_t ntargets,
+                                           const KIFMM__R *trg_xyz)
+{
+    int rc;
+    if (!out) return KIFMM_ERR_NULL;
+    *out = NULL;
+    if (!plan) return KIFMM_ERR_NULL;
+    if ((rc = KIFMM__F(__check_sets)(&plan->opts, nsources, src_xyz, ntargets, trg_xyz))) return rc;
+    rc = KIFMM__F(__build)(out, plan, 1, 1, &plan->opts, nsources, src_xyz, ntargets, trg_xyz);
+    if (!rc) {
+        (*out)->stats.t_tree = (*out)->stats.t_points;
+        (*out)->stats.t_operators = (*out)->stats.t_plan + (*out)->stats.t_workspace;
+        if (plan->opts.verbose) KIFMM__F(__report)(*out, 1);
+    }
+    return rc;
+}
+
+KIFMM__API void KIFMM__F(_plan_destroy)(KIFMM__F(_plan) *plan)
+{
+    KIFMM_NAME tmp;
+    if (!plan) return;
+    memset(&tmp, 0, sizeof tmp);
+    tmp.pl = plan;
+    KIFMM__F(__plan_release)(&tmp);
 }
 
 /* evaluate_many's checks; 1 for a call with nothing to compute (outputs
@@ -7605,7 +7878,7 @@ KIFMM__FN int KIFMM__F(__eval_grow)(KIFMM_NAME *h, int cap)
     if (!(nw = KIFMM__F(__work_new)(h, cap))) return KIFMM_ERR_NOMEM;
     KIFMM__F(__work_free)(h->work.w);
     h->work.w = nw;
-    h->stats.bytes = KIFMM__F(__held)(h);
+    h->stats.bytes = KIFMM__F(__held)(h, h->pbytes);
     return KIFMM_SUCCESS;
 }
 
@@ -7688,7 +7961,7 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
     for (l = t->nlev - 1; l >= kifmm__lmin(t); l--) KIFMM__F(__upward)(h, w, nr, l);
     for (l = kifmm__lmin(t); l < t->nlev; l++) KIFMM__F(__downward)(h, w, nr, l);
     KIFMM__F(__leaves)(h, w, nr);
-    if (h->pl->lat.bq) KIFMM__F(__background)(h, w, nr);
+    if (h->far && h->far->bq) KIFMM__F(__background)(h, w, nr);
     w->dst = NULL;
     if (!w->outs) {
         for (r = 0; r < nr && scaled; r++) {
@@ -7721,7 +7994,7 @@ KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIF
     const kifmm__tree *t = &h->tree;
     const double tol = KIFMM__FLOAT ? 1e-4 : 1e-10;
     int r, b, bad = 0;
-    if (!h->pl->lat.neutral) return KIFMM_SUCCESS;
+    if (!h->far || !h->far->neutral) return KIFMM_SUCCESS;
     for (r = 0; r < nrhs; r++) {
         double q[KIFMM__SD], m[KIFMM__SD];
         for (b = 0; b < KIFMM__SD; b++) q[b] = m[b] = 0.0;
@@ -7732,8 +8005,8 @@ KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIF
                                    d + (size_t)r * t->ns * KIFMM__UD + (size_t)i * KIFMM__UD, lin);
             for (b = 0; b < KIFMM__SD; b++)
                 for (k = 0; k < KIFMM__QD; k++) {
-                    q[b] += h->pl->lat.mu[b + k * KIFMM__SD] * lin[k];
-                    m[b] += fabs(h->pl->lat.mu[b + k * KIFMM__SD] * lin[k]);
+                    q[b] += h->far->mu[b + k * KIFMM__SD] * lin[k];
+                    m[b] += fabs(h->far->mu[b + k * KIFMM__SD] * lin[k]);
                 }
         }
         for (b = 0; b < KIFMM__SD; b++) bad |= !(fabs(q[b]) <= tol * m[b]);

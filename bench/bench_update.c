@@ -13,7 +13,11 @@
  * and their ratio; then the stages of create (plan, points, workspace,
  * stats.t_plan and friends) of the new handle. yukawa_grad runs twice:
  * with the root box from the points (its per-level operators follow the
- * points' extent) and with opts.domain fixed (they are kept).
+ * points' extent) and with opts.domain fixed (they are kept). Last, four
+ * laplace_grad handles at p = 10 on N points each (different sets), made
+ * by create and made on one plan (plan_create, create_with_plan): the
+ * memory they hold (stats.bytes, and the plan's apart) and their create
+ * times.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -97,6 +101,55 @@
     }
 
 BENCH_CASE(kifmm_laplace_grad, 1)
+
+/* four handles at order p on n points each: made by create, and on one plan */
+static void four_handles(int64_t n, int p)
+{
+    kifmm_opts o;
+    kifmm_laplace_grad *a[4] = {NULL}, *b[4] = {NULL};
+    kifmm_laplace_grad_plan *pl = NULL;
+    double *x = (double *)malloc(3 * (size_t)n * sizeof(double)), *q = (double *)malloc((size_t)n * sizeof(double));
+    double ba = 0.0, bb = 0.0, ta = 0.0, tb = 0.0, tp, t0, bc;
+    kifmm_stats st;
+    int i, rc = 0;
+    memset(&o, 0, sizeof o);
+    o.order = p;
+    for (i = 0; i < 4 && !rc; i++) {
+        make_points(DIST_CUBE, n, 1, 11 + (uint64_t)i, x, q);
+        t0 = omp_get_wtime();
+        rc = kifmm_laplace_grad_create(&a[i], &o, n, x, n, x);
+        ta += omp_get_wtime() - t0;
+        if (!rc && !kifmm_laplace_grad_stats(a[i], &st)) ba += st.bytes;
+    }
+    t0 = omp_get_wtime();
+    if (!rc) rc = kifmm_laplace_grad_plan_create(&pl, &o);
+    tp = omp_get_wtime() - t0;
+    for (i = 0; i < 4 && !rc; i++) {
+        make_points(DIST_CUBE, n, 1, 11 + (uint64_t)i, x, q);
+        t0 = omp_get_wtime();
+        rc = kifmm_laplace_grad_create_with_plan(&b[i], pl, n, x, n, x);
+        tb += omp_get_wtime() - t0;
+        if (!rc && !kifmm_laplace_grad_stats(b[i], &st)) bb += st.bytes;
+    }
+    /* the plan's bytes, after the last handle */
+    bc = !rc && !kifmm_laplace_grad_stats(b[3], &st) ? st.plan_bytes : 0.0;
+    if (rc) {
+        printf("four handles: FAILED: %s\n", kifmm_strerror(rc));
+    } else {
+        printf("4 handles, laplace_grad p = %d, %lld points each:\n", p, (long long)n);
+        printf("  by create:               %8.1f MiB, creates %.3f s\n", ba / 1048576.0, ta);
+        printf("  on one plan:             %8.1f MiB handles + %.1f MiB plan = %.1f MiB (%.2fx), "
+               "plan_create %.3f s + creates %.3f s\n",
+               bb / 1048576.0, bc / 1048576.0, (bb + bc) / 1048576.0, (bb + bc) / ba, tp, tb);
+    }
+    for (i = 0; i < 4; i++) {
+        kifmm_laplace_grad_destroy(a[i]);
+        kifmm_laplace_grad_destroy(b[i]);
+    }
+    kifmm_laplace_grad_plan_destroy(pl);
+    free(x);
+    free(q);
+}
 BENCH_CASE(kifmm_yukawa_grad, 1)
 BENCH_CASE(kifmm_stokes, 3)
 
@@ -127,6 +180,7 @@ int main(int argc, char **argv)
     kifmm_yukawa_grad_case("yukawa_grad", 6, NULL, n, x, repeat, eps);
     kifmm_yukawa_grad_case("yukawa_grad domain", 6, box, n, x, repeat, eps);
     kifmm_stokes_case("stokes", 6, NULL, n, x, repeat, eps);
+    four_handles(n, 10);
     free(x);
     free(q);
     return 0;

@@ -52,7 +52,7 @@ static void soa(int n, const double *xyz, double *s)
 /* Check vector -> equivalent density with the handle's two factors. */
 static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 {
-    const kifmm_laplace__ops *o = &c->pl->ops.at[0];
+    const kifmm_laplace__ops *o = c->lv[0];
     int k = up ? o->ku : o->kd;
     double *tmp = t_doubles(k);
     kifmm__gemm(0, 0, k, 1, c->pl->surf.nc, 1.0, up ? o->ut_up : o->ut_dn, k, chk, c->pl->surf.nc, 0.0, tmp, k);
@@ -71,7 +71,7 @@ static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, con
     soa(ns, x, xs);
     t_fill(c->pl->surf.nc, chk, 0.0);
     kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, xs + ns,
-                             xs + 2 * ns, q, ns, 1, 0, r * c->pl->ops.at[0].sigma, chk, 0);
+                             xs + 2 * ns, q, ns, 1, 0, r * c->lv[0]->sigma, chk, 0);
     solve(c, 1, chk, ue);
     free(pc);
     free(chk);
@@ -117,7 +117,7 @@ static kifmm_laplace *handle(int order)
     int n;
     double *x = ops_points(&n);
     kifmm_opts o = t_opts(order, 8, 0);
-    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == 0 && h->pl->ops.at[0].khat != NULL,
+    CHECK(kifmm_laplace_create(&h, &o, n, x, n, x) == 0 && h->lv[0]->khat != NULL,
           "create order %d, operators built", order);
     return h;
 }
@@ -157,7 +157,7 @@ static void test_upward(int p)
         points_in_box(&g, ns / 8, cc, 0.5 * r, x + 3 * (ns / 8) * o);
         p2m(c, cc, 0.5 * r, ns / 8, x + 3 * (ns / 8) * o, q + (ns / 8) * o, uec + o * c->pl->surf.ne);
     }
-    kifmm__gemm(0, 0, c->pl->surf.nc, 1, 8 * c->pl->surf.ne, 1.0, c->pl->ops.at[0].m2m, c->pl->surf.nc, uec, 8 * c->pl->surf.ne, 0.0, chk,
+    kifmm__gemm(0, 0, c->pl->surf.nc, 1, 8 * c->pl->surf.ne, 1.0, c->lv[0]->m2m, c->pl->surf.nc, uec, 8 * c->pl->surf.ne, 0.0, chk,
                 c->pl->surf.nc);
     solve(c, 1, chk, ue);
     eval_equiv(c, c->pl->surf.nse, pe, ue, ny, y, pot);
@@ -174,7 +174,7 @@ static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de
 {
     kifmm__fft plan = c->pl->fft; /* this helper works in double throughout */
     const kifmm__fft *pl = &plan;
-    const kifmm_laplace__ops *o = &c->pl->ops.at[0];
+    const kifmm_laplace__ops *o = c->lv[0];
     const size_t cs = 16 * KIFMM__FFT_F;
     double *spec = t_doubles(16 * pl->nfp), *prod = t_doubles(16 * pl->nfp);
     double *work = t_doubles((int64_t)kifmm__fft_work8(pl)), *chk = t_doubles(8 * c->pl->surf.nc);
@@ -240,7 +240,7 @@ static void test_downward(int p)
         int n;
         double *xo = ops_points(&n);
         kifmm_opts o = t_opts(p, 8, 0);
-        CHECK(kifmm_laplace_dense_create(&hd, &o, n, xo, n, xo) == 0 && hd->pl->ops.at[0].m2l != NULL,
+        CHECK(kifmm_laplace_dense_create(&hd, &o, n, xo, n, xo) == 0 && hd->lv[0]->m2l != NULL,
               "dense create %d, operators built", p);
     }
 
@@ -255,7 +255,7 @@ static void test_downward(int p)
          * solve; its downward equivalent surface has its own radius (hd->pl->surf.ao:
          * the dense instance checks on order p + 1) */
         {
-            const kifmm_laplace_dense__ops *od = &hd->pl->ops.at[0];
+            const kifmm_laplace_dense__ops *od = hd->lv[0];
             kifmm__gemm(0, 0, od->kd, 1, c->pl->surf.ne, 1.0, od->m2l + (size_t)tv * c->pl->surf.ne * od->kd,
                         od->kd, ue, c->pl->surf.ne, 0.0, chk, od->kd);
             kifmm__gemm(0, 0, c->pl->surf.ne, 1, od->kd, 1.0, od->vs_dn, c->pl->surf.ne, chk, od->kd, 0.0, de,
@@ -298,13 +298,13 @@ static void test_downward(int p)
         kifmm__surf_place(c->pl->surf.unit_c, c->pl->surf.nsc, cp, c->pl->surf.ai * 2 * r, pc);
         t_fill(c->pl->surf.nc, chk, 0.0);
         kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, xs + ns,
-                                 xs + 2 * ns, q, ns, 1, 0, 2 * r * c->pl->ops.at[0].sigma, chk, 0);
+                                 xs + 2 * ns, q, ns, 1, 0, 2 * r * c->lv[0]->sigma, chk, 0);
         solve(c, 0, chk, de);
         kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, cp, c->pl->surf.ao * 2 * r, pe);
         points_in_box(&g, ny, cp, 2 * r, y);
         eval_equiv(c, c->pl->surf.nse, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2L p=%d, inside the box", p);
-        kifmm__gemm(0, 0, 8 * c->pl->surf.nc, 1, c->pl->surf.ne, 1.0, c->pl->ops.at[0].l2l, 8 * c->pl->surf.nc, de, c->pl->surf.ne, 0.0, chk,
+        kifmm__gemm(0, 0, 8 * c->pl->surf.nc, 1, c->pl->surf.ne, 1.0, c->lv[0]->l2l, 8 * c->pl->surf.nc, de, c->pl->surf.ne, 0.0, chk,
                     8 * c->pl->surf.nc);
         for (o = 0; o < 8; o++) {
             double cc[3] = {cp[0] + (o >> 2 & 1 ? r : -r), cp[1] + (o >> 1 & 1 ? r : -r),

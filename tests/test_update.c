@@ -105,7 +105,7 @@ static double *densities(uint64_t seed, int64_t n, int sd, int nv, int neutral)
         R *u = (R *)t_malloc_or_die((size_t)(2 * nt1 * td + 1) * sizeof(R));                       \
         R *f = (R *)t_malloc_or_die((size_t)(2 * nt1 * td + 1) * sizeof(R));                       \
         P *h = NULL, *g = NULL;                                                                    \
-        const void *plan0;                                                                         \
+        const void *lv0[sizeof h->lv / sizeof h->lv[0] + 1];                                       \
         const double t_start = t_wall();                                                           \
         int rc, rc2, k;                                                                            \
         int64_t i;                                                                                 \
@@ -114,15 +114,24 @@ static double *densities(uint64_t seed, int64_t n, int sd, int nv, int neutral)
         CHECK(rc == 0, "%s %s: create rc=%d (%s)", #P, what, rc, kifmm_strerror(rc));              \
         if (rc) goto done;                                                                         \
         CHECK(P##_evaluate(h, q0, o0) == 0, "%s %s: evaluate on the first points", #P, what);     \
-        plan0 = (const void *)h->pl;                                                               \
+        for (k = 0; k < (int)(sizeof h->lv / sizeof h->lv[0]); k++) lv0[k] = h->lv[k];             \
+        lv0[k] = h->far;                                                                           \
         rc = P##_update_points(h, s1->n, xs1, nt1, xt1);                                           \
         CHECK(rc == 0, "%s %s: update_points rc=%d (%s)", #P, what, rc, kifmm_strerror(rc));       \
         rc2 = P##_create(&g, o, s1->n, xs1, nt1, xt1);                                             \
         CHECK(rc2 == 0, "%s %s: fresh create rc=%d", #P, what, rc2);                               \
         if (rc || rc2) goto done;                                                                  \
-        if (keep >= 0)                                                                             \
-            CHECK(((const void *)h->pl == plan0) == keep, "%s %s: plan %s, want %s", #P, what,     \
-                  (const void *)h->pl == plan0 ? "kept" : "rebuilt", keep ? "kept" : "rebuilt");   \
+        if (keep >= 0) { /* every operator set (and far images) one the handle had */            \
+            int kept = 1, j, n = (int)(sizeof h->lv / sizeof h->lv[0]);                            \
+            for (k = 0; k <= n; k++) {                                                             \
+                const void *e = k < n ? (const void *)h->lv[k] : (const void *)h->far;             \
+                int had = 0;                                                                       \
+                for (j = 0; j <= n; j++) had |= e == lv0[j];                                       \
+                kept &= !e || had;                                                                 \
+            }                                                                                      \
+            CHECK(kept == keep, "%s %s: operators %s, want %s", #P, what, kept ? "kept" : "rebuilt", \
+                  keep ? "kept" : "rebuilt");                                                      \
+        }                                                                                          \
         for (k = 1; k <= 2; k++) {                                                                 \
             size_t no = (size_t)(k * nt1 * td);                                                    \
             double dmax = 0.0, fmax = 0.0;                                                         \
@@ -308,6 +317,115 @@ static void test_periodic(void)
     free(a.x), free(b.x), free(c.x), free(d.x);
 }
 
+/* Handles on one plan (plan_create, create_with_plan), created, moved
+ * and evaluated on NH threads at once: each handle's outputs equal those
+ * of a handle of its own (create) on the same points, bit for bit; the
+ * operator sets are shared (the same entries); stats.bytes leaves the plan
+ * out; the plan outlives plan_destroy while handles use it. */
+#define NH 4
+#define T_SHARED(P, R, sd, td)                                                                     \
+    static void P##_shared(const char *what, const kifmm_opts *o)                                  \
+    {                                                                                              \
+        P##_plan *pl = NULL;                                                                       \
+        P *h[NH] = {NULL}, *g[NH] = {NULL};                                                        \
+        R *x[NH], *y[NH], *q[NH], *u[NH], *f[NH];                                                  \
+        int64_t n[NH];                                                                             \
+        int rc[NH], rcg[NH], same[NH], i, shared = 1, rc0;                                         \
+        double own = 0.0, on = 0.0;                                                                \
+        rc0 = P##_plan_create(&pl, o);                                                             \
+        CHECK(rc0 == 0 && pl, "%s %s: plan_create rc=%d", #P, what, rc0);                          \
+        if (rc0) return;                                                                           \
+        for (i = 0; i < NH; i++) {                                                                 \
+            pset a = set_cube(50 + i, 2500 + 700 * i, 0.05 * i, 1.0 - 0.05 * i);                   \
+            pset b = set_jitter(&a, 60 + i, 2e-3, 0.0, 1.0);                                       \
+            double *qd = densities(70 + i, a.n, sd, 1, 0);                                         \
+            n[i] = a.n;                                                                            \
+            x[i] = P##_conv(a.x, 3 * a.n), y[i] = P##_conv(b.x, 3 * a.n), q[i] = P##_conv(qd, a.n * sd); \
+            u[i] = (R *)t_malloc_or_die((size_t)(a.n * td) * sizeof(R));                           \
+            f[i] = (R *)t_malloc_or_die((size_t)(a.n * td) * sizeof(R));                           \
+            free(a.x), free(b.x), free(qd);                                                        \
+        }                                                                                          \
+        /* each thread its own handle: create, evaluate, move, evaluate */                        \
+        KIFMM__OMP(parallel for schedule(static, 1) num_threads(NH))                               \
+        for (int k = 0; k < NH; k++) {                                                             \
+            rc[k] = P##_create_with_plan(&h[k], pl, n[k], x[k], n[k], x[k]);                       \
+            if (!rc[k]) rc[k] = P##_evaluate(h[k], q[k], u[k]);                                    \
+            if (!rc[k]) rc[k] = P##_update_points(h[k], n[k], y[k], n[k], y[k]);                   \
+            if (!rc[k]) rc[k] = P##_evaluate(h[k], q[k], u[k]);                                    \
+        }                                                                                          \
+        P##_plan_destroy(pl); /* the handles keep it */                                            \
+        for (i = 0; i < NH; i++) {                                                                 \
+            kifmm_stats a, b;                                                                      \
+            rcg[i] = P##_create(&g[i], o, n[i], y[i], n[i], y[i]);                                 \
+            if (!rcg[i]) rcg[i] = P##_evaluate(g[i], q[i], f[i]);                                  \
+            CHECK(rc[i] == 0 && rcg[i] == 0, "%s %s: handle %d rc=%d (%s), alone %d", #P, what, i,  \
+                  rc[i], kifmm_strerror(rc[i]), rcg[i]);                                           \
+            same[i] = !rc[i] && !rcg[i] && !memcmp(u[i], f[i], (size_t)(n[i] * td) * sizeof(R));    \
+            CHECK(same[i], "%s %s: handle %d on the shared plan differs from one alone", #P, what, i); \
+            if (!rc[i] && i > 0 && h[i]->tree.nlev == h[0]->tree.nlev &&                           \
+                h[i]->tree.width == h[0]->tree.width) {                                            \
+                int l;                                                                             \
+                for (l = 0; l < h[i]->tree.nlev; l++) shared &= h[i]->lv[l] == h[0]->lv[l];         \
+            }                                                                                      \
+            if (!rc[i] && !rcg[i] && !P##_stats(h[i], &a) && !P##_stats(g[i], &b)) {               \
+                on += a.bytes;                                                                     \
+                own += b.bytes;                                                                    \
+            }                                                                                      \
+        }                                                                                          \
+        CHECK(shared, "%s %s: handles with the same levels hold different operator sets", #P, what); \
+        printf("  %-18s %s: %d handles on one plan hold %.1f MiB (plan apart), %.1f MiB alone\n",   \
+               #P, what, NH, on / 1048576.0, own / 1048576.0);                                     \
+        CHECK(on < own, "%s %s: shared handles' bytes %.0f not below their own plans' %.0f", #P,    \
+              what, on, own);                                                                      \
+        for (i = 0; i < NH; i++) {                                                                 \
+            P##_destroy(h[i]);                                                                     \
+            P##_destroy(g[i]);                                                                     \
+            free(x[i]), free(y[i]), free(q[i]), free(u[i]), free(f[i]);                            \
+        }                                                                                          \
+    }
+
+T_SHARED(kifmm_laplace_grad, double, 1, 4)
+T_SHARED(kifmm_yukawa_grad, double, 1, 4)
+T_SHARED(kifmm_stokes, double, 3, 3)
+T_SHARED(kifmm_laplacef, float, 1, 1)
+
+static void test_shared(void)
+{
+    kifmm_opts o = t_opts(6, 0, 0), ob;
+    kifmm_laplace_grad_plan *pl = (kifmm_laplace_grad_plan *)&o;
+    kifmm_laplace_grad *h = (kifmm_laplace_grad *)&o;
+    double x[6] = {0.1, 0.2, 0.3, 0.4, 0.5, 0.6};
+    int rc;
+    t_group("handles on one plan, on several threads at once");
+    o.nthreads = 1;
+    kifmm_laplace_grad_shared("p = 6", &o);
+    kifmm_stokes_shared("p = 5", (o.order = 5, &o));
+    kifmm_laplacef_shared("p = 5", &o);
+    o.order = 6;
+    o.kernel_param[0] = 2.0;
+    o.domain[0] = o.domain[1] = o.domain[2] = o.domain[3] = 0.5;
+    kifmm_yukawa_grad_shared("p = 6, domain", &o);
+    o.domain[0] = o.domain[1] = o.domain[2] = o.domain[3] = 0.0;
+    kifmm_yukawa_grad_shared("p = 6, boxes from the points", &o);
+    /* errors */
+    CHECK(kifmm_laplace_grad_plan_create(NULL, &o) == KIFMM_ERR_NULL, "plan_create(NULL out)");
+    ob = t_opts(1, 0, 0);
+    rc = kifmm_laplace_grad_plan_create(&pl, &ob);
+    CHECK(rc == KIFMM_ERR_ORDER && pl == NULL, "plan_create with order 1: rc=%d", rc);
+    rc = kifmm_laplace_grad_create_with_plan(&h, NULL, 2, x, 2, x);
+    CHECK(rc == KIFMM_ERR_NULL && h == NULL, "create_with_plan(NULL plan): rc=%d", rc);
+    o = t_opts(4, 0, 0);
+    o.domain[0] = o.domain[1] = o.domain[2] = 0.0;
+    o.domain[3] = 0.25;
+    rc = kifmm_laplace_grad_plan_create(&pl, &o);
+    CHECK(rc == 0, "plan_create with a domain: rc=%d", rc);
+    h = (kifmm_laplace_grad *)&o;
+    rc = kifmm_laplace_grad_create_with_plan(&h, pl, 2, x, 2, x);
+    CHECK(rc == KIFMM_ERR_DOMAIN && h == NULL, "create_with_plan, points outside its domain: rc=%d", rc);
+    kifmm_laplace_grad_plan_destroy(pl);
+    kifmm_laplace_grad_plan_destroy(NULL);
+}
+
 int main(void)
 {
     kifmm_opts o = t_opts(6, 0, 0), oy = t_opts(6, 0, 0), of = t_opts(5, 0, 0);
@@ -324,5 +442,6 @@ int main(void)
     T_MOVES(kifmm_yukawaf, &of, 1, 1, -1, 2e-4);
     test_domain();
     test_periodic();
+    test_shared();
     return t_finish();
 }

@@ -29,7 +29,7 @@ import numpy as np
 
 from . import _kernels
 
-__all__ = ["FMM", "direct", "estimate_bytes", "kernel_help", "KERNELS", "KifmmError",
+__all__ = ["FMM", "Plan", "direct", "estimate_bytes", "kernel_help", "KERNELS", "KifmmError",
            "OptionError", "MAX_ORDER", "MAX_DEPTH", "MAX_THREADS", "MAX_POINTS"]
 __version__ = "0.2.0"
 
@@ -125,6 +125,7 @@ class _Stats(ctypes.Structure):
         ("t_points", ctypes.c_double),
         ("t_workspace", ctypes.c_double),
         ("t_update", ctypes.c_double),
+        ("plan_bytes", ctypes.c_double),
     ]
 
 
@@ -162,9 +163,14 @@ def _api(kernel, dtype):
             pre = "kifmm_" + kernel + ("f" if dtype == np.float32 else "")
             f = {n: getattr(_lib, f"{pre}_{n}") for n in
                  ("create", "evaluate", "evaluate_many", "destroy", "stats", "options", "direct",
-                  "estimate_bytes", "update_points")}
+                  "estimate_bytes", "update_points", "plan_create", "plan_destroy",
+                  "create_with_plan")}
             f["create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
             f["update_points"].argtypes = [_P, _I64, _P, _I64, _P]
+            f["plan_create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts)]
+            f["plan_destroy"].argtypes = [_P]
+            f["plan_destroy"].restype = None
+            f["create_with_plan"].argtypes = [ctypes.POINTER(_P), _P, _I64, _P, _I64, _P]
             f["evaluate"].argtypes = [_P, _P, _P]
             f["evaluate_many"].argtypes = [_P, ctypes.c_int, _P, _P]
             f["destroy"].argtypes = [_P]
@@ -375,6 +381,48 @@ def _ptr(a):
     return a.ctypes.data_as(_P)
 
 
+class Plan:
+    """Options and operators that several FMMs share: kifmm.Plan(kernel,
+    order=..., ...) takes FMM's options (not sources or targets), and
+    FMM(kernel, sources, plan=p) builds only its tree and workspace on it.
+    The operators are built once (scale-invariant kernels: here) and held
+    once, however many FMMs use the plan, from however many threads; the
+    plan lives while an FMM uses it. close() lets go of this object's
+    reference."""
+
+    def __init__(self, kernel, *, order=None, tol=None, dtype=np.float64, nthreads=None,
+                 kernel_param=None, leaf_size=None, period=None, verbose=False, max_depth=None,
+                 domain=None):
+        self._p = None
+        self.kernel = kernel
+        _kernel(kernel)
+        self.dtype = _dtype(dtype)
+        self._f = _api(kernel, self.dtype)
+        self._destroy = self._f["plan_destroy"]
+        opts = _opts("kifmm.Plan", kernel, order, nthreads, kernel_param, leaf_size, period, tol,
+                     verbose, max_depth, domain)
+        p = _P()
+        rc = self._f["plan_create"](ctypes.byref(p), ctypes.byref(opts))
+        if rc != 0:
+            raise KifmmError(rc, f"kifmm_{kernel}_plan_create")
+        self._p = p
+
+    def __repr__(self):
+        return f"kifmm.Plan({self.kernel!r}, {np.dtype(self.dtype).name})"
+
+    def close(self):
+        """Let go of the plan (the FMMs made on it keep it)."""
+        if self._p is not None:
+            self._destroy(self._p)
+            self._p = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
 _NO_COPY = ("kifmm.FMM cannot be copied or pickled: it owns a C handle; create another FMM on "
             "the same points")
 
@@ -411,6 +459,8 @@ class FMM:
                   the box from the points; not with period)
     verbose       True: one line per stage of create and evaluate, with its
                   time and the memory held, on stderr
+    plan          a kifmm.Plan of this kernel and dtype: its options and
+                  operators, shared (then no option may be given here)
 
     tol: the order is picked so that every output of the kernel (potential,
     gradient, Hessian, velocity, pressure, velocity gradient) meets tol in
@@ -445,22 +495,42 @@ class FMM:
 
     def __init__(self, kernel, sources, targets=None, *, order=None, tol=None, dtype=np.float64,
                  nthreads=None, kernel_param=None, leaf_size=None, period=None, verbose=False,
-                 max_depth=None, domain=None):
+                 max_depth=None, domain=None, plan=None):
         self._lock = threading.Lock()
         self._h = None
         self.kernel = kernel
         self.src_dim, self.trg_dim = _kernel(kernel)
+        if plan is not None:
+            if not isinstance(plan, Plan):
+                raise TypeError(f"kifmm.FMM: plan must be a kifmm.Plan, not {_show(plan)}")
+            given = [n for n, v in (("order", order), ("tol", tol), ("nthreads", nthreads),
+                                    ("kernel_param", kernel_param), ("leaf_size", leaf_size),
+                                    ("period", period), ("max_depth", max_depth),
+                                    ("domain", domain)) if v is not None]
+            if given or verbose:
+                raise TypeError(f"kifmm.FMM: the plan holds the options; {given or ['verbose']} "
+                                "cannot be given with it")
+            if plan.kernel != kernel or plan.dtype != _dtype(dtype):
+                raise ValueError(f"kifmm.FMM: the plan is for {plan.kernel!r} "
+                                 f"{np.dtype(plan.dtype).name}, not {kernel!r} {np.dtype(dtype).name}")
+            if plan._p is None:
+                raise ValueError("kifmm.FMM: the plan is closed")
         self.dtype = _dtype(dtype)
         self._f = _api(kernel, self.dtype)
         self._destroy = self._f["destroy"]
-        opts = _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size, period, tol,
-                     verbose, max_depth, domain)
+        if plan is None:
+            opts = _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size, period,
+                         tol, verbose, max_depth, domain)
         src = _points(sources, self.dtype, "sources")
         trg = src if targets is None else _points(targets, self.dtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
         h = _P()
-        rc = self._f["create"](ctypes.byref(h), ctypes.byref(opts), self.nsources, _ptr(src),
-                               self.ntargets, _ptr(trg))
+        if plan is None:
+            rc = self._f["create"](ctypes.byref(h), ctypes.byref(opts), self.nsources, _ptr(src),
+                                   self.ntargets, _ptr(trg))
+        else:
+            rc = self._f["create_with_plan"](ctypes.byref(h), plan._p, self.nsources, _ptr(src),
+                                             self.ntargets, _ptr(trg))
         if rc != 0:
             raise KifmmError(rc, f"kifmm_{kernel}_create")
         self._h = h
@@ -487,11 +557,13 @@ class FMM:
         a leading axis of k density sets, k output blocks (k, ntargets,
         trg_dim), computed together. Calls on one object from several
         threads run one after the other."""
-        d, nrhs, lead = _densities(densities, self.dtype, self.nsources, self.src_dim)
-        shape = (self.ntargets, self.trg_dim) if lead is None else (lead, self.ntargets, self.trg_dim)
-        out = np.empty(shape, dtype=self.dtype)
         with self._lock:
+            # the counts are read under the lock: update_points may change them
             h = self._handle()
+            d, nrhs, lead = _densities(densities, self.dtype, self.nsources, self.src_dim)
+            shape = (self.ntargets, self.trg_dim) if lead is None else (lead, self.ntargets,
+                                                                        self.trg_dim)
+            out = np.empty(shape, dtype=self.dtype)
             if nrhs == 0:
                 return out
             if nrhs == 1:

@@ -260,6 +260,69 @@ def test_domain_option():
         kifmm.FMM("laplace", x, domain=(0.5, 0.5, 0.5, 1.0), period=1.0)
 
 
+def test_plan_shared_between_threads():
+    """four FMMs on one Plan, made and evaluated on four threads: each equals
+    an FMM of its own on the same points, bit for bit; the plan is counted
+    once"""
+    plan = kifmm.Plan("laplace_grad", order=5, nthreads=1)
+    sets = [points(3000 + 500 * i, 80 + i) for i in range(4)]
+    qs = [np.random.default_rng(90 + i).random(len(x)) - 0.5 for i, x in enumerate(sets)]
+    out, stats = [None] * 4, [None] * 4
+
+    def work(i):
+        with kifmm.FMM("laplace_grad", sets[i], plan=plan) as f:
+            out[i] = f.evaluate(qs[i])
+            stats[i] = f.stats
+
+    ths = [threading.Thread(target=work, args=(i,)) for i in range(4)]
+    for th in ths:
+        th.start()
+    for th in ths:
+        th.join()
+    plan.close()
+    for i in range(4):
+        with kifmm.FMM("laplace_grad", sets[i], order=5, nthreads=1) as f:
+            assert np.array_equal(out[i], f.evaluate(qs[i]))
+            own = f.stats
+        assert stats[i]["plan_bytes"] > 0
+        assert stats[i]["bytes"] + 0.5 * stats[i]["plan_bytes"] < own["bytes"]
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace_grad", sets[0], plan=plan)  # closed
+    plan = kifmm.Plan("laplace_grad", order=5)
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace_grad", sets[0], plan=plan, order=6)
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace", sets[0], plan=plan)
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace_grad", sets[0], plan="plan")
+
+
+def test_update_points_while_evaluating():
+    """one thread moves the points between two counts while this one
+    evaluates: each result fits the count of its own call (a count changed
+    between reading it and the call is a ValueError, never a crash)"""
+    small, big = points(300, 91), points(5000, 92)
+    f = kifmm.FMM("laplace", small, order=4)
+    done = threading.Event()
+
+    def mover():
+        for k in range(30):
+            f.update_points(big if k % 2 == 0 else small)
+        done.set()
+
+    th = threading.Thread(target=mover)
+    th.start()
+    q = np.ones(5000)
+    while not done.is_set():
+        n = f.nsources
+        try:
+            r = f.evaluate(q[:n])
+        except ValueError:
+            continue
+        assert r.shape == (n, 1) or r.shape == (n,) or r.shape[0] == n
+    th.join()
+
+
 def test_gil_released():
     """create and evaluate of 300,000 points in a thread while this one counts"""
     x = points(300000, 16)
