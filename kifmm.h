@@ -4626,7 +4626,9 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
 #if KIFMM__FFT
 /* The products' blocks of every chunk (kifmm__fft_blocks) for the n new
  * operator sets e, built once when they all fit, with the blocks the plan
- * keeps already, in KIFMM__FFT_KB_MB (float spectra, one set of operators:
+ * keeps already, in KIFMM__FFT_KB_MB, and so would the blocks of all ntot
+ * sets with M2L the tree uses (so that a tree keeps what create would
+ * keep for it, whatever the plan held before) (float spectra, one set of operators:
  * 5.6 MiB at p = 4); otherwise the products build each chunk's blocks once
  * per slab, in the thread's cache. Kept blocks larger than that are read
  * from memory by every task: uniform points, 2 threads, M2L by chunks
@@ -4634,14 +4636,15 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
  * outputs), 0.68 against 0.81 s at p = 6 (16 MiB, 1M points; 0.07 against
  * 0.08 s at 200k), 3.3 against 4.8 s at p = 8 (72 MiB, 2M points). Under
  * the plan's lock. */
-KIFMM__FN int KIFMM__F(__keep_blocks)(const KIFMM_NAME *c, KIFMM__F(__ops) **e, int n)
+KIFMM__FN int KIFMM__F(__keep_blocks)(const KIFMM_NAME *c, KIFMM__F(__ops) **e, int n, int ntot)
 {
     const kifmm__fft *pl = &c->pl->fft;
     const size_t per = KIFMM__FFT_KBN, all = per * (size_t)pl->nchunk;
     const size_t bytes = all * (pl->single ? sizeof(float) : sizeof(double));
+    const size_t cap = (size_t)KIFMM__FFT_KB_MB << 20;
     int tvm[27 * 64], nk = 0, k;
     for (k = 0; k < n; k++) nk += e[k]->khat != NULL;
-    if (nk == 0 || c->pl->ops.kept + bytes * (size_t)nk > (size_t)KIFMM__FFT_KB_MB << 20)
+    if (nk == 0 || c->pl->ops.kept + bytes * (size_t)nk > cap || bytes * (size_t)ntot > cap)
         return KIFMM_SUCCESS;
     kifmm__fft_tvmap(tvm);
     for (k = 0; k < n; k++) {
@@ -4861,7 +4864,12 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
     }
     if (nb) rc = KIFMM__F(__ops_build)(c, n, r, m2l, from, e);
 #if KIFMM__FFT
-    if (!rc && nb) rc = KIFMM__F(__keep_blocks)(c, e, nb);
+    if (!rc && nb) {
+        int ntot = 0;
+        for (l = 0; l < n; l++) ntot += c->lv[l] && c->lv[l]->khat;
+        for (k = 0; k < nb; k++) ntot += e[k] && e[k]->khat;
+        rc = KIFMM__F(__keep_blocks)(c, e, nb, ntot);
+    }
 #endif
     for (l = 0, k = 0; l < n; l++) {
         if (from[l] >= 0) continue;
@@ -7773,6 +7781,10 @@ KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const K
     *h = *n;
     *n = tmp;
     KIFMM__F(_destroy)(n);
+    kifmm__lock_take(&h->pl->lock); /* the plan without the sets only the old tree used */
+    h->pbytes = (double)h->pl->held;
+    kifmm__lock_give(&h->pl->lock);
+    KIFMM__F(__stats_set)(h);
     h->stats.t_tree = st.t_tree; /* create's, and the last evaluate's */
     h->stats.t_operators = st.t_operators;
     h->stats.t_p2m = st.t_p2m, h->stats.t_m2m = st.t_m2m, h->stats.t_m2l = st.t_m2l;
@@ -7804,7 +7816,7 @@ KIFMM__API int KIFMM__F(_plan_create)(KIFMM__F(_plan) **out, const kifmm_opts *o
         if (c) c->opts = o, c->pl = pl;
         if (!rc) rc = KIFMM__F(__ops_build)(c, 1, &r, &m2l, &from, &e);
 #if KIFMM__FFT
-        if (!rc) rc = KIFMM__F(__keep_blocks)(c, &e, 1);
+        if (!rc) rc = KIFMM__F(__keep_blocks)(c, &e, 1, 1);
 #endif
         if (!rc) rc = KIFMM__F(__ops_add)(pl, e);
         else if (e) KIFMM__F(__ops_free)(e), kifmm__free(e);
