@@ -3963,10 +3963,11 @@ struct KIFMM__F(_plan) {
     kifmm__fft fft;            /* the FFT M2L's transforms of the check-order lattice */
 };
 
-/* The handle: its plan (shared with nobody yet), the points and what is
- * built from them (tree, lists, FFT slabs, near-field chunks), and the
- * workspace. Every block it allocates is counted where it is allocated
- * (kifmm__take): in held, tree.held, the plan's and the workspace's held. */
+/* The handle: its plan (its own, or shared: create_with_plan) and the
+ * plan's entries it uses, the points and what is built from them (tree,
+ * lists, FFT slabs, near-field chunks), and the workspace. Every block it
+ * allocates is counted where it is allocated (kifmm__take): in held,
+ * tree.held, the plan's and the workspace's held. */
 struct KIFMM_NAME {
     size_t held;               /* bytes of the blocks below, plan, tree and workspace apart */
     kifmm_opts opts;           /* options, defaults resolved (with the kernel's
@@ -4675,8 +4676,8 @@ KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const
     int l, todo = 0;
     for (l = l0; l < nl; l++) todo += from[l] < 0;
     const int nth = c->opts.nthreads, outer = todo >= nth;
-    /* each level l writes its own o[l] and rc[l]; levels copied from an
-     * earlier plan (from[l] >= 0) are skipped */
+    /* each level l writes its own o[l] and rc[l]; levels the plan holds
+     * already (from[l] >= 0) are skipped */
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) if(outer))
     for (int k = l0; k < nl; k++)
         if (from[k] < 0) rc[k] = KIFMM__F(__ops_kernels)(c, r[k], m2l[k], outer ? 1 : nth, &o[k]);
@@ -4746,7 +4747,7 @@ KIFMM__FN size_t KIFMM__F(__ops_kept)(const KIFMM__F(__ops) *e)
     return kifmm__size(e->kbf) + kifmm__size(e->kbd);
 }
 
-/* A new set e (refs 1) into plan pl; NULL: e is freed. Under the lock. */
+/* A new set e (refs 1) into plan pl; on failure e is freed. Under the lock. */
 KIFMM__FN int KIFMM__F(__ops_add)(KIFMM__F(_plan) *pl, KIFMM__F(__ops) *e)
 {
     if (pl->ops.n == pl->ops.cap) {
@@ -4800,9 +4801,10 @@ KIFMM__FN int KIFMM__F(__ops_wanted)(const kifmm__tree *t, double *r, int *m2l)
     return 1;
 }
 
-/* n new sets (r[l], m2l[l] for the levels l of `build`) for handle c, built
- * (the kernel values of the levels side by side, __ops_levels), into
- * e[0..n) in the order of `build` (NULL where it failed). */
+/* The new sets of handle c: for each level l < nlev with from[l] < 0, one
+ * at half-width r[l] (with the M2L's if m2l[l]), built (the kernel values
+ * of the levels side by side, __ops_levels), into e[0..) in level order
+ * (NULL where it failed). */
 KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double *r, const int *m2l,
                                     const int *from, KIFMM__F(__ops) **e)
 {
