@@ -686,17 +686,6 @@ KIFMM__FN void kifmm__drop(size_t *held, void *p)
     kifmm__free(p);
 }
 
-/* A copy of block p (NULL for NULL) counted in *held; *fail set when the
- * allocation fails. */
-KIFMM__FN void *kifmm__dup(size_t *held, const void *p, int *fail)
-{
-    void *q;
-    if (!p) return NULL;
-    if ((q = kifmm__take(held, kifmm__size(p), 1))) memcpy(q, p, kifmm__size(p));
-    else *fail = 1;
-    return q;
-}
-
 /* Do the byte ranges [a, a + na) and [b, b + nb) overlap? */
 KIFMM__FN int kifmm__overlap(const void *a, size_t na, const void *b, size_t nb)
 {
