@@ -29,7 +29,8 @@
  *        >>downward  L2L, P2L, M2L (FFT or dense), the downward solve
  *        >>leaves    L2P, M2P, P2P
  *        >>create    create's steps (plan, points, workspace), create,
- *                    update_points, evaluate, destroy, stats, options
+ *                    update_points, the shared plan and tree, evaluate,
+ *                    destroy, stats, options
  *   5. >>epilogue: #undef of the template parameters; license
  *
  * 1. QUICK START
@@ -287,6 +288,12 @@ typedef struct kifmm_opts {
                                operator; all 0: the box from the points (the
                                default). Not with opts.period (docs/api.md) */
 } kifmm_opts;
+
+/* A tree over one set of points (sorted points, boxes, interaction
+ * lists) that handles of different kernels of one precision can share:
+ * <prefix>_tree, <prefix>_create_on_tree (docs/api.md, "One tree for
+ * several kernels"). Opaque; it lives while a handle uses it. */
+typedef struct kifmm_tree kifmm_tree;
 
 /* What a handle is made of and where the last evaluation spent its time. */
 typedef struct kifmm_stats {
@@ -1026,7 +1033,6 @@ typedef struct kifmm__tree {
     int32_t *parent;              /* -1 for the root */
     int32_t *anchor;              /* integer coordinates of each box at its level (3 per box) */
     unsigned char *lev;           /* level of each box */
-    int32_t *dsrc;                /* box whose local expansion serves this box, or -1 */
     int32_t *inner;               /* internal boxes, level by level */
     int64_t *s0, *s1, *t0, *t1;   /* point ranges of each box */
     int32_t *uo, *u, *vo, *v, *wo, *w, *xo, *x; /* lists, offsets per box (v: NULL
@@ -1045,12 +1051,63 @@ typedef struct kifmm__tree {
 KIFMM__FN void kifmm__tree_free(kifmm__tree *t)
 {
     void *p[] = {t->src, t->same ? NULL : t->trg, t->sperm, t->same ? NULL : t->tperm,
-                 t->key, t->child, t->parent, t->anchor, t->lev, t->dsrc, t->inner,
+                 t->key, t->child, t->parent, t->anchor, t->lev, t->inner,
                  t->s0, t->s1, t->t0, t->t1, t->uo, t->u, t->vo, t->v, t->wo, t->w,
                  t->xo, t->x, t->vt, t->m2lo, t->m2l, t->leaves, t->us, t->ws, t->xs, t->alias};
     size_t i;
     for (i = 0; i < sizeof p / sizeof p[0]; i++) kifmm__free(p[i]);
     memset(t, 0, sizeof *t);
+}
+
+/* n added to *r atomically; the new value. */
+KIFMM__FN int kifmm__refs_add(int *r, int n)
+{
+#if defined(__GNUC__) || defined(__clang__)
+    return __atomic_add_fetch(r, n, __ATOMIC_ACQ_REL);
+#else
+    int v;
+    KIFMM__OMP(critical(kifmm__refs))
+    v = *r += n;
+    return v;
+#endif
+}
+
+/* The points' part that handles share (<prefix>_tree, <prefix>_create_on_tree):
+ * the tree, its lists and the sorted points, with the options that shaped
+ * them. Reference counted: it lives while a handle uses it. Its layout does
+ * not depend on the translation unit's build options (no lock: the count
+ * is atomic), so handles of instances compiled apart can share one. */
+struct kifmm_tree {
+    int refs;                  /* handles on it */
+    int single;                /* the sorted points are float (fsrc, ftrg), else double
+                                  (t.src, t.trg) */
+    int vlists;                /* the lists hold V entries (the dense M2L's) */
+    int leaf_size, max_depth;  /* the options that built it, resolved */
+    double period[3], domain[4];
+    float *fsrc, *ftrg;        /* float trees: the sorted points (ftrg = fsrc if same);
+                                  counted in t.held */
+    kifmm__tree t;
+};
+
+/* A tree with nothing in it yet, one reference; NULL if out of memory. */
+KIFMM__FN kifmm_tree *kifmm__tree_new(int64_t ns, int64_t nt)
+{
+    kifmm_tree *tr = (kifmm_tree *)kifmm__calloc(1, sizeof *tr);
+    if (!tr) return NULL;
+    tr->refs = 1;
+    tr->t.ns = ns;
+    tr->t.nt = nt;
+    return tr;
+}
+
+/* One reference let go; the tree freed with the last. NULL is a no-op. */
+KIFMM__FN void kifmm__tree_release(kifmm_tree *tr)
+{
+    if (!tr || kifmm__refs_add(&tr->refs, -1) > 0) return;
+    kifmm__free(tr->fsrc);
+    if (tr->ftrg != tr->fsrc) kifmm__free(tr->ftrg);
+    kifmm__tree_free(&tr->t);
+    kifmm__free(tr);
 }
 
 KIFMM__FN int kifmm__level_of(const kifmm__tree *t, int32_t b)
@@ -2087,7 +2144,7 @@ KIFMM__FN int kifmm__lists_assemble(kifmm__tree *t, int nth, int vlists, int32_t
     return KIFMM_SUCCESS;
 }
 
-/* t->dsrc: a box refits a local expansion only where its own level brings
+/* dsrc (one per box): a box refits a local expansion only where its own level brings
  * new far-field content: a V list, or an X list when the box holds at least
  * `xdirect` targets (boxes with fewer take their X sources directly), or,
  * in a periodic tree, the far images (the root, and the boxes of level
@@ -2096,23 +2153,23 @@ KIFMM__FN int kifmm__lists_assemble(kifmm__tree *t, int nth, int vlists, int32_t
  * adds an error of the fit order relative to the whole local field on the
  * box's own scale, which along a chain of boxes down to an isolated cluster
  * would swamp its gradient. */
-KIFMM__FN void kifmm__tree_dsrc(kifmm__tree *t, int64_t xdirect, int flev)
+KIFMM__FN void kifmm__tree_dsrc(const kifmm__tree *t, int32_t *dsrc, int64_t xdirect, int flev)
 {
     int32_t b;
     for (b = 0; b < t->nbox; b++) {
         int fresh = t->vo[b + 1] > t->vo[b] || (t->periodic && (b == 0 || t->lev[b] == flev)) ||
                     (t->xo[b + 1] > t->xo[b] && t->t1[b] - t->t0[b] >= xdirect);
-        if (b < t->loff[kifmm__lmin(t) < t->nlev ? kifmm__lmin(t) : t->nlev]) t->dsrc[b] = -1;
-        else if (fresh) t->dsrc[b] = b;
-        else t->dsrc[b] = t->dsrc[t->parent[b]];
+        if (b < t->loff[kifmm__lmin(t) < t->nlev ? kifmm__lmin(t) : t->nlev]) dsrc[b] = -1;
+        else if (fresh) dsrc[b] = b;
+        else dsrc[b] = dsrc[t->parent[b]];
     }
 }
 
 /* What the passes derive from the lists: per level, the boxes that receive
  * M2L (m2l, from m2lo[l]); the leaves with targets in Morton order (depth
- * first, children in key order, which is the order of their points); which
- * box's local expansion serves each box (dsrc; the handle redoes it with
- * its X threshold). */
+ * first, children in key order, which is the order of their points). Which
+ * box's local expansion serves each box depends on the handle's check
+ * surface: the handle's (kifmm__tree_dsrc). */
 KIFMM__FN int kifmm__lists_derived(kifmm__tree *t)
 {
     const int32_t nb = t->nbox;
@@ -2121,8 +2178,7 @@ KIFMM__FN int kifmm__lists_derived(kifmm__tree *t)
     t->m2lo = (int32_t *)kifmm__takez(&t->held, (size_t)t->nlev + 1, sizeof(int32_t));
     t->m2l = (int32_t *)kifmm__take(&t->held, (size_t)nb + 1, sizeof(int32_t));
     t->leaves = (int32_t *)kifmm__take(&t->held, (size_t)nb + 1, sizeof(int32_t));
-    t->dsrc = (int32_t *)kifmm__take(&t->held, (size_t)nb + 1, sizeof(int32_t));
-    if (!t->m2lo || !t->m2l || !t->leaves || !t->dsrc) return KIFMM_ERR_NOMEM;
+    if (!t->m2lo || !t->m2l || !t->leaves) return KIFMM_ERR_NOMEM;
     for (l = 0; l < t->nlev; l++) {
         t->m2lo[l + 1] = t->m2lo[l];
         for (b = t->loff[l]; b < t->loff[l + 1]; b++)
@@ -2137,7 +2193,6 @@ KIFMM__FN int kifmm__lists_derived(kifmm__tree *t)
         else
             for (o = 7; o >= 0; o--) stk[sp++] = t->child[b] + o;
     }
-    kifmm__tree_dsrc(t, 0, 0);
     return KIFMM_SUCCESS;
 }
 
@@ -3932,6 +3987,8 @@ struct KIFMM__F(_plan) {
     int refs;                  /* handles that use it, and 1 for plan_create's caller */
     kifmm__lock lock;          /* over refs, the entries and held */
     kifmm_opts opts;           /* the options it was built for, defaults resolved */
+    int shape[2];              /* leaf size and depth as given (0: chosen; a handle on a
+                                  tree takes the tree's: __tree_fits) */
     struct {                   /* the equivalent and check surfaces */
         int nse, nsc;          /* points */
         int cdiff;             /* check order - equivalent order (kifmm__check_diff) */
@@ -3968,10 +4025,15 @@ struct KIFMM_NAME {
     KIFMM__F(__far) *far;      /* periodic trees: the far images (pl's), else NULL */
     unsigned char nz[KIFMM__SD * KIFMM__SD]; /* the union of lv's nz */
     double pbytes;             /* the plan's bytes when the handle was built */
-    kifmm__tree tree;          /* boxes, lists, and the sorted points in double */
+    kifmm_tree *tr;            /* the points' part: its own, or shared (create_on_tree) */
+    const kifmm__tree *tree;   /* &tr->t: boxes, lists, and the sorted points in double */
+    int tshared;               /* tr came from another handle (stats.bytes leave it out) */
+    int shape[2];              /* leaf size and depth as given (see the plan's) */
     struct {                   /* the sorted points in the instance's precision */
-        KIFMM__R *src, *trg;   /* structure of arrays; the tree's own in double */
+        const KIFMM__R *src, *trg; /* structure of arrays: tr's (t.src or fsrc) */
     } pts;
+    int32_t *dsrc;             /* per box: the box whose local expansion serves it, or
+                                  -1 (kifmm__tree_dsrc, with this handle's check surface) */
     struct {                   /* the FFT M2L */
         int32_t *co, *cj;      /* internal colleagues of internal boxes, and */
         unsigned char *cc;     /* their offset codes */
@@ -4840,7 +4902,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
  * them go). */
 KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int nl = t->nlev, n = KIFMM__SI ? 1 : nl;
     double r[KIFMM__D + 2];
     int m2l[KIFMM__D + 2], from[KIFMM__D + 2], l, k, nb = 0, rc = KIFMM_SUCCESS;
@@ -5025,7 +5087,7 @@ KIFMM__FN int KIFMM__F(__lat_ring_sums)(const KIFMM_NAME *c, double h, int q, do
     const int w = 2 * q - 1;
     const double g = 2.0 * c->pl->surf.ai * h / (q - 1);
     int bad = 0, m[3 * 729];
-    const int nm = kifmm__lat_offsets(&c->tree, 1, m);
+    const int nm = kifmm__lat_offsets(c->tree, 1, m);
     /* each offset e writes its own sum */
     KIFMM__OMP(parallel for schedule(dynamic, 16) num_threads(c->opts.nthreads) reduction(| : bad))
     for (int64_t e = 0; e < (int64_t)w * w * w; e++) {
@@ -5052,7 +5114,7 @@ KIFMM__FN int KIFMM__F(__lat_ring_sums)(const KIFMM_NAME *c, double h, int q, do
 KIFMM__FN int KIFMM__F(__lat_ring_pairs)(const KIFMM_NAME *c, double h, double *a)
 {
     int m[3 * 729];
-    const int nm = kifmm__lat_offsets(&c->tree, 1, m);
+    const int nm = kifmm__lat_offsets(c->tree, 1, m);
     return KIFMM__F(__lat_kmat)(c, c->pl->surf.ai * h, c->pl->surf.ai * h, h, m, nm, a);
 }
 #endif
@@ -5189,7 +5251,7 @@ KIFMM__FN int KIFMM__F(__lat_level)(const KIFMM_NAME *c, double h, int want_e, k
     rc = k && t && L->a && L->b && L->c ? KIFMM__F(__c2e_kernels)(c, H, ao, &o) : KIFMM_ERR_NOMEM;
     if (!rc) rc = KIFMM__F(__c2e_solve)(c, &o);
     /* C: the 27 (9, 3) cells' densities -> the super-cell's check -> density */
-    nm = kifmm__lat_offsets(&c->tree, 0, m);
+    nm = kifmm__lat_offsets(c->tree, 0, m);
     if (!rc) rc = KIFMM__F(__lat_kmat)(c, ao * H, ai * h, h, m, nm, k);
     if (!rc) {
         kifmm__gemm(0, 0, o.ku, ne, nc, 1.0, o.ut_up, o.ku, k, nc, 0.0, t, o.ku);
@@ -5445,7 +5507,7 @@ KIFMM__FN int KIFMM__F(__far_super)(const KIFMM_NAME *c, double h, const double 
     if (!rc && !sup) rc = KIFMM__F(__c2e_kernels)(c, H, ao, &own);
     if (!rc && !sup) rc = KIFMM__F(__c2e_solve)(c, &own);
     /* C': E's copies -> the super-cell's check (k1, nc x me) -> its density */
-    nm = kifmm__lat_offsets(&c->tree, 0, m);
+    nm = kifmm__lat_offsets(c->tree, 0, m);
     if (!rc) memset(k1, 0, (size_t)nc * me * sizeof(double));
     for (i = 0; i < nm && !rc; i++) {
         const double ec[3] = {2.0 * h * m[3 * i], 2.0 * h * m[3 * i + 1], 2.0 * h * m[3 * i + 2]};
@@ -5485,7 +5547,7 @@ KIFMM__FN int KIFMM__F(__far_pairs)(const KIFMM_NAME *c, double h, int q, const 
     double *gs = (double *)kifmm__alloc((size_t)w * w * w * SD2, sizeof(double));
     int i, rc = gs ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
 #if KIFMM__EWALD
-    if (c->tree.per[0] + c->tree.per[1] + c->tree.per[2] == 3) { /* a scale-invariant kernel: Ewald */
+    if (c->tree->per[0] + c->tree->per[1] + c->tree->per[2] == 3) { /* a scale-invariant kernel: Ewald */
         if (!rc) rc = KIFMM__F(__lat_ewald_sums)(c, h, q, gs);
         if (!rc) rc = KIFMM__F(__lat_gather)(q, ue, ne, gs, g, (size_t)me);
         kifmm__free(gs);
@@ -5537,7 +5599,7 @@ KIFMM__FN int KIFMM__F(__far_root)(KIFMM_NAME *c, const double *T3, const kifmm_
     const int q = kifmm__ewald_order(c->opts.order, c->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
     const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q);
     const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD;
-    const double h = 0.5 * c->tree.width, hf = KIFMM__SI ? 1.0 : h;
+    const double h = 0.5 * c->tree->width, hf = KIFMM__SI ? 1.0 : h;
     const double ao = kifmm__alpha_outer(cd, KIFMM__SD) * hf, ai = c->pl->surf.ai * hf;
     const double zero[3] = {0.0, 0.0, 0.0};
     double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne), sizeof(double));
@@ -5606,7 +5668,7 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
     kifmm__lat L;
     size_t i;
     int rc, d, np = 0;
-    for (d = 0; d < 3; d++) np += c->tree.per[d];
+    for (d = 0; d < 3; d++) np += c->tree->per[d];
     if (KIFMM__SI && np == 3) { /* Ewald sums (__far_pairs) */
 #if KIFMM__EWALD
         rc = KIFMM__F(__far_root)(c, NULL, NULL);
@@ -5629,7 +5691,7 @@ KIFMM__FN int KIFMM__F(__lattice_build)(KIFMM_NAME *c)
         }
         for (i = 0; i < nn && !rc; i++) T[i] *= pow(3.0, c->pl->ops.degree);
     } else if (!rc) {
-        rc = KIFMM__F(__lat_sum)(c, 1.5 * c->tree.width, T);
+        rc = KIFMM__F(__lat_sum)(c, 1.5 * c->tree->width, T);
     }
     if (!rc) rc = KIFMM__F(__far_root)(c, T, KIFMM__SI ? &L.sup : NULL);
     kifmm__free(T);
@@ -5650,7 +5712,7 @@ KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
  * half-width 1. */
 KIFMM__FN double KIFMM__F(__level_scale)(const KIFMM_NAME *c, int l)
 {
-    double half = 0.5 * c->tree.width / (double)((int64_t)1 << l);
+    double half = 0.5 * c->tree->width / (double)((int64_t)1 << l);
     return KIFMM__SI ? pow(half, -c->pl->ops.degree) * c->lv[l]->sigma : c->lv[l]->sigma;
 }
 
@@ -5669,7 +5731,7 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
 KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 {
     size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.ne ? c->pl->surf.nc : c->pl->surf.ne);
-    sz[0] = (size_t)c->tree.nbox * (size_t)c->pl->surf.ne;                  /* ue, de */
+    sz[0] = (size_t)c->tree->nbox * (size_t)c->pl->surf.ne;                  /* ue, de */
     sz[1] = (size_t)c->work.mb * (size_t)c->pl->surf.nc;                         /* chk */
 #if KIFMM__FFT
     sz[2] = 0;
@@ -5677,8 +5739,8 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 #else
     sz[2] = (size_t)c->work.mb * big; /* tmp: the first solve step and the dense M2L, a level */
 #endif
-    sz[3] = (size_t)c->tree.ns * KIFMM__QD;                        /* qs */
-    sz[4] = (size_t)c->tree.nt * KIFMM__TD;                        /* outs */
+    sz[3] = (size_t)c->tree->ns * KIFMM__QD;                        /* qs */
+    sz[4] = (size_t)c->tree->nt * KIFMM__TD;                        /* outs */
 }
 
 /* Values per thread of the task output buffers for up to nrhs vectors: the
@@ -5688,7 +5750,7 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
  * of the sorted output array. */
 KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     int64_t m = c->pl->surf.nsc, all = t->nt * (int64_t)nrhs * KIFMM__TD;
     int32_t i;
     for (i = 0; i < t->nleaves; i++)
@@ -5709,7 +5771,7 @@ KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
 KIFMM__FN void KIFMM__F(__put)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                int64_t t0, int64_t n, const KIFMM__R *b, size_t ld)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const size_t oper = (size_t)t->nt * KIFMM__TD;
     int64_t i;
     int r, k;
@@ -5737,7 +5799,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__lbuf)(const KIFMM__F(__work) *w, int nrhs, int64_
  * expansions are zero once and for all. */
 KIFMM__FN void KIFMM__F(__work_zero)(const KIFMM_NAME *c, KIFMM__F(__work) *w, size_t per)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const size_t ne = (size_t)c->pl->surf.ne;
     int32_t b;
     int r;
@@ -5832,7 +5894,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__framebuf)(const KIFMM_NAME *c)
  * themselves for s = KIFMM__NOSHIFT. *ld: values per coordinate. */
 KIFMM__FN const KIFMM__R *KIFMM__F(__image)(const KIFMM_NAME *c, int32_t a, int s, size_t *ld)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int64_t s0 = t->s0[a], n = t->s1[a] - s0;
     KIFMM__R *buf = KIFMM__F(__framebuf)(c) + 3 * c->work.fpts;
     int64_t i;
@@ -5880,7 +5942,7 @@ KIFMM__FN const KIFMM__R *KIFMM__F(__frame)(const KIFMM__R *pts, size_t *ld, int
 
 /* Layout of the per-level arrays chk and tmp: vector r, box b of level l, with
  * `rows` entries per box: [(r * n_l + (b - loff[l])) * rows]. */
-#define KIFMM__LVL(c, l) ((c)->tree.loff[(l) + 1] - (c)->tree.loff[(l)])
+#define KIFMM__LVL(c, l) ((c)->tree->loff[(l) + 1] - (c)->tree->loff[(l)])
 
 /* Check vectors -> equivalent densities for every box of level l: per piece
  * of KIFMM__GC_NC columns (box x vector; chk holds them in that order),
@@ -5889,7 +5951,7 @@ KIFMM__FN const KIFMM__R *KIFMM__F(__frame)(const KIFMM__R *pts, size_t *ld, int
 KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l,
                                  int up)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     const int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd;
     const int32_t *ai = c->work.act + (up ? 0 : t->nbox) + t->loff[l];
@@ -5930,7 +5992,7 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
 KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
                                         int nrhs, int lp, int down)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
     const int ppv = (ni + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
     const int m = down ? 8 * c->pl->surf.nc : c->pl->surf.nc, k = down ? c->pl->surf.ne : 8 * c->pl->surf.ne;
@@ -5964,7 +6026,7 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
  * sibling (t->alias) take its upward densities. */
 KIFMM__FN void KIFMM__F(__alias_fill)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const size_t ne = (size_t)c->pl->surf.ne, per = (size_t)t->nbox * ne;
     int32_t b;
     int r;
@@ -5988,7 +6050,7 @@ KIFMM__FN void KIFMM__F(__alias_fill)(const KIFMM_NAME *c, const KIFMM__F(__work
 KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                     int l)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int32_t *ai = c->work.act + t->loff[l];
     const int na = c->work.act[2 * t->nbox + 2 * l], nse = c->pl->surf.nse, ne = c->pl->surf.ne;
     const size_t per = (size_t)t->nbox * (size_t)ne, ldq = (size_t)t->ns * KIFMM__QD;
@@ -6036,7 +6098,7 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
  * internal boxes', then the solve for the equivalent densities. */
 KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     int nl = KIFMM__LVL(c, l);
     double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1;
     memset(w->chk, 0, (size_t)nl * nrhs * c->pl->surf.nc * sizeof(KIFMM__R));
@@ -6077,7 +6139,7 @@ KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
 KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                       int l, int up, int step)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd, r;
     size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
@@ -6095,7 +6157,7 @@ KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work
 KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                      int l)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, blk = c->work.m2l_cols / nrhs;
     int nl = KIFMM__LVL(c, l);
@@ -6264,7 +6326,7 @@ KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32
 KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, KIFMM__F(__sp) op,
                                       size_t ocs, KIFMM__R *chk)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int nc = c->pl->surf.nc;
     const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
     double *dchk = KIFMM__F(__mbuf)(c);
@@ -6291,7 +6353,7 @@ KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, KIF
 KIFMM__FN int32_t KIFMM__F(__fft_slab)(const KIFMM_NAME *c, int l, int kept, int32_t s0,
                                        int32_t *nneed)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int32_t ni = t->ioff[l] - t->ioff[l - 1], base = t->ioff[l - 1];
     const int32_t *co = c->fft.co, *cj = c->fft.cj;
     int32_t *loc = c->fft.loc, s1, e;
@@ -6321,7 +6383,7 @@ KIFMM__FN int32_t KIFMM__F(__fft_slab)(const KIFMM_NAME *c, int l, int kept, int
 KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
                                        const KIFMM__R *ue, int32_t nneed)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const kifmm__fft *pl = &c->pl->fft;
     const int ne = c->pl->surf.ne, nc = c->pl->surf.nc;
     const size_t cstride = (size_t)c->fft.slots * KIFMM__FFT_F * 16;
@@ -6354,7 +6416,7 @@ KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__
 KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
                                          const int *tv, int32_t s0, int32_t s1, KIFMM__R *chk)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int32_t base = t->ioff[l - 1], *co = c->fft.co, *cjl = c->fft.cjl;
     const size_t fcs = (size_t)c->fft.slots * KIFMM__FFT_F * 16; /* fout chunk */
     /* chunk ch writes its own part of fout (its thread's blocks) */
@@ -6392,7 +6454,7 @@ KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM
 KIFMM__FN void KIFMM__F(__fft_task)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
                                     int32_t s0, int32_t p0, int32_t nb, size_t ocs)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int32_t base = t->ioff[l - 1], *co = c->fft.co, *cjl = c->fft.cjl;
     const int nchunk = c->pl->fft.nchunk;
     int ch;
@@ -6424,7 +6486,7 @@ KIFMM__FN void KIFMM__F(__fft_task)(const KIFMM_NAME *c, int l, const KIFMM__F(_
 KIFMM__FN void KIFMM__F(__fft_by_parents)(const KIFMM_NAME *c, int l, const KIFMM__F(__ops) *o,
                                           int32_t s0, int32_t s1, KIFMM__R *chk)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     int32_t tb = (s1 - s0) / (4 * c->opts.nthreads), nblk;
     size_t ocs;
     tb = tb < 1 ? 1 : tb > c->fft.ftb ? c->fft.ftb : tb;
@@ -6455,7 +6517,7 @@ KIFMM__FN void KIFMM__F(__fft_by_parents)(const KIFMM_NAME *c, int l, const KIFM
 KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                    int l)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     const int32_t ni = t->ioff[l] - t->ioff[l - 1];
     const int kept = o->kbf || o->kbd;
@@ -6483,7 +6545,7 @@ KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__wo
                                         const KIFMM__R *ty, const KIFMM__R *tz, int64_t nt,
                                         KIFMM__R *out, size_t old)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int64_t s0 = t->s0[a];
     size_t ld;
     const KIFMM__R *xs = KIFMM__F(__image)(c, a, s, &ld);
@@ -6499,7 +6561,7 @@ KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__wo
 KIFMM__FN void KIFMM__F(__x_direct)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                     int32_t b)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int64_t tb0 = t->t0[b], ntb = t->t1[b] - tb0;
     KIFMM__R *o = w->outs ? w->outs + tb0 * KIFMM__TD : KIFMM__F(__lbuf)(w, nrhs, ntb);
     const size_t old = w->outs ? (size_t)t->nt * KIFMM__TD : (size_t)ntb * KIFMM__TD;
@@ -6519,9 +6581,9 @@ KIFMM__FN void KIFMM__F(__x_direct)(const KIFMM_NAME *c, const KIFMM__F(__work) 
 KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                    int l, int32_t b, double scale, KIFMM__R *chk, size_t cst)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const double zero[3] = {0.0, 0.0, 0.0};
-    const int32_t a = l >= 1 ? t->dsrc[t->parent[b]] : -1;
+    const int32_t a = l >= 1 ? c->dsrc[t->parent[b]] : -1;
     const int nsc = c->pl->surf.nsc, nse = c->pl->surf.nse;
     KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (nsc > nse ? nsc : nse);
     double ctr[3], half;
@@ -6567,7 +6629,7 @@ KIFMM__FN void KIFMM__F(__m2l_solve)(KIFMM_NAME *c, const KIFMM__F(__work) *w, i
     double t1, t2;
 #if KIFMM__FFT
     t1 = t0;
-    if (c->tree.m2lo[l + 1] > c->tree.m2lo[l]) KIFMM__F(__m2l_fft)(c, w, nrhs, l);
+    if (c->tree->m2lo[l + 1] > c->tree->m2lo[l]) KIFMM__F(__m2l_fft)(c, w, nrhs, l);
     t2 = kifmm__now();
     KIFMM__F(__solve)(c, w, nrhs, l, 0);
 #else
@@ -6594,7 +6656,7 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
                                      int l)
 {
     enum { BLK = 32 };
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int nu = c->far->nzu, mu = nu * KIFMM__SD; /* D shares U's points */
     const size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne, cst = (size_t)KIFMM__LVL(c, l) * c->pl->surf.nc;
     const double scale = KIFMM__F(__level_scale)(c, l);
@@ -6657,7 +6719,7 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
  * the solve), P2L and M2L. */
 KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const size_t cst = (size_t)KIFMM__LVL(c, l) * c->pl->surf.nc;
     const double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now();
     double t1;
@@ -6672,7 +6734,7 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
         int r;
         if (t->t1[b] - t->t0[b] < c->pl->surf.nsc && t->xo[b + 1] > t->xo[b])
             KIFMM__F(__x_direct)(c, w, nrhs, b);
-        if (t->dsrc[b] == b) {
+        if (c->dsrc[b] == b) {
             KIFMM__F(__p2l_box)(c, w, nrhs, l, b, scale, chk, cst);
             continue;
         }
@@ -6697,12 +6759,12 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
 {
     double ctr[3], half;
     int sh[3], d;
-    kifmm__box_center(&c->tree, a, ctr, &half);
+    kifmm__box_center(c->tree, a, ctr, &half);
     kifmm__shift_of(s, sh);
-    for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree.cell - fc[d]; /* in the targets' frame */
+    for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree->cell - fc[d]; /* in the targets' frame */
     KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, ctr, alpha * half, pe);
     KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + c->pl->surf.nse, pe + 2 * c->pl->surf.nse, dens, c->pl->surf.nse,
-                    nrhs, (size_t)c->tree.nbox * c->pl->surf.ne, 1.0, out, old);
+                    nrhs, (size_t)c->tree->nbox * c->pl->surf.ne, 1.0, out, old);
     (void)w;
 }
 
@@ -6714,7 +6776,7 @@ KIFMM__FN void KIFMM__F(__p2p_pair)(const KIFMM_NAME *c, const KIFMM__F(__work) 
                                     int32_t a, int32_t b, int s, KIFMM__R *oa, KIFMM__R *ob,
                                     size_t old)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const size_t n = (size_t)t->ns, qld = n * KIFMM__QD;
     const int64_t a0 = t->s0[a], na = t->s1[a] - a0, b0 = t->s0[b], nb = t->s1[b] - b0;
     const KIFMM__R *x = c->pts.src + a0, *qa = w->qs + a0 * KIFMM__QD, *qb = w->qs + b0 * KIFMM__QD;
@@ -6749,7 +6811,7 @@ KIFMM__FN void KIFMM__F(__p2p_u)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
                                  int32_t b, int64_t lo, int64_t hi, KIFMM__R *ob, int64_t base,
                                  size_t old)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
     const KIFMM__R *tx = c->pts.trg + t0, *ty = c->pts.trg + t->nt + t0;
     const KIFMM__R *tz = c->pts.trg + 2 * t->nt + t0;
@@ -6782,7 +6844,7 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
                                 int32_t i, int64_t lo, int64_t hi, double *tm, KIFMM__R *ob,
                                 int64_t base, size_t old)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int32_t b = t->leaves[i];
     const int64_t t0 = t->t0[b], ntb = t->t1[b] - t0;
     const KIFMM__R *tx = c->pts.trg + t0, *ty = c->pts.trg + t->nt + t0;
@@ -6802,14 +6864,14 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
                            c->lat.zt + nu, c->lat.zt + 2 * nu, psi, nu, nrhs, (size_t)nu * KIFMM__SD, 1.0,
                            out, old);
     }
-    if (t->dsrc[b] >= 0 || t->wo[b + 1] > t->wo[b]) {
+    if (c->dsrc[b] >= 0 || t->wo[b + 1] > t->wo[b]) {
         /* the targets in the leaf's frame, for the surfaces */
         kifmm__box_center(t, b, fc, &half);
         xf = KIFMM__F(__frame)(c->pts.trg, &ld, t0, ntb, fc, KIFMM__F(__framebuf)(c));
     }
-    if (t->dsrc[b] >= 0)
-        KIFMM__F(__from_surface)(c, w, nrhs, t->dsrc[b], KIFMM__NOSHIFT, c->pl->surf.ao,
-                                 w->de + (size_t)t->dsrc[b] * c->pl->surf.ne, fc, xf, xf + ld,
+    if (c->dsrc[b] >= 0)
+        KIFMM__F(__from_surface)(c, w, nrhs, c->dsrc[b], KIFMM__NOSHIFT, c->pl->surf.ao,
+                                 w->de + (size_t)c->dsrc[b] * c->pl->surf.ne, fc, xf, xf + ld,
                                  xf + 2 * ld, ntb, pe, out, old);
     c1 = kifmm__now();
     for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
@@ -6835,7 +6897,7 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
 KIFMM__FN void KIFMM__F(__leaf_chunk)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                       int32_t i0, int32_t i1, double *tm)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int64_t lo = t->t0[t->leaves[i0]];
     const int64_t hi = i1 < t->nleaves ? t->t0[t->leaves[i1]] : t->nt;
     const size_t old = (size_t)(hi - lo) * KIFMM__TD;
@@ -6858,7 +6920,7 @@ KIFMM__FN void KIFMM__F(__leaf_chunk)(const KIFMM_NAME *c, const KIFMM__F(__work
 KIFMM__FN void KIFMM__F(__leaf_alone)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
                                       int32_t i, double *tm)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const int64_t t0 = t->t0[t->leaves[i]], n = t->t1[t->leaves[i]] - t0;
     if (w->outs) {
         KIFMM__F(__leaf)(c, w, nrhs, i, 0, 0, tm, w->outs, 0, (size_t)t->nt * KIFMM__TD);
@@ -6893,7 +6955,7 @@ KIFMM__FN void KIFMM__F(__leaves)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
     } else {
         /* leaf i writes its own outputs */
         KIFMM__OMP(parallel for schedule(dynamic, 4) num_threads(c->opts.nthreads) reduction(+ : tl, tw, tu))
-        for (int32_t i = 0; i < c->tree.nleaves; i++) {
+        for (int32_t i = 0; i < c->tree->nleaves; i++) {
             double tm[3] = {0.0, 0.0, 0.0};
             KIFMM__F(__leaf_alone)(c, w, nrhs, i, tm);
             tl += tm[0];
@@ -6918,8 +6980,8 @@ KIFMM__FN void KIFMM__F(__moments)(const KIFMM_NAME *c, const KIFMM__F(__work) *
                                    const double *cen, double *mo)
 {
     static const int pq[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
-    const int64_t ns = c->tree.ns;
-    const double wd = c->tree.width;
+    const int64_t ns = c->tree->ns;
+    const double wd = c->tree->width;
     int b, j;
     memset(mo, 0, (size_t)KIFMM__QD * 10 * sizeof(double));
     for (int64_t i = 0; i < ns; i++) {
@@ -6937,7 +6999,7 @@ KIFMM__FN void KIFMM__F(__moments)(const KIFMM_NAME *c, const KIFMM__F(__work) *
 KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs)
 {
     static const int pq[6][2] = {{0, 0}, {1, 1}, {2, 2}, {0, 1}, {0, 2}, {1, 2}};
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     const double wd = t->width;
     const size_t oper = (size_t)t->nt * KIFMM__TD;
     double cen[3];
@@ -6998,7 +7060,7 @@ KIFMM__FN void KIFMM__F(__background)(const KIFMM_NAME *c, const KIFMM__F(__work
 #endif
 KIFMM__FN int KIFMM__F(__pair_plan)(KIFMM_NAME *c)
 {
-    const kifmm__tree *t = &c->tree;
+    const kifmm__tree *t = c->tree;
     int32_t nk = c->opts.nthreads > 1 ? KIFMM__PAIR_CHUNKS * c->opts.nthreads : 1, i, k = 0;
     double total = 0.0, acc = 0.0;
     int pass;
@@ -7034,8 +7096,8 @@ KIFMM__FN int KIFMM__F(__pair_plan)(KIFMM_NAME *c)
  * lock when the handle was built). */
 KIFMM__FN double KIFMM__F(__held)(const KIFMM_NAME *h, double plan_bytes)
 {
-    return (double)h->held + (double)h->tree.held + (double)(h->work.w ? h->work.w->held : 0) +
-           (h->shared ? 0.0 : plan_bytes);
+    return (double)h->held + (h->tshared ? 0.0 : (double)h->tree->held) +
+           (double)(h->work.w ? h->work.w->held : 0) + (h->shared ? 0.0 : plan_bytes);
 }
 
 /* A far-images entry, freed. */
@@ -7106,11 +7168,8 @@ KIFMM__FN void KIFMM__F(__plan_release)(KIFMM_NAME *h)
  * built from them, the workspace. */
 KIFMM__FN void KIFMM__F(__points_free)(KIFMM_NAME *h)
 {
-    if (KIFMM__FLOAT) {
-        kifmm__free(h->pts.src);
-        if (h->pts.trg != h->pts.src) kifmm__free(h->pts.trg);
-    }
-    kifmm__tree_free(&h->tree);
+    kifmm__tree_release(h->tr);
+    kifmm__free(h->dsrc);
     kifmm__free(h->work.scratch);
     kifmm__free(h->work.gbuf);
     kifmm__free(h->work.act);
@@ -7292,61 +7351,81 @@ KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
     return pl;
 }
 
-/* The tree over the points given in the instance's precision: double goes
- * straight in, float through a double copy; pts.src and pts.trg, the sorted
- * points in the instance's precision. */
+/* A tree over the points given in the instance's precision, into tr
+ * (__tree_own's): double goes straight in, float through a double copy
+ * whose sorted points then change into float ones (tr->fsrc, tr->ftrg). */
+KIFMM__FN int KIFMM__F(__tree_build)(kifmm_tree *tr, const kifmm_opts *o, int64_t ns,
+                                     const KIFMM__R *src, int64_t nt, const KIFMM__R *trg)
+{
+    kifmm__tree *t = &tr->t;
+    int rc;
+#if KIFMM__FLOAT
+    {
+        const int same = src == trg && ns == nt; /* one copy, and the tree sorts once */
+        double *s = (double *)kifmm__alloc((size_t)(3 * ns), sizeof(double));
+        double *g = same ? s : (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
+        if (!s || !g) {
+            kifmm__free(s);
+            if (!same) kifmm__free(g);
+            return KIFMM_ERR_NOMEM;
+        }
+        /* each i copies its own value */
+        KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
+        for (int64_t i = 0; i < 3 * ns; i++) s[i] = src[i];
+        if (!same) {
+            KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
+            for (int64_t i = 0; i < 3 * nt; i++) g[i] = trg[i];
+        }
+        rc = kifmm__tree_build(t, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads,
+                               !KIFMM__FFT, o->period, o->domain);
+        kifmm__free(s);
+        if (!same) kifmm__free(g);
+    }
+    if (rc) return rc;
+    /* the double copies change into float ones */
+    t->held -= kifmm__size(t->src) + (t->same ? 0 : kifmm__size(t->trg));
+    tr->fsrc = KIFMM__F(__own)(&t->held, &t->src, (size_t)(3 * ns));
+    if (t->same) {
+        tr->ftrg = tr->fsrc;
+        t->trg = NULL;
+    } else {
+        tr->ftrg = KIFMM__F(__own)(&t->held, &t->trg, (size_t)(3 * nt));
+    }
+    return tr->fsrc && tr->ftrg ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+#else
+    rc = kifmm__tree_build(t, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads,
+                           !KIFMM__FFT, o->period, o->domain);
+    return rc;
+#endif
+}
+
+/* The handle's side of its tree (built here unless it is shared): the
+ * sorted points in the instance's precision, the level the far images
+ * reach, and which local expansion serves each box (dsrc). */
 KIFMM__FN int KIFMM__F(__points_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R *src, int64_t nt,
                                     const KIFMM__R *trg)
 {
-    const kifmm_opts *o = &c->opts;
     int rc;
+    if (!c->tshared && (rc = KIFMM__F(__tree_build)(c->tr, &c->opts, ns, src, nt, trg))) return rc;
 #if KIFMM__FLOAT
-    const int same = src == trg && ns == nt; /* one copy, and the tree sorts once */
-    double *s = (double *)kifmm__alloc((size_t)(3 * ns), sizeof(double));
-    double *g = same ? s : (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
-    if (!s || !g) {
-        kifmm__free(s);
-        if (!same) kifmm__free(g);
-        return KIFMM_ERR_NOMEM;
-    }
-    /* each i copies its own value */
-    KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
-    for (int64_t i = 0; i < 3 * ns; i++) s[i] = src[i];
-    if (!same) {
-        KIFMM__OMP(parallel for schedule(static) num_threads(o->nthreads))
-        for (int64_t i = 0; i < 3 * nt; i++) g[i] = trg[i];
-    }
-    rc = kifmm__tree_build(&c->tree, ns, s, nt, g, o->leaf_size, o->max_depth, o->nthreads,
-                           !KIFMM__FFT, o->period, o->domain);
-    kifmm__free(s);
-    if (!same) kifmm__free(g);
-    if (rc) return rc;
-    /* the double copies change into float ones */
-    c->tree.held -= kifmm__size(c->tree.src) + (c->tree.same ? 0 : kifmm__size(c->tree.trg));
-    c->pts.src = KIFMM__F(__own)(&c->held, &c->tree.src, (size_t)(3 * ns));
-    if (c->tree.same) {
-        c->pts.trg = c->pts.src;
-        c->tree.trg = NULL;
-    } else {
-        c->pts.trg = KIFMM__F(__own)(&c->held, &c->tree.trg, (size_t)(3 * nt));
-    }
-    if (!c->pts.src || !c->pts.trg) return KIFMM_ERR_NOMEM;
+    c->pts.src = c->tr->fsrc;
+    c->pts.trg = c->tr->ftrg;
 #else
-    rc = kifmm__tree_build(&c->tree, ns, src, nt, trg, o->leaf_size, o->max_depth, o->nthreads,
-                           !KIFMM__FFT, o->period, o->domain);
-    if (rc) return rc;
-    c->pts.src = c->tree.src;
-    c->pts.trg = c->tree.trg;
+    c->pts.src = c->tree->src;
+    c->pts.trg = c->tree->trg;
 #endif
     /* the far images reach level 1 (__far_root) */
-    c->lat.zl = c->tree.periodic && c->tree.nlev > 1;
+    c->lat.zl = c->tree->periodic && c->tree->nlev > 1;
     {
         int32_t b;
-        for (b = c->tree.loff[c->lat.zl]; b < c->tree.loff[c->lat.zl + 1]; b++)
-            if (c->tree.child[b] < 0 && (c->tree.s1[b] > c->tree.s0[b] || c->tree.t1[b] > c->tree.t0[b]))
+        for (b = c->tree->loff[c->lat.zl]; b < c->tree->loff[c->lat.zl + 1]; b++)
+            if (c->tree->child[b] < 0 && (c->tree->s1[b] > c->tree->s0[b] || c->tree->t1[b] > c->tree->t0[b]))
                 c->lat.zsmall = 1;
     }
-    kifmm__tree_dsrc(&c->tree, c->pl->surf.nsc, c->lat.zl); /* X lists of boxes with few targets go direct */
+    c->dsrc = (int32_t *)kifmm__take(&c->held, (size_t)c->tree->nbox + 1, sizeof(int32_t));
+    if (!c->dsrc) return KIFMM_ERR_NOMEM;
+    kifmm__tree_dsrc(c->tree, c->dsrc, c->pl->surf.nsc, c->lat.zl); /* X lists of boxes with
+                                                                        few targets go direct */
     return KIFMM_SUCCESS;
 }
 
@@ -7356,8 +7435,8 @@ KIFMM__FN int KIFMM__F(__points_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R 
 KIFMM__FN void KIFMM__F(__frame_points)(KIFMM_NAME *h, size_t maxleaf)
 {
     h->work.fpts = KIFMM__FLOAT ? maxleaf : 0;
-    h->work.ipts = h->tree.periodic ? maxleaf : 0;
-    if (h->tree.periodic && h->work.ipts < (size_t)h->pl->surf.nse) h->work.ipts = (size_t)h->pl->surf.nse;
+    h->work.ipts = h->tree->periodic ? maxleaf : 0;
+    if (h->tree->periodic && h->work.ipts < (size_t)h->pl->surf.nse) h->work.ipts = (size_t)h->pl->surf.nse;
 }
 
 /* Per-thread buffers of the passes: three surfaces and, for float
@@ -7366,10 +7445,10 @@ KIFMM__FN void KIFMM__F(__frame_points)(KIFMM_NAME *h, size_t maxleaf)
 KIFMM__FN int KIFMM__F(__work_buffers)(KIFMM_NAME *h)
 {
     const size_t nth = (size_t)h->opts.nthreads;
-    KIFMM__F(__frame_points)(h, (size_t)kifmm__max_leaf(&h->tree));
+    KIFMM__F(__frame_points)(h, (size_t)kifmm__max_leaf(h->tree));
     h->work.scratch = (KIFMM__R *)kifmm__take(&h->held, nth * KIFMM__F(__scratch_per)(h),
                                               sizeof(KIFMM__R));
-    h->work.gbuf_n = h->tree.nlev > kifmm__lmin(&h->tree) ? (KIFMM__GC_FAST ? nth : 1) * KIFMM__F(__gbuf_per)(h) : 0;
+    h->work.gbuf_n = h->tree->nlev > kifmm__lmin(h->tree) ? (KIFMM__GC_FAST ? nth : 1) * KIFMM__F(__gbuf_per)(h) : 0;
     h->work.gbuf = (KIFMM__R *)kifmm__take(&h->held, h->work.gbuf_n, sizeof(KIFMM__R));
     return h->work.scratch && h->work.gbuf ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
 }
@@ -7392,9 +7471,9 @@ KIFMM__FN int KIFMM__F(__work_buffers)(KIFMM_NAME *h)
 KIFMM__FN int32_t KIFMM__F(__fft_slots)(const KIFMM_NAME *h, size_t esz, int32_t m)
 {
     const size_t slot = (size_t)h->pl->fft.nfp * 16 * esz * KIFMM__SD, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
-    size_t budget = (size_t)h->tree.nbox * (size_t)h->pl->surf.ne * sizeof(KIFMM__R);
+    size_t budget = (size_t)h->tree->nbox * (size_t)h->pl->surf.ne * sizeof(KIFMM__R);
     int32_t slots;
-    if (h->tree.periodic) budget *= 4; /* see above */
+    if (h->tree->periodic) budget *= 4; /* see above */
     budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
     slots = (int32_t)(budget / slot);
     if (slots < 256) slots = 256;
@@ -7405,7 +7484,7 @@ KIFMM__FN int32_t KIFMM__F(__fft_slots)(const KIFMM_NAME *h, size_t esz, int32_t
  * colleague entries (mc), the spectra buffer's slots, their index arrays. */
 KIFMM__FN int KIFMM__F(__points_slabs)(KIFMM_NAME *h, size_t esz)
 {
-    const kifmm__tree *t = &h->tree;
+    const kifmm__tree *t = h->tree;
     size_t *held = &h->held;
     int32_t l, i, m = 1, mc = 1;
     for (l = kifmm__lmin(t) > 0 ? 1 : 0; l + 1 < t->nlev; l++) {
@@ -7467,7 +7546,7 @@ KIFMM__FN int KIFMM__F(__work_fft)(KIFMM_NAME *h, size_t esz)
 KIFMM__FN int KIFMM__F(__points_fft)(KIFMM_NAME *h)
 {
     const size_t esz = h->pl->fft.single ? sizeof(float) : sizeof(double);
-    int rc = kifmm__colleagues(&h->tree, h->opts.nthreads, &h->held, &h->fft.co, &h->fft.cj,
+    int rc = kifmm__colleagues(h->tree, h->opts.nthreads, &h->held, &h->fft.co, &h->fft.cj,
                                &h->fft.cc);
     return rc ? rc : KIFMM__F(__points_slabs)(h, esz);
 }
@@ -7479,9 +7558,9 @@ KIFMM__FN int KIFMM__F(__work_fout)(KIFMM_NAME *h)
 {
     const size_t n = (size_t)h->fft.slots * (size_t)h->pl->fft.nfp * 16;
     int l;
-    for (l = 0; l < h->tree.nlev; l++)
+    for (l = 0; l < h->tree->nlev; l++)
         if (h->lv[l] && h->lv[l]->khat && !h->lv[l]->kbf && !h->lv[l]->kbd) break;
-    if (l == h->tree.nlev) return KIFMM_SUCCESS;
+    if (l == h->tree->nlev) return KIFMM_SUCCESS;
     if (h->pl->fft.single) h->fft.foutf = (float *)kifmm__take(&h->held, n, sizeof(float));
     else h->fft.foutd = (double *)kifmm__take(&h->held, n, sizeof(double));
     return h->fft.foutf || h->fft.foutd ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
@@ -7502,10 +7581,10 @@ KIFMM__FN int KIFMM__F(__m2l_cols)(const KIFMM_NAME *h)
  * boxes the solves visit, the largest level, the dense M2L's columns. */
 KIFMM__FN int KIFMM__F(__work_solves)(KIFMM_NAME *h, int nrhs)
 {
-    h->work.mb = kifmm__max_level_boxes(&h->tree);
-    if (!(h->work.act = kifmm__active(&h->tree, &h->held))) return KIFMM_ERR_NOMEM;
+    h->work.mb = kifmm__max_level_boxes(h->tree);
+    if (!(h->work.act = kifmm__active(h->tree, &h->held))) return KIFMM_ERR_NOMEM;
     /* none in a tree without M2L */
-    h->work.m2l_cols = h->tree.m2lo[h->tree.nlev] ? KIFMM__F(__m2l_cols)(h) : 0;
+    h->work.m2l_cols = h->tree->m2lo[h->tree->nlev] ? KIFMM__F(__m2l_cols)(h) : 0;
     h->work.w = KIFMM__F(__work_new)(h, nrhs);
     return h->work.w ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
 }
@@ -7514,7 +7593,7 @@ KIFMM__FN int KIFMM__F(__work_solves)(KIFMM_NAME *h, int nrhs)
  * points of crowded leaves, and the code paths of this build. */
 KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
 {
-    const kifmm__tree *t = &h->tree;
+    const kifmm__tree *t = h->tree;
     kifmm_stats *st = &h->stats;
     const char *near =
         KIFMM__NEAR_HOOK ? (KIFMM__MUTUAL && t->same ? "kernel hooks, each pair once"
@@ -7557,8 +7636,9 @@ KIFMM__FN void KIFMM__F(__report)(const KIFMM_NAME *h, int stage)
     const char *name = KIFMM__STR(KIFMM_NAME);
     int k;
     if (stage) {
-        fprintf(stderr, "%s %s: points: tree and lists %.4f s (%d levels, %lld boxes, %lld leaves)\n",
-                name, what[stage], s->t_points, s->levels, (long long)s->boxes, (long long)s->leaves);
+        fprintf(stderr, "%s %s: points: %s %.4f s (%d levels, %lld boxes, %lld leaves)\n", name,
+                what[stage], h->tshared ? "on a shared tree" : "tree and lists", s->t_points,
+                s->levels, (long long)s->boxes, (long long)s->leaves);
         fprintf(stderr, "%s %s: plan: surfaces and operators %.4f s (order %d, leaf size %d)\n",
                 name, what[stage], s->t_plan, h->opts.order,
                 h->opts.leaf_size);
@@ -7580,7 +7660,7 @@ KIFMM__FN int KIFMM__F(__points_build)(KIFMM_NAME *h, int64_t ns, const KIFMM__R
 #if KIFMM__FFT
     if (!rc) rc = KIFMM__F(__points_fft)(h);
 #endif
-    if (!rc && KIFMM__MUTUAL && h->tree.same) rc = KIFMM__F(__pair_plan)(h);
+    if (!rc && KIFMM__MUTUAL && h->tree->same) rc = KIFMM__F(__pair_plan)(h);
     return rc;
 }
 
@@ -7590,7 +7670,7 @@ KIFMM__FN int KIFMM__F(__points_build)(KIFMM_NAME *h, int64_t ns, const KIFMM__R
 KIFMM__FN int KIFMM__F(__plan_far)(KIFMM_NAME *h)
 {
     KIFMM__F(_plan) *pl = h->pl;
-    const kifmm__tree *t = &h->tree;
+    const kifmm__tree *t = h->tree;
     KIFMM__F(__far) *f;
     int j, rc;
     for (j = 0; j < pl->far.n; j++) {
@@ -7635,10 +7715,10 @@ KIFMM__FN int KIFMM__F(__plan_ops)(KIFMM_NAME *h, double *bytes)
     int rc, l, a;
     kifmm__lock_take(&h->pl->lock);
     rc = KIFMM__F(__precompute)(h);
-    if (!rc && h->tree.periodic) rc = KIFMM__F(__plan_far)(h);
+    if (!rc && h->tree->periodic) rc = KIFMM__F(__plan_far)(h);
     *bytes = (double)h->pl->held;
     kifmm__lock_give(&h->pl->lock);
-    for (l = 0; l < h->tree.nlev; l++)
+    for (l = 0; l < h->tree->nlev; l++)
         for (a = 0; h->lv[l] && a < KIFMM__SD * KIFMM__SD; a++) h->nz[a] |= h->lv[l]->nz[a];
     return rc;
 }
@@ -7651,7 +7731,7 @@ KIFMM__FN int KIFMM__F(__points_lattice)(KIFMM_NAME *h)
     if (!f || !f->zu) return KIFMM_SUCCESS;
     h->lat.zt = (KIFMM__R *)kifmm__take(&h->held, (size_t)3 * f->nzu, sizeof(KIFMM__R));
     if (!h->lat.zt) return KIFMM_ERR_NOMEM;
-    kifmm__box_center(&h->tree, 0, c0, &h0);
+    kifmm__box_center(h->tree, 0, c0, &h0);
     KIFMM__F(__place)(f->zunit, f->nzu, c0, f->zrad, h->lat.zt);
     return KIFMM_SUCCESS;
 }
@@ -7673,21 +7753,36 @@ KIFMM__FN int KIFMM__F(__work_build)(KIFMM_NAME *h, int nrhs)
 KIFMM__FN void KIFMM__F(__stats_set)(KIFMM_NAME *h)
 {
     KIFMM__F(__describe)(h);
-    h->stats.levels = h->tree.nlev;
-    h->stats.boxes = h->tree.nbox;
-    h->stats.leaves = h->tree.nleaves;
+    h->stats.levels = h->tree->nlev;
+    h->stats.boxes = h->tree->nbox;
+    h->stats.leaves = h->tree->nleaves;
     h->stats.bytes = KIFMM__F(__held)(h, h->pbytes);
     h->stats.plan_bytes = h->pbytes;
 }
 
+/* A handle's own tree, empty, with the options that shape it (which a
+ * handle made on it must share: __tree_fits); NULL if out of memory. */
+KIFMM__FN kifmm_tree *KIFMM__F(__tree_own)(const kifmm_opts *o, int64_t ns, int64_t nt)
+{
+    kifmm_tree *tr = kifmm__tree_new(ns, nt);
+    if (!tr) return NULL;
+    tr->single = KIFMM__FLOAT;
+    tr->vlists = !KIFMM__FFT;
+    tr->leaf_size = o->leaf_size;
+    tr->max_depth = o->max_depth;
+    memcpy(tr->period, o->period, sizeof tr->period);
+    memcpy(tr->domain, o->domain, sizeof tr->domain);
+    return tr;
+}
+
 /* A handle on plan pl (one more of its handles) for these points, checked
- * (options o, pl's): the points' part; the operator sets and far images
- * the tree needs, from pl where it has them, else built into it; the
- * workspace for nrhs vectors. *out is NULL on failure, with nothing of pl
- * taken. */
+ * (options o, pl's), or on the tree tr (fitting o: __tree_fits) if not
+ * NULL: the points' part; the operator sets and far images the tree needs,
+ * from pl where it has them, else built into it; the workspace for nrhs
+ * vectors. *out is NULL on failure, with nothing of pl or tr taken. */
 KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int shared, int nrhs,
-                                const kifmm_opts *o, int64_t ns, const KIFMM__R *src, int64_t nt,
-                                const KIFMM__R *trg)
+                                const kifmm_opts *o, const int *shape, kifmm_tree *tr,
+                                int64_t ns, const KIFMM__R *src, int64_t nt, const KIFMM__R *trg)
 {
     KIFMM_NAME *h;
     double t0 = kifmm__now(), t1, t2;
@@ -7697,13 +7792,23 @@ KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int share
     h->held = sizeof *h;
     h->opts = *o;
     h->shared = shared;
+    h->shape[0] = shape[0], h->shape[1] = shape[1];
     kifmm__lock_take(&pl->lock);
     pl->refs++;
     h->pbytes = (double)pl->held;
     kifmm__lock_give(&pl->lock);
     h->pl = pl;
-    h->tree.ns = ns;
-    h->tree.nt = nt;
+    if (tr) {
+        kifmm__refs_add(&tr->refs, 1);
+        h->tshared = 1;
+        ns = tr->t.ns;
+        nt = tr->t.nt;
+    } else if (!(tr = KIFMM__F(__tree_own)(o, ns, nt))) {
+        KIFMM__F(_destroy)(h);
+        return KIFMM_ERR_NOMEM;
+    }
+    h->tr = tr;
+    h->tree = &tr->t;
     t1 = t2 = t0;
     if (ns > 0 && nt > 0) {
         rc = KIFMM__F(__points_build)(h, ns, src, nt, trg);
@@ -7725,20 +7830,22 @@ KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int share
     return KIFMM_SUCCESS;
 }
 
-KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
-                                 const KIFMM__R *src_xyz, int64_t ntargets,
+/* create, on these points or (if not NULL) on tree's. */
+KIFMM__FN int KIFMM__F(__create)(KIFMM_NAME **out, const kifmm_opts *opts, kifmm_tree *tree,
+                                 int64_t nsources, const KIFMM__R *src_xyz, int64_t ntargets,
                                  const KIFMM__R *trg_xyz)
 {
     KIFMM__F(_plan) *pl;
     KIFMM_NAME tmp;
     kifmm_opts o;
+    const int shape[2] = {opts ? opts->leaf_size : 0, opts ? opts->max_depth : 0};
     double t0 = kifmm__now();
     int rc;
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if ((rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o))) return rc;
     if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
-    rc = KIFMM__F(__build)(out, pl, 0, 1, &o, nsources, src_xyz, ntargets, trg_xyz);
+    rc = KIFMM__F(__build)(out, pl, 0, 1, &o, shape, tree, nsources, src_xyz, ntargets, trg_xyz);
     memset(&tmp, 0, sizeof tmp); /* the plan is the handle's alone now, or freed */
     tmp.pl = pl;
     KIFMM__F(__plan_release)(&tmp);
@@ -7751,19 +7858,29 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
     return KIFMM_SUCCESS;
 }
 
-KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const KIFMM__R *src_xyz,
-                                        int64_t ntargets, const KIFMM__R *trg_xyz)
+KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64_t nsources,
+                                 const KIFMM__R *src_xyz, int64_t ntargets,
+                                 const KIFMM__R *trg_xyz)
+{
+    return KIFMM__F(__create)(out, opts, NULL, nsources, src_xyz, ntargets, trg_xyz);
+}
+
+/* update_points, onto these points or (if not NULL) onto tree's. */
+KIFMM__FN int KIFMM__F(__update)(KIFMM_NAME *h, kifmm_tree *tree, int64_t nsources,
+                                 const KIFMM__R *src_xyz, int64_t ntargets, const KIFMM__R *trg_xyz)
 {
     KIFMM_NAME *n, tmp;
+    kifmm_opts o;
     kifmm_stats st;
     double t0 = kifmm__now();
     int rc;
     if (!h) return KIFMM_ERR_NULL;
-    if ((rc = KIFMM__F(__check_sets)(&h->opts, nsources, src_xyz, ntargets, trg_xyz))) return rc;
+    o = h->opts;
+    if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
     /* on the same plan, which keeps the operator sets both trees use; as
      * many vectors' workspace as the handle has grown to */
-    if ((rc = KIFMM__F(__build)(&n, h->pl, h->shared, h->work.w ? h->work.w->nrhs : 1, &h->opts,
-                                nsources, src_xyz, ntargets, trg_xyz)))
+    if ((rc = KIFMM__F(__build)(&n, h->pl, h->shared, h->work.w ? h->work.w->nrhs : 1, &o,
+                                h->shape, tree, nsources, src_xyz, ntargets, trg_xyz)))
         return rc;
     /* the new state into the caller's handle, the old one freed (and the
      * plan's entries only it used) */
@@ -7786,6 +7903,12 @@ KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const K
     return KIFMM_SUCCESS;
 }
 
+KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const KIFMM__R *src_xyz,
+                                        int64_t ntargets, const KIFMM__R *trg_xyz)
+{
+    return KIFMM__F(__update)(h, NULL, nsources, src_xyz, ntargets, trg_xyz);
+}
+
 KIFMM__API int KIFMM__F(_plan_create)(KIFMM__F(_plan) **out, const kifmm_opts *opts)
 {
     KIFMM__F(_plan) *pl;
@@ -7797,6 +7920,8 @@ KIFMM__API int KIFMM__F(_plan_create)(KIFMM__F(_plan) **out, const kifmm_opts *o
     if (KIFMM__SI && !KIFMM__EWALD && o.period[0] > 0.0 && o.period[1] > 0.0 && o.period[2] > 0.0)
         return KIFMM_ERR_PERIODIC; /* as create: __lattice_build */
     if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
+    pl->shape[0] = opts ? opts->leaf_size : 0;
+    pl->shape[1] = opts ? opts->max_depth : 0;
 #if KIFMM__SI
     { /* the one set of every tree, with the M2L's: built now, kept with the plan */
         KIFMM_NAME *c = (KIFMM_NAME *)kifmm__calloc(1, sizeof *c);
@@ -7822,22 +7947,33 @@ KIFMM__API int KIFMM__F(_plan_create)(KIFMM__F(_plan) **out, const kifmm_opts *o
     return KIFMM_SUCCESS;
 }
 
-KIFMM__API int KIFMM__F(_create_with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *plan, int64_t nsources,
-                                           const KIFMM__R *src_xyz, int64_t ntargets,
-                                           const KIFMM__R *trg_xyz)
+/* create_with_plan, on these points or (if not NULL) on tree's. */
+KIFMM__FN int KIFMM__F(__with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *plan, kifmm_tree *tree,
+                                    int64_t nsources, const KIFMM__R *src_xyz, int64_t ntargets,
+                                    const KIFMM__R *trg_xyz)
 {
+    kifmm_opts o;
     int rc;
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if (!plan) return KIFMM_ERR_NULL;
-    if ((rc = KIFMM__F(__check_sets)(&plan->opts, nsources, src_xyz, ntargets, trg_xyz))) return rc;
-    rc = KIFMM__F(__build)(out, plan, 1, 1, &plan->opts, nsources, src_xyz, ntargets, trg_xyz);
+    o = plan->opts;
+    if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
+    rc = KIFMM__F(__build)(out, plan, 1, 1, &o, plan->shape, tree, nsources, src_xyz, ntargets,
+                           trg_xyz);
     if (!rc) {
         (*out)->stats.t_tree = (*out)->stats.t_points;
         (*out)->stats.t_operators = (*out)->stats.t_plan + (*out)->stats.t_workspace;
         if (plan->opts.verbose) KIFMM__F(__report)(*out, 1);
     }
     return rc;
+}
+
+KIFMM__API int KIFMM__F(_create_with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *plan, int64_t nsources,
+                                           const KIFMM__R *src_xyz, int64_t ntargets,
+                                           const KIFMM__R *trg_xyz)
+{
+    return KIFMM__F(__with_plan)(out, plan, NULL, nsources, src_xyz, ntargets, trg_xyz);
 }
 
 KIFMM__API void KIFMM__F(_plan_destroy)(KIFMM__F(_plan) *plan)
@@ -7859,7 +7995,7 @@ KIFMM__FN int KIFMM__F(__eval_check)(const KIFMM_NAME *h, int nrhs, const KIFMM_
     *rc = KIFMM_SUCCESS;
     if (!h) return *rc = KIFMM_ERR_NULL;
     if (nrhs < 0) return *rc = KIFMM_ERR_COUNT;
-    t = &h->tree;
+    t = h->tree;
     if ((t->ns > 0 && nrhs > 0 && !densities) || (t->nt > 0 && nrhs > 0 && !out))
         return *rc = KIFMM_ERR_NULL;
     if (t->nt == 0 || nrhs == 0) return 1;
@@ -7907,7 +8043,7 @@ KIFMM__FN void KIFMM__F(__density_of)(const double *prm, const KIFMM__R *in, dou
  * 1e40 kg, charges of 1e-19 C). */
 KIFMM__FN void KIFMM__F(__density_scale)(const KIFMM_NAME *h, int nr, const KIFMM__R *d, int *e)
 {
-    const size_t uper = (size_t)h->tree.ns * KIFMM__UD;
+    const size_t uper = (size_t)h->tree->ns * KIFMM__UD;
     int r;
     for (r = 0; r < nr; r++) {
         double m = 0.0;
@@ -7930,7 +8066,7 @@ KIFMM__FN void KIFMM__F(__density_scale)(const KIFMM_NAME *h, int nr, const KIFM
 KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work) *w, int nr,
                                             const KIFMM__R *d, const int *e)
 {
-    const kifmm__tree *t = &h->tree;
+    const kifmm__tree *t = h->tree;
     const size_t qper = (size_t)t->ns * KIFMM__QD, uper = (size_t)t->ns * KIFMM__UD;
     KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
     for (int64_t i = 0; i < t->ns; i++) {
@@ -7952,7 +8088,7 @@ KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work
  * workspace). */
 KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, KIFMM__R *o)
 {
-    const kifmm__tree *t = &h->tree;
+    const kifmm__tree *t = h->tree;
     KIFMM__F(__work) *w = h->work.w;
     const size_t oper = (size_t)t->nt * KIFMM__TD;
     int l, e[KIFMM__RHS_MAX], r, scaled = 0;
@@ -7994,7 +8130,7 @@ KIFMM__FN void KIFMM__F(__eval_group)(KIFMM_NAME *h, int nr, const KIFMM__R *d, 
  * magnitudes. */
 KIFMM__FN int KIFMM__F(__check_neutral)(const KIFMM_NAME *h, int nrhs, const KIFMM__R *d)
 {
-    const kifmm__tree *t = &h->tree;
+    const kifmm__tree *t = h->tree;
     const double tol = KIFMM__FLOAT ? 1e-4 : 1e-10;
     int r, b, bad = 0;
     if (!h->far || !h->far->neutral) return KIFMM_SUCCESS;
@@ -8036,12 +8172,12 @@ KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R 
     int r0, nr, cap, rc;
     double t0;
     if (KIFMM__F(__eval_check)(h, nrhs, densities, out, &rc)) return rc;
-    if ((rc = KIFMM__F(__check_finite)((size_t)nrhs * h->tree.ns * KIFMM__UD, densities,
+    if ((rc = KIFMM__F(__check_finite)((size_t)nrhs * h->tree->ns * KIFMM__UD, densities,
                                        h->opts.nthreads, KIFMM_ERR_DENSITY)))
         return rc;
     if ((rc = KIFMM__F(__check_neutral)(h, nrhs, densities))) return rc;
-    qper = (size_t)h->tree.ns * KIFMM__UD;
-    oper = (size_t)h->tree.nt * KIFMM__TD;
+    qper = (size_t)h->tree->ns * KIFMM__UD;
+    oper = (size_t)h->tree->nt * KIFMM__TD;
     cap = nrhs < KIFMM__RHS_MAX ? nrhs : KIFMM__RHS_MAX;
     if (nrhs > cap && kifmm__overlap(densities, (size_t)nrhs * qper * sizeof(KIFMM__R), out,
                                      (size_t)nrhs * oper * sizeof(KIFMM__R))) {
@@ -8162,7 +8298,7 @@ KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const
  * not hold them either). */
 KIFMM__FN int KIFMM__F(__model)(KIFMM_NAME *h, const kifmm__shape *s)
 {
-    kifmm__tree *t = &h->tree;
+    kifmm__tree *t = &h->tr->t; /* the model writes the figures a tree would have */
     const double cap = 2e9;
     int rc;
     t->nlev = s->nlev;
@@ -8187,7 +8323,7 @@ KIFMM__FN int KIFMM__F(__model)(KIFMM_NAME *h, const kifmm__shape *s)
  * box 134 (FFT M2L: 26 colleague entries), and the slabs' bookkeeping. */
 KIFMM__FN double KIFMM__F(__bytes_tree)(const KIFMM_NAME *h, const kifmm__shape *s)
 {
-    const kifmm__tree *t = &h->tree;
+    const kifmm__tree *t = h->tree;
     const double sets = t->same ? (double)t->ns : (double)t->ns + (double)t->nt;
     double b = sets * (3.0 * sizeof(KIFMM__R) + sizeof(int64_t));
     b += 105.0 * s->box + (t->periodic ? 5.0 : 4.0) * s->u;
@@ -8211,8 +8347,8 @@ KIFMM__FN double KIFMM__F(__bytes_tree)(const KIFMM_NAME *h, const kifmm__shape 
 KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *s, double *fout)
 {
     const double ne = h->pl->surf.ne, nc = h->pl->surf.nc, r = sizeof(KIFMM__R);
-    const int lmin = kifmm__lmin(&h->tree), n = KIFMM__SI ? 1 : h->tree.nlev > 1 ? h->tree.nlev : 1;
-    const double sets = h->tree.nlev <= lmin ? 0.0 : KIFMM__SI ? 1.0 : (double)(n - lmin);
+    const int lmin = kifmm__lmin(h->tree), n = KIFMM__SI ? 1 : h->tree->nlev > 1 ? h->tree->nlev : 1;
+    const double sets = h->tree->nlev <= lmin ? 0.0 : KIFMM__SI ? 1.0 : (double)(n - lmin);
     const double m2ls = KIFMM__SI ? s->vany : s->vlev;
     const double c2e = h->pl->surf.cdiff ? nc * ne : 0.0; /* the check-to-equivalent map */
     const double per = r * (2.0 * ne * (nc + ne) + 16.0 * nc * ne + c2e);
@@ -8244,7 +8380,7 @@ KIFMM__FN double KIFMM__F(__bytes_lattice)(const KIFMM_NAME *h)
     const int q = kifmm__ewald_order(h->opts.order, h->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
     const double nu = kifmm__surf_count(q + cd), mu = nu * KIFMM__SD;
     const double me = (double)kifmm__surf_count(q) * KIFMM__SD;
-    if (!h->tree.periodic) return 0.0;
+    if (!h->tree->periodic) return 0.0;
     return (6.0 * nu + 2.0 * mu * me + me * me + 2.0 * (mu + me)) * r + 3.0 * nu * sizeof(double);
 }
 
@@ -8258,7 +8394,7 @@ KIFMM__FN double KIFMM__F(__bytes_lattice)(const KIFMM_NAME *h)
  * (__work_fft). */
 KIFMM__FN double KIFMM__F(__bytes_work)(const KIFMM_NAME *h, const kifmm__shape *s, double fout)
 {
-    const kifmm__tree *t = &h->tree;
+    const kifmm__tree *t = h->tree;
     const double r = sizeof(KIFMM__R), nth = h->opts.nthreads;
     double sz[5], b, m = s->maxleaf > h->pl->surf.nsc ? s->maxleaf : h->pl->surf.nsc;
     size_t z[5];
@@ -8305,16 +8441,19 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
     if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
     h->held = sizeof *h;
     h->opts = o;
-    h->tree.ns = nsources;
-    h->tree.nt = nt;
-    h->tree.same = same;
-    for (d = 0; d < 3; d++) h->tree.periodic |= h->tree.per[d] = o.period[d] > 0.0;
+    if (!(h->tr = kifmm__tree_new(nsources, nt))) {
+        kifmm__free(h);
+        return KIFMM_ERR_NOMEM;
+    }
+    h->tree = &h->tr->t;
+    h->tr->t.same = same;
+    for (d = 0; d < 3; d++) h->tr->t.periodic |= h->tr->t.per[d] = o.period[d] > 0.0;
     /* as __points_tree finds on uniform points: leaves at level 1 */
     h->lat.zsmall = nsources / 8 <= o.leaf_size && nt / 8 <= o.leaf_size;
     b = 0.0;
     if (!(h->pl = KIFMM__F(__plan_new)(&o))) rc = KIFMM_ERR_NOMEM; /* as create: the surfaces */
     if (!rc && nsources > 0 && nt > 0) {
-        kifmm__shape_uniform(nsources, nt, same, o.leaf_size, o.max_depth, h->tree.per, &s);
+        kifmm__shape_uniform(nsources, nt, same, o.leaf_size, o.max_depth, h->tree->per, &s);
         rc = KIFMM__F(__model)(h, &s);
         if (!rc) {
             b = KIFMM__F(__bytes_tree)(h, &s) + KIFMM__F(__bytes_ops)(h, &s, &fout);

@@ -350,10 +350,10 @@ static void test_tree(const char *name, int64_t n, const double *xyz, int leaf)
     CHECK(kifmm__tree_build(&tree, n, xyz, n, xyz, h->opts.leaf_size, h->opts.max_depth,
                             h->opts.nthreads, 1, NULL, NULL) == 0,
           "tree with V entries, %s", name);
-    CHECK(tree.nbox == h->tree.nbox && tree.nlev == h->tree.nlev &&
-              !memcmp(tree.vo, h->tree.vo, ((size_t)tree.nbox + 1) * sizeof(int32_t)) &&
-              !memcmp(tree.uo, h->tree.uo, ((size_t)tree.nbox + 1) * sizeof(int32_t)) &&
-              h->tree.v == NULL,
+    CHECK(tree.nbox == h->tree->nbox && tree.nlev == h->tree->nlev &&
+              !memcmp(tree.vo, h->tree->vo, ((size_t)tree.nbox + 1) * sizeof(int32_t)) &&
+              !memcmp(tree.uo, h->tree->uo, ((size_t)tree.nbox + 1) * sizeof(int32_t)) &&
+              h->tree->v == NULL,
           "%s: the handle's tree matches, without V entries", name);
     cover = (int64_t *)t_malloc_or_die((size_t)(t->ns + 1) * sizeof(int64_t));
     /* 2:1 balance: adjacent leaves differ by at most one level */

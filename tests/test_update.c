@@ -388,10 +388,10 @@ static void test_periodic(void)
                   rc[i], kifmm_strerror(rc[i]), rcg[i]);                                           \
             same[i] = !rc[i] && !rcg[i] && !memcmp(u[i], f[i], (size_t)(n[i] * td) * sizeof(R));    \
             CHECK(same[i], "%s %s: handle %d on the shared plan differs from one alone", #P, what, i); \
-            if (!rc[i] && i > 0 && h[i]->tree.nlev == h[0]->tree.nlev &&                           \
-                h[i]->tree.width == h[0]->tree.width) {                                            \
+            if (!rc[i] && i > 0 && h[i]->tree->nlev == h[0]->tree->nlev &&                           \
+                h[i]->tree->width == h[0]->tree->width) {                                            \
                 int l;                                                                             \
-                for (l = 0; l < h[i]->tree.nlev; l++) shared &= h[i]->lv[l] == h[0]->lv[l];         \
+                for (l = 0; l < h[i]->tree->nlev; l++) shared &= h[i]->lv[l] == h[0]->lv[l];         \
             }                                                                                      \
             if (!rc[i] && !rcg[i] && !P##_stats(h[i], &a) && !P##_stats(g[i], &b)) {               \
                 on += a.bytes;                                                                     \
