@@ -45,6 +45,8 @@
  *   rc = kifmm_laplace_evaluate_many(fmm, 4, q4, pot4); // 4 density vectors at once
  *   rc = kifmm_laplace_update_points(fmm, ns, moved_xyz, nt, moved_trg); // a time step:
  *                                           // a new tree, the operators kept
+ *   kifmm_laplace_grad *g = NULL;           // another kernel (its own include) on
+ *   rc = kifmm_laplace_grad_create_on_tree(&g, &opts, kifmm_laplace_tree(fmm)); // the same tree
  *   kifmm_laplace_destroy(fmm);
  *
  *   cc -O2 -march=native -fopenmp app.c -llapacke -lopenblas -lm
@@ -242,7 +244,10 @@ extern "C++" {
       "precision's range")                                                                    \
     X(KIFMM_ERR_DOMAIN, -22,                                                                  \
       "opts.domain: a point lies outside the box, or the box is not finite, its half-width "  \
-      "not positive, or it is set together with opts.period")
+      "not positive, or it is set together with opts.period")                                 \
+    X(KIFMM_ERR_TREE, -23,                                                                    \
+      "the tree does not fit this instance: built by one of the other precision, for "        \
+      "another leaf size, depth, period or domain, or without the V lists of a dense M2L")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -323,6 +328,9 @@ typedef struct kifmm_stats {
                                    operators), when the handle was made or moved;
                                    in bytes unless the plan came from plan_create
                                    and is shared */
+    double tree_bytes;          /* memory held by the handle's tree (sorted points,
+                                   boxes, lists); bytes leaves it out when the tree
+                                   came from another handle (create_on_tree) */
 } kifmm_stats;
 
 #endif /* KIFMM_H_TYPES */
@@ -3645,6 +3653,44 @@ KIFMM__API int KIFMM__F(_create_with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *pl
 /* <prefix>_plan_destroy: the caller's reference to the plan let go; the
  * plan lives until its last handle is destroyed too. NULL is a no-op. */
 KIFMM__API void KIFMM__F(_plan_destroy)(KIFMM__F(_plan) *plan);
+
+/* <prefix>_tree: the handle's tree (its sorted points, boxes and
+ * interaction lists), for handles of other kernels of the same precision
+ * to be made on (<prefix>_create_on_tree) without sorting and refining the
+ * points again. Borrowed: valid while the handle keeps it (until it is
+ * destroyed or given other points); a handle made on it holds it from
+ * then on. NULL for a NULL handle. */
+KIFMM__API kifmm_tree *KIFMM__F(_tree)(const KIFMM_NAME *h);
+
+/* <prefix>_create_on_tree: a handle on the points of tree (as create on
+ * the points the tree was built for, in the same order), sharing the
+ * tree: the sorted points, boxes and lists are not copied. Its own
+ * options opts (NULL: the defaults), but those that shape the tree must
+ * be the tree's: period and domain equal; leaf_size and max_depth equal,
+ * or 0 to take the tree's. The tree must come from an instance of the
+ * same precision, and carry V lists if this instance's M2L is the dense
+ * one (KIFMM_M2L_DENSE, or more than 9 surface components). Its own
+ * operators, near-field plan and workspace; stats.bytes leaves the tree
+ * out. Returns create's errors for options, KIFMM_ERR_NULL (out or tree),
+ * KIFMM_ERR_TREE (the tree does not fit) or KIFMM_ERR_NOMEM. Thread safe:
+ * handles on one tree may be made, used and destroyed from different
+ * threads at once (each handle by one thread at a time). */
+KIFMM__API int KIFMM__F(_create_on_tree)(KIFMM_NAME **out, const kifmm_opts *opts, kifmm_tree *tree);
+
+/* <prefix>_create_with_plan_on_tree: create_on_tree with the options and
+ * operators of plan (see create_with_plan); the plan's leaf size and depth
+ * are the tree's where plan_create was given 0. */
+KIFMM__API int KIFMM__F(_create_with_plan_on_tree)(KIFMM_NAME **out, KIFMM__F(_plan) *plan,
+                                                   kifmm_tree *tree);
+
+/* <prefix>_update_on_tree: the handle moved onto the points of tree, as
+ * update_points would move it onto the points the tree was built for
+ * (keeping its options, plan and operators), sharing the tree: after
+ * <other>_update_points(a, ...), b follows a with
+ * <prefix>_update_on_tree(b, <other>_tree(a)). Returns KIFMM_ERR_NULL,
+ * KIFMM_ERR_TREE (as create_on_tree, against the handle's options) or
+ * KIFMM_ERR_NOMEM, and then the handle is as it was. */
+KIFMM__API int KIFMM__F(_update_on_tree)(KIFMM_NAME *h, kifmm_tree *tree);
 
 /* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
  * order, from densities[i*SRC_DIM + d]. Outputs are overwritten. Returns
@@ -7758,6 +7804,7 @@ KIFMM__FN void KIFMM__F(__stats_set)(KIFMM_NAME *h)
     h->stats.leaves = h->tree->nleaves;
     h->stats.bytes = KIFMM__F(__held)(h, h->pbytes);
     h->stats.plan_bytes = h->pbytes;
+    h->stats.tree_bytes = (double)h->tree->held;
 }
 
 /* A handle's own tree, empty, with the options that shape it (which a
@@ -7773,6 +7820,22 @@ KIFMM__FN kifmm_tree *KIFMM__F(__tree_own)(const kifmm_opts *o, int64_t ns, int6
     memcpy(tr->period, o->period, sizeof tr->period);
     memcpy(tr->domain, o->domain, sizeof tr->domain);
     return tr;
+}
+
+/* Whether a handle with options o, whose leaf size and depth were given as
+ * shape (0: chosen), can use the tree tr: the same precision, period and
+ * domain, V lists if the M2L is dense, the leaf size and depth given or
+ * left to the tree (then o takes the tree's). */
+KIFMM__FN int KIFMM__F(__tree_fits)(const kifmm_tree *tr, const int *shape, kifmm_opts *o)
+{
+    int d, fits = tr->single == KIFMM__FLOAT && (KIFMM__FFT || tr->vlists);
+    for (d = 0; d < 3; d++) fits &= tr->period[d] == o->period[d];
+    for (d = 0; d < 4; d++) fits &= tr->domain[d] == o->domain[d];
+    fits &= (!shape[0] || shape[0] == tr->leaf_size) && (!shape[1] || shape[1] == tr->max_depth);
+    if (!fits) return KIFMM_ERR_TREE;
+    o->leaf_size = tr->leaf_size;
+    o->max_depth = tr->max_depth;
+    return KIFMM_SUCCESS;
 }
 
 /* A handle on plan pl (one more of its handles) for these points, checked
@@ -7844,6 +7907,7 @@ KIFMM__FN int KIFMM__F(__create)(KIFMM_NAME **out, const kifmm_opts *opts, kifmm
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if ((rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o))) return rc;
+    if (tree && (rc = KIFMM__F(__tree_fits)(tree, shape, &o))) return rc;
     if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
     rc = KIFMM__F(__build)(out, pl, 0, 1, &o, shape, tree, nsources, src_xyz, ntargets, trg_xyz);
     memset(&tmp, 0, sizeof tmp); /* the plan is the handle's alone now, or freed */
@@ -7865,6 +7929,15 @@ KIFMM__API int KIFMM__F(_create)(KIFMM_NAME **out, const kifmm_opts *opts, int64
     return KIFMM__F(__create)(out, opts, NULL, nsources, src_xyz, ntargets, trg_xyz);
 }
 
+KIFMM__API int KIFMM__F(_create_on_tree)(KIFMM_NAME **out, const kifmm_opts *opts, kifmm_tree *tree)
+{
+    if (out) *out = NULL;
+    if (!out || !tree) return KIFMM_ERR_NULL;
+    return KIFMM__F(__create)(out, opts, tree, 0, NULL, 0, NULL);
+}
+
+KIFMM__API kifmm_tree *KIFMM__F(_tree)(const KIFMM_NAME *h) { return h ? h->tr : NULL; }
+
 /* update_points, onto these points or (if not NULL) onto tree's. */
 KIFMM__FN int KIFMM__F(__update)(KIFMM_NAME *h, kifmm_tree *tree, int64_t nsources,
                                  const KIFMM__R *src_xyz, int64_t ntargets, const KIFMM__R *trg_xyz)
@@ -7876,6 +7949,7 @@ KIFMM__FN int KIFMM__F(__update)(KIFMM_NAME *h, kifmm_tree *tree, int64_t nsourc
     int rc;
     if (!h) return KIFMM_ERR_NULL;
     o = h->opts;
+    if (tree && (rc = KIFMM__F(__tree_fits)(tree, h->shape, &o))) return rc;
     if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
     /* on the same plan, which keeps the operator sets both trees use; as
      * many vectors' workspace as the handle has grown to */
@@ -7907,6 +7981,12 @@ KIFMM__API int KIFMM__F(_update_points)(KIFMM_NAME *h, int64_t nsources, const K
                                         int64_t ntargets, const KIFMM__R *trg_xyz)
 {
     return KIFMM__F(__update)(h, NULL, nsources, src_xyz, ntargets, trg_xyz);
+}
+
+KIFMM__API int KIFMM__F(_update_on_tree)(KIFMM_NAME *h, kifmm_tree *tree)
+{
+    if (!h || !tree) return KIFMM_ERR_NULL;
+    return KIFMM__F(__update)(h, tree, 0, NULL, 0, NULL);
 }
 
 KIFMM__API int KIFMM__F(_plan_create)(KIFMM__F(_plan) **out, const kifmm_opts *opts)
@@ -7958,6 +8038,7 @@ KIFMM__FN int KIFMM__F(__with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *plan, kif
     *out = NULL;
     if (!plan) return KIFMM_ERR_NULL;
     o = plan->opts;
+    if (tree && (rc = KIFMM__F(__tree_fits)(tree, plan->shape, &o))) return rc;
     if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
     rc = KIFMM__F(__build)(out, plan, 1, 1, &o, plan->shape, tree, nsources, src_xyz, ntargets,
                            trg_xyz);
@@ -7974,6 +8055,14 @@ KIFMM__API int KIFMM__F(_create_with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *pl
                                            const KIFMM__R *trg_xyz)
 {
     return KIFMM__F(__with_plan)(out, plan, NULL, nsources, src_xyz, ntargets, trg_xyz);
+}
+
+KIFMM__API int KIFMM__F(_create_with_plan_on_tree)(KIFMM_NAME **out, KIFMM__F(_plan) *plan,
+                                                   kifmm_tree *tree)
+{
+    if (out) *out = NULL;
+    if (!out || !tree) return KIFMM_ERR_NULL;
+    return KIFMM__F(__with_plan)(out, plan, tree, 0, NULL, 0, NULL);
 }
 
 KIFMM__API void KIFMM__F(_plan_destroy)(KIFMM__F(_plan) *plan)

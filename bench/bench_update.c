@@ -17,7 +17,11 @@
  * laplace_grad handles at p = 10 on N points each (different sets), made
  * by create and made on one plan (plan_create, create_with_plan): the
  * memory they hold (stats.bytes, and the plan's apart) and their create
- * times.
+ * times. Then the boundary-element pair on N points of a sphere surface:
+ * the single layer (laplace_grad) and the double layer
+ * (laplace_dipole_grad) at p = 6, the second made by create and made on
+ * the first one's tree (create_on_tree): its time, fastest of R, and the
+ * two handles' memory.
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -28,6 +32,8 @@
 #define KIFMM_KERNEL yukawa_grad
 #include "kifmm.h"
 #define KIFMM_KERNEL stokes
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_dipole_grad
 #include "kifmm.h"
 
 #include <omp.h>
@@ -153,6 +159,66 @@ static void four_handles(int64_t n, int p)
 BENCH_CASE(kifmm_yukawa_grad, 1)
 BENCH_CASE(kifmm_stokes, 3)
 
+/* the single and the double layer on one geometry (a sphere's surface):
+ * the double layer's handle by create and on the single layer's tree */
+static void bem_pair(int64_t n, int p, int repeat)
+{
+    kifmm_opts o;
+    kifmm_laplace_grad *s = NULL;
+    kifmm_laplace_dipole_grad *d = NULL;
+    double *x = (double *)malloc(3 * (size_t)n * sizeof(double)), *q = (double *)malloc((size_t)n * sizeof(double));
+    double ts = 1e30, tc = 1e30, tt = 1e30, t0, bs = 0.0, bc = 0.0, bt = 0.0, tp = 0.0;
+    kifmm_stats st;
+    int r, rc = 0;
+    memset(&o, 0, sizeof o);
+    o.order = p;
+    make_points(DIST_SPHERE, n, 1, 5, x, q);
+    for (r = 0; r < repeat && !rc; r++) {
+        t0 = omp_get_wtime();
+        rc = kifmm_laplace_grad_create(&s, &o, n, x, n, x);
+        t0 = omp_get_wtime() - t0;
+        ts = t0 < ts ? t0 : ts;
+        if (!rc && !kifmm_laplace_grad_stats(s, &st)) bs = st.bytes;
+        if (!rc) {
+            kifmm_opts u = o;
+            kifmm_laplace_grad_options(s, &u); /* the same leaf size as the tree's */
+            o.leaf_size = u.leaf_size;
+            t0 = omp_get_wtime();
+            rc = kifmm_laplace_dipole_grad_create(&d, &o, n, x, n, x);
+            t0 = omp_get_wtime() - t0;
+            tc = t0 < tc ? t0 : tc;
+            if (!rc && !kifmm_laplace_dipole_grad_stats(d, &st)) bc = st.bytes;
+            kifmm_laplace_dipole_grad_destroy(d);
+            d = NULL;
+            o.leaf_size = 0;
+        }
+        if (!rc) {
+            t0 = omp_get_wtime();
+            rc = kifmm_laplace_dipole_grad_create_on_tree(&d, &o, kifmm_laplace_grad_tree(s));
+            t0 = omp_get_wtime() - t0;
+            tt = t0 < tt ? t0 : tt;
+            if (!rc && !kifmm_laplace_dipole_grad_stats(d, &st)) bt = st.bytes, tp = st.t_points;
+            kifmm_laplace_dipole_grad_destroy(d);
+            d = NULL;
+        }
+        kifmm_laplace_grad_destroy(s);
+        s = NULL;
+    }
+    if (rc) {
+        printf("single and double layer: FAILED: %s\n", kifmm_strerror(rc));
+    } else {
+        printf("single and double layer, p = %d, %lld points of a sphere's surface (laplace_grad, then "
+               "laplace_dipole_grad):\n", p, (long long)n);
+        printf("  laplace_grad create:            %7.3f s %8.1f MiB\n", ts, bs / 1048576.0);
+        printf("  laplace_dipole_grad create:     %7.3f s %8.1f MiB (pair %.1f MiB)\n", tc,
+               bc / 1048576.0, (bs + bc) / 1048576.0);
+        printf("  laplace_dipole_grad on the tree: %6.3f s %8.1f MiB (pair %.1f MiB; %.2fx the time, "
+               "points' part %.3f s)\n", tt, bt / 1048576.0, (bs + bt) / 1048576.0, tt / tc, tp);
+    }
+    free(x);
+    free(q);
+}
+
 int main(int argc, char **argv)
 {
     const int64_t n = argc > 1 ? (int64_t)atof(argv[1]) : 200000;
@@ -181,6 +247,7 @@ int main(int argc, char **argv)
     kifmm_yukawa_grad_case("yukawa_grad domain", 6, box, n, x, repeat, eps);
     kifmm_stokes_case("stokes", 6, NULL, n, x, repeat, eps);
     four_handles(n, 10);
+    bem_pair(n, 6, repeat);
     free(x);
     free(q);
     return 0;

@@ -309,12 +309,13 @@ else
 fi
 
 # ---------------------------------------------------------------- time stepping
-# update_points against create (bench/bench_update.c), and a step of
+# update_points against create, handles on one plan, a handle on another's
+# tree (bench/bench_update.c), and a step of
 # examples/timestep.c (a Plummer sphere, leapfrog) against create + evaluate
 if [ "$QUICK" = 1 ]; then UNS="2e5"; TSN="2e5"; TSP=6; else UNS="2e5 1e6"; TSN="1e6"; TSP=8; fi
 UNS=${BENCH_UNS:-$UNS}
 echo
-echo "== time stepping: update_points + evaluate against create + evaluate, ${OMP_NUM_THREADS} threads"
+echo "== time stepping: update_points + evaluate against create + evaluate; shared plans and trees, ${OMP_NUM_THREADS} threads"
 # shellcheck disable=SC2086
 if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. bench/bench_update.c \
         -o "$OUT/bench_update" -llapacke -lopenblas -lm &&

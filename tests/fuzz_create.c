@@ -122,6 +122,7 @@ typedef struct {
                   const void *t, void *out);
     int (*estimate)(const kifmm_opts *o, int64_t ns, int64_t nt, double *bytes);
     int (*update)(void *h, int64_t ns, const void *s, int64_t nt, const void *t);
+    int (*on_tree)(void **out, const kifmm_opts *o, const void *h); /* create_on_tree(h's) */
 } api;
 
 #define FUZZ_API(P, R)                                                                         \
@@ -161,12 +162,19 @@ typedef struct {
     static int P##_z_update(void *h, int64_t ns, const void *s, int64_t nt, const void *t)    \
     {                                                                                          \
         return P##_update_points((P *)h, ns, (const R *)s, nt, (const R *)t);                  \
+    }                                                                                          \
+    static int P##_z_on_tree(void **out, const kifmm_opts *o, const void *h)                  \
+    {                                                                                          \
+        P *g = NULL;                                                                           \
+        int rc = P##_create_on_tree(&g, o, P##_tree((const P *)h));                            \
+        *out = g;                                                                              \
+        return rc;                                                                             \
     }
 #define FUZZ_ENTRY(P, K, FL, SING, SI, MU, YU, PAIRS, HEAVY)                                    \
     {#P, kifmm_kernel_##K##_SRC_DIM, kifmm_kernel_##K##_TRG_DIM, FL, SING, SI, MU, YU, PAIRS,  \
      HEAVY,                                                                                     \
      P##_z_create, P##_z_evaluate, P##_z_evaluate_many, P##_z_destroy, P##_z_stats,            \
-     P##_z_options, P##_z_direct, P##_estimate_bytes, P##_z_update}
+     P##_z_options, P##_z_direct, P##_estimate_bytes, P##_z_update, P##_z_on_tree}
 
 FUZZ_API(kifmm_laplace, double)
 FUZZ_API(kifmm_laplace_grad, double)
@@ -966,6 +974,26 @@ static void run_one(const uint8_t *data, size_t size)
             }
             free(out2);
             free(bad);
+        }
+
+        /* a second handle of the kernel on this one's tree, with its
+         * options: evaluate's outputs, bit for bit */
+        if ((calls & 0x06) == 0x04 && eval_rc == KIFMM_SUCCESS && no > 0) {
+            void *g = NULL, *out2 = sentinel_array(a, no);
+            kifmm_opts used;
+            rc = a->options(h, &used);
+            if (used.tol != 0.0) used.order = 0; /* the order tol picks, picked again */
+            if (rc == KIFMM_SUCCESS) rc = a->on_tree(&g, &used, h);
+            note("create_on_tree %d; ", rc);
+            CHECK(rc == KIFMM_SUCCESS, "%s create_on_tree with the handle's options gave %d",
+                  a->name, rc);
+            if (rc == KIFMM_SUCCESS) {
+                rc = a->evaluate(g, q1, out2);
+                CHECK(rc == eval_rc && memcmp(out2, out1, (size_t)no * rsize(a)) == 0,
+                      "%s on the handle's tree evaluate differs (%d)", a->name, rc);
+            }
+            a->destroy(g);
+            free(out2);
         }
 
         /* direct at a few targets (free space only) against evaluate */

@@ -46,7 +46,7 @@ _INT_MAX = 2**31 - 1  # the C options are ints
 
 # kifmm.h's result codes that the checks made here stand for
 _ERR_COUNT, _ERR_ORDER, _ERR_LEAF_SIZE, _ERR_DEPTH, _ERR_NTHREADS, _ERR_PARAM = -2, -4, -5, -6, -7, -8
-_ERR_PERIOD, _ERR_TOL, _ERR_DOMAIN = -13, -16, -22
+_ERR_PERIOD, _ERR_TOL, _ERR_DOMAIN, _ERR_TREE = -13, -16, -22, -23
 
 
 def kernel_help(kernel):
@@ -126,6 +126,7 @@ class _Stats(ctypes.Structure):
         ("t_workspace", ctypes.c_double),
         ("t_update", ctypes.c_double),
         ("plan_bytes", ctypes.c_double),
+        ("tree_bytes", ctypes.c_double),
     ]
 
 
@@ -164,13 +165,19 @@ def _api(kernel, dtype):
             f = {n: getattr(_lib, f"{pre}_{n}") for n in
                  ("create", "evaluate", "evaluate_many", "destroy", "stats", "options", "direct",
                   "estimate_bytes", "update_points", "plan_create", "plan_destroy",
-                  "create_with_plan")}
+                  "create_with_plan", "tree", "create_on_tree", "create_with_plan_on_tree",
+                  "update_on_tree")}
             f["create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
             f["update_points"].argtypes = [_P, _I64, _P, _I64, _P]
             f["plan_create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts)]
             f["plan_destroy"].argtypes = [_P]
             f["plan_destroy"].restype = None
             f["create_with_plan"].argtypes = [ctypes.POINTER(_P), _P, _I64, _P, _I64, _P]
+            f["tree"].argtypes = [_P]
+            f["tree"].restype = _P
+            f["create_on_tree"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts), _P]
+            f["create_with_plan_on_tree"].argtypes = [ctypes.POINTER(_P), _P, _P]
+            f["update_on_tree"].argtypes = [_P, _P]
             f["evaluate"].argtypes = [_P, _P, _P]
             f["evaluate_many"].argtypes = [_P, ctypes.c_int, _P, _P]
             f["destroy"].argtypes = [_P]
@@ -461,6 +468,14 @@ class FMM:
                   time and the memory held, on stderr
     plan          a kifmm.Plan of this kernel and dtype: its options and
                   operators, shared (then no option may be given here)
+    tree          another FMM (any kernel, the same dtype) whose points and
+                  tree this one shares: sources and targets are then not
+                  given (they are that FMM's, in its order), nothing is
+                  sorted or refined again, and period, domain, leaf_size and
+                  max_depth must be that FMM's (or None); KifmmError (code
+                  -23) otherwise. The tree stays while an FMM uses it.
+                  Boundary-element codes: the single and double layer on one
+                  geometry
 
     tol: the order is picked so that every output of the kernel (potential,
     gradient, Hessian, velocity, pressure, velocity gradient) meets tol in
@@ -493,13 +508,24 @@ class FMM:
 
     __doc__ += _kernels.summary_table() + "\n"
 
-    def __init__(self, kernel, sources, targets=None, *, order=None, tol=None, dtype=np.float64,
-                 nthreads=None, kernel_param=None, leaf_size=None, period=None, verbose=False,
-                 max_depth=None, domain=None, plan=None):
+    def __init__(self, kernel, sources=None, targets=None, *, order=None, tol=None,
+                 dtype=np.float64, nthreads=None, kernel_param=None, leaf_size=None, period=None,
+                 verbose=False, max_depth=None, domain=None, plan=None, tree=None):
         self._lock = threading.Lock()
         self._h = None
         self.kernel = kernel
         self.src_dim, self.trg_dim = _kernel(kernel)
+        if tree is not None:
+            if not isinstance(tree, FMM):
+                raise TypeError(f"kifmm.FMM: tree must be a kifmm.FMM, not {_show(tree)}")
+            if sources is not None or targets is not None:
+                raise TypeError("kifmm.FMM: with tree=, the points are the tree's: sources and "
+                                "targets cannot be given")
+            if tree.dtype != _dtype(dtype):
+                raise ValueError(f"kifmm.FMM: the tree is {np.dtype(tree.dtype).name}, not "
+                                 f"{np.dtype(dtype).name}")
+        elif sources is None:
+            raise TypeError("kifmm.FMM: sources are needed (or tree=, another FMM)")
         if plan is not None:
             if not isinstance(plan, Plan):
                 raise TypeError(f"kifmm.FMM: plan must be a kifmm.Plan, not {_show(plan)}")
@@ -521,10 +547,22 @@ class FMM:
         if plan is None:
             opts = _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size, period,
                          tol, verbose, max_depth, domain)
+        h = _P()
+        if tree is not None:
+            with tree._lock:  # the tree is the other FMM's until this one holds it too
+                t = tree._f["tree"](tree._handle())
+                if plan is None:
+                    rc = self._f["create_on_tree"](ctypes.byref(h), ctypes.byref(opts), t)
+                else:
+                    rc = self._f["create_with_plan_on_tree"](ctypes.byref(h), plan._p, t)
+                self.nsources, self.ntargets = tree.nsources, tree.ntargets
+            if rc != 0:
+                raise KifmmError(rc, f"kifmm_{kernel}_create_on_tree")
+            self._h = h
+            return
         src = _points(sources, self.dtype, "sources")
         trg = src if targets is None else _points(targets, self.dtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
-        h = _P()
         if plan is None:
             rc = self._f["create"](ctypes.byref(h), ctypes.byref(opts), self.nsources, _ptr(src),
                                    self.ntargets, _ptr(trg))
@@ -590,6 +628,35 @@ class FMM:
                 self.nsources, self.ntargets = src.shape[0], trg.shape[0]
         if rc != 0:
             raise KifmmError(rc, f"kifmm_{self.kernel}_update_points")
+
+    def update_on_tree(self, other):
+        """This FMM moved onto the points and tree of another FMM (any
+        kernel, the same dtype), keeping its options and operators, as
+        update_points on that FMM's points would, without sorting or
+        refining them again: after a.update_points(x), b.update_on_tree(a).
+        KifmmError (code -23) if the tree does not fit (FMM's tree=); then
+        this FMM keeps its old points."""
+        if not isinstance(other, FMM):
+            raise TypeError(f"kifmm.FMM.update_on_tree: other must be a kifmm.FMM, not "
+                            f"{_show(other)}")
+        if other.dtype != self.dtype:
+            raise ValueError(f"kifmm.FMM.update_on_tree: the tree is "
+                             f"{np.dtype(other.dtype).name}, not {np.dtype(self.dtype).name}")
+        # both locks, in one order whoever calls (a.update_on_tree(b) against
+        # b.update_on_tree(a) on another thread)
+        locks = [self._lock] if other is self else sorted((self._lock, other._lock), key=id)
+        for lk in locks:
+            lk.acquire()
+        try:
+            h, oh = self._handle(), other._handle()
+            rc = self._f["update_on_tree"](h, other._f["tree"](oh))
+            if rc == 0:
+                self.nsources, self.ntargets = other.nsources, other.ntargets
+        finally:
+            for lk in reversed(locks):
+                lk.release()
+        if rc != 0:
+            raise KifmmError(rc, f"kifmm_{self.kernel}_update_on_tree")
 
     @property
     def stats(self):

@@ -297,6 +297,73 @@ def test_plan_shared_between_threads():
         kifmm.FMM("laplace_grad", sets[0], plan="plan")
 
 
+def test_one_tree_for_two_kernels():
+    """the single and the double layer on one geometry: an FMM on another's
+    tree (tree=) equals an FMM of its own on the same points, bit for bit,
+    and the direct sums to the order's accuracy; it outlives the FMM it came
+    from, follows it onto new points (update_on_tree), and a tree that does
+    not fit is refused"""
+    x, y = points(6000, 120), points(5000, 121)
+    q = np.random.default_rng(122).random((len(x), 3)) - 0.5
+    a = kifmm.FMM("laplace_grad", x, order=6)
+    b = kifmm.FMM("laplace_dipole_grad", tree=a, order=6)
+    leaf = a.options["leaf_size"]
+    with kifmm.FMM("laplace_dipole_grad", x, order=6, leaf_size=leaf) as c:
+        want = c.evaluate(q)
+        own = c.stats
+    got = b.evaluate(q)
+    assert np.array_equal(got, want)
+    ref = kifmm.direct("laplace_dipole_grad", x, q, x[:200])
+    assert np.linalg.norm(got[:200] - ref) <= 5e-5 * np.linalg.norm(ref)
+    st = b.stats
+    assert st["tree_bytes"] == a.stats["tree_bytes"] > 0
+    assert st["bytes"] == own["bytes"] - own["tree_bytes"]
+    a.close()
+    assert np.array_equal(b.evaluate(q), want)
+    a2 = kifmm.FMM("laplace_grad", y, order=4)
+    b.update_on_tree(a2)
+    assert (b.nsources, b.ntargets) == (len(y), len(y))
+    with kifmm.FMM("laplace_dipole_grad", y, order=6, leaf_size=a2.options["leaf_size"]) as c:
+        assert np.array_equal(b.evaluate(q[:len(y)]), c.evaluate(q[:len(y)]))
+    plan = kifmm.Plan("laplace_dipole_grad", order=5)
+    with kifmm.FMM("laplace_dipole_grad", tree=a2, plan=plan) as p:
+        assert p.evaluate(q[:len(y)]).shape == (len(y), 4)
+    # two FMMs moving onto each other's trees from two threads: no deadlock
+    errs = []
+
+    def swap(u, v):
+        try:
+            for _ in range(5):
+                u.update_on_tree(v)
+        except Exception as e:  # noqa: BLE001 - reported below
+            errs.append(e)
+
+    ths = [threading.Thread(target=swap, args=(a2, b)), threading.Thread(target=swap, args=(b, a2))]
+    for th in ths:
+        th.start()
+    for th in ths:
+        th.join(60)
+    assert not errs and not any(th.is_alive() for th in ths)
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace", x, tree=a2)
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace", tree="a tree")
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace")
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace", tree=a2, dtype=np.float32)
+    with pytest.raises(kifmm.KifmmError) as e:
+        kifmm.FMM("laplace", tree=a2, period=1.0)
+    assert e.value.code == -23
+    with pytest.raises(kifmm.KifmmError) as e:
+        kifmm.FMM("laplace", tree=a2, leaf_size=a2.options["leaf_size"] + 1)
+    assert e.value.code == -23
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace", tree=a)  # closed
+    b.close()
+    a2.close()
+
+
 def test_update_points_while_evaluating():
     """one thread moves the points between two counts while this one
     evaluates: each result fits the count of its own call (a count changed
