@@ -13,7 +13,8 @@
 #   make timestep   build and run examples/timestep.c (a Plummer sphere stepped
 #                   with leapfrog, update_points + evaluate per step; ARGS="N steps order")
 #   make double_layer  build and run examples/double_layer.c (the Laplace
-#                   double layer of a unit density on a sphere: -1 inside, -1/2 on, 0 outside)
+#                   double layer of a unit density on a sphere: -1 inside, -1/2 on, 0 outside;
+#                   the single layer on the same tree: 1 inside, 1/|x| outside)
 #   make examples   build the examples into build/
 #   make deps       check the compilers, OpenMP and BLAS/LAPACKE headers;
 #                   installs the Debian packages when run as root
@@ -123,7 +124,8 @@ custom: deps
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/custom_kernel $(ARGS)
 
-# the double-layer identity on a sphere with the laplace_dipole kernel
+# the double- and single-layer identities on a sphere (laplace_dipole, and
+# laplace_grad on its tree)
 double_layer: deps
 	@$(MAKE) --no-print-directory examples
 	./$(BUILD)/double_layer $(ARGS)

@@ -19,6 +19,14 @@
  * 2) or 2 cos(theta / 2) cancels against dA = sin(theta) dtheta dphi, so a
  * Gauss-Legendre rule in theta (not cos theta) integrates it to rounding:
  * the poles are checked against -1/2 with a second set of nodes.
+ *
+ * A boundary-element code needs the single layer on the same nodes too,
+ *     S[mu](x) = integral over S of mu(y) / (4 pi |x - y|) dA(y),
+ * for mu = 1 on the unit sphere 1 inside (gradient 0) and 1 / |x| outside
+ * (gradient -x / |x|^3): charges q_j = w_j through `laplace_grad`. Its
+ * handle is made on the double layer's tree (kifmm_laplace_grad_create_on_tree
+ * with kifmm_laplace_dipole_tree): the nodes are not sorted again. Its
+ * RMS errors (potential, and gradient relative to 1 / |x|^2) share the bound.
  */
 #include <math.h>
 #include <stdint.h>
@@ -26,6 +34,8 @@
 #include <stdlib.h>
 
 #define KIFMM_KERNEL laplace_dipole
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
 
 #define PI 3.14159265358979323846
@@ -115,6 +125,48 @@ static double on_surface(int nt, int order, const double *gx, const double *gw, 
     return fabs(u[0] + 0.5) > fabs(u[1] + 0.5) ? fabs(u[0] + 0.5) : fabs(u[1] + 0.5);
 }
 
+/* The single layer of mu = 1 (charges w_j = |v_j|) at the ntrg targets x of
+ * the double layer's handle h (the first half inside), on h's tree: *err,
+ * the largest RMS error of the potential and of the gradient. */
+static int single_layer(kifmm_laplace_dipole *h, const kifmm_opts *o, int64_t ns, const double *v,
+                        int ntrg, const double *x, double *err)
+{
+    kifmm_laplace_grad *s = NULL;
+    double *q = malloc(sizeof(double) * (size_t)ns), *g = malloc(sizeof(double) * 4 * (size_t)ntrg);
+    double e[4] = {0.0, 0.0, 0.0, 0.0};
+    int64_t j;
+    int i, k, rc = q && g ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    for (j = 0; j < ns && q; j++)
+        q[j] = sqrt(v[3 * j] * v[3 * j] + v[3 * j + 1] * v[3 * j + 1] + v[3 * j + 2] * v[3 * j + 2]);
+    if (!rc) rc = kifmm_laplace_grad_create_on_tree(&s, o, kifmm_laplace_dipole_tree(h));
+    if (!rc) rc = kifmm_laplace_grad_evaluate(s, q, g);
+    if (rc) fprintf(stderr, "kifmm: %s\n", kifmm_strerror(rc));
+    for (i = 0; i < ntrg && !rc; i++) { /* e: inside potential, gradient; outside the same */
+        const double *p = x + 3 * i, r = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        const int in = i < ntrg / 2;
+        double d = g[4 * i] - (in ? 1.0 : 1.0 / r), dg = 0.0;
+        for (k = 0; k < 3; k++) {
+            const double want = in ? 0.0 : -p[k] / (r * r * r), sc = in ? 1.0 : r * r;
+            dg += (g[4 * i + 1 + k] - want) * (g[4 * i + 1 + k] - want) * sc * sc;
+        }
+        e[in ? 0 : 2] += d * d / (ntrg / 2);
+        e[in ? 1 : 3] += dg / (ntrg / 2);
+    }
+    if (!rc) {
+        printf("single layer of mu = 1, on the double layer's tree (create_on_tree):\n");
+        printf("  inside:  RMS error against 1: %.2e, gradient against 0: %.2e\n", sqrt(e[0]),
+               sqrt(e[1]));
+        printf("  outside: RMS error against 1/|x|: %.2e, gradient against -x/|x|^3 (times "
+               "|x|^2): %.2e\n", sqrt(e[2]), sqrt(e[3]));
+        *err = 0.0;
+        for (k = 0; k < 4; k++) *err = sqrt(e[k]) > *err ? sqrt(e[k]) : *err;
+    }
+    kifmm_laplace_grad_destroy(s);
+    free(q);
+    free(g);
+    return rc;
+}
+
 int main(int argc, char **argv)
 {
     const int nt = argc > 1 ? atoi(argv[1]) : 64, order = argc > 2 ? atoi(argv[2]) : 6;
@@ -157,6 +209,8 @@ int main(int argc, char **argv)
     printf("  inside  (%d targets): mean %.9f, RMS error against -1: %.2e\n", ntrg / 2,
            mean, ein);
     printf("  outside (%d targets): RMS error against 0: %.2e\n", ntrg / 2, eout);
+    if (single_layer(h, &o, ns, v, ntrg, x, &eout) != KIFMM_SUCCESS) return 1;
+    ein = ein > eout ? ein : eout; /* the single layer's worst, with the double layer's */
     kifmm_laplace_dipole_destroy(h);
     eon = on_surface(nt, order, ct, wt, y, v);
     printf("  %s (bound %.0e)\n", ein <= bound && eout <= bound && eon <= bound ? "ok" : "FAILED",
