@@ -1087,6 +1087,9 @@ KIFMM__FN int kifmm__refs_add(int *r, int n)
  * is atomic), so handles of instances compiled apart can share one. */
 struct kifmm_tree {
     int refs;                  /* handles on it */
+    void (*destroy)(struct kifmm_tree *); /* frees it with the allocator (KIFMM_FREE) of
+                                  the translation unit that built it, whichever unit
+                                  lets go of it last */
     int single;                /* the sorted points are float (fsrc, ftrg), else double
                                   (t.src, t.trg) */
     int vlists;                /* the lists hold V entries (the dense M2L's) */
@@ -1097,12 +1100,23 @@ struct kifmm_tree {
     kifmm__tree t;
 };
 
+/* The tree and its arrays, freed (through tr->destroy: with this unit's
+ * allocator, which allocated them). */
+KIFMM__FN void kifmm__tree_destroy(kifmm_tree *tr)
+{
+    kifmm__free(tr->fsrc);
+    if (tr->ftrg != tr->fsrc) kifmm__free(tr->ftrg);
+    kifmm__tree_free(&tr->t);
+    kifmm__free(tr);
+}
+
 /* A tree with nothing in it yet, one reference; NULL if out of memory. */
 KIFMM__FN kifmm_tree *kifmm__tree_new(int64_t ns, int64_t nt)
 {
     kifmm_tree *tr = (kifmm_tree *)kifmm__calloc(1, sizeof *tr);
     if (!tr) return NULL;
     tr->refs = 1;
+    tr->destroy = kifmm__tree_destroy;
     tr->t.ns = ns;
     tr->t.nt = nt;
     return tr;
@@ -1112,10 +1126,7 @@ KIFMM__FN kifmm_tree *kifmm__tree_new(int64_t ns, int64_t nt)
 KIFMM__FN void kifmm__tree_release(kifmm_tree *tr)
 {
     if (!tr || kifmm__refs_add(&tr->refs, -1) > 0) return;
-    kifmm__free(tr->fsrc);
-    if (tr->ftrg != tr->fsrc) kifmm__free(tr->ftrg);
-    kifmm__tree_free(&tr->t);
-    kifmm__free(tr);
+    tr->destroy(tr);
 }
 
 KIFMM__FN int kifmm__level_of(const kifmm__tree *t, int32_t b)
@@ -3657,17 +3668,21 @@ KIFMM__API void KIFMM__F(_plan_destroy)(KIFMM__F(_plan) *plan);
 /* <prefix>_tree: the handle's tree (its sorted points, boxes and
  * interaction lists), for handles of other kernels of the same precision
  * to be made on (<prefix>_create_on_tree) without sorting and refining the
- * points again. Borrowed: valid while the handle keeps it (until it is
- * destroyed or given other points); a handle made on it holds it from
- * then on. NULL for a NULL handle. */
+ * points again, by this translation unit or another (each tree is freed
+ * with the allocator of the unit that built it). Borrowed: valid while the
+ * handle keeps it (until it is destroyed or given other points by
+ * update_points or update_on_tree); a handle made on it holds it from then
+ * on. NULL for a NULL handle. */
 KIFMM__API kifmm_tree *KIFMM__F(_tree)(const KIFMM_NAME *h);
 
 /* <prefix>_create_on_tree: a handle on the points of tree (as create on
  * the points the tree was built for, in the same order), sharing the
  * tree: the sorted points, boxes and lists are not copied. Its own
  * options opts (NULL: the defaults), but those that shape the tree must
- * be the tree's: period and domain equal; leaf_size and max_depth equal,
- * or 0 to take the tree's. The tree must come from an instance of the
+ * be the tree's: period and domain equal, or all 0 (both) to take the
+ * tree's; leaf_size and max_depth equal, or 0 to take the tree's (the
+ * handle keeps them: options reports them, and its update_points builds
+ * trees with them). The tree must come from an instance of the
  * same precision, and carry V lists if this instance's M2L is the dense
  * one (KIFMM_M2L_DENSE, or more than 9 surface components). Its own
  * operators, near-field plan and workspace; stats.bytes leaves the tree
@@ -3678,8 +3693,9 @@ KIFMM__API kifmm_tree *KIFMM__F(_tree)(const KIFMM_NAME *h);
 KIFMM__API int KIFMM__F(_create_on_tree)(KIFMM_NAME **out, const kifmm_opts *opts, kifmm_tree *tree);
 
 /* <prefix>_create_with_plan_on_tree: create_on_tree with the options and
- * operators of plan (see create_with_plan); the plan's leaf size and depth
- * are the tree's where plan_create was given 0. */
+ * operators of plan (see create_with_plan): the plan's period and domain
+ * must be the tree's; its leaf size and depth are the tree's where
+ * plan_create was given 0. */
 KIFMM__API int KIFMM__F(_create_with_plan_on_tree)(KIFMM_NAME **out, KIFMM__F(_plan) *plan,
                                                    kifmm_tree *tree);
 
@@ -3688,8 +3704,9 @@ KIFMM__API int KIFMM__F(_create_with_plan_on_tree)(KIFMM_NAME **out, KIFMM__F(_p
  * (keeping its options, plan and operators), sharing the tree: after
  * <other>_update_points(a, ...), b follows a with
  * <prefix>_update_on_tree(b, <other>_tree(a)). Returns KIFMM_ERR_NULL,
- * KIFMM_ERR_TREE (as create_on_tree, against the handle's options) or
- * KIFMM_ERR_NOMEM, and then the handle is as it was. */
+ * KIFMM_ERR_TREE (as create_on_tree, against the handle's options: its
+ * period and domain must be the tree's) or KIFMM_ERR_NOMEM, and then the
+ * handle is as it was. */
 KIFMM__API int KIFMM__F(_update_on_tree)(KIFMM_NAME *h, kifmm_tree *tree);
 
 /* <prefix>_evaluate: out[j*TRG_DIM + k] for every target, in the caller's
@@ -7824,11 +7841,18 @@ KIFMM__FN kifmm_tree *KIFMM__F(__tree_own)(const kifmm_opts *o, int64_t ns, int6
 
 /* Whether a handle with options o, whose leaf size and depth were given as
  * shape (0: chosen), can use the tree tr: the same precision, period and
- * domain, V lists if the M2L is dense, the leaf size and depth given or
- * left to the tree (then o takes the tree's). */
-KIFMM__FN int KIFMM__F(__tree_fits)(const kifmm_tree *tr, const int *shape, kifmm_opts *o)
+ * domain (adopt: o's all 0 take the tree's), V lists if the M2L is dense,
+ * the leaf size and depth given or left to the tree (then o takes the
+ * tree's). */
+KIFMM__FN int KIFMM__F(__tree_fits)(const kifmm_tree *tr, const int *shape, int adopt,
+                                    kifmm_opts *o)
 {
     int d, fits = tr->single == KIFMM__FLOAT && (KIFMM__FFT || tr->vlists);
+    if (adopt && !o->period[0] && !o->period[1] && !o->period[2] && !o->domain[0] &&
+        !o->domain[1] && !o->domain[2] && !o->domain[3]) {
+        memcpy(o->period, tr->period, sizeof o->period);
+        memcpy(o->domain, tr->domain, sizeof o->domain);
+    }
     for (d = 0; d < 3; d++) fits &= tr->period[d] == o->period[d];
     for (d = 0; d < 4; d++) fits &= tr->domain[d] == o->domain[d];
     fits &= (!shape[0] || shape[0] == tr->leaf_size) && (!shape[1] || shape[1] == tr->max_depth);
@@ -7907,7 +7931,7 @@ KIFMM__FN int KIFMM__F(__create)(KIFMM_NAME **out, const kifmm_opts *opts, kifmm
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if ((rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o))) return rc;
-    if (tree && (rc = KIFMM__F(__tree_fits)(tree, shape, &o))) return rc;
+    if (tree && (rc = KIFMM__F(__tree_fits)(tree, shape, 1, &o))) return rc;
     if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
     rc = KIFMM__F(__build)(out, pl, 0, 1, &o, shape, tree, nsources, src_xyz, ntargets, trg_xyz);
     memset(&tmp, 0, sizeof tmp); /* the plan is the handle's alone now, or freed */
@@ -7949,7 +7973,7 @@ KIFMM__FN int KIFMM__F(__update)(KIFMM_NAME *h, kifmm_tree *tree, int64_t nsourc
     int rc;
     if (!h) return KIFMM_ERR_NULL;
     o = h->opts;
-    if (tree && (rc = KIFMM__F(__tree_fits)(tree, h->shape, &o))) return rc;
+    if (tree && (rc = KIFMM__F(__tree_fits)(tree, h->shape, 0, &o))) return rc;
     if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
     /* on the same plan, which keeps the operator sets both trees use; as
      * many vectors' workspace as the handle has grown to */
@@ -8038,7 +8062,7 @@ KIFMM__FN int KIFMM__F(__with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *plan, kif
     *out = NULL;
     if (!plan) return KIFMM_ERR_NULL;
     o = plan->opts;
-    if (tree && (rc = KIFMM__F(__tree_fits)(tree, plan->shape, &o))) return rc;
+    if (tree && (rc = KIFMM__F(__tree_fits)(tree, plan->shape, 0, &o))) return rc;
     if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
     rc = KIFMM__F(__build)(out, plan, 1, 1, &o, plan->shape, tree, nsources, src_xyz, ntargets,
                            trg_xyz);

@@ -9,6 +9,53 @@
 
 #include "test_multi_tu.h"
 
+static kifmm_laplace_grad *tree_owner; /* unit a's handle whose tree unit b uses */
+static void release_owner(void)
+{
+    kifmm_laplace_grad_destroy(tree_owner);
+    tree_owner = NULL;
+}
+
+/* A tree built by one unit, used by the other, and let go of last by the
+ * other: each unit's handles equal the builder's outputs bit for bit, and
+ * the tree is freed with its builder's allocator (unit b's aborts on a
+ * block it did not allocate; a's, the C library's, would fail on b's). */
+static void test_shared_tree(void)
+{
+    const int64_t n = 4000;
+    double *x = t_doubles(3 * n), *q = t_doubles(n), *u = t_doubles(4 * n), *f = t_doubles(4 * n);
+    t_rng r = t_rng_seed(53);
+    kifmm_laplace_grad *g = NULL;
+    kifmm_tree *t = NULL;
+    void *hb = NULL;
+    int rc;
+    t_group("a tree shared between the units, each with its own allocator");
+    t_gen_blobs(&r, n, x);
+    t_gen_charges(&r, n, q, -1.0, 1.0);
+    /* built by b, used by a, b's handle destroyed first */
+    rc = tu_b_make(n, x, &hb, &t);
+    if (rc == KIFMM_SUCCESS) rc = tu_b_eval(hb, q, f);
+    if (rc == KIFMM_SUCCESS) rc = kifmm_laplace_grad_create_on_tree(&g, NULL, t);
+    tu_b_destroy(hb);
+    if (rc == KIFMM_SUCCESS) rc = kifmm_laplace_grad_evaluate(g, q, u);
+    CHECK(rc == KIFMM_SUCCESS && !memcmp(u, f, sizeof(double) * 4 * (size_t)n) &&
+              tu_b_live() > 0,
+          "unit a's handle on unit b's tree: rc=%d, outputs as b's, b's blocks held %ld", rc,
+          tu_b_live());
+    kifmm_laplace_grad_destroy(g);
+    CHECK(tu_b_live() == 0, "unit b's tree freed by unit a's last handle: %ld b blocks left",
+          tu_b_live());
+    /* built by a, used by b, a's handle destroyed first */
+    rc = kifmm_laplace_grad_create(&tree_owner, NULL, n, x, n, x);
+    if (rc == KIFMM_SUCCESS) rc = kifmm_laplace_grad_evaluate(tree_owner, q, f);
+    if (rc == KIFMM_SUCCESS) rc = tu_b_on_tree(kifmm_laplace_grad_tree(tree_owner), q, u, release_owner);
+    CHECK(rc == KIFMM_SUCCESS && !memcmp(u, f, sizeof(double) * 4 * (size_t)n) && tu_b_live() == 0,
+          "unit b's handle on unit a's tree: rc=%d, outputs as a's, b blocks left %ld", rc,
+          tu_b_live());
+    kifmm_laplace_grad_destroy(tree_owner);
+    free(x), free(q), free(u), free(f);
+}
+
 int main(void)
 {
     int64_t n = 6000;
@@ -53,6 +100,7 @@ int main(void)
         CHECK_ERR(e.grad, 4e-5, "unit a: laplace_grad gradient");
     }
     kifmm_laplace_grad_destroy(hg);
+    test_shared_tree();
 
     free(x);
     free(q);

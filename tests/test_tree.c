@@ -294,6 +294,28 @@ static void test_fits(void)
     kifmm_laplace_grad_destroy(b);
     kifmm_laplace_grad_destroy(c);
     b = c = NULL;
+    /* period and domain all 0: the tree's (create_on_tree), but not for a
+     * plan's handle nor in update_on_tree, whose options are set */
+    {
+        kifmm_opts op = t_opts(6, 0, 0), got = op;
+        kifmm_laplace_grad *p = NULL, *e = NULL;
+        kifmm_laplace_grad_plan *pl = NULL;
+        op.period[0] = op.period[1] = op.period[2] = 1.0;
+        rc = kifmm_laplace_grad_create(&p, &op, s.n, s.x, s.n, s.x);
+        rc |= kifmm_laplace_grad_create_on_tree(&e, NULL, kifmm_laplace_grad_tree(p));
+        rc |= kifmm_laplace_grad_options(e, &got);
+        CHECK(rc == 0 && got.period[0] == 1.0 && got.period[2] == 1.0,
+              "no period given on a periodic tree: the tree's (rc=%d, period %g)", rc, got.period[0]);
+        rc = kifmm_laplace_grad_update_on_tree(a, kifmm_laplace_grad_tree(p));
+        CHECK(rc == KIFMM_ERR_TREE, "update_on_tree of a free handle onto a periodic tree: rc=%d", rc);
+        rc = kifmm_laplace_grad_plan_create(&pl, NULL);
+        kifmm_laplace_grad_destroy(e);
+        e = (kifmm_laplace_grad *)pl;
+        if (!rc) rc = kifmm_laplace_grad_create_with_plan_on_tree(&e, pl, kifmm_laplace_grad_tree(p));
+        CHECK(rc == KIFMM_ERR_TREE && e == NULL, "a free plan's handle on a periodic tree: rc=%d", rc);
+        kifmm_laplace_grad_plan_destroy(pl);
+        kifmm_laplace_grad_destroy(p);
+    }
     /* empty sets: no sources, then no targets */
     for (k = 0; k < 2; k++) {
         kifmm_laplace_grad *e = NULL;

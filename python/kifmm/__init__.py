@@ -472,8 +472,9 @@ class FMM:
                   tree this one shares: sources and targets are then not
                   given (they are that FMM's, in its order), nothing is
                   sorted or refined again, and period, domain, leaf_size and
-                  max_depth must be that FMM's (or None); KifmmError (code
-                  -23) otherwise. The tree stays while an FMM uses it.
+                  max_depth must be that FMM's, or None to take that FMM's
+                  (period and domain both None); KifmmError (code -23)
+                  otherwise. The tree stays while an FMM uses it.
                   Boundary-element codes: the single and double layer on one
                   geometry
 

@@ -360,6 +360,12 @@ def test_one_tree_for_two_kernels():
     assert e.value.code == -23
     with pytest.raises(ValueError):
         kifmm.FMM("laplace", tree=a)  # closed
+    with kifmm.FMM("laplace_grad", x, period=1.0) as per:
+        with kifmm.FMM("laplace", tree=per) as f:  # period None: the tree's
+            assert f.options["period"] == [1.0, 1.0, 1.0]
+        with pytest.raises(kifmm.KifmmError) as e:
+            b.update_on_tree(per)  # a free FMM onto a periodic tree
+        assert e.value.code == -23
     b.close()
     a2.close()
 
