@@ -38,7 +38,8 @@
 # check.  The last line of output is "N passed, N failed"; the exit status is
 # nonzero if anything failed.
 #
-# Environment: JOBS (parallel compiles, default 2), TEST_TIMEOUT (seconds per
+# Environment: TESTS (the programs to build and run, by name; default all),
+# JOBS (parallel compiles, default 2), TEST_TIMEOUT (seconds per
 # test program, default 900), CONFIGS (see above), EXTRA_CFLAGS (added to
 # every compile, e.g. an -I for cblas.h; the Makefile sets it when needed).  OPENBLAS_CORETYPE is left
 # alone if set; otherwise it is set to SkylakeX on CPUs with AVX-512 (where
@@ -60,10 +61,11 @@ WARN="-Wall -Wextra -Werror -pedantic"
 # test_multi_tu_b.c link together into test_multi_tu; test_linkage_a and
 # test_linkage_b link against libkifmm_linkage.a, built first from
 # tests/linkage_lib.c (KIFMM_IMPLEMENT, see tests/test_linkage.h)
-TESTS=$(for f in tests/test_*.c; do
+# (TESTS="test_tree test_alloc" bash tests/run.sh: those programs only)
+TESTS=${TESTS:-$(for f in tests/test_*.c; do
     n=$(basename "$f" .c)
     case "$n" in test_multi_tu_a) echo test_multi_tu ;; test_multi_tu_b) ;; *) echo "$n" ;; esac
-done | tr '\n' ' ')
+done | tr '\n' ' ')}
 
 # One run at a time: a second run.sh waits for the first instead of
 # rebuilding the same directories under it.
