@@ -16,6 +16,9 @@ static void *tu_b_malloc(size_t n)
     unsigned char *p = (unsigned char *)malloc(n + 32);
     if (!p) return NULL;
     memcpy(p, "kifmm-tu-b", 11);
+#ifdef _OPENMP
+#pragma omp atomic /* the library allocates inside parallel regions too */
+#endif
     tu_b_blocks++;
     return p + 32;
 }
@@ -27,6 +30,9 @@ static void tu_b_free(void *q)
         fprintf(stderr, "unit b: a block of another allocator freed with b's\n");
         abort();
     }
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
     tu_b_blocks--;
     free(p);
 }
@@ -104,4 +110,12 @@ int tu_b_on_tree(struct kifmm_tree *t, const double *q, double *out, void (*rele
     return rc;
 }
 
-long tu_b_live(void) { return tu_b_blocks; }
+long tu_b_live(void)
+{
+    long n;
+#ifdef _OPENMP
+#pragma omp atomic read
+#endif
+    n = tu_b_blocks;
+    return n;
+}
