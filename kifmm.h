@@ -444,10 +444,20 @@ KIFMM__FN void kifmm__lock_give(kifmm__lock *l) { omp_unset_lock(l); }
 typedef struct { char v; } kifmm__lock;
 KIFMM__FN void kifmm__lock_init(kifmm__lock *l) { __atomic_clear(&l->v, __ATOMIC_RELEASE); }
 KIFMM__FN void kifmm__lock_fini(kifmm__lock *l) { (void)l; }
+#if defined(__x86_64__) || defined(__i386__)
+#define KIFMM__PAUSE() __builtin_ia32_pause()
+#elif defined(__aarch64__)
+#define KIFMM__PAUSE() __asm__ __volatile__("yield")
+#else
+#define KIFMM__PAUSE() ((void)0)
+#endif
+/* test and test-and-set: a waiting thread reads the flag (its cache line
+ * stays shared) with the CPU's spin hint between reads, and tries to take
+ * it only when it reads free */
 KIFMM__FN void kifmm__lock_take(kifmm__lock *l)
 {
-    while (__atomic_test_and_set(&l->v, __ATOMIC_ACQUIRE)) {
-    }
+    while (__atomic_test_and_set(&l->v, __ATOMIC_ACQUIRE))
+        while (__atomic_load_n(&l->v, __ATOMIC_RELAXED)) KIFMM__PAUSE();
 }
 KIFMM__FN void kifmm__lock_give(kifmm__lock *l) { __atomic_clear(&l->v, __ATOMIC_RELEASE); }
 #else
