@@ -312,6 +312,24 @@ static inline void t_gen_charges(t_rng *r, int64_t n, double *q, double lo, doub
     for (i = 0; i < n; i++) q[i] = t_uniform(r, lo, hi);
 }
 
+/* nv vectors of n sources' sd densities, uniform in [-1, 1) from seed
+ * (t_doubles: the caller frees them); neutral: each vector's values sum to
+ * zero (periodic scale-invariant kernels need it). */
+static inline double *t_densities(uint64_t seed, int64_t n, int sd, int nv, int neutral)
+{
+    t_rng r = t_rng_seed(seed);
+    double *q = t_doubles(n * sd * nv + 1);
+    int64_t i;
+    int v;
+    for (v = 0; v < nv; v++) {
+        double *p = q + v * n * sd, sum = 0.0;
+        for (i = 0; i < n * sd; i++) sum += p[i] = t_uniform(&r, -1.0, 1.0);
+        if (neutral)
+            for (i = 0; i < n * sd; i++) p[i] -= sum / (double)(n * sd);
+    }
+    return q;
+}
+
 /* ------------------------------------------------------------------------ */
 /* Independent direct summation                                             */
 /* ------------------------------------------------------------------------ */

@@ -53,22 +53,6 @@ static pset set_of(int kind, uint64_t seed, int64_t n)
     return s;
 }
 
-/* n sources' sd densities, nv vectors; neutral: each vector's sum 0 */
-static double *densities(uint64_t seed, int64_t n, int sd, int nv, int neutral)
-{
-    t_rng r = t_rng_seed(seed);
-    double *q = t_doubles(n * sd * nv + 1);
-    int64_t i;
-    int v;
-    for (v = 0; v < nv; v++) {
-        double *p = q + v * n * sd, sum = 0.0;
-        for (i = 0; i < n * sd; i++) sum += p[i] = t_uniform(&r, -1.0, 1.0);
-        if (neutral)
-            for (i = 0; i < n * sd; i++) p[i] -= sum / (double)(n * sd);
-    }
-    return q;
-}
-
 #define T_CONV(R)                                                                                  \
     static R *conv_##R(const double *x, int64_t n)                                                 \
     {                                                                                              \
@@ -96,7 +80,8 @@ T_CONV(float)
         R *xs = conv_##R(s->x, 3 * s->n), *xt = t ? conv_##R(t->x, 3 * t->n) : xs;                 \
         R *xs2 = conv_##R(s2->x, 3 * s2->n);                                                       \
         const int64_t nt = t ? t->n : s->n, nmax = nt > s2->n ? nt : s2->n;                         \
-        double *qd = densities(21, s->n, sd, 2, neutral), *qd2 = densities(22, s2->n, sd, 1, neutral); \
+        double *qd = t_densities(21, s->n, sd, 2, neutral);                                        \
+        double *qd2 = t_densities(22, s2->n, sd, 1, neutral);                                      \
         R *q = conv_##R(qd, 2 * s->n * sd), *q2 = conv_##R(qd2, s2->n * sd);                       \
         R *u = (R *)t_malloc_or_die((size_t)(2 * nmax * td + 1) * sizeof(R));                      \
         R *f = (R *)t_malloc_or_die((size_t)(2 * nmax * td + 1) * sizeof(R));                      \
@@ -237,7 +222,7 @@ static void test_fits(void)
 {
     pset s = set_of(0, 5, 3000);
     float *sf = conv_float(s.x, 3 * s.n);
-    double *q = densities(6, s.n, 1, 1, 0), *u = t_doubles(4 * s.n), *f = t_doubles(4 * s.n);
+    double *q = t_densities(6, s.n, 1, 1, 0), *u = t_doubles(4 * s.n), *f = t_doubles(4 * s.n);
     kifmm_opts o = t_opts(6, 40, 0), ob = t_opts(6, 0, 0);
     kifmm_laplace_grad *a = NULL, *b = NULL, *c = NULL;
     kifmm_laplacef *af = NULL;
@@ -344,7 +329,7 @@ done:
 static void test_threads(void)
 {
     pset s = set_of(2, 7, T_N / 2);
-    double *q = densities(8, s.n, 3, 1, 0), *u[NH], *f[NH];
+    double *q = t_densities(8, s.n, 3, 1, 0), *u[NH], *f[NH];
     kifmm_opts o = t_opts(5, 0, 0), used = o;
     kifmm_laplace_grad *a = NULL, *g1 = NULL;
     kifmm_laplace_dipole_grad *g0 = NULL;

@@ -78,22 +78,6 @@ static pset set_jitter(const pset *s, uint64_t seed, double eps, double lo, doub
     return m;
 }
 
-/* nv vectors of n sources' sd densities; neutral: each vector's sum 0 */
-static double *densities(uint64_t seed, int64_t n, int sd, int nv, int neutral)
-{
-    t_rng r = t_rng_seed(seed);
-    double *q = t_doubles(n * sd * nv + 1);
-    int64_t i;
-    int v;
-    for (v = 0; v < nv; v++) {
-        double *p = q + v * n * sd, sum = 0.0;
-        for (i = 0; i < n * sd; i++) sum += p[i] = t_uniform(&r, -1.0, 1.0);
-        if (neutral)
-            for (i = 0; i < n * sd; i++) p[i] -= sum / (double)(n * sd);
-    }
-    return q;
-}
-
 /* One case for instance P of precision R (sd densities per source, td
  * outputs per target): a handle created on (s0, t0) and moved to (s1, t1)
  * (t == NULL: targets = sources, the same array), against a handle created
@@ -115,7 +99,8 @@ static double *densities(uint64_t seed, int64_t n, int sd, int nv, int neutral)
         R *xs0 = P##_conv(s0->x, 3 * s0->n), *xs1 = P##_conv(s1->x, 3 * s1->n);                    \
         R *xt0 = t0 ? P##_conv(t0->x, 3 * t0->n) : xs0, *xt1 = t1 ? P##_conv(t1->x, 3 * t1->n) : xs1; \
         const int64_t nt0 = t0 ? t0->n : s0->n, nt1 = t1 ? t1->n : s1->n;                          \
-        double *qd0 = densities(11, s0->n, sd, 1, neutral), *qd1 = densities(12, s1->n, sd, 2, neutral); \
+        double *qd0 = t_densities(11, s0->n, sd, 1, neutral);                                      \
+        double *qd1 = t_densities(12, s1->n, sd, 2, neutral);                                      \
         R *q0 = P##_conv(qd0, s0->n * sd), *q1 = P##_conv(qd1, s1->n * 2 * sd);                    \
         R *o0 = (R *)t_malloc_or_die((size_t)(nt0 * td + 1) * sizeof(R));                          \
         R *o0b = (R *)t_malloc_or_die((size_t)(nt0 * td + 1) * sizeof(R));                         \
@@ -270,7 +255,7 @@ static void test_domain(void)
     pset a = set_cube(21, 5000, 0.1, 0.9), b = set_cube(22, 7000, 0.0, 1.0);
     pset c = set_jitter(&b, 23, 1e-2, 0.0, 1.0), w = set_cube(24, 100, 0.0, 1.0);
     kifmm_yukawa_grad *h = NULL;
-    double *q = densities(5, 7000, 1, 1, 0), *out = t_doubles(4 * 7000);
+    double *q = t_densities(5, 7000, 1, 1, 0), *out = t_doubles(4 * 7000);
     int rc;
     o.kernel_param[0] = 3.0;
     o.domain[0] = o.domain[1] = o.domain[2] = 0.5;
@@ -364,7 +349,7 @@ static void test_periodic(void)
         for (i = 0; i < NH; i++) {                                                                 \
             pset a = set_cube(50 + i, 2500 + 700 * i, 0.05 * i, 1.0 - 0.05 * i);                   \
             pset b = set_jitter(&a, 60 + i, 2e-3, 0.0, 1.0);                                       \
-            double *qd = densities(70 + i, a.n, sd, 1, 0);                                         \
+            double *qd = t_densities(70 + i, a.n, sd, 1, 0);                                       \
             n[i] = a.n;                                                                            \
             x[i] = P##_conv(a.x, 3 * a.n), y[i] = P##_conv(b.x, 3 * a.n), q[i] = P##_conv(qd, a.n * sd); \
             u[i] = (R *)t_malloc_or_die((size_t)(a.n * td) * sizeof(R));                           \
