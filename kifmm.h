@@ -201,8 +201,11 @@ extern "C++" {
 
 // >>results
 
-/* Every result code and its message, from one list: X(name, value, message). */
-#define KIFMM__RESULTS(X)                                                                     \
+/* Every result code and its message, from one list: X(name, value, message),
+ * in two parts: the arguments, options and internal limits (0 to -12),
+ * then boundaries, ranges, data and trees (-13 on). */
+#define KIFMM__RESULTS(X) KIFMM__RESULTS_ARGS(X) KIFMM__RESULTS_DATA(X)
+#define KIFMM__RESULTS_ARGS(X)                                                                \
     X(KIFMM_SUCCESS, 0, "success")                                                            \
     X(KIFMM_ERR_NULL, -1, "a required pointer argument is NULL")                              \
     X(KIFMM_ERR_COUNT, -2,                                                                    \
@@ -218,7 +221,8 @@ extern "C++" {
     X(KIFMM_ERR_INTERNAL, -11, "an internal limit was exceeded (please report)")              \
     X(KIFMM_ERR_KERNEL, -12,                                                                  \
       "the kernel gave a NaN or infinite value on the expansion surfaces (check its "         \
-      "parameters)")                                                                          \
+      "parameters)")
+#define KIFMM__RESULTS_DATA(X)                                                                \
     X(KIFMM_ERR_PERIOD, -13,                                                                  \
       "opts.period: a period is negative or not finite, the periodic directions have "        \
       "different periods, or the points span 1024 periods or more in a free direction")      \
