@@ -251,7 +251,10 @@ extern "C++" {
       "not positive, or it is set together with opts.period")                                 \
     X(KIFMM_ERR_TREE, -23,                                                                    \
       "the tree does not fit this instance: built by one of the other precision, for "        \
-      "another leaf size, depth, period or domain, or without the V lists of a dense M2L")
+      "another leaf size, depth, period or domain, or without the V lists of a dense M2L")   \
+    X(KIFMM_ERR_MPI, -24,                                                                     \
+      "MPI mode: MPI is not initialised or an MPI call failed, the ranks passed different "   \
+      "counts of vectors, or this kernel has no MPI mode yet (docs/api.md, \"MPI\")")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -335,6 +338,16 @@ typedef struct kifmm_stats {
     double tree_bytes;          /* memory held by the handle's tree (sorted points,
                                    boxes, lists); bytes leaves it out when the tree
                                    came from another handle (create_on_tree) */
+    /* MPI mode (<prefix>_create_mpi; all 0 otherwise), of this rank: */
+    int mpi_ranks;              /* ranks in the communicator */
+    int64_t mpi_sources;        /* sources and targets it owns (the partition's) */
+    int64_t mpi_targets;
+    int64_t mpi_ghost_points;   /* other ranks' sources near its region that it holds */
+    int64_t mpi_ghost_boxes;    /* boxes of other ranks whose equivalent densities it
+                                   receives at each evaluate */
+    double mpi_bytes_sent;      /* last evaluate: bytes it sent and received */
+    double mpi_bytes_recv;
+    double t_mpi_wait;          /* last evaluate: seconds in MPI calls */
 } kifmm_stats;
 
 #endif /* KIFMM_H_TYPES */
@@ -3061,6 +3074,307 @@ KIFMM__FN void kifmm__fft_tvmap(int *tv)
 #endif
 
 #endif /* KIFMM_H_IMPL */
+
+/* ======================================================================== */
+/* 3b. MPI mode's shared part (KIFMM_MPI before an include; once per        */
+/*     translation unit): docs/api.md, "MPI"                                */
+/* ======================================================================== */
+#if defined(KIFMM_MPI) && !defined(KIFMM_H_MPI_TYPES)
+#define KIFMM_H_MPI_TYPES
+#ifdef __cplusplus
+extern "C++" {
+#endif
+#include <limits.h>
+#include <mpi.h>
+#ifdef __cplusplus
+}
+#endif
+#endif
+
+#if defined(KIFMM_MPI) && !defined(KIFMM_DECLARE) && !defined(KIFMM_H_MPI_IMPL)
+#define KIFMM_H_MPI_IMPL
+// >>mpi (shared): agreement, the partition, routes, regions
+
+/* Every rank's result: its own if it failed, else the lowest (most
+ * negative) of all ranks', so that every rank leaves a collective call
+ * together. */
+KIFMM__FN int kifmm__mpi_agree(MPI_Comm comm, int rc)
+{
+    int g = rc;
+    if (MPI_Allreduce(&rc, &g, 1, MPI_INT, MPI_MIN, comm) != MPI_SUCCESS) return KIFMM_ERR_MPI;
+    return rc ? rc : g;
+}
+
+/* The splitters of a Morton partition: rank j owns the keys in
+ * [sp[j], sp[j + 1]), sp[0] = 0, sp[R] = 2^(3 KIFMM__D), each sp[j] the
+ * smallest key below which at least j / R of the ranks' total weight lies.
+ * k: this rank's n keys, sorted; cw: their weights' prefix sums (n + 1).
+ * All R - 1 splitters are bisected together, one allreduce a step. */
+KIFMM__FN int kifmm__mpi_split(MPI_Comm comm, int R, const uint64_t *k, const double *cw,
+                               int64_t n, uint64_t *sp)
+{
+    const uint64_t top = (uint64_t)1 << (3 * KIFMM__D);
+    double tot = 0.0, *c = (double *)kifmm__alloc((size_t)2 * R, sizeof(double));
+    uint64_t *lo = (uint64_t *)kifmm__alloc((size_t)2 * R, sizeof(uint64_t)), *hi = lo + R;
+    int j, it, rc = KIFMM_SUCCESS;
+    if (!c || !lo) rc = KIFMM_ERR_NOMEM;
+    if (!rc && MPI_Allreduce((void *)&cw[n], &tot, 1, MPI_DOUBLE, MPI_SUM, comm) != MPI_SUCCESS)
+        rc = KIFMM_ERR_MPI;
+    for (j = 0; !rc && j < R; j++) lo[j] = 0, hi[j] = top;
+    for (it = 0; !rc && it < 3 * KIFMM__D + 2; it++) {
+        for (j = 1; j < R; j++) { /* the weight below the middle of each interval */
+            const uint64_t mid = lo[j] + (hi[j] - lo[j]) / 2;
+            int64_t a = 0, b = n;
+            while (a < b) {
+                const int64_t m = a + (b - a) / 2;
+                if (k[m] < mid) a = m + 1;
+                else b = m;
+            }
+            c[j] = cw[a];
+        }
+        if (MPI_Allreduce(MPI_IN_PLACE, c + 1, R - 1, MPI_DOUBLE, MPI_SUM, comm) != MPI_SUCCESS)
+            rc = KIFMM_ERR_MPI;
+        for (j = 1; !rc && j < R; j++) {
+            const uint64_t mid = lo[j] + (hi[j] - lo[j]) / 2;
+            if (c[j] >= tot * j / R) hi[j] = mid;
+            else lo[j] = mid + 1;
+        }
+    }
+    if (!rc) {
+        sp[0] = 0;
+        sp[R] = top;
+        for (j = 1; j < R; j++) sp[j] = hi[j] > sp[j - 1] ? hi[j] : sp[j - 1];
+    }
+    kifmm__free(c);
+    kifmm__free(lo);
+    return rc;
+}
+
+/* The rank that owns key x (splitters sp of R ranks). */
+KIFMM__FN int kifmm__mpi_owner(const uint64_t *sp, int R, uint64_t x)
+{
+    int a = 0, b = R - 1;
+    while (a < b) {
+        const int m = (a + b + 1) / 2;
+        if (sp[m] <= x) a = m;
+        else b = m - 1;
+    }
+    return a;
+}
+
+/* The key range [a, b) as aligned boxes, 4 values each (x, y, z of the
+ * lower corner and the edge, in units of level KIFMM__D): at most
+ * 14 KIFMM__D of them. */
+KIFMM__FN int kifmm__mpi_range(uint64_t a, uint64_t b, int64_t *bx)
+{
+    int n = 0;
+    while (a < b) {
+        int k = 0;
+        int64_t x[3];
+        while (k < KIFMM__D && (a & ((8ULL << 3 * k) - 1)) == 0 && a + (8ULL << 3 * k) <= b) k++;
+        kifmm__decode(a, x);
+        bx[4 * n] = x[0], bx[4 * n + 1] = x[1], bx[4 * n + 2] = x[2];
+        bx[4 * n + 3] = (int64_t)1 << k;
+        n++;
+        a += 1ULL << 3 * k;
+    }
+    return n;
+}
+
+/* 1 if the 3 x 3 x 3 boxes around the box of level l at anchor a meet one
+ * of the nb boxes bx (kifmm__mpi_range): the box is then not well
+ * separated from that region, whose points need its sources (or its
+ * children's) rather than its equivalent density. */
+KIFMM__FN int kifmm__mpi_near(int l, const int32_t *a, const int64_t *bx, int nb)
+{
+    const int64_t s = (int64_t)1 << (KIFMM__D - l);
+    int i, d;
+    for (i = 0; i < nb; i++) {
+        int meet = 1;
+        for (d = 0; d < 3; d++)
+            meet &= bx[4 * i + d] < (a[d] + 2) * s && (a[d] - 1) * s < bx[4 * i + d] + bx[4 * i + 3];
+        if (meet) return 1;
+    }
+    return 0;
+}
+
+/* Where the caller's points go: order (n: each point's index, grouped by
+ * the rank it goes to), cnt and dsp (per rank, points sent), rcnt and rdsp
+ * (per rank, points received); moved by kifmm__mpi_move. */
+typedef struct {
+    int64_t *order;
+    int *cnt, *dsp, *rcnt, *rdsp;
+    int64_t nrecv;
+} kifmm__mpi_route;
+
+KIFMM__FN void kifmm__mpi_route_free(kifmm__mpi_route *r)
+{
+    kifmm__free(r->order);
+    kifmm__free(r->cnt);
+    memset(r, 0, sizeof *r);
+}
+
+/* The route of n points whose owners are own[i] (R ranks). */
+KIFMM__FN int kifmm__mpi_route_make(MPI_Comm comm, int R, int64_t n, const int *own,
+                                    kifmm__mpi_route *r)
+{
+    int64_t i, *pos = (int64_t *)kifmm__alloc((size_t)R + 1, sizeof(int64_t)), s = 0, t = 0;
+    int j, rc = KIFMM_SUCCESS;
+    memset(r, 0, sizeof *r);
+    r->order = (int64_t *)kifmm__alloc((size_t)n + 1, sizeof(int64_t));
+    r->cnt = (int *)kifmm__alloc((size_t)4 * R, sizeof(int));
+    if (!pos || !r->order || !r->cnt) {
+        kifmm__free(pos);
+        kifmm__mpi_route_free(r);
+        return KIFMM_ERR_NOMEM;
+    }
+    r->dsp = r->cnt + R, r->rcnt = r->cnt + 2 * R, r->rdsp = r->cnt + 3 * R;
+    memset(pos, 0, ((size_t)R + 1) * sizeof(int64_t));
+    for (i = 0; i < n; i++) pos[own[i] + 1]++;
+    for (j = 0; j < R; j++) {
+        if (pos[j + 1] > INT_MAX || s > INT_MAX - pos[j + 1]) rc = KIFMM_ERR_COUNT;
+        r->cnt[j] = (int)pos[j + 1];
+        r->dsp[j] = (int)s;
+        s += pos[j + 1];
+        pos[j + 1] += pos[j];
+    }
+    for (i = 0; i < n; i++) r->order[pos[own[i]]++] = i;
+    kifmm__free(pos);
+    if (rc) return rc; /* the caller agrees, then frees */
+    if (MPI_Alltoall(r->cnt, 1, MPI_INT, r->rcnt, 1, MPI_INT, comm) != MPI_SUCCESS)
+        return KIFMM_ERR_MPI;
+    for (j = 0; j < R; j++) {
+        if (t > INT_MAX - r->rcnt[j]) rc = KIFMM_ERR_COUNT;
+        r->rdsp[j] = (int)t;
+        t += r->rcnt[j];
+    }
+    r->nrecv = t;
+    return rc;
+}
+
+/* Values of `per` bytes a point along route r (back: the other way),
+ * from send (in route order) into recv. */
+KIFMM__FN int kifmm__mpi_move(MPI_Comm comm, const kifmm__mpi_route *r, int back,
+                              const void *send, void *recv, size_t per)
+{
+    MPI_Datatype ty;
+    int rc;
+    if (per > INT_MAX) return KIFMM_ERR_COUNT;
+    if (MPI_Type_contiguous((int)per, MPI_BYTE, &ty) != MPI_SUCCESS) return KIFMM_ERR_MPI;
+    if (MPI_Type_commit(&ty) != MPI_SUCCESS) {
+        MPI_Type_free(&ty);
+        return KIFMM_ERR_MPI;
+    }
+    if (back)
+        rc = MPI_Alltoallv((void *)send, r->rcnt, r->rdsp, ty, recv, r->cnt, r->dsp, ty, comm);
+    else
+        rc = MPI_Alltoallv((void *)send, r->cnt, r->dsp, ty, recv, r->rcnt, r->rdsp, ty, comm);
+    MPI_Type_free(&ty);
+    return rc == MPI_SUCCESS ? KIFMM_SUCCESS : KIFMM_ERR_MPI;
+}
+
+/* The ranks a rank exchanges ghost points and equivalent densities with:
+ * n of them, rank[i], and per rank the offsets of its ghost points and of
+ * its boxes in the sender's or receiver's lists (g, p: n + 1 each). */
+typedef struct {
+    int n;
+    int *rank;
+    int64_t *g, *p;
+    MPI_Request *req;
+} kifmm__mpi_peers;
+
+KIFMM__FN void kifmm__mpi_peers_free(kifmm__mpi_peers *p)
+{
+    kifmm__free(p->rank);
+    kifmm__free(p->g);
+    kifmm__free(p->req);
+    memset(p, 0, sizeof *p);
+}
+
+/* Peers from per-rank counts c (2 per rank: ghost points, boxes), the
+ * ranks with any. */
+KIFMM__FN int kifmm__mpi_peers_make(int R, const int64_t *c, kifmm__mpi_peers *p)
+{
+    int j, n = 0;
+    memset(p, 0, sizeof *p);
+    for (j = 0; j < R; j++) n += c[2 * j] + c[2 * j + 1] > 0;
+    p->rank = (int *)kifmm__alloc((size_t)n + 1, sizeof(int));
+    p->g = (int64_t *)kifmm__alloc((size_t)2 * (n + 1), sizeof(int64_t));
+    p->req = (MPI_Request *)kifmm__alloc((size_t)n + 1, sizeof(MPI_Request));
+    if (!p->rank || !p->g || !p->req) {
+        kifmm__mpi_peers_free(p);
+        return KIFMM_ERR_NOMEM;
+    }
+    p->p = p->g + n + 1;
+    p->g[0] = p->p[0] = 0;
+    for (j = 0; j < R; j++)
+        if (c[2 * j] + c[2 * j + 1] > 0) {
+            p->rank[p->n] = j;
+            p->g[p->n + 1] = p->g[p->n] + c[2 * j];
+            p->p[p->n + 1] = p->p[p->n] + c[2 * j + 1];
+            p->n++;
+        }
+    return KIFMM_SUCCESS;
+}
+
+/* One message of `bytes` bytes to or from each peer (recv: from), buffers
+ * at buf + off[i]; the requests in p->req, waited on by kifmm__mpi_wait. */
+KIFMM__FN int kifmm__mpi_post(MPI_Comm comm, kifmm__mpi_peers *p, int recv, char *buf,
+                              const size_t *off)
+{
+    int i;
+    for (i = 0; i < p->n; i++) {
+        const size_t b = off[i + 1] - off[i];
+        int rc;
+        if (b > INT_MAX) return KIFMM_ERR_COUNT;
+        rc = recv ? MPI_Irecv(buf + off[i], (int)b, MPI_BYTE, p->rank[i], 7, comm, &p->req[i])
+                  : MPI_Isend(buf + off[i], (int)b, MPI_BYTE, p->rank[i], 7, comm, &p->req[i]);
+        if (rc != MPI_SUCCESS) return KIFMM_ERR_MPI;
+    }
+    return KIFMM_SUCCESS;
+}
+
+KIFMM__FN int kifmm__mpi_wait(kifmm__mpi_peers *p)
+{
+    if (p->n && MPI_Waitall(p->n, p->req, MPI_STATUSES_IGNORE) != MPI_SUCCESS)
+        return KIFMM_ERR_MPI;
+    return KIFMM_SUCCESS;
+}
+
+/* First box of level l in the dense numbering of levels 2 .. lc. */
+KIFMM__FN int32_t kifmm__mpi_coff(int l)
+{
+    int32_t o = 0;
+    int k;
+    for (k = 2; k < l; k++) o += (int32_t)1 << (3 * k);
+    return o;
+}
+
+typedef struct {
+    int32_t a[4]; /* level, anchor */
+    int32_t k;    /* received box */
+} kifmm__mpi_box;
+
+KIFMM__FN int kifmm__mpi_box_cmp(const void *x, const void *y)
+{
+    const int32_t *a = ((const kifmm__mpi_box *)x)->a, *b = ((const kifmm__mpi_box *)y)->a;
+    int i;
+    for (i = 0; i < 4; i++)
+        if (a[i] != b[i]) return a[i] < b[i] ? -1 : 1;
+    return ((const kifmm__mpi_box *)x)->k - ((const kifmm__mpi_box *)y)->k;
+}
+
+/* Level and anchor of coarse box i (dense numbering). */
+KIFMM__FN void kifmm__mpi_coarse_box(int32_t i, int32_t *a)
+{
+    int64_t x[3];
+    int l = 2;
+    while (kifmm__mpi_coff(l + 1) <= i) l++;
+    kifmm__decode((uint64_t)(i - kifmm__mpi_coff(l)), x);
+    a[0] = l, a[1] = (int32_t)x[0], a[2] = (int32_t)x[1], a[3] = (int32_t)x[2];
+}
+
+#endif /* KIFMM_H_MPI_IMPL */
 #endif /* KIFMM__PREC_PASS, the normal pass's first part */
 
 #ifdef KIFMM__PREC_PASS
@@ -3748,6 +4062,25 @@ KIFMM__API int KIFMM__F(_evaluate)(KIFMM_NAME *h, const KIFMM__R *densities, KIF
 KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R *densities,
                                         KIFMM__R *out);
 
+#if defined(KIFMM_MPI)
+/* <prefix>_create_mpi (KIFMM_MPI defined before the include): a handle
+ * over the points of every rank of comm, each rank passing any of them
+ * (its own sources and targets, in any order, none at all included): one
+ * FMM over all the points, whose evaluate gives each rank the outputs at
+ * the targets it passed, in its order, from the densities of the sources
+ * it passed. Collective over comm, as are evaluate, evaluate_many,
+ * update_points and destroy on the handle (every rank calls them, with its
+ * own points and arrays, the same count of vectors); stats reports this
+ * rank's part (mpi_* fields). Each rank returns its own error if it met
+ * one, else the lowest of the other ranks' (every rank leaves together);
+ * KIFMM_ERR_PERIODIC for periodic options, KIFMM_ERR_MPI where MPI is not
+ * initialised or a kernel has no MPI mode yet. With one rank the handle is
+ * create's, bit for bit. Destroy it before MPI_Finalize. docs/api.md, "MPI". */
+KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifmm_opts *opts,
+                                     int64_t nsources_local, const KIFMM__R *src_xyz,
+                                     int64_t ntargets_local, const KIFMM__R *trg_xyz);
+#endif
+
 /* <prefix>_destroy: free a handle and everything it owns. NULL is a no-op. */
 KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h);
 
@@ -4091,7 +4424,15 @@ struct KIFMM__F(_plan) {
  * lists, FFT slabs, near-field chunks), and the workspace. Every block it
  * allocates is counted where it is allocated (kifmm__take): in held,
  * tree.held, the plan's and the workspace's held. */
+#if defined(KIFMM_MPI)
+/* MPI mode (>>mpi): a handle from create_mpi holds only this. */
+typedef struct KIFMM__F(__mpi) KIFMM__F(__mpi);
+#endif
+
 struct KIFMM_NAME {
+#if defined(KIFMM_MPI)
+    KIFMM__F(__mpi) *mpi;      /* create_mpi's handle: its ranks' state, else NULL */
+#endif
     size_t held;               /* bytes of the blocks below, plan, tree and workspace apart */
     kifmm_opts opts;           /* options, defaults resolved (with the kernel's
                                   parameters in opts.kernel_param) */
@@ -4151,6 +4492,16 @@ struct KIFMM_NAME {
     } work;
     kifmm_stats stats;         /* written by create and evaluate */
 };
+
+#if defined(KIFMM_MPI)
+/* MPI mode's entry points (>>mpi), which the public functions hand an
+ * MPI handle to. */
+KIFMM__FN int KIFMM__F(__mpi_evaluate)(KIFMM_NAME *h, int nrhs, const KIFMM__R *d, KIFMM__R *out);
+KIFMM__FN int KIFMM__F(__mpi_update)(KIFMM_NAME *h, int64_t ns, const KIFMM__R *src, int64_t nt,
+                                     const KIFMM__R *trg);
+KIFMM__FN void KIFMM__F(__mpi_stats)(const KIFMM_NAME *h, kifmm_stats *out);
+KIFMM__FN void KIFMM__F(__mpi_destroy)(KIFMM_NAME *h);
+#endif
 
 /* C = A B (+ C if beta), column major, no transposes, in the instance's
  * precision. Outside parallel regions only. */
@@ -7264,6 +7615,12 @@ KIFMM__FN void KIFMM__F(__points_free)(KIFMM_NAME *h)
 KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
 {
     if (!h) return;
+#if defined(KIFMM_MPI)
+    if (h->mpi) {
+        KIFMM__F(__mpi_destroy)(h);
+        return;
+    }
+#endif
     KIFMM__F(__points_free)(h);
     KIFMM__F(__plan_release)(h);
     kifmm__free(h);
@@ -7986,6 +8343,9 @@ KIFMM__FN int KIFMM__F(__update)(KIFMM_NAME *h, kifmm_tree *tree, int64_t nsourc
     double t0 = kifmm__now();
     int rc;
     if (!h) return KIFMM_ERR_NULL;
+#if defined(KIFMM_MPI)
+    if (h->mpi) return tree ? KIFMM_ERR_TREE : KIFMM__F(__mpi_update)(h, nsources, src_xyz, ntargets, trg_xyz);
+#endif
     o = h->opts;
     if (tree && (rc = KIFMM__F(__tree_fits)(tree, h->shape, 0, &o))) return rc;
     if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
@@ -8298,6 +8658,9 @@ KIFMM__API int KIFMM__F(_evaluate_many)(KIFMM_NAME *h, int nrhs, const KIFMM__R 
     size_t qper, oper;
     int r0, nr, cap, rc;
     double t0;
+#if defined(KIFMM_MPI)
+    if (h && h->mpi) return KIFMM__F(__mpi_evaluate)(h, nrhs, densities, out);
+#endif
     if (KIFMM__F(__eval_check)(h, nrhs, densities, out, &rc)) return rc;
     if ((rc = KIFMM__F(__check_finite)((size_t)nrhs * h->tree->ns * KIFMM__UD, densities,
                                        h->opts.nthreads, KIFMM_ERR_DENSITY)))
@@ -8343,6 +8706,12 @@ KIFMM__API int KIFMM__F(_evaluate)(KIFMM_NAME *h, const KIFMM__R *densities, KIF
 KIFMM__API int KIFMM__F(_stats)(const KIFMM_NAME *h, kifmm_stats *out)
 {
     if (!h || !out) return KIFMM_ERR_NULL;
+#if defined(KIFMM_MPI)
+    if (h->mpi) {
+        KIFMM__F(__mpi_stats)(h, out);
+        return KIFMM_SUCCESS;
+    }
+#endif
     *out = h->stats;
     return KIFMM_SUCCESS;
 }
@@ -8592,6 +8961,800 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
     if (!rc) *bytes = b;
     return rc;
 }
+
+
+#if defined(KIFMM_MPI)
+// >>mpi: MPI mode (create_mpi; evaluate, update_points, stats, destroy collective)
+
+/* The ranks' points are partitioned by Morton key at level KIFMM__D of a
+ * global root box (weighted bisection, kifmm__mpi_split); each rank owns a
+ * key range, its region. A rank's handle is two local handles on one plan:
+ * up, over the sources it owns in the global root (its upward pass gives
+ * every box's equivalent density), and main, which evaluates at the targets
+ * it owns the field of its own sources, of other ranks' sources near its
+ * region (ghosts: the sources of leaves of their up trees not well
+ * separated from it) and of the equivalent densities of their boxes that
+ * are separated from it while the parent is not (proxies: each box's
+ * equivalent surface as sources, which its densities are, for kernels
+ * whose surface kernel is the kernel). Boxes of levels 2 to lc come summed
+ * over all ranks (one allreduce) instead of from each rank. */
+#define KIFMM__MPI_KERNEL                                                                     \
+    (KIFMM__QD == KIFMM__SD && KIFMM__UD == KIFMM__QD &&                                      \
+     !(KIFMM__HAS_OF(KIFMM_KERNEL) & KIFMM_HAS_DENSITY))
+
+struct KIFMM__F(__mpi) {
+    MPI_Comm comm;
+    int rank, size, same, lc, shape[2];
+    kifmm_opts o;              /* options, resolved */
+    KIFMM__F(_plan) *pl;       /* up's and main's */
+    KIFMM_NAME *up, *main;     /* up: NULL when the rank owns no sources */
+    double root[4];            /* the global root: centre, half-width */
+    uint64_t *split;           /* size + 1 splitters; the region of rank j: */
+    int64_t *nto_all;          /* targets each rank owns */
+    int64_t ns, nt;            /* the caller's points on this rank */
+    kifmm__mpi_route rs, rt;   /* the caller's sources and targets to their owners */
+    int64_t nso, nto;          /* owned */
+    KIFMM__R *so, *to;         /* owned points (to == so when same) */
+    kifmm__mpi_peers dst, src; /* the ranks this one sends ghosts and proxies to, and from */
+    int64_t *gidx;             /* sources sent as ghosts, by destination (so's order) */
+    int32_t *pbox;             /* boxes of up's tree sent as proxies, by destination */
+    int64_t ng, np, npx;       /* ghosts and boxes received; proxies (distinct boxes) */
+    int32_t *pslot;            /* each received box's proxy */
+    int32_t *cbox, ncb, ncoarse; /* coarse boxes used: index of each in the levels 2..lc */
+    size_t *off;               /* message offsets, destinations then sources */
+    kifmm_stats st;            /* the MPI fields */
+};
+
+/* Free the parts a partition built (not comm, plan or options). */
+KIFMM__FN void KIFMM__F(__mpi_points_free)(KIFMM__F(__mpi) *m)
+{
+    KIFMM__F(_destroy)(m->up);
+    KIFMM__F(_destroy)(m->main);
+    m->up = m->main = NULL;
+    kifmm__free(m->split);
+    kifmm__free(m->nto_all);
+    kifmm__mpi_route_free(&m->rs);
+    kifmm__mpi_route_free(&m->rt);
+    if (m->to != m->so) kifmm__free(m->to);
+    kifmm__free(m->so);
+    kifmm__mpi_peers_free(&m->dst);
+    kifmm__mpi_peers_free(&m->src);
+    kifmm__free(m->gidx);
+    kifmm__free(m->pbox);
+    kifmm__free(m->pslot);
+    kifmm__free(m->cbox);
+    kifmm__free(m->off);
+    m->split = NULL, m->nto_all = NULL, m->so = m->to = NULL, m->gidx = NULL;
+    m->pbox = NULL, m->pslot = m->cbox = NULL, m->off = NULL;
+}
+
+/* The global root: opts.domain, or the cube around every rank's points. */
+KIFMM__FN int KIFMM__F(__mpi_root)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM__R *src,
+                                   int64_t nt, const KIFMM__R *trg)
+{
+    double e[6] = {HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL, HUGE_VAL}, half = 0.0;
+    int64_t i;
+    int d;
+    if (m->o.domain[3] > 0.0) {
+        memcpy(m->root, m->o.domain, sizeof m->root);
+        return KIFMM_SUCCESS;
+    }
+    for (d = 0; d < 3; d++) { /* e: the lowest coordinates, then minus the highest */
+        for (i = 0; i < ns; i++) e[d] = fmin(e[d], (double)src[3 * i + d]), e[d + 3] = fmin(e[d + 3], -(double)src[3 * i + d]);
+        for (i = 0; i < nt; i++) e[d] = fmin(e[d], (double)trg[3 * i + d]), e[d + 3] = fmin(e[d + 3], -(double)trg[3 * i + d]);
+    }
+    if (MPI_Allreduce(MPI_IN_PLACE, e, 6, MPI_DOUBLE, MPI_MIN, m->comm) != MPI_SUCCESS) return KIFMM_ERR_MPI;
+    for (d = 0; d < 3; d++) {
+        if (!(e[d] <= -e[d + 3])) e[d] = e[d + 3] = 0.0; /* no points anywhere */
+        m->root[d] = 0.5 * (e[d] - e[d + 3]);
+        half = fmax(half, 0.5 * (-e[d + 3] - e[d]));
+    }
+    m->root[3] = half > 0.0 ? half * (1.0 + 1e-10) : 0.5;
+    return KIFMM_SUCCESS;
+}
+
+/* Level-KIFMM__D keys of n points in the global root. */
+KIFMM__FN void KIFMM__F(__mpi_keys)(const double *root, int64_t n, const KIFMM__R *x, uint64_t *k)
+{
+    const int64_t top = ((int64_t)1 << KIFMM__D) - 1;
+    const double sc = (double)((int64_t)1 << KIFMM__D) / (2.0 * root[3]);
+    for (int64_t i = 0; i < n; i++) {
+        int64_t q[3];
+        int d;
+        for (d = 0; d < 3; d++) {
+            const double v = floor(((double)x[3 * i + d] - (root[d] - root[3])) * sc);
+            q[d] = v < 0.0 ? 0 : v > (double)top ? top : (int64_t)v;
+        }
+        k[i] = kifmm__encode(q[0], q[1], q[2]);
+    }
+}
+
+/* The splitters of these points (targets weigh as sources; the same
+ * points twice when they are both). */
+KIFMM__FN int KIFMM__F(__mpi_splitters)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM__R *src,
+                                        int64_t nt, const KIFMM__R *trg)
+{
+    const int64_t n = ns + (m->same ? 0 : nt);
+    uint64_t *k = (uint64_t *)kifmm__alloc((size_t)n + 1, sizeof(uint64_t));
+    int64_t *ix = (int64_t *)kifmm__alloc((size_t)n + 1, sizeof(int64_t));
+    double *cw = (double *)kifmm__alloc((size_t)n + 1, sizeof(double));
+    int rc = KIFMM_SUCCESS;
+    m->split = (uint64_t *)kifmm__alloc((size_t)m->size + 1, sizeof(uint64_t));
+    if (!k || !ix || !cw || !m->split) rc = KIFMM_ERR_NOMEM;
+    if (!rc) {
+        KIFMM__F(__mpi_keys)(m->root, ns, src, k);
+        if (!m->same) KIFMM__F(__mpi_keys)(m->root, nt, trg, k + ns);
+        for (int64_t i = 0; i < n; i++) ix[i] = i;
+        rc = kifmm__radix_sort(k, ix, n, m->o.nthreads);
+    }
+    if (!rc) {
+        cw[0] = 0.0;
+        for (int64_t i = 0; i < n; i++) cw[i + 1] = cw[i] + (m->same ? 2.0 : 1.0);
+    }
+    rc = kifmm__mpi_agree(m->comm, rc);
+    if (!rc) rc = kifmm__mpi_split(m->comm, m->size, k, cw, n, m->split);
+    kifmm__free(k);
+    kifmm__free(ix);
+    kifmm__free(cw);
+    return rc;
+}
+
+/* n points to their owners along a new route r: *own gets the owned ones. */
+KIFMM__FN int KIFMM__F(__mpi_send_points)(KIFMM__F(__mpi) *m, int64_t n, const KIFMM__R *x,
+                                          kifmm__mpi_route *r, KIFMM__R **own)
+{
+    uint64_t *k = (uint64_t *)kifmm__alloc((size_t)n + 1, sizeof(uint64_t));
+    int *to = (int *)kifmm__alloc((size_t)n + 1, sizeof(int));
+    KIFMM__R *buf = (KIFMM__R *)kifmm__alloc((size_t)3 * n + 1, sizeof(KIFMM__R));
+    int rc = !k || !to || !buf ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS;
+    if (!rc) {
+        KIFMM__F(__mpi_keys)(m->root, n, x, k);
+        for (int64_t i = 0; i < n; i++) to[i] = kifmm__mpi_owner(m->split, m->size, k[i]);
+    }
+    if ((rc = kifmm__mpi_agree(m->comm, rc)) == KIFMM_SUCCESS)
+        rc = kifmm__mpi_agree(m->comm, kifmm__mpi_route_make(m->comm, m->size, n, to, r));
+    if (!rc) {
+        for (int64_t i = 0; i < n; i++) memcpy(buf + 3 * i, x + 3 * r->order[i], 3 * sizeof(KIFMM__R));
+        *own = (KIFMM__R *)kifmm__alloc((size_t)3 * r->nrecv + 1, sizeof(KIFMM__R));
+        rc = kifmm__mpi_agree(m->comm, *own ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM);
+    }
+    if (!rc) rc = kifmm__mpi_move(m->comm, r, 0, buf, *own, 3 * sizeof(KIFMM__R));
+    kifmm__free(k);
+    kifmm__free(to);
+    kifmm__free(buf);
+    return rc;
+}
+
+/* What this rank's up tree sends to a rank whose region is the nb boxes
+ * bx: the sources of leaves not well separated from it, and of separated
+ * boxes below level lc with no more sources than a surface has points
+ * (ghosts, gidx: so's indices), and separated boxes below level lc whose
+ * parent is not (pbox); counts in *ng and *np (NULL lists: count only). */
+KIFMM__FN void KIFMM__F(__mpi_walk)(const KIFMM__F(__mpi) *m, const int64_t *bx, int nb,
+                                    int64_t *ng, int64_t *np, int64_t *gidx, int32_t *pbox)
+{
+    const kifmm__tree *t = m->up->tree;
+    int32_t stack[8 * (KIFMM__D + 2)];
+    int top = 0, c;
+    stack[top++] = 0;
+    while (top) {
+        const int32_t b = stack[--top];
+        const int l = t->lev[b];
+        const int64_t s0 = t->s0[b], n = t->s1[b] - s0;
+        if (n == 0) continue;
+        if (l >= 2 && !kifmm__mpi_near(l, t->anchor + 3 * (size_t)b, bx, nb)) {
+            if (l <= m->lc) continue; /* in the coarse levels' sum */
+            if (n > m->pl->surf.nse) {
+                if (pbox) pbox[*np] = b;
+                (*np)++;
+                continue;
+            }
+        } else if (t->child[b] >= 0) {
+            for (c = 7; c >= 0; c--) stack[top++] = t->child[b] + c;
+            continue;
+        }
+        if (gidx)
+            for (int64_t i = 0; i < n; i++) gidx[*ng + i] = t->sperm[s0 + i];
+        *ng += n;
+    }
+}
+
+/* The ghosts and proxies this rank sends to each rank with targets (a walk
+ * that counts, then one that fills), and the peers both ways (the counts
+ * exchanged with one alltoall of two numbers a rank). */
+KIFMM__FN int KIFMM__F(__mpi_lists)(KIFMM__F(__mpi) *m)
+{
+    const int R = m->size;
+    int64_t *c = (int64_t *)kifmm__calloc((size_t)4 * R, sizeof(int64_t)), ng, np;
+    int64_t *bx = (int64_t *)kifmm__alloc((size_t)4 * 14 * KIFMM__D, sizeof(int64_t));
+    int i, j, rc = !c || !bx ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS;
+    for (j = 0; j < R && !rc && m->up; j++)
+        if (j != m->rank && m->nto_all[j] > 0)
+            KIFMM__F(__mpi_walk)(m, bx, kifmm__mpi_range(m->split[j], m->split[j + 1], bx),
+                                 &c[2 * j], &c[2 * j + 1], NULL, NULL);
+    if (!rc) rc = kifmm__mpi_peers_make(R, c, &m->dst);
+    if (!rc) {
+        m->gidx = (int64_t *)kifmm__alloc((size_t)m->dst.g[m->dst.n] + 1, sizeof(int64_t));
+        m->pbox = (int32_t *)kifmm__alloc((size_t)m->dst.p[m->dst.n] + 1, sizeof(int32_t));
+        if (!m->gidx || !m->pbox) rc = KIFMM_ERR_NOMEM;
+    }
+    for (i = 0; i < m->dst.n && !rc; i++) {
+        j = m->dst.rank[i];
+        ng = np = 0;
+        KIFMM__F(__mpi_walk)(m, bx, kifmm__mpi_range(m->split[j], m->split[j + 1], bx), &ng, &np,
+                             m->gidx + m->dst.g[i], m->pbox + m->dst.p[i]);
+    }
+    rc = kifmm__mpi_agree(m->comm, rc);
+    if (!rc && MPI_Alltoall(c, 2, MPI_INT64_T, c + 2 * R, 2, MPI_INT64_T, m->comm) != MPI_SUCCESS)
+        rc = KIFMM_ERR_MPI;
+    if (!rc) rc = kifmm__mpi_peers_make(R, c + 2 * R, &m->src);
+    rc = kifmm__mpi_agree(m->comm, rc);
+    kifmm__free(c);
+    kifmm__free(bx);
+    return rc;
+}
+
+/* m->off (dst.n + 1, then src.n + 1): each peer's message, perg bytes a
+ * ghost point and perp a box. */
+KIFMM__FN void KIFMM__F(__mpi_offsets)(KIFMM__F(__mpi) *m, size_t perg, size_t perp)
+{
+    const kifmm__mpi_peers *p[2] = {&m->dst, &m->src};
+    size_t *off[2] = {m->off, m->off + m->dst.n + 1};
+    int i, k;
+    for (k = 0; k < 2; k++) {
+        off[k][0] = 0;
+        for (i = 0; i < p[k]->n; i++)
+            off[k][i + 1] = off[k][i] + (size_t)(p[k]->g[i + 1] - p[k]->g[i]) * perg +
+                            (size_t)(p[k]->p[i + 1] - p[k]->p[i]) * perp;
+    }
+}
+
+/* One message to and from each peer (m->off: __mpi_offsets); *wait += the
+ * time spent in MPI. */
+KIFMM__FN int KIFMM__F(__mpi_exchange)(KIFMM__F(__mpi) *m, char *sbuf, char *rbuf, double *wait)
+{
+    const double t0 = kifmm__now();
+    int rc = kifmm__mpi_post(m->comm, &m->src, 1, rbuf, m->off + m->dst.n + 1);
+    if (!rc) rc = kifmm__mpi_post(m->comm, &m->dst, 0, sbuf, m->off);
+    if (!rc) rc = kifmm__mpi_wait(&m->src);
+    if (!rc) rc = kifmm__mpi_wait(&m->dst);
+    *wait += kifmm__now() - t0;
+    return rc;
+}
+
+/* Total bytes of the messages to (k = 0) or from (1) the peers. */
+KIFMM__FN size_t KIFMM__F(__mpi_bytes)(const KIFMM__F(__mpi) *m, int k, size_t perg, size_t perp)
+{
+    const kifmm__mpi_peers *p = k ? &m->src : &m->dst;
+    return (size_t)p->g[p->n] * perg + (size_t)p->p[p->n] * perp;
+}
+
+/* The coarse boxes this rank takes from the levels' sum: boxes of levels 2
+ * to lc with sources on some rank, separated from its region while their
+ * parent is not (none without targets). */
+KIFMM__FN int KIFMM__F(__mpi_coarse)(KIFMM__F(__mpi) *m)
+{
+    const int32_t nc = kifmm__mpi_coff(m->lc + 1);
+    double *n = (double *)kifmm__calloc((size_t)nc, sizeof(double));
+    int64_t *bx = (int64_t *)kifmm__alloc((size_t)4 * 14 * KIFMM__D, sizeof(int64_t)), x[3];
+    int rc = !n || !bx ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS, l, nb;
+    m->ncoarse = nc;
+    m->cbox = (int32_t *)kifmm__alloc((size_t)nc, sizeof(int32_t));
+    if (!m->cbox) rc = KIFMM_ERR_NOMEM;
+    for (l = 2; !rc && m->up && l <= m->lc && l < m->up->tree->nlev; l++) {
+        const kifmm__tree *t = m->up->tree;
+        for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
+            const int32_t *a = t->anchor + 3 * (size_t)b;
+            n[kifmm__mpi_coff(l) + (int32_t)kifmm__encode(a[0], a[1], a[2])] += (double)(t->s1[b] - t->s0[b]);
+        }
+    }
+    if ((rc = kifmm__mpi_agree(m->comm, rc)) == KIFMM_SUCCESS &&
+        MPI_Allreduce(MPI_IN_PLACE, n, nc, MPI_DOUBLE, MPI_SUM, m->comm) != MPI_SUCCESS)
+        rc = KIFMM_ERR_MPI;
+    nb = rc ? 0 : kifmm__mpi_range(m->split[m->rank], m->split[m->rank + 1], bx);
+    for (l = 2, m->ncb = 0; !rc && m->nto > 0 && l <= m->lc; l++)
+        for (int32_t i = 0; i < (int32_t)1 << (3 * l); i++) {
+            int32_t a[3], pa[3];
+            if (n[kifmm__mpi_coff(l) + i] == 0.0) continue;
+            kifmm__decode((uint64_t)i, x);
+            a[0] = (int32_t)x[0], a[1] = (int32_t)x[1], a[2] = (int32_t)x[2];
+            pa[0] = a[0] >> 1, pa[1] = a[1] >> 1, pa[2] = a[2] >> 1;
+            if (!kifmm__mpi_near(l, a, bx, nb) && kifmm__mpi_near(l - 1, pa, bx, nb))
+                m->cbox[m->ncb++] = kifmm__mpi_coff(l) + i;
+        }
+    kifmm__free(n);
+    kifmm__free(bx);
+    return rc;
+}
+
+/* The received boxes, each distinct one a proxy (pslot), then the coarse
+ * ones: their level and anchor into *pa (4 each). */
+KIFMM__FN int KIFMM__F(__mpi_proxies)(KIFMM__F(__mpi) *m, const char *rb, int32_t **pa)
+{
+    const size_t rg = 3 * sizeof(KIFMM__R), *off = m->off + m->dst.n + 1;
+    kifmm__mpi_box *bs = (kifmm__mpi_box *)kifmm__alloc((size_t)m->np + 1, sizeof *bs);
+    int64_t k;
+    int i;
+    m->pslot = (int32_t *)kifmm__alloc((size_t)m->np + 1, sizeof(int32_t));
+    *pa = (int32_t *)kifmm__alloc((size_t)4 * (m->np + m->ncb) + 4, sizeof(int32_t));
+    if (!bs || !m->pslot || !*pa) {
+        kifmm__free(bs);
+        return KIFMM_ERR_NOMEM;
+    }
+    for (i = 0; i < m->src.n; i++) {
+        const char *base = rb + off[i] + (size_t)(m->src.g[i + 1] - m->src.g[i]) * rg;
+        for (k = m->src.p[i]; k < m->src.p[i + 1]; k++) {
+            memcpy(bs[k].a, base + (size_t)(k - m->src.p[i]) * sizeof bs[k].a, sizeof bs[k].a);
+            bs[k].k = (int32_t)k;
+        }
+    }
+    qsort(bs, (size_t)m->np, sizeof *bs, kifmm__mpi_box_cmp);
+    for (k = 0, m->npx = 0; k < m->np; k++) {
+        if (k == 0 || memcmp(bs[k].a, bs[k - 1].a, sizeof bs[k].a))
+            memcpy(*pa + 4 * m->npx++, bs[k].a, sizeof bs[k].a);
+        m->pslot[bs[k].k] = (int32_t)(m->npx - 1);
+    }
+    for (i = 0; i < m->ncb; i++) kifmm__mpi_coarse_box(m->cbox[i], *pa + 4 * (m->npx + i));
+    kifmm__free(bs);
+    return KIFMM_SUCCESS;
+}
+
+/* main: the owned sources, the ghosts, the proxies' surfaces (the
+ * equivalent surface of each box, at the radius of the upward pass) as
+ * sources; the owned targets. */
+KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
+{
+    const int nse = m->pl->surf.nse;
+    const size_t rg = 3 * sizeof(KIFMM__R), *off = m->off + m->dst.n + 1;
+    kifmm_opts om = m->o;
+    int32_t *pa = NULL;
+    KIFMM__R *xs = NULL;
+    int64_t nsm, k, j = m->nso;
+    int i, rc;
+    m->ng = m->src.g[m->src.n];
+    m->np = m->src.p[m->src.n];
+    if ((rc = KIFMM__F(__mpi_proxies)(m, rb, &pa))) return rc;
+    nsm = m->nso + m->ng + (m->npx + m->ncb) * nse;
+    memset(om.domain, 0, sizeof om.domain);
+    if (nsm == m->nso) { /* nothing from the others: main is up's points */
+        kifmm__free(pa);
+        return KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, m->nso, m->so, m->nto, m->to);
+    }
+    if (!(xs = (KIFMM__R *)kifmm__alloc((size_t)3 * nsm, sizeof(KIFMM__R)))) {
+        kifmm__free(pa);
+        return KIFMM_ERR_NOMEM;
+    }
+    memcpy(xs, m->so, (size_t)3 * m->nso * sizeof(KIFMM__R));
+    for (i = 0; i < m->src.n; i++) {
+        memcpy(xs + 3 * j, rb + off[i], (size_t)(m->src.g[i + 1] - m->src.g[i]) * rg);
+        j += m->src.g[i + 1] - m->src.g[i];
+    }
+    for (k = 0; k < m->npx + m->ncb; k++, j += nse) {
+        const int32_t *a = pa + 4 * k;
+        const double w = 2.0 * m->root[3] / (double)((int64_t)1 << a[0]);
+        int d, q;
+        for (d = 0; d < 3; d++) {
+            const double c = m->root[d] - m->root[3] + (a[d + 1] + 0.5) * w;
+            for (q = 0; q < nse; q++)
+                xs[3 * (j + q) + d] = (KIFMM__R)(c + m->pl->surf.ai * 0.5 * w * m->pl->surf.unit_e[d * nse + q]);
+        }
+    }
+    rc = KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, nsm, xs, m->nto, m->to);
+    kifmm__free(xs);
+    kifmm__free(pa);
+    return rc;
+}
+
+/* The coordinates of the ghosts and the boxes of the proxies, to and from
+ * the peers; then main. */
+KIFMM__FN int KIFMM__F(__mpi_let)(KIFMM__F(__mpi) *m)
+{
+    const size_t rg = 3 * sizeof(KIFMM__R), rp = 4 * sizeof(int32_t);
+    char *sb = NULL, *rb = NULL;
+    double w = 0.0;
+    int i, rc;
+    m->off = (size_t *)kifmm__alloc((size_t)m->dst.n + m->src.n + 2, sizeof(size_t));
+    sb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 0, rg, rp) + 1, 1);
+    rb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 1, rg, rp) + 1, 1);
+    rc = kifmm__mpi_agree(m->comm, !m->off || !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    if (!rc) {
+        KIFMM__F(__mpi_offsets)(m, rg, rp);
+        for (i = 0; i < m->dst.n; i++) {
+            char *g = sb + m->off[i], *p = g + (size_t)(m->dst.g[i + 1] - m->dst.g[i]) * rg;
+            for (int64_t k = m->dst.g[i]; k < m->dst.g[i + 1]; k++, g += rg)
+                memcpy(g, m->so + 3 * m->gidx[k], rg);
+            for (int64_t k = m->dst.p[i]; k < m->dst.p[i + 1]; k++, p += rp) {
+                const kifmm__tree *t = m->up->tree;
+                const int32_t b = m->pbox[k], a[4] = {t->lev[b], t->anchor[3 * (size_t)b],
+                                                      t->anchor[3 * (size_t)b + 1], t->anchor[3 * (size_t)b + 2]};
+                memcpy(p, a, rp);
+            }
+        }
+        rc = kifmm__mpi_agree(m->comm, KIFMM__F(__mpi_exchange)(m, sb, rb, &w));
+    }
+    if (!rc) rc = kifmm__mpi_agree(m->comm, KIFMM__F(__mpi_main)(m, rb));
+    kifmm__free(sb);
+    kifmm__free(rb);
+    return rc;
+}
+
+/* The partition of these points and everything built on it, into m (whose
+ * comm, plan and options are set; on failure the caller frees the rest). */
+KIFMM__FN int KIFMM__F(__mpi_build)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM__R *src,
+                                    int64_t nt, const KIFMM__R *trg)
+{
+    kifmm_opts ou = m->o;
+    int rc, same = ns == nt && src == trg;
+    m->ns = ns, m->nt = nt;
+    if (MPI_Allreduce(MPI_IN_PLACE, &same, 1, MPI_INT, MPI_MIN, m->comm) != MPI_SUCCESS)
+        return KIFMM_ERR_MPI;
+    m->same = same;
+    if ((rc = KIFMM__F(__mpi_root)(m, ns, src, nt, trg))) return rc;
+    if ((rc = KIFMM__F(__mpi_splitters)(m, ns, src, nt, trg))) return rc;
+    if ((rc = KIFMM__F(__mpi_send_points)(m, ns, src, &m->rs, &m->so))) return rc;
+    m->nso = m->rs.nrecv;
+    if (same) m->to = m->so, m->nto = m->nso;
+    else if ((rc = KIFMM__F(__mpi_send_points)(m, nt, trg, &m->rt, &m->to))) return rc;
+    else m->nto = m->rt.nrecv;
+    m->nto_all = (int64_t *)kifmm__alloc((size_t)m->size, sizeof(int64_t));
+    if ((rc = kifmm__mpi_agree(m->comm, m->nto_all ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM))) return rc;
+    if (MPI_Allgather(&m->nto, 1, MPI_INT64_T, m->nto_all, 1, MPI_INT64_T, m->comm) != MPI_SUCCESS)
+        return KIFMM_ERR_MPI;
+    memcpy(ou.domain, m->root, sizeof m->root);
+    ou.verbose = 0;
+    if (m->nso > 0)
+        rc = KIFMM__F(__build)(&m->up, m->pl, 1, 1, &ou, m->shape, NULL, m->nso, m->so, m->nso, m->so);
+    if ((rc = kifmm__mpi_agree(m->comm, rc))) return rc;
+    if ((rc = KIFMM__F(__mpi_coarse)(m))) return rc;
+    if ((rc = KIFMM__F(__mpi_lists)(m))) return rc;
+    return KIFMM__F(__mpi_let)(m);
+}
+
+#define KIFMM__MPI_REAL (sizeof(KIFMM__R) == sizeof(double) ? MPI_DOUBLE : MPI_FLOAT)
+
+/* The caller's densities (nr vectors) to the owners: dq (nr x nso x UD). */
+KIFMM__FN int KIFMM__F(__mpi_forward)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *d,
+                                      KIFMM__R *dq, double *wait)
+{
+    const size_t per = (size_t)nr * KIFMM__UD, uper = (size_t)m->ns * KIFMM__UD;
+    KIFMM__R *sb = (KIFMM__R *)kifmm__alloc((size_t)m->ns * per + 1, sizeof(KIFMM__R));
+    KIFMM__R *rb = (KIFMM__R *)kifmm__alloc((size_t)m->nso * per + 1, sizeof(KIFMM__R));
+    double t0;
+    int rc = kifmm__mpi_agree(m->comm, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    if (!rc) {
+        for (int64_t i = 0; i < m->ns; i++)
+            for (int r = 0; r < nr; r++)
+                memcpy(sb + i * per + (size_t)r * KIFMM__UD, d + r * uper + m->rs.order[i] * KIFMM__UD,
+                       KIFMM__UD * sizeof(KIFMM__R));
+        t0 = kifmm__now();
+        rc = kifmm__mpi_move(m->comm, &m->rs, 0, sb, rb, per * sizeof(KIFMM__R));
+        *wait += kifmm__now() - t0;
+    }
+    if (!rc)
+        for (int64_t i = 0; i < m->nso; i++)
+            for (int r = 0; r < nr; r++)
+                memcpy(dq + ((size_t)r * m->nso + i) * KIFMM__UD, rb + i * per + (size_t)r * KIFMM__UD,
+                       KIFMM__UD * sizeof(KIFMM__R));
+    kifmm__free(sb);
+    kifmm__free(rb);
+    return rc;
+}
+
+/* up's upward pass on dq; e: each vector's scale (__density_scale). */
+KIFMM__FN int KIFMM__F(__mpi_upward)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *dq, int *e)
+{
+    KIFMM_NAME *up = m->up;
+    int l, rc;
+    if (!up) return KIFMM_SUCCESS;
+    if ((rc = KIFMM__F(__eval_grow)(up, nr))) return rc;
+    KIFMM__F(__density_scale)(up, nr, dq, e);
+    KIFMM__F(__gather_densities)(up, up->work.w, nr, dq, e);
+    for (l = up->tree->nlev - 1; l >= kifmm__lmin(up->tree); l--) KIFMM__F(__upward)(up, up->work.w, nr, l);
+    return KIFMM_SUCCESS;
+}
+
+/* v += box b's equivalent density of vector r (up's, scaled back). */
+KIFMM__FN void KIFMM__F(__mpi_ue)(const KIFMM__F(__mpi) *m, int r, int32_t b, const int *e, KIFMM__R *v)
+{
+    const int ne = m->pl->surf.ne;
+    const KIFMM__R *u = m->up->work.w->ue + ((size_t)r * m->up->tree->nbox + (size_t)b) * ne;
+    const double s = ldexp(1.0, e[r]);
+    int i;
+    for (i = 0; i < ne; i++) v[i] = (KIFMM__R)((double)v[i] + s * (double)u[i]);
+}
+
+/* co (nr x ncoarse x ne): every rank's equivalent densities of the boxes of
+ * levels 2 .. lc, summed. */
+KIFMM__FN int KIFMM__F(__mpi_coarse_sum)(KIFMM__F(__mpi) *m, int nr, const int *e, KIFMM__R *co,
+                                         double *wait)
+{
+    const int ne = m->pl->surf.ne;
+    const size_t n = (size_t)nr * m->ncoarse * ne;
+    double t0;
+    int l, r, rc;
+    memset(co, 0, n * sizeof(KIFMM__R));
+    for (l = 2; m->up && l <= m->lc && l < m->up->tree->nlev; l++) {
+        const kifmm__tree *t = m->up->tree;
+        for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
+            const int32_t *a = t->anchor + 3 * (size_t)b;
+            const size_t i = (size_t)kifmm__mpi_coff(l) + (size_t)kifmm__encode(a[0], a[1], a[2]);
+            for (r = 0; r < nr; r++) KIFMM__F(__mpi_ue)(m, r, b, e, co + ((size_t)r * m->ncoarse + i) * ne);
+        }
+    }
+    if (n > INT_MAX) return KIFMM_ERR_COUNT;
+    t0 = kifmm__now();
+    rc = MPI_Allreduce(MPI_IN_PLACE, co, (int)n, KIFMM__MPI_REAL, MPI_SUM, m->comm);
+    *wait += kifmm__now() - t0;
+    return rc == MPI_SUCCESS ? KIFMM_SUCCESS : KIFMM_ERR_MPI;
+}
+
+/* dm (nr x nsm x UD): the owned densities (dq), the ghosts' and proxies'
+ * from the peers, the coarse boxes' (co). */
+KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *dq, const int *e,
+                                      const KIFMM__R *co, KIFMM__R *dm, double *wait)
+{
+    const int ne = m->pl->surf.ne, U = KIFMM__UD;
+    const size_t pg = (size_t)nr * U * sizeof(KIFMM__R), pp = (size_t)nr * ne * sizeof(KIFMM__R);
+    const size_t nsm = (size_t)(m->nso + m->ng + (m->npx + m->ncb) * m->pl->surf.nse), p0 = (size_t)(m->nso + m->ng);
+    char *sb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 0, pg, pp) + 1, 1);
+    char *rb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 1, pg, pp) + 1, 1);
+    int i, r, rc = kifmm__mpi_agree(m->comm, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    int64_t k, j = m->nso;
+    if (!rc) {
+        KIFMM__F(__mpi_offsets)(m, pg, pp);
+        for (i = 0; i < m->dst.n; i++) {
+            KIFMM__R *g = (KIFMM__R *)(void *)(sb + m->off[i]), *p = g + (m->dst.g[i + 1] - m->dst.g[i]) * nr * U;
+            for (k = m->dst.g[i]; k < m->dst.g[i + 1]; k++)
+                for (r = 0; r < nr; r++, g += U)
+                    memcpy(g, dq + ((size_t)r * m->nso + (size_t)m->gidx[k]) * U, U * sizeof(KIFMM__R));
+            memset(p, 0, (size_t)(m->dst.p[i + 1] - m->dst.p[i]) * pp);
+            for (k = m->dst.p[i]; k < m->dst.p[i + 1]; k++)
+                for (r = 0; r < nr; r++, p += ne) KIFMM__F(__mpi_ue)(m, r, m->pbox[k], e, p);
+        }
+        rc = kifmm__mpi_agree(m->comm, KIFMM__F(__mpi_exchange)(m, sb, rb, wait));
+    }
+    for (r = 0; r < nr && !rc; r++) { /* the owned; the proxies, summed below */
+        memcpy(dm + (size_t)r * nsm * U, dq + (size_t)r * m->nso * U, (size_t)m->nso * U * sizeof(KIFMM__R));
+        memset(dm + ((size_t)r * nsm + p0) * U, 0, (nsm - p0) * U * sizeof(KIFMM__R));
+    }
+    for (i = 0; i < m->src.n && !rc; i++) {
+        const KIFMM__R *g = (const KIFMM__R *)(const void *)(rb + m->off[m->dst.n + 1 + i]);
+        const KIFMM__R *p = g + (m->src.g[i + 1] - m->src.g[i]) * nr * U;
+        for (k = m->src.g[i]; k < m->src.g[i + 1]; k++, j++)
+            for (r = 0; r < nr; r++, g += U) memcpy(dm + ((size_t)r * nsm + (size_t)j) * U, g, U * sizeof(KIFMM__R));
+        for (k = m->src.p[i]; k < m->src.p[i + 1]; k++)
+            for (r = 0; r < nr; r++, p += ne) {
+                KIFMM__R *v = dm + ((size_t)r * nsm + p0) * U + (size_t)m->pslot[k] * ne;
+                for (int q = 0; q < ne; q++) v[q] += p[q];
+            }
+    }
+    for (i = 0; i < m->ncb && !rc; i++)
+        for (r = 0; r < nr; r++)
+            memcpy(dm + ((size_t)r * nsm + p0) * U + (size_t)(m->npx + i) * ne,
+                   co + ((size_t)r * m->ncoarse + (size_t)m->cbox[i]) * ne, (size_t)ne * sizeof(KIFMM__R));
+    kifmm__free(sb);
+    kifmm__free(rb);
+    return rc;
+}
+
+/* main's outputs (om: nr x nto x TD) back to the callers' targets, into
+ * out in their order. */
+KIFMM__FN int KIFMM__F(__mpi_backward)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *om,
+                                       KIFMM__R *out, double *wait)
+{
+    const kifmm__mpi_route *rt = m->same ? &m->rs : &m->rt;
+    const size_t per = (size_t)nr * KIFMM__TD, oper = (size_t)m->nt * KIFMM__TD;
+    KIFMM__R *sb = (KIFMM__R *)kifmm__alloc((size_t)m->nto * per + 1, sizeof(KIFMM__R));
+    KIFMM__R *rb = (KIFMM__R *)kifmm__alloc((size_t)m->nt * per + 1, sizeof(KIFMM__R));
+    double t0;
+    int rc = kifmm__mpi_agree(m->comm, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    if (!rc) {
+        for (int64_t i = 0; i < m->nto; i++)
+            for (int r = 0; r < nr; r++)
+                memcpy(sb + i * per + (size_t)r * KIFMM__TD, om + ((size_t)r * m->nto + i) * KIFMM__TD,
+                       KIFMM__TD * sizeof(KIFMM__R));
+        t0 = kifmm__now();
+        rc = kifmm__mpi_move(m->comm, rt, 1, sb, rb, per * sizeof(KIFMM__R));
+        *wait += kifmm__now() - t0;
+    }
+    if (!rc)
+        for (int64_t i = 0; i < m->nt; i++)
+            for (int r = 0; r < nr; r++)
+                memcpy(out + r * oper + rt->order[i] * KIFMM__TD, rb + i * per + (size_t)r * KIFMM__TD,
+                       KIFMM__TD * sizeof(KIFMM__R));
+    kifmm__free(sb);
+    kifmm__free(rb);
+    return rc;
+}
+
+/* One group of nr vectors: forward, upward, the coarse sum, the exchange
+ * with the peers, main's evaluation, back. */
+KIFMM__FN int KIFMM__F(__mpi_group)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *d, KIFMM__R *out)
+{
+    const size_t nsm = (size_t)(m->nso + m->ng + (m->npx + m->ncb) * m->pl->surf.nse);
+    KIFMM__R *dq = (KIFMM__R *)kifmm__alloc((size_t)nr * m->nso * KIFMM__UD + 1, sizeof(KIFMM__R));
+    KIFMM__R *co = (KIFMM__R *)kifmm__alloc((size_t)nr * m->ncoarse * m->pl->surf.ne + 1, sizeof(KIFMM__R));
+    KIFMM__R *dm = (KIFMM__R *)kifmm__alloc((size_t)nr * nsm * KIFMM__UD + 1, sizeof(KIFMM__R));
+    KIFMM__R *om = (KIFMM__R *)kifmm__alloc((size_t)nr * m->nto * KIFMM__TD + 1, sizeof(KIFMM__R));
+    int e[KIFMM__RHS_MAX] = {0}, rc, rm = KIFMM_SUCCESS;
+    double *w = &m->st.t_mpi_wait;
+    rc = kifmm__mpi_agree(m->comm, !dq || !co || !dm || !om ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    if (!rc) rc = KIFMM__F(__mpi_forward)(m, nr, d, dq, w);
+    if (!rc) rc = kifmm__mpi_agree(m->comm, KIFMM__F(__mpi_upward)(m, nr, dq, e));
+    if (!rc) rc = KIFMM__F(__mpi_coarse_sum)(m, nr, e, co, w);
+    if (!rc) rc = KIFMM__F(__mpi_sources)(m, nr, dq, e, co, dm, w);
+    if (!rc) rm = KIFMM__F(_evaluate_many)(m->main, nr, dm, om);
+    if (!rc) rc = kifmm__mpi_agree(m->comm, rm == KIFMM_ERR_OVERFLOW ? KIFMM_SUCCESS : rm);
+    if (!rc) rc = KIFMM__F(__mpi_backward)(m, nr, om, out, w);
+    if (!rc) {
+        const double u = sizeof(KIFMM__R) * (double)nr, c = u * (double)m->ncoarse * m->pl->surf.ne;
+        const double g = u * KIFMM__UD, p = u * m->pl->surf.ne;
+        m->st.mpi_bytes_sent += g * (double)m->ns + (double)KIFMM__F(__mpi_bytes)(m, 0, (size_t)g, (size_t)p) + c +
+                                u * KIFMM__TD * (double)m->nto;
+        m->st.mpi_bytes_recv += g * (double)m->nso + (double)KIFMM__F(__mpi_bytes)(m, 1, (size_t)g, (size_t)p) + c +
+                                u * KIFMM__TD * (double)m->nt;
+    }
+    kifmm__free(dq);
+    kifmm__free(co);
+    kifmm__free(dm);
+    kifmm__free(om);
+    return rc ? rc : rm;
+}
+
+/* evaluate_many on an MPI handle: the arguments checked on every rank and
+ * agreed (the counts of vectors too), then groups of up to RHS_MAX. */
+KIFMM__FN int KIFMM__F(__mpi_evaluate)(KIFMM_NAME *h, int nrhs, const KIFMM__R *d, KIFMM__R *out)
+{
+    KIFMM__F(__mpi) *m = h->mpi;
+    const size_t uper = (size_t)m->ns * KIFMM__UD, oper = (size_t)m->nt * KIFMM__TD;
+    KIFMM__R *copy = NULL;
+    double t0 = kifmm__now();
+    int n[2] = {nrhs, -nrhs}, r0, nr, rc = KIFMM_SUCCESS;
+    if (nrhs < 0) rc = KIFMM_ERR_COUNT;
+    else if (nrhs > 0 && ((m->ns > 0 && !d) || (m->nt > 0 && !out))) rc = KIFMM_ERR_NULL;
+    else if ((size_t)nrhs > (size_t)PTRDIFF_MAX / sizeof(KIFMM__R) / (uper > oper ? uper + 1 : oper + 1))
+        rc = KIFMM_ERR_COUNT;
+    if (!rc && nrhs > 0) rc = KIFMM__F(__check_finite)((size_t)nrhs * uper, d, m->o.nthreads, KIFMM_ERR_DENSITY);
+    if (MPI_Allreduce(MPI_IN_PLACE, n, 2, MPI_INT, MPI_MIN, m->comm) != MPI_SUCCESS) return KIFMM_ERR_MPI;
+    if (!rc && n[0] != -n[1]) rc = KIFMM_ERR_MPI; /* the ranks passed different counts */
+    if ((rc = kifmm__mpi_agree(m->comm, rc)) || nrhs == 0) return rc;
+    if (m->size == 1) {
+        rc = KIFMM__F(_evaluate_many)(m->main, nrhs, d, out);
+        m->st.t_evaluate = kifmm__now() - t0;
+        return rc;
+    }
+    if (kifmm__overlap(d, (size_t)nrhs * uper * sizeof(KIFMM__R), out, (size_t)nrhs * oper * sizeof(KIFMM__R))) {
+        copy = (KIFMM__R *)kifmm__alloc((size_t)nrhs * uper + 1, sizeof(KIFMM__R));
+        if (copy) memcpy(copy, d, (size_t)nrhs * uper * sizeof(KIFMM__R));
+        if ((rc = kifmm__mpi_agree(m->comm, copy ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM))) return rc;
+        d = copy;
+    }
+    m->st.t_mpi_wait = m->st.mpi_bytes_sent = m->st.mpi_bytes_recv = 0.0;
+    for (r0 = 0; r0 < nrhs && !rc; r0 += nr) {
+        nr = nrhs - r0 < KIFMM__RHS_MAX ? nrhs - r0 : KIFMM__RHS_MAX;
+        rc = KIFMM__F(__mpi_group)(m, nr, d + (size_t)r0 * uper, out + (size_t)r0 * oper);
+    }
+    kifmm__free(copy);
+    m->st.t_evaluate = kifmm__now() - t0;
+    return rc;
+}
+
+KIFMM__FN void KIFMM__F(__mpi_stats)(const KIFMM_NAME *h, kifmm_stats *out)
+{
+    const KIFMM__F(__mpi) *m = h->mpi;
+    *out = m->main->stats;
+    out->mpi_ranks = m->size;
+    out->mpi_sources = m->size == 1 ? m->ns : m->nso;
+    out->mpi_targets = m->size == 1 ? m->nt : m->nto;
+    out->mpi_ghost_points = m->ng;
+    out->mpi_ghost_boxes = m->npx + m->ncb;
+    out->mpi_bytes_sent = m->st.mpi_bytes_sent;
+    out->mpi_bytes_recv = m->st.mpi_bytes_recv;
+    out->t_mpi_wait = m->st.t_mpi_wait;
+    out->t_evaluate = m->st.t_evaluate;
+    if (m->up) out->bytes += m->up->stats.bytes;
+    out->t_update = m->st.t_update;
+}
+
+/* A new partition of these points (R = 1: main's update_points); on
+ * failure, on every rank, the handle is as it was. */
+KIFMM__FN int KIFMM__F(__mpi_update)(KIFMM_NAME *h, int64_t ns, const KIFMM__R *src, int64_t nt,
+                                     const KIFMM__R *trg)
+{
+    KIFMM__F(__mpi) *m = h->mpi, n;
+    double t0 = kifmm__now();
+    int rc = KIFMM__F(__check_sets)(&m->o, ns, src, nt, trg);
+    if ((rc = kifmm__mpi_agree(m->comm, rc))) return rc;
+    if (m->size == 1) {
+        rc = kifmm__mpi_agree(m->comm, KIFMM__F(_update_points)(m->main, ns, src, nt, trg));
+        if (!rc) m->ns = ns, m->nt = nt;
+        m->st.t_update = kifmm__now() - t0;
+        return rc;
+    }
+    memset(&n, 0, sizeof n);
+    n.comm = m->comm, n.rank = m->rank, n.size = m->size, n.lc = m->lc, n.o = m->o, n.pl = m->pl;
+    n.shape[0] = m->shape[0], n.shape[1] = m->shape[1];
+    if ((rc = KIFMM__F(__mpi_build)(&n, ns, src, nt, trg))) {
+        KIFMM__F(__mpi_points_free)(&n);
+        return rc;
+    }
+    KIFMM__F(__mpi_points_free)(m);
+    *m = n;
+    m->st.t_update = kifmm__now() - t0;
+    return KIFMM_SUCCESS;
+}
+
+KIFMM__FN void KIFMM__F(__mpi_free)(KIFMM__F(__mpi) *m)
+{
+    KIFMM_NAME tmp;
+    if (!m) return;
+    KIFMM__F(__mpi_points_free)(m);
+    if (m->pl) {
+        memset(&tmp, 0, sizeof tmp);
+        tmp.pl = m->pl;
+        KIFMM__F(__plan_release)(&tmp);
+    }
+    if (m->comm != MPI_COMM_NULL) MPI_Comm_free(&m->comm);
+    kifmm__free(m);
+}
+
+KIFMM__FN void KIFMM__F(__mpi_destroy)(KIFMM_NAME *h)
+{
+    KIFMM__F(__mpi_free)(h->mpi);
+    kifmm__free(h);
+}
+
+KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifmm_opts *opts,
+                                     int64_t nsources_local, const KIFMM__R *src_xyz,
+                                     int64_t ntargets_local, const KIFMM__R *trg_xyz)
+{
+    KIFMM__F(__mpi) *m = NULL;
+    KIFMM_NAME *h = NULL;
+    kifmm_opts o;
+    int rc, on = 0, off = 0;
+    if (out) *out = NULL;
+    if (MPI_Initialized(&on) != MPI_SUCCESS || !on || MPI_Finalized(&off) != MPI_SUCCESS || off)
+        return KIFMM_ERR_MPI;
+    rc = out ? KIFMM__F(__validate)(opts, nsources_local, src_xyz, ntargets_local, trg_xyz, &o) : KIFMM_ERR_NULL;
+    if (!rc && (o.period[0] > 0.0 || o.period[1] > 0.0 || o.period[2] > 0.0)) rc = KIFMM_ERR_PERIODIC;
+    if (!rc && !(KIFMM__MPI_KERNEL)) rc = KIFMM_ERR_MPI; /* not yet for this kernel */
+    if (!rc) {
+        h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h);
+        m = (KIFMM__F(__mpi) *)kifmm__calloc(1, sizeof *m);
+        if (m) m->comm = MPI_COMM_NULL;
+        if (!h || !m || !(m->pl = KIFMM__F(__plan_new)(&o))) rc = KIFMM_ERR_NOMEM;
+    }
+    /* every rank dups, or none */
+    if (!(rc = kifmm__mpi_agree(comm, rc)) && MPI_Comm_dup(comm, &m->comm) != MPI_SUCCESS) rc = KIFMM_ERR_MPI;
+    if (!rc && (MPI_Comm_rank(m->comm, &m->rank) != MPI_SUCCESS || MPI_Comm_size(m->comm, &m->size) != MPI_SUCCESS))
+        rc = KIFMM_ERR_MPI;
+    if ((rc = kifmm__mpi_agree(comm, rc)) == KIFMM_SUCCESS) {
+        m->o = o;
+        m->shape[0] = opts ? opts->leaf_size : 0, m->shape[1] = opts ? opts->max_depth : 0;
+        for (m->lc = 2; m->lc < 4 && ((int64_t)1 << (3 * (m->lc - 1))) < m->size; m->lc++) {}
+        if (m->size == 1) { /* the handle create would make, on the caller's points */
+            m->ns = m->nso = nsources_local, m->nt = m->nto = ntargets_local;
+            rc = KIFMM__F(__build)(&m->main, m->pl, 0, 1, &o, m->shape, NULL, nsources_local, src_xyz,
+                                   ntargets_local, trg_xyz);
+        } else {
+            rc = KIFMM__F(__mpi_build)(m, nsources_local, src_xyz, ntargets_local, trg_xyz);
+        }
+        rc = kifmm__mpi_agree(comm, rc);
+    }
+    if (rc) {
+        KIFMM__F(__mpi_free)(m);
+        kifmm__free(h);
+        return rc;
+    }
+    h->mpi = m;
+    h->opts = m->main->opts;
+    *out = h;
+    return KIFMM_SUCCESS;
+}
+
+#undef KIFMM__MPI_REAL
+#undef KIFMM__MPI_KERNEL
+#endif /* KIFMM_MPI */
 
 #endif /* KIFMM_DECLARE */
 
