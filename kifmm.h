@@ -345,9 +345,16 @@ typedef struct kifmm_stats {
     int64_t mpi_ghost_points;   /* other ranks' sources near its region that it holds */
     int64_t mpi_ghost_boxes;    /* boxes of other ranks whose equivalent densities it
                                    receives at each evaluate */
-    double mpi_bytes_sent;      /* last evaluate: bytes it sent and received */
+    double mpi_bytes_sent;      /* last evaluate: bytes it sent to and received from
+                                   other ranks (the densities to their owners, the
+                                   ghosts' and boxes' densities, the coarse levels'
+                                   sum, the outputs back) */
     double mpi_bytes_recv;
+    double mpi_ghost_bytes;     /* of the bytes received, the ghosts' and boxes' */
     double t_mpi_wait;          /* last evaluate: seconds in MPI calls */
+    double t_mpi_work;          /* last evaluate: CPU seconds (all threads) outside
+                                   them, the rank's work whether or not it shared its
+                                   cores (the measure of balance) */
 } kifmm_stats;
 
 #endif /* KIFMM_H_TYPES */
@@ -9003,7 +9010,32 @@ struct KIFMM__F(__mpi) {
     int32_t *cbox, ncb, ncoarse; /* coarse boxes used: index of each in the levels 2..lc */
     size_t *off;               /* message offsets, destinations then sources */
     kifmm_stats st;            /* the MPI fields */
+    double cpu_mpi;            /* CPU seconds in MPI calls in the last evaluate */
 };
+
+/* Time in MPI calls: t (2) gets the wall and CPU clocks, __mpi_waited adds
+ * what passed since to stats.t_mpi_wait and to m->cpu_mpi. */
+KIFMM__FN void KIFMM__F(__mpi_clock)(double *t)
+{
+    t[0] = kifmm__now();
+    t[1] = (double)clock() / CLOCKS_PER_SEC;
+}
+
+KIFMM__FN void KIFMM__F(__mpi_waited)(KIFMM__F(__mpi) *m, const double *t)
+{
+    m->st.t_mpi_wait += kifmm__now() - t[0];
+    m->cpu_mpi += (double)clock() / CLOCKS_PER_SEC - t[1];
+}
+
+/* kifmm__mpi_agree, its time counted as time in MPI */
+KIFMM__FN int KIFMM__F(__mpi_agree)(KIFMM__F(__mpi) *m, int rc)
+{
+    double t[2];
+    KIFMM__F(__mpi_clock)(t);
+    rc = kifmm__mpi_agree(m->comm, rc);
+    KIFMM__F(__mpi_waited)(m, t);
+    return rc;
+}
 
 /* Free the parts a partition built (not comm, plan or options). */
 KIFMM__FN void KIFMM__F(__mpi_points_free)(KIFMM__F(__mpi) *m)
@@ -9091,7 +9123,7 @@ KIFMM__FN int KIFMM__F(__mpi_splitters)(KIFMM__F(__mpi) *m, int64_t ns, const KI
         cw[0] = 0.0;
         for (int64_t i = 0; i < n; i++) cw[i + 1] = cw[i] + (m->same ? 2.0 : 1.0);
     }
-    rc = kifmm__mpi_agree(m->comm, rc);
+    rc = KIFMM__F(__mpi_agree)(m, rc);
     if (!rc) rc = kifmm__mpi_split(m->comm, m->size, k, cw, n, m->split);
     kifmm__free(k);
     kifmm__free(ix);
@@ -9111,12 +9143,12 @@ KIFMM__FN int KIFMM__F(__mpi_send_points)(KIFMM__F(__mpi) *m, int64_t n, const K
         KIFMM__F(__mpi_keys)(m->root, n, x, k);
         for (int64_t i = 0; i < n; i++) to[i] = kifmm__mpi_owner(m->split, m->size, k[i]);
     }
-    if ((rc = kifmm__mpi_agree(m->comm, rc)) == KIFMM_SUCCESS)
-        rc = kifmm__mpi_agree(m->comm, kifmm__mpi_route_make(m->comm, m->size, n, to, r));
+    if ((rc = KIFMM__F(__mpi_agree)(m, rc)) == KIFMM_SUCCESS)
+        rc = KIFMM__F(__mpi_agree)(m, kifmm__mpi_route_make(m->comm, m->size, n, to, r));
     if (!rc) {
         for (int64_t i = 0; i < n; i++) memcpy(buf + 3 * i, x + 3 * r->order[i], 3 * sizeof(KIFMM__R));
         *own = (KIFMM__R *)kifmm__alloc((size_t)3 * r->nrecv + 1, sizeof(KIFMM__R));
-        rc = kifmm__mpi_agree(m->comm, *own ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM);
+        rc = KIFMM__F(__mpi_agree)(m, *own ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM);
     }
     if (!rc) rc = kifmm__mpi_move(m->comm, r, 0, buf, *own, 3 * sizeof(KIFMM__R));
     kifmm__free(k);
@@ -9184,11 +9216,11 @@ KIFMM__FN int KIFMM__F(__mpi_lists)(KIFMM__F(__mpi) *m)
         KIFMM__F(__mpi_walk)(m, bx, kifmm__mpi_range(m->split[j], m->split[j + 1], bx), &ng, &np,
                              m->gidx + m->dst.g[i], m->pbox + m->dst.p[i]);
     }
-    rc = kifmm__mpi_agree(m->comm, rc);
+    rc = KIFMM__F(__mpi_agree)(m, rc);
     if (!rc && MPI_Alltoall(c, 2, MPI_INT64_T, c + 2 * R, 2, MPI_INT64_T, m->comm) != MPI_SUCCESS)
         rc = KIFMM_ERR_MPI;
     if (!rc) rc = kifmm__mpi_peers_make(R, c + 2 * R, &m->src);
-    rc = kifmm__mpi_agree(m->comm, rc);
+    rc = KIFMM__F(__mpi_agree)(m, rc);
     kifmm__free(c);
     kifmm__free(bx);
     return rc;
@@ -9209,16 +9241,17 @@ KIFMM__FN void KIFMM__F(__mpi_offsets)(KIFMM__F(__mpi) *m, size_t perg, size_t p
     }
 }
 
-/* One message to and from each peer (m->off: __mpi_offsets); *wait += the
- * time spent in MPI. */
-KIFMM__FN int KIFMM__F(__mpi_exchange)(KIFMM__F(__mpi) *m, char *sbuf, char *rbuf, double *wait)
+/* One message to and from each peer (m->off: __mpi_offsets). */
+KIFMM__FN int KIFMM__F(__mpi_exchange)(KIFMM__F(__mpi) *m, char *sbuf, char *rbuf)
 {
-    const double t0 = kifmm__now();
-    int rc = kifmm__mpi_post(m->comm, &m->src, 1, rbuf, m->off + m->dst.n + 1);
+    double t[2];
+    int rc;
+    KIFMM__F(__mpi_clock)(t);
+    rc = kifmm__mpi_post(m->comm, &m->src, 1, rbuf, m->off + m->dst.n + 1);
     if (!rc) rc = kifmm__mpi_post(m->comm, &m->dst, 0, sbuf, m->off);
     if (!rc) rc = kifmm__mpi_wait(&m->src);
     if (!rc) rc = kifmm__mpi_wait(&m->dst);
-    *wait += kifmm__now() - t0;
+    KIFMM__F(__mpi_waited)(m, t);
     return rc;
 }
 
@@ -9248,7 +9281,7 @@ KIFMM__FN int KIFMM__F(__mpi_coarse)(KIFMM__F(__mpi) *m)
             n[kifmm__mpi_coff(l) + (int32_t)kifmm__encode(a[0], a[1], a[2])] += (double)(t->s1[b] - t->s0[b]);
         }
     }
-    if ((rc = kifmm__mpi_agree(m->comm, rc)) == KIFMM_SUCCESS &&
+    if ((rc = KIFMM__F(__mpi_agree)(m, rc)) == KIFMM_SUCCESS &&
         MPI_Allreduce(MPI_IN_PLACE, n, nc, MPI_DOUBLE, MPI_SUM, m->comm) != MPI_SUCCESS)
         rc = KIFMM_ERR_MPI;
     nb = rc ? 0 : kifmm__mpi_range(m->split[m->rank], m->split[m->rank + 1], bx);
@@ -9351,12 +9384,11 @@ KIFMM__FN int KIFMM__F(__mpi_let)(KIFMM__F(__mpi) *m)
 {
     const size_t rg = 3 * sizeof(KIFMM__R), rp = 4 * sizeof(int32_t);
     char *sb = NULL, *rb = NULL;
-    double w = 0.0;
     int i, rc;
     m->off = (size_t *)kifmm__alloc((size_t)m->dst.n + m->src.n + 2, sizeof(size_t));
     sb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 0, rg, rp) + 1, 1);
     rb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 1, rg, rp) + 1, 1);
-    rc = kifmm__mpi_agree(m->comm, !m->off || !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    rc = KIFMM__F(__mpi_agree)(m, !m->off || !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
     if (!rc) {
         KIFMM__F(__mpi_offsets)(m, rg, rp);
         for (i = 0; i < m->dst.n; i++) {
@@ -9370,9 +9402,9 @@ KIFMM__FN int KIFMM__F(__mpi_let)(KIFMM__F(__mpi) *m)
                 memcpy(p, a, rp);
             }
         }
-        rc = kifmm__mpi_agree(m->comm, KIFMM__F(__mpi_exchange)(m, sb, rb, &w));
+        rc = KIFMM__F(__mpi_agree)(m, KIFMM__F(__mpi_exchange)(m, sb, rb));
     }
-    if (!rc) rc = kifmm__mpi_agree(m->comm, KIFMM__F(__mpi_main)(m, rb));
+    if (!rc) rc = KIFMM__F(__mpi_agree)(m, KIFMM__F(__mpi_main)(m, rb));
     kifmm__free(sb);
     kifmm__free(rb);
     return rc;
@@ -9397,14 +9429,14 @@ KIFMM__FN int KIFMM__F(__mpi_build)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM_
     else if ((rc = KIFMM__F(__mpi_send_points)(m, nt, trg, &m->rt, &m->to))) return rc;
     else m->nto = m->rt.nrecv;
     m->nto_all = (int64_t *)kifmm__alloc((size_t)m->size, sizeof(int64_t));
-    if ((rc = kifmm__mpi_agree(m->comm, m->nto_all ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM))) return rc;
+    if ((rc = KIFMM__F(__mpi_agree)(m, m->nto_all ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM))) return rc;
     if (MPI_Allgather(&m->nto, 1, MPI_INT64_T, m->nto_all, 1, MPI_INT64_T, m->comm) != MPI_SUCCESS)
         return KIFMM_ERR_MPI;
     memcpy(ou.domain, m->root, sizeof m->root);
     ou.verbose = 0;
     if (m->nso > 0)
         rc = KIFMM__F(__build)(&m->up, m->pl, 1, 1, &ou, m->shape, NULL, m->nso, m->so, m->nso, m->so);
-    if ((rc = kifmm__mpi_agree(m->comm, rc))) return rc;
+    if ((rc = KIFMM__F(__mpi_agree)(m, rc))) return rc;
     if ((rc = KIFMM__F(__mpi_coarse)(m))) return rc;
     if ((rc = KIFMM__F(__mpi_lists)(m))) return rc;
     return KIFMM__F(__mpi_let)(m);
@@ -9414,21 +9446,21 @@ KIFMM__FN int KIFMM__F(__mpi_build)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM_
 
 /* The caller's densities (nr vectors) to the owners: dq (nr x nso x UD). */
 KIFMM__FN int KIFMM__F(__mpi_forward)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *d,
-                                      KIFMM__R *dq, double *wait)
+                                      KIFMM__R *dq)
 {
     const size_t per = (size_t)nr * KIFMM__UD, uper = (size_t)m->ns * KIFMM__UD;
     KIFMM__R *sb = (KIFMM__R *)kifmm__alloc((size_t)m->ns * per + 1, sizeof(KIFMM__R));
     KIFMM__R *rb = (KIFMM__R *)kifmm__alloc((size_t)m->nso * per + 1, sizeof(KIFMM__R));
-    double t0;
-    int rc = kifmm__mpi_agree(m->comm, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    double t[2];
+    int rc = KIFMM__F(__mpi_agree)(m, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
     if (!rc) {
         for (int64_t i = 0; i < m->ns; i++)
             for (int r = 0; r < nr; r++)
                 memcpy(sb + i * per + (size_t)r * KIFMM__UD, d + r * uper + m->rs.order[i] * KIFMM__UD,
                        KIFMM__UD * sizeof(KIFMM__R));
-        t0 = kifmm__now();
+        KIFMM__F(__mpi_clock)(t);
         rc = kifmm__mpi_move(m->comm, &m->rs, 0, sb, rb, per * sizeof(KIFMM__R));
-        *wait += kifmm__now() - t0;
+        KIFMM__F(__mpi_waited)(m, t);
     }
     if (!rc)
         for (int64_t i = 0; i < m->nso; i++)
@@ -9465,12 +9497,11 @@ KIFMM__FN void KIFMM__F(__mpi_ue)(const KIFMM__F(__mpi) *m, int r, int32_t b, co
 
 /* co (nr x ncoarse x ne): every rank's equivalent densities of the boxes of
  * levels 2 .. lc, summed. */
-KIFMM__FN int KIFMM__F(__mpi_coarse_sum)(KIFMM__F(__mpi) *m, int nr, const int *e, KIFMM__R *co,
-                                         double *wait)
+KIFMM__FN int KIFMM__F(__mpi_coarse_sum)(KIFMM__F(__mpi) *m, int nr, const int *e, KIFMM__R *co)
 {
     const int ne = m->pl->surf.ne;
     const size_t n = (size_t)nr * m->ncoarse * ne;
-    double t0;
+    double t[2];
     int l, r, rc;
     memset(co, 0, n * sizeof(KIFMM__R));
     for (l = 2; m->up && l <= m->lc && l < m->up->tree->nlev; l++) {
@@ -9482,23 +9513,23 @@ KIFMM__FN int KIFMM__F(__mpi_coarse_sum)(KIFMM__F(__mpi) *m, int nr, const int *
         }
     }
     if (n > INT_MAX) return KIFMM_ERR_COUNT;
-    t0 = kifmm__now();
+    KIFMM__F(__mpi_clock)(t);
     rc = MPI_Allreduce(MPI_IN_PLACE, co, (int)n, KIFMM__MPI_REAL, MPI_SUM, m->comm);
-    *wait += kifmm__now() - t0;
+    KIFMM__F(__mpi_waited)(m, t);
     return rc == MPI_SUCCESS ? KIFMM_SUCCESS : KIFMM_ERR_MPI;
 }
 
 /* dm (nr x nsm x UD): the owned densities (dq), the ghosts' and proxies'
  * from the peers, the coarse boxes' (co). */
 KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *dq, const int *e,
-                                      const KIFMM__R *co, KIFMM__R *dm, double *wait)
+                                      const KIFMM__R *co, KIFMM__R *dm)
 {
     const int ne = m->pl->surf.ne, U = KIFMM__UD;
     const size_t pg = (size_t)nr * U * sizeof(KIFMM__R), pp = (size_t)nr * ne * sizeof(KIFMM__R);
     const size_t nsm = (size_t)(m->nso + m->ng + (m->npx + m->ncb) * m->pl->surf.nse), p0 = (size_t)(m->nso + m->ng);
     char *sb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 0, pg, pp) + 1, 1);
     char *rb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 1, pg, pp) + 1, 1);
-    int i, r, rc = kifmm__mpi_agree(m->comm, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    int i, r, rc = KIFMM__F(__mpi_agree)(m, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
     int64_t k, j = m->nso;
     if (!rc) {
         KIFMM__F(__mpi_offsets)(m, pg, pp);
@@ -9511,7 +9542,7 @@ KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R
             for (k = m->dst.p[i]; k < m->dst.p[i + 1]; k++)
                 for (r = 0; r < nr; r++, p += ne) KIFMM__F(__mpi_ue)(m, r, m->pbox[k], e, p);
         }
-        rc = kifmm__mpi_agree(m->comm, KIFMM__F(__mpi_exchange)(m, sb, rb, wait));
+        rc = KIFMM__F(__mpi_agree)(m, KIFMM__F(__mpi_exchange)(m, sb, rb));
     }
     for (r = 0; r < nr && !rc; r++) { /* the owned; the proxies, summed below */
         memcpy(dm + (size_t)r * nsm * U, dq + (size_t)r * m->nso * U, (size_t)m->nso * U * sizeof(KIFMM__R));
@@ -9540,22 +9571,22 @@ KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R
 /* main's outputs (om: nr x nto x TD) back to the callers' targets, into
  * out in their order. */
 KIFMM__FN int KIFMM__F(__mpi_backward)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *om,
-                                       KIFMM__R *out, double *wait)
+                                       KIFMM__R *out)
 {
     const kifmm__mpi_route *rt = m->same ? &m->rs : &m->rt;
     const size_t per = (size_t)nr * KIFMM__TD, oper = (size_t)m->nt * KIFMM__TD;
     KIFMM__R *sb = (KIFMM__R *)kifmm__alloc((size_t)m->nto * per + 1, sizeof(KIFMM__R));
     KIFMM__R *rb = (KIFMM__R *)kifmm__alloc((size_t)m->nt * per + 1, sizeof(KIFMM__R));
-    double t0;
-    int rc = kifmm__mpi_agree(m->comm, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    double t[2];
+    int rc = KIFMM__F(__mpi_agree)(m, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
     if (!rc) {
         for (int64_t i = 0; i < m->nto; i++)
             for (int r = 0; r < nr; r++)
                 memcpy(sb + i * per + (size_t)r * KIFMM__TD, om + ((size_t)r * m->nto + i) * KIFMM__TD,
                        KIFMM__TD * sizeof(KIFMM__R));
-        t0 = kifmm__now();
+        KIFMM__F(__mpi_clock)(t);
         rc = kifmm__mpi_move(m->comm, rt, 1, sb, rb, per * sizeof(KIFMM__R));
-        *wait += kifmm__now() - t0;
+        KIFMM__F(__mpi_waited)(m, t);
     }
     if (!rc)
         for (int64_t i = 0; i < m->nt; i++)
@@ -9577,22 +9608,25 @@ KIFMM__FN int KIFMM__F(__mpi_group)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *
     KIFMM__R *dm = (KIFMM__R *)kifmm__alloc((size_t)nr * nsm * KIFMM__UD + 1, sizeof(KIFMM__R));
     KIFMM__R *om = (KIFMM__R *)kifmm__alloc((size_t)nr * m->nto * KIFMM__TD + 1, sizeof(KIFMM__R));
     int e[KIFMM__RHS_MAX] = {0}, rc, rm = KIFMM_SUCCESS;
-    double *w = &m->st.t_mpi_wait;
-    rc = kifmm__mpi_agree(m->comm, !dq || !co || !dm || !om ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
-    if (!rc) rc = KIFMM__F(__mpi_forward)(m, nr, d, dq, w);
-    if (!rc) rc = kifmm__mpi_agree(m->comm, KIFMM__F(__mpi_upward)(m, nr, dq, e));
-    if (!rc) rc = KIFMM__F(__mpi_coarse_sum)(m, nr, e, co, w);
-    if (!rc) rc = KIFMM__F(__mpi_sources)(m, nr, dq, e, co, dm, w);
+    rc = KIFMM__F(__mpi_agree)(m, !dq || !co || !dm || !om ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    if (!rc) rc = KIFMM__F(__mpi_forward)(m, nr, d, dq);
+    if (!rc) rc = KIFMM__F(__mpi_agree)(m, KIFMM__F(__mpi_upward)(m, nr, dq, e));
+    if (!rc) rc = KIFMM__F(__mpi_coarse_sum)(m, nr, e, co);
+    if (!rc) rc = KIFMM__F(__mpi_sources)(m, nr, dq, e, co, dm);
     if (!rc) rm = KIFMM__F(_evaluate_many)(m->main, nr, dm, om);
-    if (!rc) rc = kifmm__mpi_agree(m->comm, rm == KIFMM_ERR_OVERFLOW ? KIFMM_SUCCESS : rm);
-    if (!rc) rc = KIFMM__F(__mpi_backward)(m, nr, om, out, w);
-    if (!rc) {
+    if (!rc) rc = KIFMM__F(__mpi_agree)(m, rm == KIFMM_ERR_OVERFLOW ? KIFMM_SUCCESS : rm);
+    if (!rc) rc = KIFMM__F(__mpi_backward)(m, nr, om, out);
+    if (!rc) { /* bytes to and from other ranks: densities in, the peers', the coarse sum, outputs back */
+        const kifmm__mpi_route *rt = m->same ? &m->rs : &m->rt;
         const double u = sizeof(KIFMM__R) * (double)nr, c = u * (double)m->ncoarse * m->pl->surf.ne;
-        const double g = u * KIFMM__UD, p = u * m->pl->surf.ne;
-        m->st.mpi_bytes_sent += g * (double)m->ns + (double)KIFMM__F(__mpi_bytes)(m, 0, (size_t)g, (size_t)p) + c +
-                                u * KIFMM__TD * (double)m->nto;
-        m->st.mpi_bytes_recv += g * (double)m->nso + (double)KIFMM__F(__mpi_bytes)(m, 1, (size_t)g, (size_t)p) + c +
-                                u * KIFMM__TD * (double)m->nt;
+        const double g = u * KIFMM__UD, p = u * m->pl->surf.ne, o = u * KIFMM__TD;
+        const double let = (double)KIFMM__F(__mpi_bytes)(m, 1, (size_t)g, (size_t)p);
+        m->st.mpi_bytes_sent += g * (double)(m->ns - m->rs.cnt[m->rank]) + c +
+                                (double)KIFMM__F(__mpi_bytes)(m, 0, (size_t)g, (size_t)p) +
+                                o * (double)(m->nto - rt->rcnt[m->rank]);
+        m->st.mpi_bytes_recv += g * (double)(m->nso - m->rs.rcnt[m->rank]) + c + let +
+                                o * (double)(m->nt - rt->cnt[m->rank]);
+        m->st.mpi_ghost_bytes += let;
     }
     kifmm__free(dq);
     kifmm__free(co);
@@ -9608,7 +9642,7 @@ KIFMM__FN int KIFMM__F(__mpi_evaluate)(KIFMM_NAME *h, int nrhs, const KIFMM__R *
     KIFMM__F(__mpi) *m = h->mpi;
     const size_t uper = (size_t)m->ns * KIFMM__UD, oper = (size_t)m->nt * KIFMM__TD;
     KIFMM__R *copy = NULL;
-    double t0 = kifmm__now();
+    double t0 = kifmm__now(), c0;
     int n[2] = {nrhs, -nrhs}, r0, nr, rc = KIFMM_SUCCESS;
     if (nrhs < 0) rc = KIFMM_ERR_COUNT;
     else if (nrhs > 0 && ((m->ns > 0 && !d) || (m->nt > 0 && !out))) rc = KIFMM_ERR_NULL;
@@ -9617,7 +9651,7 @@ KIFMM__FN int KIFMM__F(__mpi_evaluate)(KIFMM_NAME *h, int nrhs, const KIFMM__R *
     if (!rc && nrhs > 0) rc = KIFMM__F(__check_finite)((size_t)nrhs * uper, d, m->o.nthreads, KIFMM_ERR_DENSITY);
     if (MPI_Allreduce(MPI_IN_PLACE, n, 2, MPI_INT, MPI_MIN, m->comm) != MPI_SUCCESS) return KIFMM_ERR_MPI;
     if (!rc && n[0] != -n[1]) rc = KIFMM_ERR_MPI; /* the ranks passed different counts */
-    if ((rc = kifmm__mpi_agree(m->comm, rc)) || nrhs == 0) return rc;
+    if ((rc = KIFMM__F(__mpi_agree)(m, rc)) || nrhs == 0) return rc;
     if (m->size == 1) {
         rc = KIFMM__F(_evaluate_many)(m->main, nrhs, d, out);
         m->st.t_evaluate = kifmm__now() - t0;
@@ -9626,16 +9660,19 @@ KIFMM__FN int KIFMM__F(__mpi_evaluate)(KIFMM_NAME *h, int nrhs, const KIFMM__R *
     if (kifmm__overlap(d, (size_t)nrhs * uper * sizeof(KIFMM__R), out, (size_t)nrhs * oper * sizeof(KIFMM__R))) {
         copy = (KIFMM__R *)kifmm__alloc((size_t)nrhs * uper + 1, sizeof(KIFMM__R));
         if (copy) memcpy(copy, d, (size_t)nrhs * uper * sizeof(KIFMM__R));
-        if ((rc = kifmm__mpi_agree(m->comm, copy ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM))) return rc;
+        if ((rc = KIFMM__F(__mpi_agree)(m, copy ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM))) return rc;
         d = copy;
     }
-    m->st.t_mpi_wait = m->st.mpi_bytes_sent = m->st.mpi_bytes_recv = 0.0;
+    m->st.t_mpi_wait = m->st.mpi_bytes_sent = m->st.mpi_bytes_recv = m->st.mpi_ghost_bytes = 0.0;
+    m->cpu_mpi = 0.0;
+    c0 = (double)clock() / CLOCKS_PER_SEC;
     for (r0 = 0; r0 < nrhs && !rc; r0 += nr) {
         nr = nrhs - r0 < KIFMM__RHS_MAX ? nrhs - r0 : KIFMM__RHS_MAX;
         rc = KIFMM__F(__mpi_group)(m, nr, d + (size_t)r0 * uper, out + (size_t)r0 * oper);
     }
     kifmm__free(copy);
     m->st.t_evaluate = kifmm__now() - t0;
+    m->st.t_mpi_work = (double)clock() / CLOCKS_PER_SEC - c0 - m->cpu_mpi;
     return rc;
 }
 
@@ -9650,7 +9687,9 @@ KIFMM__FN void KIFMM__F(__mpi_stats)(const KIFMM_NAME *h, kifmm_stats *out)
     out->mpi_ghost_boxes = m->npx + m->ncb;
     out->mpi_bytes_sent = m->st.mpi_bytes_sent;
     out->mpi_bytes_recv = m->st.mpi_bytes_recv;
+    out->mpi_ghost_bytes = m->st.mpi_ghost_bytes;
     out->t_mpi_wait = m->st.t_mpi_wait;
+    out->t_mpi_work = m->st.t_mpi_work;
     out->t_evaluate = m->st.t_evaluate;
     if (m->up) out->bytes += m->up->stats.bytes;
     out->t_update = m->st.t_update;
@@ -9664,9 +9703,9 @@ KIFMM__FN int KIFMM__F(__mpi_update)(KIFMM_NAME *h, int64_t ns, const KIFMM__R *
     KIFMM__F(__mpi) *m = h->mpi, n;
     double t0 = kifmm__now();
     int rc = KIFMM__F(__check_sets)(&m->o, ns, src, nt, trg);
-    if ((rc = kifmm__mpi_agree(m->comm, rc))) return rc;
+    if ((rc = KIFMM__F(__mpi_agree)(m, rc))) return rc;
     if (m->size == 1) {
-        rc = kifmm__mpi_agree(m->comm, KIFMM__F(_update_points)(m->main, ns, src, nt, trg));
+        rc = KIFMM__F(__mpi_agree)(m, KIFMM__F(_update_points)(m->main, ns, src, nt, trg));
         if (!rc) m->ns = ns, m->nt = nt;
         m->st.t_update = kifmm__now() - t0;
         return rc;
