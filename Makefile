@@ -6,8 +6,9 @@
 #                   (tests/run.sh: gcc and clang, C99 and C11, with and
 #                   without OpenMP, sanitizer builds, a build without -march), the examples,
 #                   tests/install.sh (make install into a temporary prefix,
-#                   pkg-config and CMake hosts) and tests/python.sh (the Python
-#                   package in build/pyvenv, pytest)
+#                   pkg-config and CMake hosts), tests/python.sh (the Python
+#                   package in build/pyvenv, pytest) and tests/mpi.sh (MPI mode
+#                   on 1 to 4 ranks; skipped without mpicc)
 #   make custom     build and run examples/custom_kernel.c (a kernel written in
 #                   the example file, checked against direct summation)
 #   make timestep   build and run examples/timestep.c (a Plummer sphere stepped
@@ -15,6 +16,9 @@
 #   make double_layer  build and run examples/double_layer.c (the Laplace
 #                   double layer of a unit density on a sphere: -1 inside, -1/2 on, 0 outside;
 #                   the single layer on the same tree: 1 inside, 1/|x| outside)
+#   make mpi_nbody  build (mpicc) and run examples/mpi_nbody.c on NP ranks (default
+#                   4, oversubscribed): the Plummer sphere stepped on MPI ranks
+#                   (KIFMM_MPI, create_mpi); ARGS="N steps order"
 #   make examples   build the examples into build/
 #   make deps       check the compilers, OpenMP and BLAS/LAPACKE headers;
 #                   installs the Debian packages when run as root
@@ -57,7 +61,7 @@ CBLAS_CFLAGS := $(shell \
     [ -n "$$d" ] && echo "-I$$(dirname $$d)"; \
   fi)
 
-.PHONY: all run custom double_layer timestep test examples deps clean lib install uninstall
+.PHONY: all run custom double_layer timestep mpi_nbody test examples deps clean lib install uninstall
 
 all: examples
 
@@ -118,6 +122,17 @@ $(BUILD)/timestep: examples/timestep.c kifmm.h kifmm_kernels.h | $(BUILD)
 	$(CC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. $< -o $@ $(LDLIBS)
 
 examples: $(BUILD)/laplace $(BUILD)/custom_kernel $(BUILD)/double_layer $(BUILD)/timestep
+
+# MPI mode (KIFMM_MPI): built with mpicc, run with mpirun (as root
+# --allow-run-as-root); NP ranks, oversubscribed where the cores are fewer
+MPICC ?= mpicc
+NP ?= 4
+MPIRUN := mpirun --oversubscribe --bind-to none $(if $(filter 0,$(shell id -u)),--allow-run-as-root,)
+$(BUILD)/mpi_nbody: examples/mpi_nbody.c kifmm.h kifmm_kernels.h | $(BUILD)
+	$(MPICC) $(EXAMPLE_CFLAGS) $(CBLAS_CFLAGS) -I. $< -o $@ $(LDLIBS)
+
+mpi_nbody: deps $(BUILD)/mpi_nbody
+	$(MPIRUN) -np $(NP) ./$(BUILD)/mpi_nbody $(ARGS)
 
 # a user-defined kernel (examples/custom_kernel.c), checked against direct sums
 custom: deps

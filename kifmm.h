@@ -17,6 +17,8 @@
  *        >>fft       the FFT M2L's plan, kernel spectra and blocks
  *        >>prec      transforms, products and the column-GEMM driver, for
  *                    double and float (this file includes itself once for each)
+ *        >>mpi (shared)  with KIFMM_MPI: agreement, the Morton partition,
+ *                    routes, regions, messages to peers
  *   4. Kernel template, once per include, in the instance's precision:
  *        >>params    the instance's name, precision, kernel traits and roles
  *        >>api       the public functions' declarations
@@ -31,6 +33,8 @@
  *        >>create    create's steps (plan, points, workspace), create,
  *                    update_points, the shared plan and tree, evaluate,
  *                    destroy, stats, options
+ *        >>mpi       with KIFMM_MPI: create_mpi and the collective calls on
+ *                    its handles (docs/api.md, "MPI")
  *   5. >>epilogue: #undef of the template parameters; license
  *
  * 1. QUICK START
@@ -109,7 +113,12 @@
  *   (tin-foil, zero mean, a neutralising background; Hasimoto for Stokes)
  *   for kernels with the _ewald and _background hooks (every shipped one).
  *
- *   DOES NOT DO: complex kernels (Helmholtz), MPI.
+ *   MPI: #define KIFMM_MPI before an include (and <mpi.h> on the path: mpicc)
+ *   adds <prefix>_create_mpi(&h, comm, opts, ns_local, src, nt_local, trg):
+ *   one FMM over every rank's points, evaluate, evaluate_many,
+ *   update_points and destroy then collective (docs/api.md, "MPI").
+ *
+ *   DOES NOT DO: complex kernels (Helmholtz); MPI with periodic boundaries.
  *
  *   Documentation: docs/api.md (functions, options, errors, limits),
  *   docs/algorithm.md (how the method maps to this file), docs/kernels.md
@@ -9652,9 +9661,11 @@ KIFMM__FN int KIFMM__F(__mpi_evaluate)(KIFMM_NAME *h, int nrhs, const KIFMM__R *
     if (MPI_Allreduce(MPI_IN_PLACE, n, 2, MPI_INT, MPI_MIN, m->comm) != MPI_SUCCESS) return KIFMM_ERR_MPI;
     if (!rc && n[0] != -n[1]) rc = KIFMM_ERR_MPI; /* the ranks passed different counts */
     if ((rc = KIFMM__F(__mpi_agree)(m, rc)) || nrhs == 0) return rc;
+    c0 = (double)clock() / CLOCKS_PER_SEC;
     if (m->size == 1) {
         rc = KIFMM__F(_evaluate_many)(m->main, nrhs, d, out);
         m->st.t_evaluate = kifmm__now() - t0;
+        m->st.t_mpi_work = (double)clock() / CLOCKS_PER_SEC - c0;
         return rc;
     }
     if (kifmm__overlap(d, (size_t)nrhs * uper * sizeof(KIFMM__R), out, (size_t)nrhs * oper * sizeof(KIFMM__R))) {
@@ -9665,7 +9676,6 @@ KIFMM__FN int KIFMM__F(__mpi_evaluate)(KIFMM_NAME *h, int nrhs, const KIFMM__R *
     }
     m->st.t_mpi_wait = m->st.mpi_bytes_sent = m->st.mpi_bytes_recv = m->st.mpi_ghost_bytes = 0.0;
     m->cpu_mpi = 0.0;
-    c0 = (double)clock() / CLOCKS_PER_SEC;
     for (r0 = 0; r0 < nrhs && !rc; r0 += nr) {
         nr = nrhs - r0 < KIFMM__RHS_MAX ? nrhs - r0 : KIFMM__RHS_MAX;
         rc = KIFMM__F(__mpi_group)(m, nr, d + (size_t)r0 * uper, out + (size_t)r0 * oper);

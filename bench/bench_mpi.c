@@ -20,6 +20,7 @@
 #include "kifmm.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "points.h"
@@ -101,6 +102,9 @@ static int fixed(int64_t N, const char *dist, int p)
         }
         free(all);
     }
+    if (getenv("BENCH_MPI_PASSES"))
+        printf("  rank %d passes: p2m %.3f m2m %.3f m2l %.3f l2l %.3f p2l %.3f l2p %.3f m2p %.3f p2p %.3f\n", rank_,
+               st.t_p2m, st.t_m2m, st.t_m2l, st.t_l2l, st.t_p2l, st.t_l2p, st.t_m2p, st.t_p2p);
     free(x);
     free(q);
     return 0;
@@ -110,11 +114,13 @@ static int weak(int64_t n, int p)
 {
     double *x = (double *)malloc((size_t)(3 * n + 3) * sizeof(double));
     double *q = (double *)malloc((size_t)(n + 1) * sizeof(double)), tc1, te1, tc, te;
-    double a, amean, b, bmean, c1, c1m, c, cm;
-    kifmm_stats st;
+    double a, amean, b, bmean, c1, c1m, c, cm, w1, w1m, w, wm;
+    kifmm_stats st1, st;
     int rc;
     make_points(DIST_CUBE, n, 1, 2000 + (uint64_t)rank_, x, q);
-    rc = run(MPI_COMM_SELF, n, x, q, p, &tc1, &te1, &st);
+    memset(&st1, 0, sizeof st1);
+    memset(&st, 0, sizeof st);
+    rc = run(MPI_COMM_SELF, n, x, q, p, &tc1, &te1, &st1);
     if (!rc) rc = run(MPI_COMM_WORLD, n, x, q, p, &tc, &te, &st);
     MPI_Allreduce(MPI_IN_PLACE, &rc, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     if (rc) {
@@ -125,10 +131,13 @@ static int weak(int64_t n, int p)
     maxmean(st.t_evaluate, &b, &bmean);
     maxmean(tc1, &c1, &c1m);
     maxmean(tc, &c, &cm);
+    maxmean(st1.t_mpi_work, &w1, &w1m);
+    maxmean(st.t_mpi_work, &w, &wm);
     if (!rank_)
         printf("mpi weak %lld a rank, %2d ranks, p = %d: alone create %.3f evaluate %.3f s; together "
-               "create %.3f evaluate %.3f s; efficiency %.2f (evaluate), %.2f (create)\n",
-               (long long)n, size_, p, c1m, amean, c, b, amean / b, c1m / c);
+               "create %.3f evaluate %.3f s; efficiency %.2f (evaluate), %.2f (create), %.2f (evaluate's "
+               "CPU work)\n",
+               (long long)n, size_, p, c1m, amean, c, b, amean / b, c1m / c, w1m / wm);
     free(x);
     free(q);
     return 0;

@@ -4,7 +4,7 @@
 #
 #   bash bench/run.sh            cube, sphere, clustered x N = 1e4, 1e5, 1e6 x p = 4, 6, 8, then
 #                                float and evaluate_many, kernels side by side, periodic
-#                                boundaries, time stepping (update_points)
+#                                boundaries, time stepping (update_points), MPI mode
 #   bash bench/run.sh --quick    cube x N = 1e4, 1e5 x p = 6
 #
 # Environment (all optional; `make bench BIG=1 P=10` passes them through):
@@ -340,6 +340,39 @@ if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. b
 else
     echo "bench_update or timestep: build failed"
     FAILED="$FAILED update/build"
+fi
+
+# ---------------------------------------------------------------- MPI
+# MPI mode (bench/bench_mpi.c): balance and bytes a rank on 1M points (4
+# ranks Plummer; 1, 2, 4, 8 ranks uniform), and weak scaling (1M uniform
+# points a rank, 1 to 16 ranks, as many as MPI_RANKS lists), one thread a
+# rank, oversubscribed where the cores are fewer; skipped without mpicc.
+echo
+echo "== MPI mode: balance, bytes a rank, weak scaling (laplace_grad, p = 6, one thread a rank)"
+if command -v mpicc > /dev/null 2>&1 && command -v mpirun > /dev/null 2>&1; then
+    MPIRUN=(mpirun --oversubscribe --bind-to none)
+    [ "$(id -u)" = 0 ] && MPIRUN+=(--allow-run-as-root)
+    if [ "$QUICK" = 1 ]; then MPN=200000; MR="1 2 4"; elif [ "$NCPU" -ge 16 ]; then MPN=1000000; MR="1 2 4 8 16"; else MPN=1000000; MR="1 2 4 8"; fi
+    MRANKS=${MPI_RANKS:-$MR}
+    # shellcheck disable=SC2086
+    if mpicc -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. bench/bench_mpi.c \
+            -o "$OUT/bench_mpi" -llapacke -lopenblas -lm; then
+        export OMPI_MCA_mpi_yield_when_idle=1 OMPI_MCA_btl_vader_single_copy_mechanism=none
+        wait_quiet
+        OMP_NUM_THREADS=1 "${MPIRUN[@]}" -np 4 "$OUT/bench_mpi" fixed "$MPN" plummer || FAILED="$FAILED mpi/plummer"
+        for np in 2 4 8; do
+            OMP_NUM_THREADS=1 "${MPIRUN[@]}" -np "$np" "$OUT/bench_mpi" fixed "$MPN" cube | head -1 ||
+                FAILED="$FAILED mpi/cube$np"
+        done
+        for np in $MRANKS; do
+            OMP_NUM_THREADS=1 "${MPIRUN[@]}" -np "$np" "$OUT/bench_mpi" weak "$MPN" || FAILED="$FAILED mpi/weak$np"
+        done
+    else
+        echo "bench_mpi: build failed"
+        FAILED="$FAILED mpi/build"
+    fi
+else
+    echo "skipped: no mpicc or mpirun (apt-get install libopenmpi-dev openmpi-bin)"
 fi
 
 # ---------------------------------------------------------------- FMM3D table

@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # tests/mpi.sh - MPI mode (KIFMM_MPI, <prefix>_create_mpi): tests/mpi/test_mpi.c
-# built with mpicc (C11, -O2 -march=native, OpenMP, -Werror) and with mpicxx (as
-# C++, without OpenMP), run under mpirun with 1, 2, 3 and 4 ranks (the C build;
-# the C++ one with 3), oversubscribed (--oversubscribe; as root also
-# --allow-run-as-root), one OpenMP thread a rank except the 2-rank run's 2.
-# Without mpicc it prints why and passes: MPI is optional. The last line is
+# built with mpicc (C11, -O2 -march=native, OpenMP, -Werror), with ASan and
+# UBSan, and with mpicxx (as C++, without OpenMP), run under mpirun with 1,
+# 2, 3 and 4 ranks (the C build; the sanitizer build with 2, the C++ one
+# with 3), oversubscribed (--oversubscribe; as root also
+# --allow-run-as-root), one OpenMP thread a rank, two for the one rank.
+# Then examples/mpi_nbody.c, 20,000 bodies on 3 ranks (it checks itself
+# against direct sums). Without mpicc it prints why and passes: MPI is
+# optional. The last line is
 # "mpi: N passed, N failed"; the exit status is nonzero on failure.
 # Environment: EXTRA_CFLAGS (added to the compiles), MPI_TIMEOUT (seconds per
 # run, default 600).
@@ -53,14 +56,31 @@ run() { # name ranks threads
     echo "mpi: $n, $np ranks x $th threads: exit $r"
 }
 if build c11 mpicc -std=c11 -O2 -march=native -fopenmp; then
-    run c11 1 1
-    run c11 2 2
+    run c11 1 2
+    run c11 2 1
     run c11 3 1
     run c11 4 1
+fi
+# AddressSanitizer and UndefinedBehaviorSanitizer, 2 ranks (leaks: the
+# test counts the library's blocks itself; MPI's own are not its to check)
+if build asan mpicc -std=c11 -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
+        -fno-sanitize-recover=undefined -march=native -fopenmp; then
+    ASAN_OPTIONS=detect_leaks=0 run asan 2 1
 fi
 # (C++: without the MPI libraries' deprecated C++ bindings, whose headers warn)
 if build cxx mpicxx -x c++ -DOMPI_SKIP_MPICXX -DMPICH_SKIP_MPICXX -O2 -march=native; then
     run cxx 3 1
+fi
+# the example, 3 ranks: its own check against direct sums sets its exit status
+if mpicc -std=c99 -O2 -march=native -fopenmp -Wall -Wextra -Werror -pedantic ${EXTRA_CFLAGS:-} -I. \
+        examples/mpi_nbody.c -o "$B/mpi_nbody" $LIBS > "$B/mpi_nbody.build.log" 2>&1 &&
+    OMP_NUM_THREADS=1 timeout "${MPI_TIMEOUT:-600}" "${RUN[@]}" -np 3 "$B/mpi_nbody" 20000 3 6 > "$B/mpi_nbody.log" 2>&1; then
+    pass=$((pass + 1))
+    tail -1 "$B/mpi_nbody.log"
+else
+    fail=$((fail + 1))
+    echo "mpi: examples/mpi_nbody.c FAILED:"
+    cat "$B/mpi_nbody.build.log" "$B/mpi_nbody.log" | tail -20
 fi
 echo "mpi: $pass passed, $fail failed"
 [ "$fail" = 0 ]

@@ -127,6 +127,16 @@ class _Stats(ctypes.Structure):
         ("t_update", ctypes.c_double),
         ("plan_bytes", ctypes.c_double),
         ("tree_bytes", ctypes.c_double),
+        ("mpi_ranks", ctypes.c_int),
+        ("mpi_sources", ctypes.c_int64),
+        ("mpi_targets", ctypes.c_int64),
+        ("mpi_ghost_points", ctypes.c_int64),
+        ("mpi_ghost_boxes", ctypes.c_int64),
+        ("mpi_bytes_sent", ctypes.c_double),
+        ("mpi_bytes_recv", ctypes.c_double),
+        ("mpi_ghost_bytes", ctypes.c_double),
+        ("t_mpi_wait", ctypes.c_double),
+        ("t_mpi_work", ctypes.c_double),
     ]
 
 

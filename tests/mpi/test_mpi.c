@@ -8,7 +8,36 @@
  * targets, laplace_grad, float laplace, yukawa_grad and stokes, several
  * vectors, update_points (equal, bit for bit, to a new create_mpi on the
  * same points), a few points over more ranks, stats, and errors met on one
- * rank only (every rank returns one, nothing written). */
+ * rank only (every rank returns one, nothing written); every block the
+ * library allocated is freed in the end. */
+#include <stdlib.h>
+
+/* every block the library allocates, counted: none may be left once the
+ * handles are destroyed, failures included */
+static long live_blocks;
+static void *count_malloc(size_t n)
+{
+    void *p = malloc(n);
+    if (p) {
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+        live_blocks++;
+    }
+    return p;
+}
+static void count_free(void *p)
+{
+    if (!p) return;
+#ifdef _OPENMP
+#pragma omp atomic
+#endif
+    live_blocks--;
+    free(p);
+}
+#define KIFMM_MALLOC(n) count_malloc(n)
+#define KIFMM_FREE(p) count_free(p)
+
 #define KIFMM_MPI
 #define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
@@ -356,6 +385,7 @@ int main(int argc, char **argv)
     run_kifmm_laplace_grad(2, 0, 2, 5, 1, 6, 1e-12);
     group("errors on one rank");
     errors();
+    CHECK(live_blocks == 0, "%ld blocks of the library not freed", live_blocks);
     {
         long c[2] = {t_counters()[0], t_counters()[1]};
         MPI_Allreduce(MPI_IN_PLACE, c, 2, MPI_LONG, MPI_SUM, MPI_COMM_WORLD);
