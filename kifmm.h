@@ -9357,7 +9357,13 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
     m->np = m->src.p[m->src.n];
     if ((rc = KIFMM__F(__mpi_proxies)(m, rb, &pa))) return rc;
     nsm = m->nso + m->ng + (m->npx + m->ncb) * nse;
-    memset(om.domain, 0, sizeof om.domain);
+    /* the global root as a box of level 2 of main's (4 times as wide, the
+     * surfaces of the boxes on its faces inside): main's boxes are the
+     * global tree's, refined as one process would refine them, not a frame
+     * of their own whose levels half refine (many W and X lists) */
+    for (i = 0; i < 3; i++) om.domain[i] = m->root[i] + m->root[3];
+    om.domain[3] = 4.0 * m->root[3];
+    om.max_depth = om.max_depth + 2 < KIFMM_MAX_DEPTH ? om.max_depth + 2 : KIFMM_MAX_DEPTH;
     if (nsm == m->nso) { /* nothing from the others: main is up's points */
         kifmm__free(pa);
         return KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, m->nso, m->so, m->nto, m->to);
