@@ -3134,6 +3134,7 @@ KIFMM__FN int kifmm__mpi_split(MPI_Comm comm, int R, const uint64_t *k, const do
     uint64_t *lo = (uint64_t *)kifmm__alloc((size_t)2 * R, sizeof(uint64_t)), *hi = lo + R;
     int j, it, rc = KIFMM_SUCCESS;
     if (!c || !lo) rc = KIFMM_ERR_NOMEM;
+    rc = kifmm__mpi_agree(comm, rc); /* every rank bisects, or none */
     if (!rc && MPI_Allreduce((void *)&cw[n], &tot, 1, MPI_DOUBLE, MPI_SUM, comm) != MPI_SUCCESS)
         rc = KIFMM_ERR_MPI;
     for (j = 0; !rc && j < R; j++) lo[j] = 0, hi[j] = top;
@@ -3230,7 +3231,8 @@ KIFMM__FN void kifmm__mpi_route_free(kifmm__mpi_route *r)
     memset(r, 0, sizeof *r);
 }
 
-/* The route of n points whose owners are own[i] (R ranks). */
+/* The route of n points whose owners are own[i] (R ranks); the result
+ * agreed over comm (the caller frees r). */
 KIFMM__FN int kifmm__mpi_route_make(MPI_Comm comm, int R, int64_t n, const int *own,
                                     kifmm__mpi_route *r)
 {
@@ -3241,8 +3243,7 @@ KIFMM__FN int kifmm__mpi_route_make(MPI_Comm comm, int R, int64_t n, const int *
     r->cnt = (int *)kifmm__alloc((size_t)4 * R, sizeof(int));
     if (!pos || !r->order || !r->cnt) {
         kifmm__free(pos);
-        kifmm__mpi_route_free(r);
-        return KIFMM_ERR_NOMEM;
+        return kifmm__mpi_agree(comm, KIFMM_ERR_NOMEM);
     }
     r->dsp = r->cnt + R, r->rcnt = r->cnt + 2 * R, r->rdsp = r->cnt + 3 * R;
     memset(pos, 0, ((size_t)R + 1) * sizeof(int64_t));
@@ -3256,7 +3257,7 @@ KIFMM__FN int kifmm__mpi_route_make(MPI_Comm comm, int R, int64_t n, const int *
     }
     for (i = 0; i < n; i++) r->order[pos[own[i]]++] = i;
     kifmm__free(pos);
-    if (rc) return rc; /* the caller agrees, then frees */
+    if ((rc = kifmm__mpi_agree(comm, rc))) return rc; /* every rank exchanges counts, or none */
     if (MPI_Alltoall(r->cnt, 1, MPI_INT, r->rcnt, 1, MPI_INT, comm) != MPI_SUCCESS)
         return KIFMM_ERR_MPI;
     for (j = 0; j < R; j++) {
@@ -9005,7 +9006,7 @@ struct KIFMM__F(__mpi) {
     KIFMM__F(_plan) *pl;       /* up's and main's */
     KIFMM_NAME *up, *main;     /* up: NULL when the rank owns no sources */
     double root[4];            /* the global root: centre, half-width */
-    uint64_t *split;           /* size + 1 splitters; the region of rank j: */
+    uint64_t *split;           /* size + 1 splitters: rank j owns [split[j], split[j + 1]) */
     int64_t *nto_all;          /* targets each rank owns */
     int64_t ns, nt;            /* the caller's points on this rank */
     kifmm__mpi_route rs, rt;   /* the caller's sources and targets to their owners */
@@ -9081,8 +9082,10 @@ KIFMM__FN int KIFMM__F(__mpi_root)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM__
         return KIFMM_SUCCESS;
     }
     for (d = 0; d < 3; d++) { /* e: the lowest coordinates, then minus the highest */
-        for (i = 0; i < ns; i++) e[d] = fmin(e[d], (double)src[3 * i + d]), e[d + 3] = fmin(e[d + 3], -(double)src[3 * i + d]);
-        for (i = 0; i < nt; i++) e[d] = fmin(e[d], (double)trg[3 * i + d]), e[d + 3] = fmin(e[d + 3], -(double)trg[3 * i + d]);
+        for (i = 0; i < ns; i++)
+            e[d] = fmin(e[d], (double)src[3 * i + d]), e[d + 3] = fmin(e[d + 3], -(double)src[3 * i + d]);
+        for (i = 0; i < nt; i++)
+            e[d] = fmin(e[d], (double)trg[3 * i + d]), e[d + 3] = fmin(e[d + 3], -(double)trg[3 * i + d]);
     }
     if (MPI_Allreduce(MPI_IN_PLACE, e, 6, MPI_DOUBLE, MPI_MIN, m->comm) != MPI_SUCCESS) return KIFMM_ERR_MPI;
     for (d = 0; d < 3; d++) {
@@ -9091,7 +9094,8 @@ KIFMM__FN int KIFMM__F(__mpi_root)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM__
         half = fmax(half, 0.5 * (-e[d + 3] - e[d]));
     }
     m->root[3] = half > 0.0 ? half * (1.0 + 1e-10) : 0.5;
-    return KIFMM_SUCCESS;
+    /* every rank's points were in range; all of them together must be too */
+    return half > 0.0 && 2.0 * half < KIFMM__EMIN ? KIFMM_ERR_RANGE : KIFMM_SUCCESS;
 }
 
 /* Level-KIFMM__D keys of n points in the global root. */

@@ -15,9 +15,18 @@
 /* every block the library allocates, counted: none may be left once the
  * handles are destroyed, failures included */
 static long live_blocks;
+static long fail_at = -1; /* >= 0: this rank's allocation number fail_at fails */
+static long alloc_calls;
 static void *count_malloc(size_t n)
 {
-    void *p = malloc(n);
+    void *p;
+    long k;
+#ifdef _OPENMP
+#pragma omp atomic capture
+#endif
+    k = alloc_calls++;
+    if (k == fail_at) return NULL;
+    p = malloc(n);
     if (p) {
 #ifdef _OPENMP
 #pragma omp atomic
@@ -358,6 +367,68 @@ static void errors(void)
     free(gx), free(gq), free(sid), free(x), free(q), free(out), free(keep);
 }
 
+/* An allocation that fails on the last rank only, at each of create_mpi's,
+ * evaluate's and update_points's allocations in turn (a stride of them):
+ * every rank returns an error together (none is left waiting in a
+ * collective call), KIFMM_ERR_NOMEM on the last rank, no handle, nothing
+ * leaked; a failed evaluate or update leaves the handle working. */
+static void alloc_failures(void)
+{
+    const int64_t N = 600, last = g_size - 1;
+    double *gx = gen_points(2, 17, N), *gq = t_densities(18, N, 1, 1, 0);
+    int64_t *sid, ns = share(N, 0, 19, &sid), i;
+    double *x = t_doubles(3 * ns + 3), *q = t_doubles(ns + 1), *out = t_doubles(4 * ns + 4);
+    double *keep = t_doubles(4 * ns + 4);
+    kifmm_opts o = t_opts(4, 16, 0);
+    long total[3] = {0, 0, 0}, k, stride;
+    int bad[3] = {0, 0, 0}, stage, rc, injected;
+    static const char *what[3] = {"create_mpi", "evaluate", "update_points"};
+    for (i = 0; i < ns; i++) memcpy(x + 3 * i, gx + 3 * sid[i], 3 * sizeof(double)), q[i] = gq[sid[i]];
+    for (stage = 0; stage < 3; stage++) {
+        kifmm_laplace_grad *h = NULL;
+        /* the count of the stage's allocations on this rank, without failures */
+        if (stage > 0) {
+            rc = kifmm_laplace_grad_create_mpi(&h, MPI_COMM_WORLD, &o, ns, x, ns, x);
+            if (!rc) rc = kifmm_laplace_grad_evaluate(h, q, keep);
+        }
+        alloc_calls = 0;
+        rc = stage == 0 ? kifmm_laplace_grad_create_mpi(&h, MPI_COMM_WORLD, &o, ns, x, ns, x)
+             : stage == 1 ? kifmm_laplace_grad_evaluate(h, q, out)
+                          : kifmm_laplace_grad_update_points(h, ns, x, ns, x);
+        total[stage] = alloc_calls;
+        CHECK(all_ranks(rc == KIFMM_SUCCESS), "stage %d: %s", stage, kifmm_strerror(rc));
+        MPI_Allreduce(MPI_IN_PLACE, &total[stage], 1, MPI_LONG, MPI_MAX, MPI_COMM_WORLD);
+        stride = total[stage] / 40 + 1;
+        for (k = 0; k < total[stage]; k += stride) {
+            kifmm_laplace_grad *g = NULL;
+            alloc_calls = 0;
+            fail_at = g_rank == last ? k : -1;
+            rc = stage == 0 ? kifmm_laplace_grad_create_mpi(&g, MPI_COMM_WORLD, &o, ns, x, ns, x)
+                 : stage == 1 ? kifmm_laplace_grad_evaluate(h, q, out)
+                              : kifmm_laplace_grad_update_points(h, ns, x, ns, x);
+            fail_at = -1;
+            injected = g_rank == last && alloc_calls > k; /* the last rank made k + 1 or more */
+            MPI_Bcast(&injected, 1, MPI_INT, (int)last, MPI_COMM_WORLD);
+            if (!injected) bad[stage] |= rc != KIFMM_SUCCESS;
+            else bad[stage] |= rc == KIFMM_SUCCESS || (g_rank == last && rc != KIFMM_ERR_NOMEM);
+            bad[stage] |= stage == 0 && rc != KIFMM_SUCCESS && g != NULL;
+            kifmm_laplace_grad_destroy(g);
+            if (stage > 0) { /* the handle still works, with its outputs */
+                rc = kifmm_laplace_grad_evaluate(h, q, out);
+                bad[stage] |= rc != KIFMM_SUCCESS || memcmp(out, keep, 4 * (size_t)ns * sizeof(double));
+            }
+        }
+        kifmm_laplace_grad_destroy(h);
+        k = all_ranks(!bad[stage]);
+        CHECK(k, "%s: an allocation failing on the last rank", what[stage]);
+        if (g_rank == 0)
+            printf("  %-4s %s: an allocation failing on rank %lld, at %ld of the %ld allocations\n",
+                   k ? "ok" : "FAIL", what[stage], (long long)last, (total[stage] + stride - 1) / stride,
+                   total[stage]);
+    }
+    free(gx), free(gq), free(sid), free(x), free(q), free(out), free(keep);
+}
+
 int main(int argc, char **argv)
 {
     MPI_Init(&argc, &argv);
@@ -385,6 +456,8 @@ int main(int argc, char **argv)
     run_kifmm_laplace_grad(2, 0, 2, 5, 1, 6, 1e-12);
     group("errors on one rank");
     errors();
+    group("allocation failures on one rank");
+    alloc_failures();
     CHECK(live_blocks == 0, "%ld blocks of the library not freed", live_blocks);
     {
         long c[2] = {t_counters()[0], t_counters()[1]};
