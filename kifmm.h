@@ -9359,7 +9359,10 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
     int i, rc;
     m->ng = m->src.g[m->src.n];
     m->np = m->src.p[m->src.n];
-    if ((rc = KIFMM__F(__mpi_proxies)(m, rb, &pa))) return rc;
+    if ((rc = KIFMM__F(__mpi_proxies)(m, rb, &pa))) {
+        kifmm__free(pa);
+        return rc;
+    }
     nsm = m->nso + m->ng + (m->npx + m->ncb) * nse;
     /* the global root as a box of level 2 of main's (4 times as wide, the
      * surfaces of the boxes on its faces inside): main's boxes are the
