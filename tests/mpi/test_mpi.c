@@ -138,173 +138,236 @@ static int all_ranks(int ok)
 
 #define NSAMPLE 300
 
-#define T_MPI_RUN(P, R, SD, TD)                                                                    \
-    static void run_##P(int kind, int mode, int64_t NT, int64_t N, int nv, int order, double bound) \
+/* One instance behind type-erased calls in double (float instances get
+ * rounded copies and give their outputs widened, exactly); the same array
+ * twice when the sources are the targets, as a caller would pass it. */
+typedef struct {
+    const char *name;
+    int sd, td;
+    int (*create_mpi)(void **h, const kifmm_opts *o, int64_t ns, const double *s, int64_t nt,
+                      const double *t);
+    int (*create)(void **h, const kifmm_opts *o, int64_t ns, const double *s, int64_t nt,
+                  const double *t);
+    int (*update)(void *h, int64_t ns, const double *s, int64_t nt, const double *t);
+    int (*evaluate)(void *h, int nv, int64_t ns, const double *q, int64_t nt, double *out);
+    int (*direct)(const kifmm_opts *o, int64_t ns, const double *s, const double *q, int64_t nt,
+                  const double *t, double *out);
+    int (*stats)(const void *h, kifmm_stats *st);
+    void (*destroy)(void *h);
+} m_api;
+
+/* n values of a in the instance's type R */
+#define T_MPI_CONV(R, a, n) conv_##R(a, n)
+static float *conv_float(const double *a, int64_t n)
+{
+    float *b = (float *)t_malloc_or_die((size_t)(n + 1) * sizeof(float));
+    for (int64_t i = 0; i < n; i++) b[i] = (float)a[i];
+    return b;
+}
+static double *conv_double(const double *a, int64_t n) { return t_dup(n, a); }
+
+/* the calls with points: create_mpi, create or update_points (call) */
+#define T_MPI_POINTS(P, R, name, call, ...)                                                        \
+    static int P##_m_##name(__VA_ARGS__, int64_t ns, const double *s, int64_t nt, const double *t) \
     {                                                                                              \
-        kifmm_opts o = t_opts(order, 0, 0);                                                        \
-        const int same = NT == 0;                                                                  \
-        const int64_t nt_g = same ? N : NT;                                                        \
-        double *gx = gen_points(kind, 11 + kind, N), *gq = t_densities(5 + kind, N, SD, nv, 0);    \
-        double *gy = same ? gx : gen_points(kind == 1 ? 0 : kind, 23 + kind, NT), e1 = 0.0, err;   \
-        R *X = P##_conv(gx, 3 * N), *Y = same ? X : P##_conv(gy, 3 * NT);                          \
-        R *Q = P##_conv(gq, N * SD * nv), *x, *y, *q, *out, *ref, *o1 = NULL;                      \
-        int64_t *sid, *tid, ns, nt;                                                                \
-        kifmm_stats st;                                                                            \
-        int64_t cnt[2];                                                                            \
-        P *h = NULL;                                                                               \
-        int rc;                                                                                    \
-        ns = share(N, mode, 1, &sid);                                                              \
-        nt = same ? ns : share(NT, mode, 2, &tid);                                                 \
-        if (same) tid = sid;                                                                       \
-        x = P##_pick(X, ns, 3, 1, N, sid), q = P##_pick(Q, ns, SD, nv, N, sid);                    \
-        y = same ? x : P##_pick(Y, nt, 3, 1, NT, tid);                                             \
-        out = (R *)t_malloc_or_die((size_t)(nv * nt * TD + 1) * sizeof(R));                        \
-        rc = P##_create_mpi(&h, MPI_COMM_WORLD, &o, ns, x, nt, y);                                 \
-        CHECK(rc == KIFMM_SUCCESS, "%s create_mpi: %s", #P, kifmm_strerror(rc));                   \
-        if (rc) return;                                                                            \
-        rc = P##_evaluate_many(h, nv, q, out);                                                     \
-        CHECK(rc == KIFMM_SUCCESS, "%s evaluate: %s", #P, kifmm_strerror(rc));                     \
-        ref = P##_ref(&o, N, X, Q, nt_g, Y, nv);                                                   \
-        err = P##_err(nt, tid, out, nv, nt_g, ref, 1);                                             \
-        if (g_rank == 0) { /* one process, all the points */                                       \
-            int64_t *all = (int64_t *)t_malloc_or_die((size_t)(nt_g + 1) * sizeof(int64_t));       \
-            P *s = NULL;                                                                           \
-            o1 = (R *)t_malloc_or_die((size_t)(nv * nt_g * TD + 1) * sizeof(R));                   \
-            for (int64_t i = 0; i < nt_g; i++) all[i] = i;                                         \
-            rc = P##_create(&s, &o, N, X, nt_g, Y);                                                \
-            if (!rc) rc = P##_evaluate_many(s, nv, Q, o1);                                         \
-            CHECK(rc == KIFMM_SUCCESS, "%s one process: %s", #P, kifmm_strerror(rc));              \
-            e1 = P##_err(nt_g, all, o1, nv, nt_g, ref, 0);                                         \
-            P##_destroy(s);                                                                        \
-            free(all);                                                                             \
-        }                                                                                          \
-        MPI_Bcast(&e1, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);                                          \
-        if (g_rank == 0) {                                                                         \
-            CHECK_ERR(err, bound, "%s %s %s%s, %lld, %d ranks, p = %d", #P, kind_name[kind],       \
-                      mode_name[mode], same ? "" : ", targets apart", (long long)N, g_size, order); \
-            CHECK_ERR(err, 3.0 * e1 + 1e-13, "  and against 3 x one process's %.2e", e1);          \
-        }                                                                                          \
-        if (g_size == 1)                                                                           \
-            CHECK(!memcmp(out, o1, (size_t)nv * nt * TD * sizeof(R)), "%s: 1 rank != create", #P); \
-        memset(&st, 0, sizeof st);                                                                 \
-        CHECK(P##_stats(h, &st) == KIFMM_SUCCESS && st.mpi_ranks == g_size, "%s stats", #P);      \
-        cnt[0] = st.mpi_sources, cnt[1] = st.mpi_targets;                                          \
-        MPI_Allreduce(MPI_IN_PLACE, cnt, 2, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);                  \
-        CHECK(cnt[0] == N && cnt[1] == nt_g, "%s: owned %lld %lld", #P, (long long)cnt[0],         \
-              (long long)cnt[1]);                                                                  \
-        P##_update(h, &o, kind, mode, same, N, NT, nv, bound);                                     \
-        P##_destroy(h);                                                                            \
-        free(gx), free(gq), free(X), free(Q), free(x), free(q), free(out), free(ref), free(o1);    \
-        free(sid);                                                                                 \
-        if (!same) free(gy), free(Y), free(y), free(tid);                                          \
+        R *a = T_MPI_CONV(R, s, 3 * ns), *b = s == t && ns == nt ? a : T_MPI_CONV(R, t, 3 * nt);    \
+        int rc = call;                                                                             \
+        free(a);                                                                                   \
+        if (b != a) free(b);                                                                       \
+        return rc;                                                                                 \
     }
+
+#define T_MPI_API(P, R, SD, TD)                                                                    \
+    T_MPI_POINTS(P, R, create_mpi, P##_create_mpi((P **)h, MPI_COMM_WORLD, o, ns, a, nt, b),       \
+                 void **h, const kifmm_opts *o)                                                    \
+    T_MPI_POINTS(P, R, create, P##_create((P **)h, o, ns, a, nt, b), void **h, const kifmm_opts *o) \
+    T_MPI_POINTS(P, R, update, P##_update_points((P *)h, ns, a, nt, b), void *h)                  \
+    static int P##_m_evaluate(void *h, int nv, int64_t ns, const double *q, int64_t nt, double *o) \
+    {                                                                                              \
+        R *a = T_MPI_CONV(R, q, nv * ns * (SD));                                                   \
+        R *b = (R *)t_malloc_or_die((size_t)(nv * nt * (TD) + 1) * sizeof(R));                      \
+        int rc = P##_evaluate_many((P *)h, nv, a, b);                                              \
+        for (int64_t i = 0; i < nv * nt * (TD); i++) o[i] = (double)b[i];                          \
+        free(a), free(b);                                                                          \
+        return rc;                                                                                 \
+    }                                                                                              \
+    static int P##_m_direct(const kifmm_opts *o, int64_t ns, const double *s, const double *q,     \
+                            int64_t nt, const double *t, double *out)                              \
+    {                                                                                              \
+        R *a = T_MPI_CONV(R, s, 3 * ns), *b = T_MPI_CONV(R, q, ns * (SD));                          \
+        R *c = T_MPI_CONV(R, t, 3 * nt), *d = (R *)t_malloc_or_die((size_t)(nt * (TD) + 1) * sizeof(R)); \
+        int rc = P##_direct(o, ns, a, b, nt, c, d);                                                \
+        for (int64_t i = 0; i < nt * (TD); i++) out[i] = (double)d[i];                             \
+        free(a), free(b), free(c), free(d);                                                        \
+        return rc;                                                                                 \
+    }                                                                                              \
+    static int P##_m_stats(const void *h, kifmm_stats *st) { return P##_stats((const P *)h, st); } \
+    static void P##_m_destroy(void *h) { P##_destroy((P *)h); }                                    \
+    static const m_api P##_m = {#P, SD, TD, P##_m_create_mpi, P##_m_create, P##_m_update,          \
+                                P##_m_evaluate, P##_m_direct, P##_m_stats, P##_m_destroy};
+
+T_MPI_API(kifmm_laplace_grad, double, 1, 4)
+T_MPI_API(kifmm_laplacef, float, 1, 1)
+T_MPI_API(kifmm_yukawa_grad, double, 1, 4)
+T_MPI_API(kifmm_stokes, double, 3, 3)
+
+/* the global sample: every step-th of the NT targets */
+static int64_t sample_step(int64_t NT) { return NT / NSAMPLE > 0 ? NT / NSAMPLE : 1; }
+
+/* direct sums of nv vectors at the sample of the NT targets y */
+static double *direct_ref(const m_api *a, const kifmm_opts *o, int64_t N, const double *x,
+                          const double *q, int64_t NT, const double *y, int nv)
+{
+    const int64_t step = sample_step(NT), ns = (NT + step - 1) / step;
+    double *ys = t_doubles(3 * ns + 3), *ref = t_doubles(nv * ns * a->td + 1);
+    for (int64_t j = 0; j < ns; j++) memcpy(ys + 3 * j, y + 3 * j * step, 3 * sizeof(double));
+    for (int v = 0; v < nv; v++)
+        if (a->direct(o, N, x, q + (size_t)v * N * a->sd, ns, ys, ref + (size_t)v * ns * a->td))
+            CHECK(0, "%s: direct sums failed", a->name);
+    free(ys);
+    return ref;
+}
+
+/* The relative L2 error of out (nt targets, global ids tid) at the sample,
+ * against ref (direct_ref's): over every rank's (all) or this one's. */
+static double sample_err(const m_api *a, int64_t nt, const int64_t *tid, const double *out, int nv,
+                         int64_t NT, const double *ref, int all)
+{
+    const int64_t step = sample_step(NT), ns = (NT + step - 1) / step;
+    double e2 = 0.0, r2 = 0.0;
+    for (int64_t i = 0; i < nt; i++)
+        if (tid[i] % step == 0)
+            for (int v = 0; v < nv; v++)
+                for (int k = 0; k < a->td; k++) {
+                    const double u = out[(v * nt + i) * a->td + k], w = ref[(v * ns + tid[i] / step) * a->td + k];
+                    e2 += (u - w) * (u - w), r2 += w * w;
+                }
+    if (!all) return r2 > 0.0 ? sqrt(e2 / r2) : sqrt(e2);
+    return global_rel(e2, r2);
+}
+
+/* this rank's values of the points ids (dim each, vector-major over nv) */
+static double *pick(const double *v, int64_t n, int dim, int nv, int64_t N, const int64_t *ids)
+{
+    double *b = t_doubles(n * dim * nv + 1);
+    for (int k = 0; k < nv; k++)
+        for (int64_t i = 0; i < n; i++)
+            memcpy(b + (k * n + i) * dim, v + ((size_t)k * N + ids[i]) * dim, dim * sizeof(double));
+    return b;
+}
+
+/* A global problem (points of a kind, N sources, NT separate targets or the
+ * sources when NT == 0, nv vectors) and this rank's share of it. */
+typedef struct {
+    int same, nv;
+    int64_t N, NT, ns, nt, *sid, *tid;
+    double *X, *Y, *Q, *x, *y, *q, *out;
+} m_case;
+
+static m_case case_make(const m_api *a, int kind, int mode, int64_t NT, int64_t N, int nv,
+                        uint64_t seed)
+{
+    m_case c;
+    c.same = NT == 0, c.nv = nv, c.N = N, c.NT = c.same ? N : NT;
+    c.X = gen_points(kind, seed + (uint64_t)kind, N);
+    c.Y = c.same ? c.X : gen_points(kind == 1 ? 0 : kind, seed + 12 + (uint64_t)kind, NT);
+    c.Q = t_densities(seed + 5, N, a->sd, nv, 0);
+    c.ns = share(N, mode, seed, &c.sid);
+    c.nt = c.same ? c.ns : share(NT, mode, seed + 1, &c.tid);
+    if (c.same) c.tid = c.sid;
+    c.x = pick(c.X, c.ns, 3, 1, N, c.sid), c.q = pick(c.Q, c.ns, a->sd, nv, N, c.sid);
+    c.y = c.same ? c.x : pick(c.Y, c.nt, 3, 1, NT, c.tid);
+    c.out = t_doubles(nv * c.nt * a->td + 1);
+    return c;
+}
+
+static void case_free(m_case *c)
+{
+    free(c->X), free(c->Q), free(c->x), free(c->q), free(c->out), free(c->sid);
+    if (!c->same) free(c->Y), free(c->y), free(c->tid);
+}
 
 /* update_points onto another set (other points, another handout): equal,
  * bit for bit, to a new create_mpi there, and within bound of the sums */
-#define T_MPI_UPDATE(P, R, SD, TD)                                                                 \
-    static void P##_update(P *h, const kifmm_opts *o, int kind, int mode, int same, int64_t N,     \
-                           int64_t NT, int nv, double bound)                                       \
-    {                                                                                              \
-        const int64_t nt_g = same ? N : NT;                                                        \
-        double *gx = gen_points(kind, 101 + kind, N), *gq = t_densities(9, N, SD, nv, 0);          \
-        double *gy = same ? gx : gen_points(0, 103, NT), err;                                      \
-        R *X = P##_conv(gx, 3 * N), *Y = same ? X : P##_conv(gy, 3 * NT);                          \
-        R *Q = P##_conv(gq, N * SD * nv), *x, *y, *q, *out, *out2, *ref;                           \
-        int64_t *sid, *tid, ns, nt;                                                                \
-        P *h2 = NULL;                                                                              \
-        int rc;                                                                                    \
-        ns = share(N, mode, 7, &sid);                                                              \
-        nt = same ? ns : share(NT, mode, 8, &tid);                                                 \
-        if (same) tid = sid;                                                                       \
-        x = P##_pick(X, ns, 3, 1, N, sid), q = P##_pick(Q, ns, SD, nv, N, sid);                    \
-        y = same ? x : P##_pick(Y, nt, 3, 1, NT, tid);                                             \
-        out = (R *)t_malloc_or_die((size_t)(nv * nt * TD + 1) * sizeof(R));                        \
-        out2 = (R *)t_malloc_or_die((size_t)(nv * nt * TD + 1) * sizeof(R));                       \
-        rc = P##_update_points(h, ns, x, nt, y);                                                   \
-        if (!rc) rc = P##_evaluate_many(h, nv, q, out);                                            \
-        CHECK(rc == KIFMM_SUCCESS, "%s update_points: %s", #P, kifmm_strerror(rc));                \
-        rc = P##_create_mpi(&h2, MPI_COMM_WORLD, o, ns, x, nt, y);                                 \
-        if (!rc) rc = P##_evaluate_many(h2, nv, q, out2);                                          \
-        CHECK(rc == KIFMM_SUCCESS, "%s create_mpi: %s", #P, kifmm_strerror(rc));                   \
-        CHECK(all_ranks(!memcmp(out, out2, (size_t)nv * nt * TD * sizeof(R))),                    \
-              "%s: update_points != create_mpi", #P);                                              \
-        ref = P##_ref(o, N, X, Q, nt_g, Y, nv);                                                    \
-        err = P##_err(nt, tid, out, nv, nt_g, ref, 1);                                             \
-        if (g_rank == 0) CHECK_ERR(err, bound, "  after update_points");                           \
-        P##_destroy(h2);                                                                           \
-        free(gx), free(gq), free(X), free(Q), free(x), free(q), free(out), free(out2), free(ref);   \
-        free(sid);                                                                                 \
-        if (!same) free(gy), free(Y), free(y), free(tid);                                          \
+static void update_case(const m_api *a, void *h, const kifmm_opts *o, int kind, int mode, int64_t NT,
+                        int64_t N, int nv, double bound)
+{
+    m_case c = case_make(a, kind, mode, NT, N, nv, 101);
+    double *out2 = t_doubles(nv * c.nt * a->td + 1), *ref, err;
+    void *h2 = NULL;
+    int rc = a->update(h, c.ns, c.x, c.nt, c.y);
+    if (!rc) rc = a->evaluate(h, nv, c.ns, c.q, c.nt, c.out);
+    CHECK(rc == KIFMM_SUCCESS, "%s update_points: %s", a->name, kifmm_strerror(rc));
+    rc = a->create_mpi(&h2, o, c.ns, c.x, c.nt, c.y);
+    if (!rc) rc = a->evaluate(h2, nv, c.ns, c.q, c.nt, out2);
+    CHECK(rc == KIFMM_SUCCESS, "%s create_mpi: %s", a->name, kifmm_strerror(rc));
+    CHECK(all_ranks(!memcmp(c.out, out2, (size_t)nv * c.nt * a->td * sizeof(double))),
+          "%s: update_points != create_mpi", a->name);
+    ref = direct_ref(a, o, N, c.X, c.Q, c.NT, c.Y, nv);
+    err = sample_err(a, c.nt, c.tid, c.out, nv, c.NT, ref, 1);
+    if (g_rank == 0) CHECK_ERR(err, bound, "  after update_points");
+    a->destroy(h2);
+    free(out2), free(ref);
+    case_free(&c);
+}
+
+/* One process's error on the whole problem, at the sample (rank 0), and
+ * with one rank its outputs equal to the MPI handle's bit for bit. */
+static double one_process(const m_api *a, const kifmm_opts *o, const m_case *c, const double *ref)
+{
+    int64_t *all = (int64_t *)t_malloc_or_die((size_t)(c->NT + 1) * sizeof(int64_t));
+    double *o1 = t_doubles(c->nv * c->NT * a->td + 1), e1;
+    void *s = NULL;
+    int rc;
+    for (int64_t i = 0; i < c->NT; i++) all[i] = i;
+    rc = a->create(&s, o, c->N, c->X, c->NT, c->Y);
+    if (!rc) rc = a->evaluate(s, c->nv, c->N, c->Q, c->NT, o1);
+    CHECK(rc == KIFMM_SUCCESS, "%s one process: %s", a->name, kifmm_strerror(rc));
+    e1 = sample_err(a, c->NT, all, o1, c->nv, c->NT, ref, 0);
+    if (g_size == 1)
+        CHECK(!memcmp(c->out, o1, (size_t)c->nv * c->NT * a->td * sizeof(double)), "%s: 1 rank != create",
+              a->name);
+    a->destroy(s);
+    free(all), free(o1);
+    return e1;
+}
+
+/* One case: the error against direct sums at the global sample, against
+ * bound and against 3 times one process's error; the owned counts; then
+ * update_points (update_case). */
+static void run_case(const m_api *a, int kind, int mode, int64_t NT, int64_t N, int nv, int order,
+                     double bound)
+{
+    kifmm_opts o = t_opts(order, 0, 0);
+    m_case c = case_make(a, kind, mode, NT, N, nv, 11);
+    double *ref, err, e1 = 0.0;
+    int64_t cnt[2];
+    kifmm_stats st;
+    void *h = NULL;
+    int rc = a->create_mpi(&h, &o, c.ns, c.x, c.nt, c.y);
+    CHECK(rc == KIFMM_SUCCESS, "%s create_mpi: %s", a->name, kifmm_strerror(rc));
+    if (rc) return;
+    rc = a->evaluate(h, nv, c.ns, c.q, c.nt, c.out);
+    CHECK(rc == KIFMM_SUCCESS, "%s evaluate: %s", a->name, kifmm_strerror(rc));
+    ref = direct_ref(a, &o, N, c.X, c.Q, c.NT, c.Y, nv);
+    err = sample_err(a, c.nt, c.tid, c.out, nv, c.NT, ref, 1);
+    if (g_rank == 0) e1 = one_process(a, &o, &c, ref);
+    MPI_Bcast(&e1, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+    if (g_rank == 0) {
+        CHECK_ERR(err, bound, "%s %s %s%s, %lld, %d ranks, p = %d", a->name, kind_name[kind], mode_name[mode],
+                  c.same ? "" : ", targets apart", (long long)N, g_size, order);
+        CHECK_ERR(err, 3.0 * e1 + 1e-13, "  and against 3 x one process's %.2e", e1);
     }
-
-/* One case of instance P (coordinates and densities R, SD density and TD
- * output components): N sources (and NT separate targets, or the sources
- * when NT == 0) of distribution kind, handed out by mode; nv vectors.
- * Checks the error against direct sums at a global sample of targets,
- * against bound and against 3 times the error of one process (a create
- * handle on all the points, on rank 0) plus a floor; with one rank the
- * outputs equal create's bit for bit; update_points onto another set equals
- * a new create_mpi there, bit for bit, and meets the bound. */
-#define T_MPI_CASE(P, R, SD, TD)                                                                   \
-    static R *P##_conv(const double *x, int64_t n)                                                 \
-    {                                                                                              \
-        R *y = (R *)t_malloc_or_die((size_t)(n + 1) * sizeof(R));                                  \
-        for (int64_t i = 0; i < n; i++) y[i] = (R)x[i];                                            \
-        return y;                                                                                  \
-    }                                                                                              \
-    /* the error of out (this rank's targets, global ids tid) at the sample                        \
-     * (global target j is sampled when j % step == 0), against ref (direct at                     \
-     * the sample, in sample order) */                                                             \
-    static double P##_err(int64_t nt, const int64_t *tid, const R *out, int nv, int64_t NT,        \
-                          const R *ref, int all)                                                   \
-    {                                                                                              \
-        const int64_t step = NT / NSAMPLE > 0 ? NT / NSAMPLE : 1, ns = (NT + step - 1) / step;     \
-        double e2 = 0.0, r2 = 0.0;                                                                 \
-        for (int64_t i = 0; i < nt; i++)                                                           \
-            if (tid[i] % step == 0)                                                                \
-                for (int v = 0; v < nv; v++)                                                       \
-                    for (int k = 0; k < TD; k++) {                                                 \
-                        const double a = (double)out[(v * nt + i) * TD + k];                       \
-                        const double b = (double)ref[(v * ns + tid[i] / step) * TD + k];           \
-                        e2 += (a - b) * (a - b), r2 += b * b;                                      \
-                    }                                                                              \
-        if (!all) return r2 > 0.0 ? sqrt(e2 / r2) : sqrt(e2);                                      \
-        return global_rel(e2, r2);                                                                 \
-    }                                                                                              \
-    /* direct sums of nv vectors at the sample of the NT targets y */                              \
-    static R *P##_ref(const kifmm_opts *o, int64_t N, const R *x, const R *q, int64_t NT,         \
-                      const R *y, int nv)                                                          \
-    {                                                                                              \
-        const int64_t step = NT / NSAMPLE > 0 ? NT / NSAMPLE : 1, ns = (NT + step - 1) / step;     \
-        R *ys = (R *)t_malloc_or_die((size_t)(3 * ns + 1) * sizeof(R));                            \
-        R *ref = (R *)t_malloc_or_die((size_t)(nv * ns * TD + 1) * sizeof(R));                     \
-        for (int64_t j = 0; j < ns; j++)                                                           \
-            for (int d = 0; d < 3; d++) ys[3 * j + d] = y[3 * j * step + d];                        \
-        for (int v = 0; v < nv; v++)                                                               \
-            if (P##_direct(o, N, x, q + (size_t)v * N * SD, ns, ys, ref + (size_t)v * ns * TD))    \
-                CHECK(0, "direct sums failed");                                                    \
-        free(ys);                                                                                  \
-        return ref;                                                                                \
-    }                                                                                              \
-    /* this rank's values of the points ids (dim each, vector-major over nv) */                   \
-    static R *P##_pick(const R *a, int64_t n, int dim, int nv, int64_t N, const int64_t *ids)     \
-    {                                                                                              \
-        R *b = (R *)t_malloc_or_die((size_t)(n * dim * nv + 1) * sizeof(R));                       \
-        for (int v = 0; v < nv; v++)                                                               \
-            for (int64_t i = 0; i < n; i++)                                                        \
-                for (int k = 0; k < dim; k++)                                                      \
-                    b[(v * n + i) * dim + k] = a[((size_t)v * N + ids[i]) * dim + k];              \
-        return b;                                                                                  \
-    }                                                                                              \
-    T_MPI_UPDATE(P, R, SD, TD)                                                                     \
-    T_MPI_RUN(P, R, SD, TD)
-
-
-T_MPI_CASE(kifmm_laplace_grad, double, 1, 4)
-T_MPI_CASE(kifmm_laplacef, float, 1, 1)
-T_MPI_CASE(kifmm_yukawa_grad, double, 1, 4)
-T_MPI_CASE(kifmm_stokes, double, 3, 3)
-
+    memset(&st, 0, sizeof st);
+    CHECK(a->stats(h, &st) == KIFMM_SUCCESS && st.mpi_ranks == g_size, "%s stats", a->name);
+    cnt[0] = st.mpi_sources, cnt[1] = st.mpi_targets;
+    MPI_Allreduce(MPI_IN_PLACE, cnt, 2, MPI_INT64_T, MPI_SUM, MPI_COMM_WORLD);
+    CHECK(cnt[0] == N && cnt[1] == c.NT, "%s: owned %lld %lld", a->name, (long long)cnt[0], (long long)cnt[1]);
+    update_case(a, h, &o, kind, mode, NT, N, nv, bound);
+    a->destroy(h);
+    free(ref);
+    case_free(&c);
+}
 
 /* Errors met on one rank (the last) only: every rank returns one, no
  * handle, nothing written; the handle is kept after a failed update. */
@@ -443,23 +506,23 @@ int main(int argc, char **argv)
     group("laplace_grad, p = 6");
     for (int kind = 0; kind < 3; kind++)
         for (int mode = 0; mode < 2; mode++) {
-            run_kifmm_laplace_grad(kind, mode, 0, 20000, 1, 6, 3e-5);
-            run_kifmm_laplace_grad(kind, mode, 8000, 12000, 1, 6, 3e-5);
+            run_case(&kifmm_laplace_grad_m, kind, mode, 0, 20000, 1, 6, 3e-5);
+            run_case(&kifmm_laplace_grad_m, kind, mode, 8000, 12000, 1, 6, 3e-5);
         }
     group("laplace_grad, p = 8, three vectors");
-    run_kifmm_laplace_grad(2, 0, 0, 20000, 3, 8, 2e-6);
+    run_case(&kifmm_laplace_grad_m, 2, 0, 0, 20000, 3, 8, 2e-6);
     group("laplace (float)");
-    run_kifmm_laplacef(0, 0, 0, 20000, 1, 4, 1e-3);
-    run_kifmm_laplacef(2, 0, 5000, 15000, 1, 6, 1e-4);
+    run_case(&kifmm_laplacef_m, 0, 0, 0, 20000, 1, 4, 1e-3);
+    run_case(&kifmm_laplacef_m, 2, 0, 5000, 15000, 1, 6, 1e-4);
     group("yukawa_grad");
-    run_kifmm_yukawa_grad(1, 0, 0, 15000, 1, 6, 3e-5);
-    run_kifmm_yukawa_grad(2, 1, 6000, 10000, 1, 6, 3e-5);
+    run_case(&kifmm_yukawa_grad_m, 1, 0, 0, 15000, 1, 6, 3e-5);
+    run_case(&kifmm_yukawa_grad_m, 2, 1, 6000, 10000, 1, 6, 3e-5);
     group("stokes");
-    run_kifmm_stokes(0, 0, 0, 12000, 1, 6, 3e-5);
-    run_kifmm_stokes(2, 0, 5000, 10000, 2, 6, 3e-5);
+    run_case(&kifmm_stokes_m, 0, 0, 0, 12000, 1, 6, 3e-5);
+    run_case(&kifmm_stokes_m, 2, 0, 5000, 10000, 2, 6, 3e-5);
     group("a few points on many ranks");
-    run_kifmm_laplace_grad(0, 0, 0, 3, 1, 6, 1e-12);
-    run_kifmm_laplace_grad(2, 0, 2, 5, 1, 6, 1e-12);
+    run_case(&kifmm_laplace_grad_m, 0, 0, 0, 3, 1, 6, 1e-12);
+    run_case(&kifmm_laplace_grad_m, 2, 0, 2, 5, 1, 6, 1e-12);
     group("errors on one rank");
     errors();
     group("allocation failures on one rank");
