@@ -2,7 +2,8 @@
  * balance, bytes and weak scaling. Run under mpirun (bench/run.sh runs it
  * oversubscribed on small machines, one OpenMP thread a rank):
  *
- *   bench_mpi fixed N DIST [P]   N points in all (DIST cube or plummer),
+ *   bench_mpi fixed N DIST [P]   N points in all (DIST cube, plummer or
+ *                                clustered, bench/points.h's blobs),
  *                                sources = targets, each rank generating its
  *                                share: per rank the points it owns after
  *                                the partition, ghosts, boxes, work (evaluate
@@ -74,7 +75,7 @@ static int fixed(int64_t N, const char *dist, int p)
     kifmm_stats st;
     int rc, r;
     if (!strcmp(dist, "plummer")) make_plummer(n, 1, 1000 + (uint64_t)rank_, x, q);
-    else make_points(DIST_CUBE, n, 1, 1000 + (uint64_t)rank_, x, q);
+    else make_points(!strcmp(dist, "clustered") ? DIST_CLUSTERED : DIST_CUBE, n, 1, 1000 + (uint64_t)rank_, x, q);
     memset(&st, 0, sizeof st);
     if ((rc = run(MPI_COMM_WORLD, n, x, q, p, &tc, &te, &st))) {
         if (!rank_) printf("mpi fixed %s: %s\n", dist, kifmm_strerror(rc));
@@ -155,7 +156,7 @@ int main(int argc, char **argv)
     else if (argc >= 3 && !strcmp(argv[1], "weak"))
         rc = weak(atoll(argv[2]), argc > 3 ? atoi(argv[3]) : 6);
     else if (!rank_)
-        fprintf(stderr, "usage: bench_mpi fixed N cube|plummer [P] | weak NPER [P]\n");
+        fprintf(stderr, "usage: bench_mpi fixed N cube|plummer|clustered [P] | weak NPER [P]\n");
     MPI_Finalize();
     return rc;
 }
