@@ -31,6 +31,17 @@ if [ -z "${OPENBLAS_CORETYPE:-}" ] && grep -q avx512f /proc/cpuinfo 2>/dev/null;
     export OPENBLAS_CORETYPE=SkylakeX
 fi
 pass=0 fail=0
+# a probe: 2 ranks and one allreduce; where shared memory between the ranks
+# fails (a container's small /dev/shm), the runs go over TCP on loopback
+printf '#include <mpi.h>\nint main(int c, char **v) { int x = 1, y = 0; MPI_Init(&c, &v);\n'\
+'MPI_Allreduce(&x, &y, 1, MPI_INT, MPI_SUM, MPI_COMM_WORLD); MPI_Finalize(); return y != 2; }\n' > "$B/probe.c"
+if mpicc "$B/probe.c" -o "$B/probe" > "$B/probe.log" 2>&1; then
+    if ! timeout 120 "${RUN[@]}" -np 2 "$B/probe" >> "$B/probe.log" 2>&1; then
+        export OMPI_MCA_btl=self,tcp
+        echo "mpi: shared memory between ranks failed (build/mpi/probe.log); using OMPI_MCA_btl=self,tcp"
+        timeout 120 "${RUN[@]}" -np 2 "$B/probe" >> "$B/probe.log" 2>&1 || echo "mpi: the probe fails over TCP too"
+    fi
+fi
 build() { # name compiler flags...
     local n=$1 cc=$2
     shift 2
