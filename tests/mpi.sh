@@ -12,7 +12,7 @@
 # optional. The last line is
 # "mpi: N passed, N failed"; the exit status is nonzero on failure.
 # Environment: EXTRA_CFLAGS (added to the compiles), MPI_TIMEOUT (seconds per
-# run, default 600).
+# run, default 300).
 set -u
 cd "$(dirname "$0")/.." || exit 1
 if ! command -v mpicc > /dev/null 2>&1 || ! command -v mpirun > /dev/null 2>&1; then
@@ -54,7 +54,7 @@ build() { # name compiler flags...
 }
 run() { # name ranks threads
     local n=$1 np=$2 th=$3 log="$B/$1.np$2.log" r
-    OMP_NUM_THREADS=$th timeout "${MPI_TIMEOUT:-600}" "${RUN[@]}" -np "$np" "$B/$n" > "$log" 2>&1
+    OMP_NUM_THREADS=$th timeout "${MPI_TIMEOUT:-300}" "${RUN[@]}" -np "$np" "$B/$n" > "$log" 2>&1
     r=$?
     grep -E '^==|FAIL' "$log" | sed "s/^/[$n np $np] /"
     set -- $(grep '^RESULT' "$log" | tail -1)
@@ -87,7 +87,7 @@ fi
 # the example, 3 ranks: its own check against direct sums sets its exit status
 if mpicc -std=c99 -O2 -march=native -fopenmp -Wall -Wextra -Werror -pedantic ${EXTRA_CFLAGS:-} -I. \
         examples/mpi_nbody.c -o "$B/mpi_nbody" $LIBS > "$B/mpi_nbody.build.log" 2>&1 &&
-    OMP_NUM_THREADS=1 timeout "${MPI_TIMEOUT:-600}" "${RUN[@]}" -np 3 "$B/mpi_nbody" 20000 3 6 > "$B/mpi_nbody.log" 2>&1; then
+    OMP_NUM_THREADS=1 timeout "${MPI_TIMEOUT:-300}" "${RUN[@]}" -np 3 "$B/mpi_nbody" 20000 3 6 > "$B/mpi_nbody.log" 2>&1; then
     pass=$((pass + 1))
     tail -1 "$B/mpi_nbody.log"
 else
