@@ -9699,10 +9699,24 @@ KIFMM__FN int KIFMM__F(__mpi_evaluate)(KIFMM_NAME *h, int nrhs, const KIFMM__R *
     return rc;
 }
 
+/* Bytes of the MPI layer's own arrays (owned points, routes, lists). */
+KIFMM__FN double KIFMM__F(__mpi_held)(const KIFMM__F(__mpi) *m)
+{
+    const double wr = (double)sizeof(KIFMM__R), wi = (double)sizeof(int64_t);
+    double b = (double)sizeof *m + 3.0 * wr * (double)(m->nso + (m->same ? 0 : m->nto));
+    b += wi * (double)(m->rs.order ? m->ns : 0) + wi * (double)(m->rt.order ? m->nt : 0);
+    b += 8.0 * sizeof(int) * (double)m->size + 2.0 * wi * (double)m->size; /* counts, splits */
+    b += wi * (double)m->dst.g[m->dst.n] + 4.0 * (double)m->dst.p[m->dst.n] + 4.0 * (double)m->np;
+    b += 4.0 * (double)m->ncoarse + 3.0 * wi * (double)(m->dst.n + m->src.n + 2);
+    return b;
+}
+
 KIFMM__FN void KIFMM__F(__mpi_stats)(const KIFMM_NAME *h, kifmm_stats *out)
 {
     const KIFMM__F(__mpi) *m = h->mpi;
     *out = m->main->stats;
+    if (m->size > 1) /* main and up are on the layer's own plan: it counts once */
+        out->bytes += out->plan_bytes + KIFMM__F(__mpi_held)(m);
     out->mpi_ranks = m->size;
     out->mpi_sources = m->size == 1 ? m->ns : m->nso;
     out->mpi_targets = m->size == 1 ? m->nt : m->nto;
@@ -9809,7 +9823,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
         return rc;
     }
     h->mpi = m;
-    h->opts = m->main->opts;
+    h->opts = m->o; /* the caller's, resolved (main's has its own root and depth) */
     *out = h;
     return KIFMM_SUCCESS;
 }

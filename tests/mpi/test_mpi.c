@@ -415,14 +415,29 @@ static void errors(void)
     }
     rc = kifmm_laplace_grad_evaluate(h, q, g_rank == last && ns > 0 ? NULL : out);
     CHECK(all_ranks(rc == KIFMM_ERR_NULL), "NULL outputs: %s", kifmm_strerror(rc));
-    if (g_rank == 0 && ns > 0) x[3] = -NAN;
+    if (g_rank == 0 && ns > 1) x[3] = -NAN;
     rc = kifmm_laplace_grad_update_points(h, ns, x, ns, x);
     CHECK(all_ranks(rc == KIFMM_ERR_NONFINITE), "update_points, a NaN point: %s", kifmm_strerror(rc));
+    if (g_rank == 0 && ns > 1) x[3] = gx[3 * sid[1]];
     rc = kifmm_laplace_grad_evaluate(h, q, out);
     CHECK(all_ranks(rc == KIFMM_SUCCESS && !memcmp(out, keep, 4 * (size_t)ns * sizeof(double))),
           "the handle as it was: %s", kifmm_strerror(rc));
     rc = kifmm_laplace_grad_evaluate_many(h, 0, NULL, NULL);
     CHECK(all_ranks(rc == KIFMM_SUCCESS), "no vectors: %s", kifmm_strerror(rc));
+    { /* the options as given, resolved; the memory: the handles, their plan, the layer */
+        kifmm_opts u, c;
+        kifmm_stats st;
+        kifmm_laplace_grad *one = NULL;
+        memset(&st, 0, sizeof st);
+        rc = kifmm_laplace_grad_create(&one, &o, ns, x, ns, x);
+        if (!rc) rc = kifmm_laplace_grad_options(one, &c);
+        if (!rc) rc = kifmm_laplace_grad_options(h, &u);
+        if (!rc) rc = kifmm_laplace_grad_stats(h, &st);
+        CHECK(all_ranks(rc == KIFMM_SUCCESS && !memcmp(&u, &c, sizeof u)), "options: %s", kifmm_strerror(rc));
+        CHECK(all_ranks(st.plan_bytes > 0 && st.tree_bytes > 0 && st.bytes >= st.plan_bytes + st.tree_bytes),
+              "bytes %.0f, plan %.0f, tree %.0f", st.bytes, st.plan_bytes, st.tree_bytes);
+        kifmm_laplace_grad_destroy(one);
+    }
     CHECK(kifmm_laplace_grad_tree(h) == NULL && kifmm_laplace_grad_create_on_tree(&g, &o, NULL) == KIFMM_ERR_NULL &&
               kifmm_laplace_grad_update_on_tree(h, (kifmm_tree *)&nan) == KIFMM_ERR_TREE,
           "no tree to share");
