@@ -8992,12 +8992,12 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
  * region (ghosts: the sources of leaves of their up trees not well
  * separated from it) and of the equivalent densities of their boxes that
  * are separated from it while the parent is not (proxies: each box's
- * equivalent surface as sources, which its densities are, for kernels
- * whose surface kernel is the kernel). Boxes of levels 2 to lc come summed
- * over all ranks (one allreduce) instead of from each rank. */
-#define KIFMM__MPI_KERNEL                                                                     \
-    (KIFMM__QD == KIFMM__SD && KIFMM__UD == KIFMM__QD &&                                      \
-     !(KIFMM__HAS_OF(KIFMM_KERNEL) & KIFMM_HAS_DENSITY))
+ * equivalent surface as sources, with its densities where the kernel's
+ * sources carry the surface kernel's, else with densities fitted to them,
+ * __mpi_fit). Boxes of levels 2 to lc come summed over all ranks (one
+ * allreduce) instead of from each rank. Kernels with a density map are
+ * refused: the fitted densities would have to be the map's image. */
+#define KIFMM__MPI_KERNEL (!(KIFMM__HAS_OF(KIFMM_KERNEL) & KIFMM_HAS_DENSITY))
 
 struct KIFMM__F(__mpi) {
     MPI_Comm comm;
@@ -9018,6 +9018,9 @@ struct KIFMM__F(__mpi) {
     int64_t ng, np, npx;       /* ghosts and boxes received; proxies (distinct boxes) */
     int32_t *pslot;            /* each received box's proxy */
     int32_t *cbox, ncb, ncoarse; /* coarse boxes used: index of each in the levels 2..lc */
+    unsigned char *plev;       /* the level of each proxy, then of each coarse box used */
+    double *fit[KIFMM_MAX_DEPTH + 1]; /* the proxies' densities from a box's, by level (__mpi_fit) */
+    double *fit1;              /* that of boxes of half-width 1, when it scales */
     size_t *off;               /* message offsets, destinations then sources */
     kifmm_stats st;            /* the MPI fields */
     double cpu_mpi;            /* CPU seconds in MPI calls in the last evaluate */
@@ -9066,8 +9069,10 @@ KIFMM__FN void KIFMM__F(__mpi_points_free)(KIFMM__F(__mpi) *m)
     kifmm__free(m->pslot);
     kifmm__free(m->cbox);
     kifmm__free(m->off);
+    kifmm__free(m->plev);
+    for (int l = 0; l <= KIFMM_MAX_DEPTH; l++) kifmm__free(m->fit[l]), m->fit[l] = NULL;
     m->split = NULL, m->nto_all = NULL, m->so = m->to = NULL, m->gidx = NULL;
-    m->pbox = NULL, m->pslot = m->cbox = NULL, m->off = NULL;
+    m->pbox = NULL, m->pslot = m->cbox = NULL, m->off = NULL, m->plev = NULL;
 }
 
 /* The global root: opts.domain, or the cube around every rank's points. */
@@ -9345,6 +9350,187 @@ KIFMM__FN int KIFMM__F(__mpi_proxies)(KIFMM__F(__mpi) *m, const char *rb, int32_
     return KIFMM_SUCCESS;
 }
 
+#if KIFMM__QD != KIFMM__SD
+/* Kernels whose sources carry other densities than the equivalent surfaces
+ * (the Laplace dipole and charge-and-dipole kernels, yukawa_cd, stokes_pvel):
+ * a box from another rank enters main as sources of the kernel on its
+ * equivalent surface's points, with densities F times the box's equivalent
+ * density. F picks components where the kernel has one that is the surface
+ * kernel (the charge of laplace_cd: its columns of QT and QC equal those of
+ * ST and SC at three offsets, __mpi_pick), else F = pinv(K_QC(check <-
+ * points)) K_SC(check <- equivalent) at the box's size: the kernel's
+ * densities with the box's check potentials, so its field outside the check
+ * surface, where every target of main is (a proxy's box is separated from
+ * the rank's region). One F (nse QD x ne) a level, made with main. */
+KIFMM__FN int KIFMM__F(__mpi_same)(const double *a, const double *b, int n, int la, int lb)
+{
+    int t, same = 1;
+    for (t = 0; t < n; t++) {
+        const double x = a[t * la], y = b[t * lb];
+        same &= fabs(x - y) <= 1e-12 * (fabs(x) > fabs(y) ? fabs(x) : fabs(y));
+    }
+    return same;
+}
+
+KIFMM__FN int KIFMM__F(__mpi_pick)(const double *prm, int *sel)
+{
+    static const double x[3][3] = {{0.61, -0.37, 0.23}, {-1.3, 0.4, 2.1}, {0.05, 0.9, -0.33}};
+    double qt[KIFMM__TD * KIFMM__QD], st[KIFMM__TD * KIFMM__SD];
+    double qc[KIFMM__SD * KIFMM__QD], sc[KIFMM__SD * KIFMM__SD];
+    int b, s, i, same;
+    for (b = 0; b < KIFMM__SD; b++) {
+        for (s = 0, sel[b] = -1; s < KIFMM__QD && sel[b] < 0; s++) {
+            for (i = 0, same = 1; i < 3 && same; i++) {
+                KIFMM__R_(QT, _eval)(prm, x[i][0], x[i][1], x[i][2], qt);
+                KIFMM__R_(ST, _eval)(prm, x[i][0], x[i][1], x[i][2], st);
+                KIFMM__R_(QC, _eval)(prm, x[i][0], x[i][1], x[i][2], qc);
+                KIFMM__R_(SC, _eval)(prm, x[i][0], x[i][1], x[i][2], sc);
+                same = KIFMM__F(__mpi_same)(qt + s, st + b, KIFMM__TD, KIFMM__QD, KIFMM__SD) &&
+                       KIFMM__F(__mpi_same)(qc + s, sc + b, KIFMM__SD, KIFMM__QD, KIFMM__SD);
+            }
+            if (same) sel[b] = s;
+        }
+        if (sel[b] < 0) return 0;
+    }
+    return 1;
+}
+
+/* K_QC(check <- equivalent points) of boxes of half-width w into a (nc x nq). */
+KIFMM__FN int KIFMM__F(__mpi_qc)(const KIFMM_NAME *c, double w, double *a)
+{
+    const int nse = c->pl->surf.nse, nsc = c->pl->surf.nsc, nc = c->pl->surf.nc;
+    const double zero[3] = {0.0, 0.0, 0.0};
+    double *pc = (double *)kifmm__alloc((size_t)3 * (nsc + nse), sizeof(double)), *pe = pc + 3 * nsc;
+    double kv[KIFMM__SD * KIFMM__QD];
+    int i, j, q, s, ok = 1;
+    if (!pc) return KIFMM_ERR_NOMEM;
+    kifmm__surf_place(c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao * w, pc);
+    kifmm__surf_place(c->pl->surf.unit_e, nse, zero, c->pl->surf.ai * w, pe);
+    for (j = 0; j < nse; j++)
+        for (i = 0; i < nsc; i++) {
+            KIFMM__R_(QC, _eval)(c->opts.kernel_param, pc[i] - pe[j], pc[nsc + i] - pe[nse + j],
+                                 pc[2 * nsc + i] - pe[2 * nse + j], kv);
+            for (q = 0; q < KIFMM__SD; q++)
+                for (s = 0; s < KIFMM__QD; s++) {
+                    ok &= fabs(kv[q * KIFMM__QD + s]) <= DBL_MAX;
+                    a[(size_t)(i * KIFMM__SD + q) + (size_t)(j * KIFMM__QD + s) * nc] = kv[q * KIFMM__QD + s];
+                }
+        }
+    kifmm__free(pc);
+    return ok ? KIFMM_SUCCESS : KIFMM_ERR_KERNEL;
+}
+
+/* g[s]: the degree of QC's density component s less SC's, where a scale
+ * invariant kernel's QC grows by one factor down each column (laplace_dipole:
+ * 2^-2 for 2^-1 when the offsets double); 0 where a column's entries grow by
+ * different factors (stokes_pvel's pressure and velocity). */
+KIFMM__FN int KIFMM__F(__mpi_degrees)(const double *prm, double *g)
+{
+    static const double x[3] = {0.61, -0.37, 0.23};
+    double q1[KIFMM__SD * KIFMM__QD], q2[KIFMM__SD * KIFMM__QD], s1[KIFMM__SD * KIFMM__SD], s2[KIFMM__SD * KIFMM__SD];
+    double ts = 0.0;
+    int a, s, i;
+    KIFMM__R_(QC, _eval)(prm, x[0], x[1], x[2], q1);
+    KIFMM__R_(QC, _eval)(prm, 2.0 * x[0], 2.0 * x[1], 2.0 * x[2], q2);
+    KIFMM__R_(SC, _eval)(prm, x[0], x[1], x[2], s1);
+    KIFMM__R_(SC, _eval)(prm, 2.0 * x[0], 2.0 * x[1], 2.0 * x[2], s2);
+    for (i = 0; i < KIFMM__SD * KIFMM__SD; i++)
+        if (s1[i] != 0.0 && (ts == 0.0 ? (ts = s2[i] / s1[i]) : ts) != s2[i] / s1[i]) return 0;
+    for (s = 0; s < KIFMM__QD; s++) {
+        double t = 0.0;
+        for (a = 0; a < KIFMM__SD; a++) {
+            const double r = q1[a * KIFMM__QD + s] != 0.0 ? q2[a * KIFMM__QD + s] / q1[a * KIFMM__QD + s] : 0.0;
+            if (r != 0.0 && t != 0.0 && fabs(r - t) > 1e-12 * fabs(t)) return 0;
+            if (r != 0.0) t = r;
+        }
+        if (!(t > 0.0) || !(ts > 0.0)) return 0;
+        g[s] = log2(t) - log2(ts);
+    }
+    return 1;
+}
+
+/* F at half-width w into f (nq x ne): F = pinv(K_QC) K_SC. */
+KIFMM__FN int KIFMM__F(__mpi_solve)(const KIFMM_NAME *c, double w, double *f)
+{
+    const int nse = c->pl->surf.nse, nsc = c->pl->surf.nsc, ne = c->pl->surf.ne, nc = c->pl->surf.nc;
+    const int nq = nse * KIFMM__QD;
+    const double zero[3] = {0.0, 0.0, 0.0};
+    double *a, *b, *ut = NULL, *vs = NULL, *t = NULL;
+    int k = 0, rc;
+    a = (double *)kifmm__alloc((size_t)nc * nq, sizeof(double));
+    b = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    rc = a && b ? KIFMM__F(__mpi_qc)(c, w, a) : KIFMM_ERR_NOMEM;
+    if (!rc) rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao * w, c->pl->surf.unit_e,
+                                        nse, zero, c->pl->surf.ai * w, 1.0, b, (size_t)nc, NULL);
+    if (!rc) rc = kifmm__pinv(a, nc, nq, KIFMM__CUTOFF, &ut, &vs, &k);
+    if (!rc && !(t = (double *)kifmm__alloc((size_t)k * ne + 1, sizeof(double)))) rc = KIFMM_ERR_NOMEM;
+    if (!rc && k > 0) {
+        kifmm__gemm(0, 0, k, ne, nc, 1.0, ut, k, b, nc, 0.0, t, k);
+        kifmm__gemm(0, 0, nq, ne, k, 1.0, vs, nq, t, k, 0.0, f, nq);
+    }
+    kifmm__free(a);
+    kifmm__free(b);
+    kifmm__free(ut);
+    kifmm__free(vs);
+    kifmm__free(t);
+    return rc;
+}
+
+/* F of level l: picked; or F at half-width 1 (m->fit1, kept for the
+ * handle's life) with the rows of component s times w^-g[s], when the
+ * degrees allow (a least-squares solution, as exact as the one at w, with
+ * one SVD for every level and every update_points); or solved at w. */
+KIFMM__FN int KIFMM__F(__mpi_fit)(KIFMM__F(__mpi) *m, int l)
+{
+    const KIFMM_NAME *c = m->main;
+    const int nse = c->pl->surf.nse, ne = c->pl->surf.ne, nq = nse * KIFMM__QD;
+    const double w = m->root[3] / (double)((int64_t)1 << l);
+    const size_t n = (size_t)nq * ne;
+    double *f, g[KIFMM__QD];
+    int sel[KIFMM__SD], j, q, rc = KIFMM_SUCCESS;
+    size_t i;
+    if (m->fit[l]) return KIFMM_SUCCESS;
+    if (!(f = m->fit[l] = (double *)kifmm__calloc(n, sizeof(double)))) return KIFMM_ERR_NOMEM;
+    if (KIFMM__F(__mpi_pick)(c->opts.kernel_param, sel)) {
+        for (j = 0; j < nse; j++)
+            for (q = 0; q < KIFMM__SD; q++) f[(size_t)(j * KIFMM__QD + sel[q]) + (size_t)(j * KIFMM__SD + q) * nq] = 1.0;
+        return KIFMM_SUCCESS;
+    }
+    if (!KIFMM__SI || !KIFMM__F(__mpi_degrees)(c->opts.kernel_param, g))
+        return KIFMM__F(__mpi_solve)(c, w, f);
+    if (!m->fit1 && (m->fit1 = (double *)kifmm__alloc(n, sizeof(double))) != NULL &&
+        (rc = KIFMM__F(__mpi_solve)(c, 1.0, m->fit1)) != KIFMM_SUCCESS) {
+        kifmm__free(m->fit1);
+        m->fit1 = NULL;
+        return rc;
+    }
+    if (!m->fit1) return KIFMM_ERR_NOMEM;
+    for (q = 0; q < KIFMM__QD; q++) g[q] = pow(w, -g[q]);
+    for (i = 0; i < n; i++) f[i] = m->fit1[i] * g[i % nq % KIFMM__QD];
+    return KIFMM_SUCCESS;
+}
+
+/* The proxies' densities (nr vectors, nse QD each) from their boxes' (pb:
+ * nr x (npx + ncb) x ne) into dm at p0. */
+KIFMM__FN void KIFMM__F(__mpi_expand)(const KIFMM__F(__mpi) *m, int nr, const KIFMM__R *pb, KIFMM__R *dm,
+                                      size_t nsm, size_t p0)
+{
+    const int ne = m->pl->surf.ne, nq = m->pl->surf.nse * KIFMM__QD;
+    const int64_t n = m->npx + m->ncb;
+    for (int r = 0; r < nr; r++)
+        for (int64_t k = 0; k < n; k++) {
+            const double *f = m->fit[m->plev[k]];
+            const KIFMM__R *x = pb + ((size_t)r * n + (size_t)k) * ne;
+            KIFMM__R *v = dm + ((size_t)r * nsm + p0) * KIFMM__QD + (size_t)k * nq;
+            for (int i = 0; i < nq; i++) {
+                double acc = 0.0;
+                for (int j = 0; j < ne; j++) acc += f[i + (size_t)j * nq] * (double)x[j];
+                v[i] = (KIFMM__R)acc;
+            }
+        }
+}
+#endif
+
 /* main: the owned sources, the ghosts, the proxies' surfaces (the
  * equivalent surface of each box, at the radius of the upward pass) as
  * sources; the owned targets. */
@@ -9364,6 +9550,11 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
         return rc;
     }
     nsm = m->nso + m->ng + (m->npx + m->ncb) * nse;
+    if (!(m->plev = (unsigned char *)kifmm__alloc((size_t)(m->npx + m->ncb) + 1, 1))) {
+        kifmm__free(pa);
+        return KIFMM_ERR_NOMEM;
+    }
+    for (k = 0; k < m->npx + m->ncb; k++) m->plev[k] = (unsigned char)pa[4 * k];
     /* the global root as a box of level 2 of main's (4 times as wide, the
      * surfaces of the boxes on its faces inside): main's boxes are the
      * global tree's, refined as one process would refine them, not a frame
@@ -9395,6 +9586,9 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
         }
     }
     rc = KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, nsm, xs, m->nto, m->to);
+#if KIFMM__QD != KIFMM__SD
+    for (k = 0; k < m->npx + m->ncb && !rc; k++) rc = KIFMM__F(__mpi_fit)(m, m->plev[k]);
+#endif
     kifmm__free(xs);
     kifmm__free(pa);
     return rc;
@@ -9541,10 +9735,18 @@ KIFMM__FN int KIFMM__F(__mpi_coarse_sum)(KIFMM__F(__mpi) *m, int nr, const int *
     return rc == MPI_SUCCESS ? KIFMM_SUCCESS : KIFMM_ERR_MPI;
 }
 
+/* vector r's equivalent densities of the proxies' boxes, in order: where
+ * main's proxies take them (QD == SD), else in pb (nr x (npx + ncb) x ne) */
+#if KIFMM__QD != KIFMM__SD
+#define KIFMM__MPI_BOXES(r) (pb + (size_t)(r) * (size_t)(m->npx + m->ncb) * ne)
+#else
+#define KIFMM__MPI_BOXES(r) (dm + ((size_t)(r) * nsm + p0) * U)
+#endif
+
 /* dm (nr x nsm x UD): the owned densities (dq), the ghosts' and proxies'
  * from the peers, the coarse boxes' (co). */
 KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *dq, const int *e,
-                                      const KIFMM__R *co, KIFMM__R *dm)
+                                      const KIFMM__R *co, KIFMM__R *pb, KIFMM__R *dm)
 {
     const int ne = m->pl->surf.ne, U = KIFMM__UD;
     const size_t pg = (size_t)nr * U * sizeof(KIFMM__R), pp = (size_t)nr * ne * sizeof(KIFMM__R);
@@ -9566,9 +9768,9 @@ KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R
         }
         rc = KIFMM__F(__mpi_agree)(m, KIFMM__F(__mpi_exchange)(m, sb, rb));
     }
-    for (r = 0; r < nr && !rc; r++) { /* the owned; the proxies, summed below */
+    for (r = 0; r < nr && !rc; r++) { /* the owned; the proxies' boxes, summed below */
         memcpy(dm + (size_t)r * nsm * U, dq + (size_t)r * m->nso * U, (size_t)m->nso * U * sizeof(KIFMM__R));
-        memset(dm + ((size_t)r * nsm + p0) * U, 0, (nsm - p0) * U * sizeof(KIFMM__R));
+        memset(KIFMM__MPI_BOXES(r), 0, (size_t)(m->npx + m->ncb) * ne * sizeof(KIFMM__R));
     }
     for (i = 0; i < m->src.n && !rc; i++) {
         const KIFMM__R *g = (const KIFMM__R *)(const void *)(rb + m->off[m->dst.n + 1 + i]);
@@ -9577,14 +9779,19 @@ KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R
             for (r = 0; r < nr; r++, g += U) memcpy(dm + ((size_t)r * nsm + (size_t)j) * U, g, U * sizeof(KIFMM__R));
         for (k = m->src.p[i]; k < m->src.p[i + 1]; k++)
             for (r = 0; r < nr; r++, p += ne) {
-                KIFMM__R *v = dm + ((size_t)r * nsm + p0) * U + (size_t)m->pslot[k] * ne;
+                KIFMM__R *v = KIFMM__MPI_BOXES(r) + (size_t)m->pslot[k] * ne;
                 for (int q = 0; q < ne; q++) v[q] += p[q];
             }
     }
     for (i = 0; i < m->ncb && !rc; i++)
         for (r = 0; r < nr; r++)
-            memcpy(dm + ((size_t)r * nsm + p0) * U + (size_t)(m->npx + i) * ne,
+            memcpy(KIFMM__MPI_BOXES(r) + (size_t)(m->npx + i) * ne,
                    co + ((size_t)r * m->ncoarse + (size_t)m->cbox[i]) * ne, (size_t)ne * sizeof(KIFMM__R));
+#if KIFMM__QD != KIFMM__SD
+    if (!rc) KIFMM__F(__mpi_expand)(m, nr, pb, dm, nsm, p0);
+#else
+    (void)pb;
+#endif
     kifmm__free(sb);
     kifmm__free(rb);
     return rc;
@@ -9629,12 +9836,15 @@ KIFMM__FN int KIFMM__F(__mpi_group)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *
     KIFMM__R *co = (KIFMM__R *)kifmm__alloc((size_t)nr * m->ncoarse * m->pl->surf.ne + 1, sizeof(KIFMM__R));
     KIFMM__R *dm = (KIFMM__R *)kifmm__alloc((size_t)nr * nsm * KIFMM__UD + 1, sizeof(KIFMM__R));
     KIFMM__R *om = (KIFMM__R *)kifmm__alloc((size_t)nr * m->nto * KIFMM__TD + 1, sizeof(KIFMM__R));
+    KIFMM__R *pb = KIFMM__QD == KIFMM__SD ? NULL
+                 : (KIFMM__R *)kifmm__alloc((size_t)nr * (m->npx + m->ncb) * m->pl->surf.ne + 1, sizeof(KIFMM__R));
     int e[KIFMM__RHS_MAX] = {0}, rc, rm = KIFMM_SUCCESS;
-    rc = KIFMM__F(__mpi_agree)(m, !dq || !co || !dm || !om ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
+    rc = !dq || !co || !dm || !om || (KIFMM__QD != KIFMM__SD && !pb) ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS;
+    rc = KIFMM__F(__mpi_agree)(m, rc);
     if (!rc) rc = KIFMM__F(__mpi_forward)(m, nr, d, dq);
     if (!rc) rc = KIFMM__F(__mpi_agree)(m, KIFMM__F(__mpi_upward)(m, nr, dq, e));
     if (!rc) rc = KIFMM__F(__mpi_coarse_sum)(m, nr, e, co);
-    if (!rc) rc = KIFMM__F(__mpi_sources)(m, nr, dq, e, co, dm);
+    if (!rc) rc = KIFMM__F(__mpi_sources)(m, nr, dq, e, co, pb, dm);
     if (!rc) rm = KIFMM__F(_evaluate_many)(m->main, nr, dm, om);
     if (!rc) rc = KIFMM__F(__mpi_agree)(m, rm == KIFMM_ERR_OVERFLOW ? KIFMM_SUCCESS : rm);
     if (!rc) rc = KIFMM__F(__mpi_backward)(m, nr, om, out);
@@ -9652,6 +9862,7 @@ KIFMM__FN int KIFMM__F(__mpi_group)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R *
     }
     kifmm__free(dq);
     kifmm__free(co);
+    kifmm__free(pb);
     kifmm__free(dm);
     kifmm__free(om);
     return rc ? rc : rm;
@@ -9708,6 +9919,10 @@ KIFMM__FN double KIFMM__F(__mpi_held)(const KIFMM__F(__mpi) *m)
     b += 8.0 * sizeof(int) * (double)m->size + 2.0 * wi * (double)m->size; /* counts, splits */
     b += wi * (double)m->dst.g[m->dst.n] + 4.0 * (double)m->dst.p[m->dst.n] + 4.0 * (double)m->np;
     b += 4.0 * (double)m->ncoarse + 3.0 * wi * (double)(m->dst.n + m->src.n + 2);
+    b += (double)(m->npx + m->ncb); /* plev */
+    for (int l = 0; l <= KIFMM_MAX_DEPTH + 1; l++) /* the fits (fit1 last) */
+        if (l <= KIFMM_MAX_DEPTH ? m->fit[l] != NULL : m->fit1 != NULL)
+            b += 8.0 * (double)m->pl->surf.nse * KIFMM__QD * (double)m->pl->surf.ne;
     return b;
 }
 
@@ -9749,9 +9964,10 @@ KIFMM__FN int KIFMM__F(__mpi_update)(KIFMM_NAME *h, int64_t ns, const KIFMM__R *
     }
     memset(&n, 0, sizeof n);
     n.comm = m->comm, n.rank = m->rank, n.size = m->size, n.lc = m->lc, n.o = m->o, n.pl = m->pl;
-    n.shape[0] = m->shape[0], n.shape[1] = m->shape[1];
+    n.shape[0] = m->shape[0], n.shape[1] = m->shape[1], n.fit1 = m->fit1;
     if ((rc = KIFMM__F(__mpi_build)(&n, ns, src, nt, trg))) {
         KIFMM__F(__mpi_points_free)(&n);
+        if (n.fit1 != m->fit1) kifmm__free(n.fit1);
         return rc;
     }
     KIFMM__F(__mpi_points_free)(m);
@@ -9770,6 +9986,7 @@ KIFMM__FN void KIFMM__F(__mpi_free)(KIFMM__F(__mpi) *m)
         tmp.pl = m->pl;
         KIFMM__F(__plan_release)(&tmp);
     }
+    kifmm__free(m->fit1);
     if (m->comm != MPI_COMM_NULL) MPI_Comm_free(&m->comm);
     kifmm__free(m);
 }
@@ -9830,6 +10047,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
 
 #undef KIFMM__MPI_REAL
 #undef KIFMM__MPI_KERNEL
+#undef KIFMM__MPI_BOXES
 #endif /* KIFMM_MPI */
 
 #endif /* KIFMM_DECLARE */

@@ -59,6 +59,16 @@ static void count_free(void *p)
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace_dipole_grad
 #include "kifmm.h"
+#define KIFMM_KERNEL laplace_cd_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL yukawa_cd
+#include "kifmm.h"
+#define KIFMM_KERNEL stokes_pvel
+#include "kifmm.h"
+#define KIFMM_KERNEL biot_savart
+#include "kifmm.h"
+#define KIFMM_KERNEL stokes_dl
+#include "kifmm.h"
 
 #include "../test.h"
 
@@ -210,6 +220,11 @@ T_MPI_API(kifmm_laplace_grad, double, 1, 4)
 T_MPI_API(kifmm_laplacef, float, 1, 1)
 T_MPI_API(kifmm_yukawa_grad, double, 1, 4)
 T_MPI_API(kifmm_stokes, double, 3, 3)
+T_MPI_API(kifmm_laplace_dipole_grad, double, 3, 4)
+T_MPI_API(kifmm_laplace_cd_grad, double, 4, 4)
+T_MPI_API(kifmm_yukawa_cd, double, 4, 1)
+T_MPI_API(kifmm_stokes_pvel, double, 3, 4)
+T_MPI_API(kifmm_biot_savart, double, 3, 3)
 
 /* the global sample: every step-th of the NT targets */
 static int64_t sample_step(int64_t NT) { return NT / NSAMPLE > 0 ? NT / NSAMPLE : 1; }
@@ -379,7 +394,7 @@ static void errors(void)
     double *x = t_doubles(3 * ns + 3), *q = t_doubles(2 * ns + 2), *out = t_doubles(8 * ns + 8);
     double *keep = t_doubles(8 * ns + 8), nan = NAN;
     kifmm_laplace_grad *h = (kifmm_laplace_grad *)&nan, *g = NULL;
-    kifmm_laplace_dipole_grad *hd = (kifmm_laplace_dipole_grad *)&nan;
+    kifmm_stokes_dl *hd = (kifmm_stokes_dl *)&nan;
     kifmm_opts o = t_opts(4, 0, 0);
     int rc;
     for (i = 0; i < ns; i++) {
@@ -394,7 +409,7 @@ static void errors(void)
     rc = kifmm_laplace_grad_create_mpi(&h, MPI_COMM_WORLD, &o, ns, x, ns, x);
     CHECK(all_ranks(rc == KIFMM_ERR_PERIODIC && h == NULL), "periodic: %s", kifmm_strerror(rc));
     o.period[0] = o.period[1] = o.period[2] = 0.0;
-    rc = kifmm_laplace_dipole_grad_create_mpi(&hd, MPI_COMM_WORLD, &o, ns, x, ns, x);
+    rc = kifmm_stokes_dl_create_mpi(&hd, MPI_COMM_WORLD, &o, ns, x, ns, x);
     CHECK(all_ranks(rc == KIFMM_ERR_MPI && hd == NULL), "no MPI mode yet: %s", kifmm_strerror(rc));
     rc = kifmm_laplace_grad_create_mpi(g_rank == last ? NULL : &h, MPI_COMM_WORLD, &o, ns, x, ns, x);
     CHECK(all_ranks(rc == KIFMM_ERR_NULL && (g_rank == last || h == NULL)), "NULL out: %s", kifmm_strerror(rc));
@@ -453,40 +468,43 @@ static void errors(void)
  * collective call), KIFMM_ERR_NOMEM on the last rank, no handle, nothing
  * leaked (or every rank succeeds, where the library had another way); a
  * failed evaluate or update leaves the handle working. */
-static void alloc_failures(void)
+static void alloc_failures(const m_api *a, int every)
 {
     const int64_t N = 600, last = g_size - 1;
-    double *gx = gen_points(2, 17, N), *gq = t_densities(18, N, 1, 1, 0);
+    double *gx = gen_points(2, 17, N), *gq = t_densities(18, N, a->sd, 1, 0);
     int64_t *sid, ns = share(N, 0, 19, &sid), i;
-    double *x = t_doubles(3 * ns + 3), *q = t_doubles(ns + 1), *out = t_doubles(4 * ns + 4);
-    double *keep = t_doubles(4 * ns + 4);
+    double *x = t_doubles(3 * ns + 3), *q = t_doubles(a->sd * ns + 1), *out = t_doubles(a->td * ns + 4);
+    double *keep = t_doubles(a->td * ns + 4);
     kifmm_opts o = t_opts(4, 16, 0);
     long total[3] = {0, 0, 0}, k, stride;
     int bad[3] = {0, 0, 0}, stage, rc, injected;
     static const char *what[3] = {"create_mpi", "evaluate", "update_points"};
-    for (i = 0; i < ns; i++) memcpy(x + 3 * i, gx + 3 * sid[i], 3 * sizeof(double)), q[i] = gq[sid[i]];
+    for (i = 0; i < ns; i++) {
+        memcpy(x + 3 * i, gx + 3 * sid[i], 3 * sizeof(double));
+        memcpy(q + a->sd * i, gq + a->sd * sid[i], a->sd * sizeof(double));
+    }
     for (stage = 0; stage < 3; stage++) {
-        kifmm_laplace_grad *h = NULL;
+        void *h = NULL;
         /* the count of the stage's allocations on this rank, without failures */
         if (stage > 0) {
-            rc = kifmm_laplace_grad_create_mpi(&h, MPI_COMM_WORLD, &o, ns, x, ns, x);
-            if (!rc) rc = kifmm_laplace_grad_evaluate(h, q, keep);
+            rc = a->create_mpi(&h, &o, ns, x, ns, x);
+            if (!rc) rc = a->evaluate(h, 1, ns, q, ns, keep);
         }
         alloc_calls = 0;
-        rc = stage == 0 ? kifmm_laplace_grad_create_mpi(&h, MPI_COMM_WORLD, &o, ns, x, ns, x)
-             : stage == 1 ? kifmm_laplace_grad_evaluate(h, q, out)
-                          : kifmm_laplace_grad_update_points(h, ns, x, ns, x);
+        rc = stage == 0 ? a->create_mpi(&h, &o, ns, x, ns, x)
+             : stage == 1 ? a->evaluate(h, 1, ns, q, ns, out)
+                          : a->update(h, ns, x, ns, x);
         total[stage] = alloc_calls;
         CHECK(all_ranks(rc == KIFMM_SUCCESS), "stage %d: %s", stage, kifmm_strerror(rc));
         MPI_Allreduce(MPI_IN_PLACE, &total[stage], 1, MPI_LONG, MPI_MAX, MPI_COMM_WORLD);
-        stride = getenv("KIFMM_TEST_ALLOC_ALL") ? 1 : total[stage] / 50 + 1;
+        stride = every && getenv("KIFMM_TEST_ALLOC_ALL") ? 1 : total[stage] / (every ? 50 : 12) + 1;
         for (k = 0; k < total[stage]; k += stride) {
-            kifmm_laplace_grad *g = NULL;
+            void *g = NULL;
             alloc_calls = 0;
             fail_at = g_rank == last ? k : -1;
-            rc = stage == 0 ? kifmm_laplace_grad_create_mpi(&g, MPI_COMM_WORLD, &o, ns, x, ns, x)
-                 : stage == 1 ? kifmm_laplace_grad_evaluate(h, q, out)
-                              : kifmm_laplace_grad_update_points(h, ns, x, ns, x);
+            rc = stage == 0 ? a->create_mpi(&g, &o, ns, x, ns, x)
+                 : stage == 1 ? a->evaluate(h, 1, ns, q, ns, out)
+                              : a->update(h, ns, x, ns, x);
             fail_at = -1;
             injected = g_rank == last && alloc_calls > k; /* the last rank made k + 1 or more */
             MPI_Bcast(&injected, 1, MPI_INT, (int)last, MPI_COMM_WORLD);
@@ -496,18 +514,18 @@ static void alloc_failures(void)
             else bad[stage] |= g_rank == last && rc != KIFMM_ERR_NOMEM && rc != KIFMM_SUCCESS;
             bad[stage] |= !all_ranks(rc == KIFMM_SUCCESS) && all_ranks(rc != KIFMM_SUCCESS) == 0;
             bad[stage] |= stage == 0 && rc != KIFMM_SUCCESS && g != NULL;
-            kifmm_laplace_grad_destroy(g);
+            if (g) a->destroy(g);
             if (stage > 0) { /* the handle still works, with its outputs */
-                rc = kifmm_laplace_grad_evaluate(h, q, out);
-                bad[stage] |= rc != KIFMM_SUCCESS || memcmp(out, keep, 4 * (size_t)ns * sizeof(double));
+                rc = a->evaluate(h, 1, ns, q, ns, out);
+                bad[stage] |= rc != KIFMM_SUCCESS || memcmp(out, keep, a->td * (size_t)ns * sizeof(double));
             }
         }
-        kifmm_laplace_grad_destroy(h);
+        if (h) a->destroy(h);
         k = all_ranks(!bad[stage]);
-        CHECK(k, "%s: an allocation failing on the last rank", what[stage]);
+        CHECK(k, "%s %s: an allocation failing on the last rank", a->name, what[stage]);
         if (g_rank == 0)
-            printf("  %-4s %s: an allocation failing on rank %lld, at %ld of the %ld allocations\n",
-                   k ? "ok" : "FAIL", what[stage], (long long)last, (total[stage] + stride - 1) / stride,
+            printf("  %-4s %s %s: an allocation failing on rank %lld, at %ld of the %ld allocations\n",
+                   k ? "ok" : "FAIL", a->name, what[stage], (long long)last, (total[stage] + stride - 1) / stride,
                    total[stage]);
     }
     free(gx), free(gq), free(sid), free(x), free(q), free(out), free(keep);
@@ -535,13 +553,22 @@ int main(int argc, char **argv)
     group("stokes");
     run_case(&kifmm_stokes_m, 0, 0, 0, 12000, 1, 6, 3e-5);
     run_case(&kifmm_stokes_m, 2, 0, 5000, 10000, 2, 6, 3e-5);
+    group("kernels whose sources are not their surfaces' (proxies fitted or picked)");
+    run_case(&kifmm_laplace_dipole_grad_m, 2, 0, 0, 12000, 1, 6, 3e-5);
+    run_case(&kifmm_laplace_dipole_grad_m, 0, 0, 5000, 8000, 1, 6, 3e-5);
+    run_case(&kifmm_laplace_cd_grad_m, 1, 0, 0, 12000, 1, 6, 3e-5);
+    run_case(&kifmm_yukawa_cd_m, 2, 0, 0, 10000, 1, 6, 3e-5);
+    run_case(&kifmm_stokes_pvel_m, 0, 0, 0, 10000, 1, 6, 3e-5);
+    run_case(&kifmm_biot_savart_m, 2, 0, 0, 10000, 1, 6, 3e-5);
     group("a few points on many ranks");
     run_case(&kifmm_laplace_grad_m, 0, 0, 0, 3, 1, 6, 1e-12);
     run_case(&kifmm_laplace_grad_m, 2, 0, 2, 5, 1, 6, 1e-12);
     group("errors on one rank");
     errors();
     group("allocation failures on one rank");
-    alloc_failures();
+    alloc_failures(&kifmm_laplace_grad_m, 1);
+    alloc_failures(&kifmm_laplace_dipole_grad_m, 0); /* the fits: scaled */
+    alloc_failures(&kifmm_stokes_pvel_m, 0);         /* and solved a level */
     CHECK(live_blocks == 0, "%ld blocks of the library not freed", live_blocks);
     {
         long c[2] = {t_counters()[0], t_counters()[1]};
