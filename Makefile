@@ -24,6 +24,9 @@
 #                   installs the Debian packages when run as root
 #   make lib        build/lib/libkifmm.a and libkifmm.so: every shipped kernel
 #                   in double and float (kifmm_lib.h, src/kifmm_lib.c)
+#   make lib-mpi    build/lib/libkifmm_mpi.so: the same with KIFMM_MPI (mpicc;
+#                   create_mpi for every kernel), linked to MPI; the Python
+#                   package's comm= loads it
 #   make install    PREFIX=/usr/local (DESTDIR for staging): kifmm.h,
 #                   kifmm_kernels.h, kifmm_lib.h, libkifmm, kifmm.pc and the
 #                   CMake package (find_package(kifmm): kifmm::kifmm,
@@ -194,6 +197,15 @@ $(BUILD)/lib/libkifmm.so.$(VERSION): $(BUILD)/lib/kifmm_lib.o
 	$(CC) -shared -Wl,-soname,$(SONAME) -fopenmp $< -o $@ $(LDLIBS)
 
 lib: $(BUILD)/lib/libkifmm.a $(BUILD)/lib/libkifmm.so.$(VERSION)
+
+MPICC ?= mpicc
+$(BUILD)/lib/libkifmm_mpi.so: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
+	mkdir -p $(BUILD)/lib
+	$(MPICC) -std=c99 -DKIFMM_MPI $(LIB_CFLAGS) -fPIC -shared -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. \
+	    $< -o $@ $(LDLIBS)
+
+.PHONY: lib-mpi
+lib-mpi: $(BUILD)/lib/libkifmm_mpi.so
 
 install: lib
 	install -d $(DESTDIR)$(INCDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(LIBDIR)/cmake/kifmm

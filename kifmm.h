@@ -8996,7 +8996,8 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
  * sources carry the surface kernel's, else with densities fitted to them,
  * __mpi_fit). Boxes of levels 2 to lc come summed over all ranks (one
  * allreduce) instead of from each rank. Kernels with a density map are
- * refused: the fitted densities would have to be the map's image. */
+ * refused (stokes_dl: sources whose images are fitted densities, three at
+ * each point, came to 12 times one process's error at p = 10). */
 #define KIFMM__MPI_KERNEL (!(KIFMM__HAS_OF(KIFMM_KERNEL) & KIFMM_HAS_DENSITY))
 
 struct KIFMM__F(__mpi) {
@@ -9020,7 +9021,9 @@ struct KIFMM__F(__mpi) {
     int32_t *cbox, ncb, ncoarse; /* coarse boxes used: index of each in the levels 2..lc */
     unsigned char *plev;       /* the level of each proxy, then of each coarse box used */
     double *fit[KIFMM_MAX_DEPTH + 1]; /* the proxies' densities from a box's, by level (__mpi_fit) */
-    double *fit1;              /* that of boxes of half-width 1, when it scales */
+    double *fut, *fvs;         /* pinv(K_QC) at half-width 1 (__mpi_fit), fk its rank, */
+    int fk;                    /* fr, fc the degrees of K_QC's rows and columns */
+    double fr[KIFMM__SD], fc[KIFMM__QD];
     size_t *off;               /* message offsets, destinations then sources */
     kifmm_stats st;            /* the MPI fields */
     double cpu_mpi;            /* CPU seconds in MPI calls in the last evaluate */
@@ -9420,94 +9423,122 @@ KIFMM__FN int KIFMM__F(__mpi_qc)(const KIFMM_NAME *c, double w, double *a)
     return ok ? KIFMM_SUCCESS : KIFMM_ERR_KERNEL;
 }
 
-/* g[s]: the degree of QC's density component s less SC's, where a scale
- * invariant kernel's QC grows by one factor down each column (laplace_dipole:
- * 2^-2 for 2^-1 when the offsets double); 0 where a column's entries grow by
- * different factors (stokes_pvel's pressure and velocity). */
-KIFMM__FN int KIFMM__F(__mpi_degrees)(const double *prm, double *g)
+/* r, c: QC(2 x) = 2^(r[a] + c[s]) QC(x) entry by entry, at two scales (the
+ * Laplace dipoles: r = 0, c = -2; stokes_pvel: pressure r = -2, velocity
+ * -1, c = 0); 0 where QC is not so (or SC not scale invariant). */
+KIFMM__FN int KIFMM__F(__mpi_degrees)(const double *prm, double *r, double *c)
 {
-    static const double x[3] = {0.61, -0.37, 0.23};
-    double q1[KIFMM__SD * KIFMM__QD], q2[KIFMM__SD * KIFMM__QD], s1[KIFMM__SD * KIFMM__SD], s2[KIFMM__SD * KIFMM__SD];
-    double ts = 0.0;
-    int a, s, i;
-    KIFMM__R_(QC, _eval)(prm, x[0], x[1], x[2], q1);
-    KIFMM__R_(QC, _eval)(prm, 2.0 * x[0], 2.0 * x[1], 2.0 * x[2], q2);
-    KIFMM__R_(SC, _eval)(prm, x[0], x[1], x[2], s1);
-    KIFMM__R_(SC, _eval)(prm, 2.0 * x[0], 2.0 * x[1], 2.0 * x[2], s2);
-    for (i = 0; i < KIFMM__SD * KIFMM__SD; i++)
-        if (s1[i] != 0.0 && (ts == 0.0 ? (ts = s2[i] / s1[i]) : ts) != s2[i] / s1[i]) return 0;
-    for (s = 0; s < KIFMM__QD; s++) {
-        double t = 0.0;
-        for (a = 0; a < KIFMM__SD; a++) {
-            const double r = q1[a * KIFMM__QD + s] != 0.0 ? q2[a * KIFMM__QD + s] / q1[a * KIFMM__QD + s] : 0.0;
-            if (r != 0.0 && t != 0.0 && fabs(r - t) > 1e-12 * fabs(t)) return 0;
-            if (r != 0.0) t = r;
-        }
-        if (!(t > 0.0) || !(ts > 0.0)) return 0;
-        g[s] = log2(t) - log2(ts);
+    double q[3][KIFMM__SD * KIFMM__QD], e[2][KIFMM__SD * KIFMM__QD];
+    int a, s, i, k, ok = KIFMM__SI, a0 = -1;
+    for (k = 0; k < 3; k++) {
+        const double f = (double)(1 << k);
+        KIFMM__R_(QC, _eval)(prm, 0.61 * f, -0.37 * f, 0.23 * f, q[k]);
     }
-    return 1;
+    for (k = 0; k < 2; k++)
+        for (i = 0; i < KIFMM__SD * KIFMM__QD; i++)
+            e[k][i] = q[k][i] != 0.0 && q[k + 1][i] / q[k][i] > 0.0 ? log2(q[k + 1][i] / q[k][i]) : NAN;
+    for (a = 0; a < KIFMM__SD && a0 < 0; a++) /* a row without zeros sets c */
+        for (s = 0, a0 = a; s < KIFMM__QD; s++)
+            if (q[0][a * KIFMM__QD + s] == 0.0) a0 = -1;
+    if (a0 < 0) return 0;
+    for (s = 0; s < KIFMM__QD; s++) c[s] = e[0][a0 * KIFMM__QD + s];
+    for (a = 0; a < KIFMM__SD; a++) {
+        r[a] = NAN;
+        for (s = 0; s < KIFMM__QD; s++) {
+            const double x = e[0][a * KIFMM__QD + s], y = e[1][a * KIFMM__QD + s];
+            if (q[0][a * KIFMM__QD + s] == 0.0) continue;
+            if (r[a] != r[a]) r[a] = x - c[s];
+            ok &= x == x && fabs(x - y) < 1e-9 && fabs(x - r[a] - c[s]) < 1e-9;
+        }
+        if (r[a] != r[a]) r[a] = 0.0;
+    }
+    return ok;
 }
 
-/* F at half-width w into f (nq x ne): F = pinv(K_QC) K_SC. */
-KIFMM__FN int KIFMM__F(__mpi_solve)(const KIFMM_NAME *c, double w, double *f)
+/* pinv(K_QC(check <- equivalent points)) at half-width w, as its factors
+ * (kifmm__pinv), truncated at 1e-7 of the largest singular value: a box's
+ * equivalent density has parts the kernel's sources cannot make (the net
+ * charge of a box of dipoles), as large as the upward pass's error, which
+ * singular values far below the largest turn into huge densities whose
+ * rounding main's FMM then carries (laplace_dipole_grad, 60,000 uniform
+ * points, 4 ranks, p = 10: 1.8e-7 against one process's 6.3e-10 truncated
+ * at 1e-14, 6.5e-10 at 1e-7). */
+#define KIFMM__MPI_CUTOFF (KIFMM__CUTOFF > 1e-7 ? KIFMM__CUTOFF : 1e-7)
+KIFMM__FN int KIFMM__F(__mpi_qc_pinv)(const KIFMM_NAME *c, double w, double **ut, double **vs, int *k)
+{
+    const int nc = c->pl->surf.nc, nq = c->pl->surf.nse * KIFMM__QD;
+    double *a = (double *)kifmm__alloc((size_t)nc * nq, sizeof(double));
+    int rc = a ? KIFMM__F(__mpi_qc)(c, w, a) : KIFMM_ERR_NOMEM;
+    if (!rc) rc = kifmm__pinv(a, nc, nq, KIFMM__MPI_CUTOFF, ut, vs, k);
+    kifmm__free(a);
+    return rc;
+}
+
+/* f (nq x ne) = diag(cs) vs ut diag(rs) K_SC(check <- equivalent) at
+ * half-width w: the fit, from the factors of pinv(K_QC) at w (rs = cs = 1)
+ * or at half-width 1 with the degrees' powers of w (rs: rows of the check
+ * surface, cs: density components): the least-squares fit with the check
+ * potentials weighted as at half-width 1, one SVD for every level. */
+KIFMM__FN int KIFMM__F(__mpi_apply)(const KIFMM_NAME *c, double w, const double *ut, const double *vs, int k,
+                                    const double *rs, const double *cs, double *f)
 {
     const int nse = c->pl->surf.nse, nsc = c->pl->surf.nsc, ne = c->pl->surf.ne, nc = c->pl->surf.nc;
     const int nq = nse * KIFMM__QD;
     const double zero[3] = {0.0, 0.0, 0.0};
-    double *a, *b, *ut = NULL, *vs = NULL, *t = NULL;
-    int k = 0, rc;
-    a = (double *)kifmm__alloc((size_t)nc * nq, sizeof(double));
-    b = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
-    rc = a && b ? KIFMM__F(__mpi_qc)(c, w, a) : KIFMM_ERR_NOMEM;
+    double *b = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));
+    double *t = (double *)kifmm__alloc((size_t)k * ne + 1, sizeof(double));
+    size_t i;
+    int rc = b && t ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
     if (!rc) rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao * w, c->pl->surf.unit_e,
                                         nse, zero, c->pl->surf.ai * w, 1.0, b, (size_t)nc, NULL);
-    if (!rc) rc = kifmm__pinv(a, nc, nq, KIFMM__CUTOFF, &ut, &vs, &k);
-    if (!rc && !(t = (double *)kifmm__alloc((size_t)k * ne + 1, sizeof(double)))) rc = KIFMM_ERR_NOMEM;
-    if (!rc && k > 0) {
-        kifmm__gemm(0, 0, k, ne, nc, 1.0, ut, k, b, nc, 0.0, t, k);
-        kifmm__gemm(0, 0, nq, ne, k, 1.0, vs, nq, t, k, 0.0, f, nq);
+    if (!rc) {
+        for (i = 0; i < (size_t)nc * ne; i++) b[i] *= rs[i % (size_t)nc % KIFMM__SD];
+        memset(f, 0, (size_t)nq * ne * sizeof(double));
+        if (k > 0) {
+            kifmm__gemm(0, 0, k, ne, nc, 1.0, ut, k, b, nc, 0.0, t, k);
+            kifmm__gemm(0, 0, nq, ne, k, 1.0, vs, nq, t, k, 0.0, f, nq);
+        }
+        for (i = 0; i < (size_t)nq * ne; i++) f[i] *= cs[i % (size_t)nq % KIFMM__QD];
     }
-    kifmm__free(a);
     kifmm__free(b);
-    kifmm__free(ut);
-    kifmm__free(vs);
     kifmm__free(t);
     return rc;
 }
 
-/* F of level l: picked; or F at half-width 1 (m->fit1, kept for the
- * handle's life) with the rows of component s times w^-g[s], when the
- * degrees allow (a least-squares solution, as exact as the one at w, with
- * one SVD for every level and every update_points); or solved at w. */
+/* F of level l: picked; or from the factors at half-width 1 (m->fut,
+ * m->fvs, kept for the handle's life) where the degrees allow; or from an
+ * SVD at the level's size. */
 KIFMM__FN int KIFMM__F(__mpi_fit)(KIFMM__F(__mpi) *m, int l)
 {
     const KIFMM_NAME *c = m->main;
     const int nse = c->pl->surf.nse, ne = c->pl->surf.ne, nq = nse * KIFMM__QD;
     const double w = m->root[3] / (double)((int64_t)1 << l);
-    const size_t n = (size_t)nq * ne;
-    double *f, g[KIFMM__QD];
-    int sel[KIFMM__SD], j, q, rc = KIFMM_SUCCESS;
-    size_t i;
+    double *f, rs[KIFMM__SD], cs[KIFMM__QD], *ut = NULL, *vs = NULL;
+    int sel[KIFMM__SD], j, q, k = 0, rc;
     if (m->fit[l]) return KIFMM_SUCCESS;
-    if (!(f = m->fit[l] = (double *)kifmm__calloc(n, sizeof(double)))) return KIFMM_ERR_NOMEM;
+    if (!(f = m->fit[l] = (double *)kifmm__calloc((size_t)nq * ne, sizeof(double)))) return KIFMM_ERR_NOMEM;
     if (KIFMM__F(__mpi_pick)(c->opts.kernel_param, sel)) {
         for (j = 0; j < nse; j++)
             for (q = 0; q < KIFMM__SD; q++) f[(size_t)(j * KIFMM__QD + sel[q]) + (size_t)(j * KIFMM__SD + q) * nq] = 1.0;
         return KIFMM_SUCCESS;
     }
-    if (!KIFMM__SI || !KIFMM__F(__mpi_degrees)(c->opts.kernel_param, g))
-        return KIFMM__F(__mpi_solve)(c, w, f);
-    if (!m->fit1 && (m->fit1 = (double *)kifmm__alloc(n, sizeof(double))) != NULL &&
-        (rc = KIFMM__F(__mpi_solve)(c, 1.0, m->fit1)) != KIFMM_SUCCESS) {
-        kifmm__free(m->fit1);
-        m->fit1 = NULL;
-        return rc;
+    if (KIFMM__F(__mpi_degrees)(c->opts.kernel_param, m->fr, m->fc)) {
+        if (!m->fut && (rc = KIFMM__F(__mpi_qc_pinv)(c, 1.0, &m->fut, &m->fvs, &m->fk)) != KIFMM_SUCCESS) {
+            kifmm__free(m->fut), kifmm__free(m->fvs);
+            m->fut = m->fvs = NULL;
+            return rc;
+        }
+        for (q = 0; q < KIFMM__SD; q++) rs[q] = pow(w, -m->fr[q]);
+        for (q = 0; q < KIFMM__QD; q++) cs[q] = pow(w, -m->fc[q]);
+        return KIFMM__F(__mpi_apply)(c, w, m->fut, m->fvs, m->fk, rs, cs, f);
     }
-    if (!m->fit1) return KIFMM_ERR_NOMEM;
-    for (q = 0; q < KIFMM__QD; q++) g[q] = pow(w, -g[q]);
-    for (i = 0; i < n; i++) f[i] = m->fit1[i] * g[i % nq % KIFMM__QD];
-    return KIFMM_SUCCESS;
+    for (q = 0; q < KIFMM__SD; q++) rs[q] = 1.0;
+    for (q = 0; q < KIFMM__QD; q++) cs[q] = 1.0;
+    rc = KIFMM__F(__mpi_qc_pinv)(c, w, &ut, &vs, &k);
+    if (!rc) rc = KIFMM__F(__mpi_apply)(c, w, ut, vs, k, rs, cs, f);
+    kifmm__free(ut);
+    kifmm__free(vs);
+    return rc;
 }
 
 /* The proxies' densities (nr vectors, nse QD each) from their boxes' (pb:
@@ -9750,7 +9781,8 @@ KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R
 {
     const int ne = m->pl->surf.ne, U = KIFMM__UD;
     const size_t pg = (size_t)nr * U * sizeof(KIFMM__R), pp = (size_t)nr * ne * sizeof(KIFMM__R);
-    const size_t nsm = (size_t)(m->nso + m->ng + (m->npx + m->ncb) * m->pl->surf.nse), p0 = (size_t)(m->nso + m->ng);
+    const size_t nsm = (size_t)(m->nso + m->ng + (m->npx + m->ncb) * m->pl->surf.nse);
+    const size_t p0 = (size_t)(m->nso + m->ng);
     char *sb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 0, pg, pp) + 1, 1);
     char *rb = (char *)kifmm__alloc(KIFMM__F(__mpi_bytes)(m, 1, pg, pp) + 1, 1);
     int i, r, rc = KIFMM__F(__mpi_agree)(m, !sb || !rb ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS);
@@ -9920,9 +9952,9 @@ KIFMM__FN double KIFMM__F(__mpi_held)(const KIFMM__F(__mpi) *m)
     b += wi * (double)m->dst.g[m->dst.n] + 4.0 * (double)m->dst.p[m->dst.n] + 4.0 * (double)m->np;
     b += 4.0 * (double)m->ncoarse + 3.0 * wi * (double)(m->dst.n + m->src.n + 2);
     b += (double)(m->npx + m->ncb); /* plev */
-    for (int l = 0; l <= KIFMM_MAX_DEPTH + 1; l++) /* the fits (fit1 last) */
-        if (l <= KIFMM_MAX_DEPTH ? m->fit[l] != NULL : m->fit1 != NULL)
-            b += 8.0 * (double)m->pl->surf.nse * KIFMM__QD * (double)m->pl->surf.ne;
+    for (int l = 0; l <= KIFMM_MAX_DEPTH; l++) /* the fits */
+        if (m->fit[l]) b += 8.0 * (double)m->pl->surf.nse * KIFMM__QD * (double)m->pl->surf.ne;
+    if (m->fut) b += 8.0 * (double)m->fk * (m->pl->surf.nc + m->pl->surf.nse * KIFMM__QD);
     return b;
 }
 
@@ -9964,10 +9996,10 @@ KIFMM__FN int KIFMM__F(__mpi_update)(KIFMM_NAME *h, int64_t ns, const KIFMM__R *
     }
     memset(&n, 0, sizeof n);
     n.comm = m->comm, n.rank = m->rank, n.size = m->size, n.lc = m->lc, n.o = m->o, n.pl = m->pl;
-    n.shape[0] = m->shape[0], n.shape[1] = m->shape[1], n.fit1 = m->fit1;
+    n.shape[0] = m->shape[0], n.shape[1] = m->shape[1], n.fut = m->fut, n.fvs = m->fvs, n.fk = m->fk;
     if ((rc = KIFMM__F(__mpi_build)(&n, ns, src, nt, trg))) {
         KIFMM__F(__mpi_points_free)(&n);
-        if (n.fit1 != m->fit1) kifmm__free(n.fit1);
+        if (n.fut != m->fut) kifmm__free(n.fut), kifmm__free(n.fvs);
         return rc;
     }
     KIFMM__F(__mpi_points_free)(m);
@@ -9979,6 +10011,7 @@ KIFMM__FN int KIFMM__F(__mpi_update)(KIFMM_NAME *h, int64_t ns, const KIFMM__R *
 KIFMM__FN void KIFMM__F(__mpi_free)(KIFMM__F(__mpi) *m)
 {
     KIFMM_NAME tmp;
+    int fin = 1;
     if (!m) return;
     KIFMM__F(__mpi_points_free)(m);
     if (m->pl) {
@@ -9986,8 +10019,11 @@ KIFMM__FN void KIFMM__F(__mpi_free)(KIFMM__F(__mpi) *m)
         tmp.pl = m->pl;
         KIFMM__F(__plan_release)(&tmp);
     }
-    kifmm__free(m->fit1);
-    if (m->comm != MPI_COMM_NULL) MPI_Comm_free(&m->comm);
+    kifmm__free(m->fut);
+    kifmm__free(m->fvs);
+    /* after MPI_Finalize (a handle a garbage collector frees late) the
+     * communicator went with MPI */
+    if (m->comm != MPI_COMM_NULL && MPI_Finalized(&fin) == MPI_SUCCESS && !fin) MPI_Comm_free(&m->comm);
     kifmm__free(m);
 }
 
@@ -10048,6 +10084,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
 #undef KIFMM__MPI_REAL
 #undef KIFMM__MPI_KERNEL
 #undef KIFMM__MPI_BOXES
+#undef KIFMM__MPI_CUTOFF
 #endif /* KIFMM_MPI */
 
 #endif /* KIFMM_DECLARE */

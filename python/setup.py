@@ -11,6 +11,12 @@ for a build to copy to other machines); KIFMM_PREBUILT, the path of a
 libkifmm.so already built from the same checkout (make lib), to package
 that one instead of compiling again.
 
+Where mpicc is on the PATH (or MPICC names one) it also builds
+libkifmm_mpi.so, the same instances with KIFMM_MPI, for FMM(comm=...)
+(another minute or two; KIFMM_PREBUILT_MPI: one built by make lib-mpi;
+KIFMM_NO_MPI=1: none). Without it the package works as before and comm=
+says what is missing.
+
 Nothing is written into the checkout: setuptools' build and egg-info
 directories go to a temporary directory, so a read-only checkout installs."""
 import atexit
@@ -44,23 +50,31 @@ def announce(line, first=True):
     print(line, file=sys.stderr, flush=True)
 
 
-def compile_library(cmd, say=announce):
+def compile_library(cmd, say=announce, name="libkifmm.so"):
     """Run the compiler command cmd, saying before that it runs and after
     how long it took (a minute or two: every kernel in two precisions)."""
-    say("kifmm: compiling libkifmm.so (about 1-2 minutes) ...")
+    say(f"kifmm: compiling {name} (about 1-2 minutes) ...")
     print(" ".join(cmd), flush=True)
     t0 = time.monotonic()
     subprocess.check_call(cmd)
     say(f"kifmm: compiled in {time.monotonic() - t0:.0f} s", first=False)
 
 
-def library_command(out):
+def library_command(out, mpi=False):
     src = ROOT / "src" / "kifmm_lib.c"
     if not src.exists():
         raise RuntimeError(f"{src} not found: install from a kifmm.h checkout (pip install ./python)")
     cflags = shlex.split(os.environ.get("KIFMM_CFLAGS", "-O2 -march=native -fopenmp"))
-    return [os.environ.get("CC", "cc"), "-std=c99", *cflags, "-fPIC", "-shared", f"-I{ROOT}",
+    cc = [mpi, "-DKIFMM_MPI"] if mpi else [os.environ.get("CC", "cc")]
+    return [*cc, "-std=c99", *cflags, "-fPIC", "-shared", f"-I{ROOT}",
             str(src), "-o", str(out), "-llapacke", "-lopenblas", "-lm"]
+
+
+def mpi_compiler():
+    """The MPI compiler wrapper for libkifmm_mpi.so, or None."""
+    if os.environ.get("KIFMM_NO_MPI"):
+        return None
+    return shutil.which(os.environ.get("MPICC", "mpicc"))
 
 
 if __name__ == "__main__":
@@ -75,8 +89,13 @@ if __name__ == "__main__":
             out.parent.mkdir(parents=True, exist_ok=True)
             if os.environ.get("KIFMM_PREBUILT"):
                 shutil.copyfile(os.environ["KIFMM_PREBUILT"], out)
-                return
-            compile_library(library_command(out))
+            else:
+                compile_library(library_command(out))
+            out_mpi = out.with_name("libkifmm_mpi.so")
+            if os.environ.get("KIFMM_PREBUILT_MPI"):
+                shutil.copyfile(os.environ["KIFMM_PREBUILT_MPI"], out_mpi)
+            elif mpi_compiler():
+                compile_library(library_command(out_mpi, mpi_compiler()), name="libkifmm_mpi.so")
 
     class BinaryDistribution(Distribution):
         """A wheel for this platform: it carries a compiled library."""

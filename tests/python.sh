@@ -4,7 +4,8 @@
 # interpreter) with numpy and pytest from PyPI; pip install ./python,
 # packaging the libkifmm.so that make lib built (KIFMM_PREBUILT, python/
 # setup.py) instead of compiling it a second time, checking that the build
-# wrote nothing into python/; pytest python/tests, from outside the source
+# wrote nothing into python/ (with libkifmm_mpi.so and mpi4py where mpicc
+# exists, for the MPI tests); pytest python/tests, from outside the source
 # tree so that the installed package is the one imported, with
 # KIFMM_TEST_INSTALL=1: one test also installs a read-only copy of the
 # checkout as an unprivileged user (about 10 s; skipped, with the reason
@@ -20,6 +21,16 @@ make --no-print-directory lib > /dev/null || fail "make lib"
 [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV" || fail "python3 -m venv"
 "$VENV/bin/pip" install -q numpy pytest || fail "pip install numpy pytest"
 LIB=$(ls "$(pwd)"/build/lib/libkifmm.so.*.*.*)
+# MPI mode (FMM(comm=...), python/tests/test_mpi.py) where mpicc exists:
+# libkifmm_mpi.so from make lib-mpi, mpi4py from PyPI (its wheel runs on the
+# system's MPI)
+export KIFMM_NO_MPI=1
+if command -v mpicc > /dev/null; then
+    make --no-print-directory lib-mpi > /dev/null || fail "make lib-mpi"
+    "$VENV/bin/pip" install -q mpi4py || fail "pip install mpi4py"
+    export KIFMM_PREBUILT_MPI=$(pwd)/build/lib/libkifmm_mpi.so
+    unset KIFMM_NO_MPI
+fi
 rm -rf python/build python/*.egg-info   # left by older versions of setup.py
 KIFMM_PREBUILT=$LIB "$VENV/bin/pip" install -q --force-reinstall --no-deps ./python \
     || fail "pip install ./python"

@@ -166,17 +166,63 @@ _funcs = {}
 _funcs_lock = threading.Lock()
 
 
-def _api(kernel, dtype):
-    """The instance's functions: kifmm_<kernel>[f]_*."""
-    key = (kernel, dtype)
+# ---- MPI mode (comm=): libkifmm_mpi.so (make lib-mpi: the same instances
+# compiled with KIFMM_MPI by mpicc), loaded and mpi4py imported only when an
+# FMM is given a communicator, so that nothing else needs MPI.
+_mpi_state = {}
+
+
+def _mpi():
+    """mpi4py's MPI module and libkifmm_mpi.so, checked to be on one MPI."""
+    with _funcs_lock:
+        if "lib" in _mpi_state:
+            return _mpi_state["MPI"], _mpi_state["lib"]
+        try:
+            from mpi4py import MPI
+        except ImportError as e:
+            raise ImportError("kifmm.FMM(comm=...): mpi4py is needed (pip install mpi4py)") from e
+        path = os.environ.get("KIFMM_MPI_LIBRARY") or str(Path(__file__).with_name("libkifmm_mpi.so"))
+        try:
+            lib = ctypes.CDLL(path, mode=ctypes.RTLD_GLOBAL)
+        except OSError as e:
+            raise ImportError(
+                f"kifmm.FMM(comm=...): cannot load {path} ({e}); install the package where mpicc "
+                "is on the PATH (it then builds the MPI library too), or set KIFMM_MPI_LIBRARY to a "
+                "libkifmm_mpi.so (make lib-mpi)") from None
+        buf, n = ctypes.create_string_buffer(8192), ctypes.c_int(0)
+        lib.MPI_Get_library_version(buf, ctypes.byref(n))
+        ours, theirs = buf.value.decode(errors="replace"), MPI.Get_library_version()
+        if ours.split(",")[0].strip() != theirs.split(",")[0].strip():
+            raise ImportError(f"kifmm.FMM(comm=...): {path} is built on {ours.split(',')[0]!r} "
+                              f"but mpi4py runs on {theirs.split(',')[0]!r}")
+        _mpi_state["MPI"], _mpi_state["lib"] = MPI, lib
+        return MPI, lib
+
+
+def _comm(MPI, comm):
+    """comm's C handle as ctypes passes an MPI_Comm (a pointer in Open MPI,
+    an int in MPICH)."""
+    if not isinstance(comm, MPI.Comm) or not isinstance(comm, MPI.Intracomm):
+        raise TypeError(f"kifmm.FMM: comm must be an mpi4py intracommunicator, not {_show(comm)}")
+    if comm == MPI.COMM_NULL:
+        raise ValueError("kifmm.FMM: comm is MPI.COMM_NULL")
+    t = ctypes.c_void_p if MPI._sizeof(MPI.Comm) == ctypes.sizeof(ctypes.c_void_p) else ctypes.c_int
+    return t, t(MPI._handleof(comm))
+
+
+def _api(kernel, dtype, mpi=False):
+    """The instance's functions: kifmm_<kernel>[f]_*, from libkifmm or, for
+    MPI handles, libkifmm_mpi (whose handles only its own functions take)."""
+    key = (kernel, dtype, mpi)
+    lib = _mpi()[1] if mpi else _lib
     with _funcs_lock:
         if key not in _funcs:
             pre = "kifmm_" + kernel + ("f" if dtype == np.float32 else "")
-            f = {n: getattr(_lib, f"{pre}_{n}") for n in
+            f = {n: getattr(lib, f"{pre}_{n}") for n in
                  ("create", "evaluate", "evaluate_many", "destroy", "stats", "options", "direct",
                   "estimate_bytes", "update_points", "plan_create", "plan_destroy",
                   "create_with_plan", "tree", "create_on_tree", "create_with_plan_on_tree",
-                  "update_on_tree")}
+                  "update_on_tree") + (("create_mpi",) if mpi else ())}
             f["create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
             f["update_points"].argtypes = [_P, _I64, _P, _I64, _P]
             f["plan_create"].argtypes = [ctypes.POINTER(_P), ctypes.POINTER(_Opts)]
@@ -487,6 +533,20 @@ class FMM:
                   otherwise. The tree stays while an FMM uses it.
                   Boundary-element codes: the single and double layer on one
                   geometry
+    comm          an mpi4py intracommunicator: one FMM over the points of
+                  every rank of comm (MPI mode, docs/api.md "MPI"). Each
+                  rank passes its own sources and targets (any share, in
+                  any order; none on some ranks is fine) and evaluate
+                  returns the outputs at its own targets, in its order,
+                  from the densities of its own sources. The constructor,
+                  evaluate, update_points and close are collective: every
+                  rank of comm calls them, with the same count of density
+                  sets. Needs mpi4py (imported only here) and the package's
+                  libkifmm_mpi.so (built when mpicc was found at install;
+                  KIFMM_MPI_LIBRARY to name another). Not with plan= or
+                  tree=; periodic options and stokes_dl raise KifmmError
+                  (-14, -24). Close the FMM (or leave a with block) on
+                  every rank before MPI is finalized
 
     tol: the order is picked so that every output of the kernel (potential,
     gradient, Hessian, velocity, pressure, velocity gradient) meets tol in
@@ -521,11 +581,19 @@ class FMM:
 
     def __init__(self, kernel, sources=None, targets=None, *, order=None, tol=None,
                  dtype=np.float64, nthreads=None, kernel_param=None, leaf_size=None, period=None,
-                 verbose=False, max_depth=None, domain=None, plan=None, tree=None):
+                 verbose=False, max_depth=None, domain=None, plan=None, tree=None, comm=None):
         self._lock = threading.Lock()
         self._h = None
         self.kernel = kernel
+        self.comm = comm
         self.src_dim, self.trg_dim = _kernel(kernel)
+        if comm is not None:
+            if plan is not None or tree is not None:
+                raise TypeError("kifmm.FMM: comm= cannot be given with plan= or tree=")
+            self._create_mpi(kernel, sources, targets, dtype,
+                             _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size,
+                                   period, tol, verbose, max_depth, domain))
+            return
         if tree is not None:
             if not isinstance(tree, FMM):
                 raise TypeError(f"kifmm.FMM: tree must be a kifmm.FMM, not {_show(tree)}")
@@ -582,6 +650,27 @@ class FMM:
                                              self.ntargets, _ptr(trg))
         if rc != 0:
             raise KifmmError(rc, f"kifmm_{kernel}_create")
+        self._h = h
+
+    def _create_mpi(self, kernel, sources, targets, dtype, opts):
+        """create_mpi on comm: this rank's points (collective)."""
+        if sources is None:
+            raise TypeError("kifmm.FMM: sources are needed (this rank's; may be empty)")
+        MPI, _ = _mpi()
+        ctype, handle = _comm(MPI, self.comm)
+        self.dtype = _dtype(dtype)
+        self._f = _api(kernel, self.dtype, mpi=True)
+        self._destroy = self._f["destroy"]
+        f = self._f["create_mpi"]
+        f.argtypes = [ctypes.POINTER(_P), ctype, ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
+        src = _points(sources, self.dtype, "sources")
+        trg = src if targets is None else _points(targets, self.dtype, "targets")
+        self.nsources, self.ntargets = src.shape[0], trg.shape[0]
+        h = _P()
+        rc = f(ctypes.byref(h), handle, ctypes.byref(opts), self.nsources, _ptr(src),
+               self.ntargets, _ptr(trg))
+        if rc != 0:
+            raise KifmmError(rc, f"kifmm_{kernel}_create_mpi")
         self._h = h
 
     def __repr__(self):
