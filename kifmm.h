@@ -9377,6 +9377,11 @@ KIFMM__FN int KIFMM__F(__mpi_same)(const double *a, const double *b, int n, int 
 
 KIFMM__FN int KIFMM__F(__mpi_pick)(const double *prm, int *sel)
 {
+#if KIFMM__IS_ONE(KIFMM__K(_MPI_PICK))
+    (void)prm; /* the kernel says which component carries each (-1: none) */
+    KIFMM__K(_mpi_pick)(sel);
+    return 1;
+#else
     static const double x[3][3] = {{0.61, -0.37, 0.23}, {-1.3, 0.4, 2.1}, {0.05, 0.9, -0.33}};
     double qt[KIFMM__TD * KIFMM__QD], st[KIFMM__TD * KIFMM__SD];
     double qc[KIFMM__SD * KIFMM__QD], sc[KIFMM__SD * KIFMM__SD];
@@ -9396,6 +9401,7 @@ KIFMM__FN int KIFMM__F(__mpi_pick)(const double *prm, int *sel)
         if (sel[b] < 0) return 0;
     }
     return 1;
+#endif
 }
 
 /* K_QC(check <- equivalent points) of boxes of half-width w into a (nc x nq). */
@@ -9456,20 +9462,22 @@ KIFMM__FN int KIFMM__F(__mpi_degrees)(const double *prm, double *r, double *c)
 }
 
 /* pinv(K_QC(check <- equivalent points)) at half-width w, as its factors
- * (kifmm__pinv), truncated at 1e-7 of the largest singular value: a box's
+ * (kifmm__pinv), truncated at 1e-7 of the largest singular value up to
+ * order 10, 1e-9 above (float: KIFMM__CUTOFF): a box's
  * equivalent density has parts the kernel's sources cannot make (the net
  * charge of a box of dipoles), as large as the upward pass's error, which
  * singular values far below the largest turn into huge densities whose
- * rounding main's FMM then carries (laplace_dipole_grad, 60,000 uniform
- * points, 4 ranks, p = 10: 1.8e-7 against one process's 6.3e-10 truncated
- * at 1e-14, 6.5e-10 at 1e-7). */
-#define KIFMM__MPI_CUTOFF (KIFMM__CUTOFF > 1e-7 ? KIFMM__CUTOFF : 1e-7)
+ * rounding main's FMM then carries; too high a cutoff loses what they can
+ * make (laplace_dipole_grad, 60,000 uniform points, 4 ranks, against one
+ * process: p = 10, 6.3e-10: 1.8e-7 truncated at 1e-14, 6.5e-10 at 1e-7;
+ * p = 12, 1.5e-11: 4.4e-11 at 1e-7, 1.6e-11 at 1e-9). */
+#define KIFMM__MPI_CUTOFF(p) (KIFMM__FLOAT || (p) <= 10 ? 1e-7 : 1e-9)
 KIFMM__FN int KIFMM__F(__mpi_qc_pinv)(const KIFMM_NAME *c, double w, double **ut, double **vs, int *k)
 {
     const int nc = c->pl->surf.nc, nq = c->pl->surf.nse * KIFMM__QD;
     double *a = (double *)kifmm__alloc((size_t)nc * nq, sizeof(double));
     int rc = a ? KIFMM__F(__mpi_qc)(c, w, a) : KIFMM_ERR_NOMEM;
-    if (!rc) rc = kifmm__pinv(a, nc, nq, KIFMM__MPI_CUTOFF, ut, vs, k);
+    if (!rc) rc = kifmm__pinv(a, nc, nq, KIFMM__MPI_CUTOFF(c->opts.order), ut, vs, k);
     kifmm__free(a);
     return rc;
 }
@@ -9519,7 +9527,8 @@ KIFMM__FN int KIFMM__F(__mpi_fit)(KIFMM__F(__mpi) *m, int l)
     if (!(f = m->fit[l] = (double *)kifmm__calloc((size_t)nq * ne, sizeof(double)))) return KIFMM_ERR_NOMEM;
     if (KIFMM__F(__mpi_pick)(c->opts.kernel_param, sel)) {
         for (j = 0; j < nse; j++)
-            for (q = 0; q < KIFMM__SD; q++) f[(size_t)(j * KIFMM__QD + sel[q]) + (size_t)(j * KIFMM__SD + q) * nq] = 1.0;
+            for (q = 0; q < KIFMM__SD; q++)
+                if (sel[q] >= 0) f[(size_t)(j * KIFMM__QD + sel[q]) + (size_t)(j * KIFMM__SD + q) * nq] = 1.0;
         return KIFMM_SUCCESS;
     }
     if (KIFMM__F(__mpi_degrees)(c->opts.kernel_param, m->fr, m->fc)) {

@@ -626,6 +626,15 @@ static inline void kifmm_kernel_stokes_pvel_eval(const double *param, double dx,
 {
     kifmm_kernel__pvel(param[0], dx, dy, dz, k);
 }
+/* MPI mode (kifmm.h, __mpi_pick): a box's equivalent density (c, f) goes
+ * to another rank as forces f at its surface points, c (the pressure's
+ * charge) dropped: outside the box the forces' velocity is the box's, and
+ * so is their pressure (grad p = mu lap u there, both vanishing far off) */
+#define kifmm_kernel_stokes_pvel_MPI_PICK 1
+static inline void kifmm_kernel_stokes_pvel_mpi_pick(int *sel)
+{
+    sel[0] = -1, sel[1] = 0, sel[2] = 1, sel[3] = 2;
+}
 /* its check kernel: forces -> (p, u at mu = 1) */
 #define kifmm_kernel__stokes_pvel_qc_HAS KIFMM_KERNEL__OW_HAS
 #define kifmm_kernel__stokes_pvel_qc_SRC_DIM 3
