@@ -6,7 +6,10 @@
  * of the library; src/kifmm_lib.c, the library's one source file, defines
  * KIFMM_LIB_IMPLEMENT before including it and so compiles the instances
  * (KIFMM_IMPLEMENT). Kernels of your own: include kifmm.h (header-only),
- * beside this header if you like. */
+ * beside this header if you like. MPI mode: make lib-mpi builds
+ * libkifmm_mpi.so from the same file with KIFMM_MPI; a host that defines
+ * KIFMM_MPI (and includes <mpi.h>) before this header sees its
+ * <prefix>_create_mpi declarations and links that library. */
 #ifndef KIFMM_LIB_H
 #define KIFMM_LIB_H
 
