@@ -172,9 +172,16 @@ static float *conv_float(const double *a, int64_t n)
 {
     float *b = (float *)t_malloc_or_die((size_t)(n + 1) * sizeof(float));
     for (int64_t i = 0; i < n; i++) b[i] = (float)a[i];
+    b[n] = 0.0f; /* (g++ 12 took n = 0 for a read of uninitialised memory) */
     return b;
 }
-static double *conv_double(const double *a, int64_t n) { return t_dup(n, a); }
+static double *conv_double(const double *a, int64_t n)
+{
+    double *b = (double *)t_malloc_or_die((size_t)(n + 1) * sizeof(double));
+    for (int64_t i = 0; i < n; i++) b[i] = a[i];
+    b[n] = 0.0;
+    return b;
+}
 
 /* the calls with points: create_mpi, create or update_points (call) */
 #define T_MPI_POINTS(P, R, name, call, ...)                                                        \
