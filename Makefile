@@ -165,7 +165,7 @@ test: deps
 	./$(BUILD)/timestep 20000 3 6
 	bash tests/install.sh
 	bash tests/python.sh
-	EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/mpi.sh
+	EXTRA_CFLAGS="$(CBLAS_CFLAGS)" CONFIGS="$(CONFIGS)" bash tests/mpi.sh
 	FUZZ_TIME=60 FUZZ_SEED=1 EXTRA_CFLAGS="$(CBLAS_CFLAGS)" bash tests/fuzz.sh
 
 # the libFuzzer target (tests/fuzz.sh: build, corpus copy in build/fuzz/)

@@ -3,7 +3,8 @@
 # built with mpicc (C11, -O2 -march=native, OpenMP, -Werror), with ASan and
 # UBSan, and with mpicxx (as C++, without OpenMP), run under mpirun with 1,
 # 2, 3 and 4 ranks (the C build; the sanitizer build with 2, the C++ one
-# with 3 and fewer cases: KIFMM_TEST_MPI_LIGHT), oversubscribed (--oversubscribe; as root also
+# with 3; those two and the 1-rank run with fewer cases, KIFMM_TEST_MPI_LIGHT,
+# unless CONFIGS=all), oversubscribed (--oversubscribe; as root also
 # --allow-run-as-root), one OpenMP thread a rank, two for the one rank; the
 # 3-rank run fails every allocation of create_mpi, evaluate and update_points
 # on one rank in turn (KIFMM_TEST_ALLOC_ALL), the others about 50 of them.
@@ -69,7 +70,8 @@ run() { # name ranks threads
     echo "mpi: $n, $np ranks x $th threads: exit $r"
 }
 if build c11 mpicc -std=c11 -O2 -march=native -fopenmp; then
-    run c11 1 2
+    LIGHT=$([ "${CONFIGS:-}" = all ] || echo 1)
+    KIFMM_TEST_MPI_LIGHT=$LIGHT run c11 1 2
     run c11 2 1
     KIFMM_TEST_ALLOC_ALL=1 run c11 3 1
     run c11 4 1
@@ -78,7 +80,7 @@ fi
 # test counts the library's blocks itself; MPI's own are not its to check)
 if build asan mpicc -std=c11 -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
         -fno-sanitize-recover=undefined -march=native -fopenmp; then
-    ASAN_OPTIONS=detect_leaks=0 run asan 2 1
+    ASAN_OPTIONS=detect_leaks=0 KIFMM_TEST_MPI_LIGHT=${LIGHT:-1} run asan 2 1
 fi
 # (C++: without the MPI libraries' deprecated C++ bindings, whose headers warn)
 if build cxx mpicxx -x c++ -DOMPI_SKIP_MPICXX -DMPICH_SKIP_MPICXX -O2 -march=native; then
