@@ -185,24 +185,32 @@ LIBDIR := $(PREFIX)/lib
 INCDIR := $(PREFIX)/include
 SONAME := libkifmm.so.$(MAJOR)
 
-$(BUILD)/lib/kifmm_lib.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
+# the double and the float halves of the library are two objects (make -j2
+# builds them at once: kifmm_lib.h, KIFMM_LIB_PART)
+LIB_OBJS := $(BUILD)/lib/kifmm_lib_1.o $(BUILD)/lib/kifmm_lib_2.o
+$(BUILD)/lib/kifmm_lib_%.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
 	mkdir -p $(BUILD)/lib
-	$(CC) -std=c99 $(LIB_CFLAGS) -fPIC -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. -c $< -o $@
+	$(CC) -std=c99 $(LIB_CFLAGS) -fPIC -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. \
+	    -DKIFMM_LIB_PART=$* -c $< -o $@
 
-$(BUILD)/lib/libkifmm.a: $(BUILD)/lib/kifmm_lib.o
+$(BUILD)/lib/libkifmm.a: $(LIB_OBJS)
 	rm -f $@
-	ar rcs $@ $<
+	ar rcs $@ $^
 
-$(BUILD)/lib/libkifmm.so.$(VERSION): $(BUILD)/lib/kifmm_lib.o
-	$(CC) -shared -Wl,-soname,$(SONAME) -fopenmp $< -o $@ $(LDLIBS)
+$(BUILD)/lib/libkifmm.so.$(VERSION): $(LIB_OBJS)
+	$(CC) -shared -Wl,-soname,$(SONAME) -fopenmp $^ -o $@ $(LDLIBS)
 
 lib: $(BUILD)/lib/libkifmm.a $(BUILD)/lib/libkifmm.so.$(VERSION)
 
 MPICC ?= mpicc
-$(BUILD)/lib/libkifmm_mpi.so: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
+LIB_MPI_OBJS := $(BUILD)/lib/kifmm_mpi_1.o $(BUILD)/lib/kifmm_mpi_2.o
+$(BUILD)/lib/kifmm_mpi_%.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
 	mkdir -p $(BUILD)/lib
-	$(MPICC) -std=c99 -DKIFMM_MPI $(LIB_CFLAGS) -fPIC -shared -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. \
-	    $< -o $@ $(LDLIBS)
+	$(MPICC) -std=c99 -DKIFMM_MPI $(LIB_CFLAGS) -fPIC -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. \
+	    -DKIFMM_LIB_PART=$* -c $< -o $@
+
+$(BUILD)/lib/libkifmm_mpi.so: $(LIB_MPI_OBJS)
+	$(MPICC) -shared -fopenmp $^ -o $@ $(LDLIBS)
 
 .PHONY: lib-mpi
 lib-mpi: $(BUILD)/lib/libkifmm_mpi.so

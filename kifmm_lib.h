@@ -5,7 +5,9 @@
  * kifmm::kifmm) includes this header instead of kifmm.h and compiles none
  * of the library; src/kifmm_lib.c, the library's one source file, defines
  * KIFMM_LIB_IMPLEMENT before including it and so compiles the instances
- * (KIFMM_IMPLEMENT). Kernels of your own: include kifmm.h (header-only),
+ * (KIFMM_IMPLEMENT); with KIFMM_LIB_PART 1 (or 2) as well it compiles the
+ * double (or the float) half only, so that make builds the two halves at
+ * once (two objects). Kernels of your own: include kifmm.h (header-only),
  * beside this header if you like. MPI mode: make lib-mpi builds
  * libkifmm_mpi.so from the same file with KIFMM_MPI; a host that defines
  * KIFMM_MPI (and includes <mpi.h>) before this header sees its
@@ -13,11 +15,6 @@
 #ifndef KIFMM_LIB_H
 #define KIFMM_LIB_H
 
-/* ---- double ---- */
-#ifdef KIFMM_LIB_IMPLEMENT
-#define KIFMM_IMPLEMENT
-#else
-#define KIFMM_DECLARE
 /* kifmm_strerror is static in every translation unit (kifmm.h); the library
  * exports it under this name for hosts that cannot compile the header
  * (bindings through a foreign-function interface). */
@@ -27,6 +24,18 @@ extern "C" const char *kifmm_lib_strerror(int code);
 const char *kifmm_lib_strerror(int code);
 #endif
 
+#if !defined(KIFMM_LIB_IMPLEMENT) || !defined(KIFMM_LIB_PART)
+#define KIFMM__LIB_HALVES 3
+#else
+#define KIFMM__LIB_HALVES KIFMM_LIB_PART
+#endif
+
+/* ---- double ---- */
+#if KIFMM__LIB_HALVES & 1
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
 #endif
 #define KIFMM_KERNEL laplace
 #include "kifmm.h"
@@ -34,15 +43,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
@@ -50,15 +50,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_hess
 #include "kifmm.h"
@@ -66,15 +57,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_dipole
 #include "kifmm.h"
@@ -82,15 +64,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_dipole_grad
 #include "kifmm.h"
@@ -98,15 +71,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_cd
 #include "kifmm.h"
@@ -114,15 +78,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_cd_grad
 #include "kifmm.h"
@@ -130,15 +85,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_cd_hess
 #include "kifmm.h"
@@ -146,15 +92,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL yukawa
 #include "kifmm.h"
@@ -162,15 +99,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL yukawa_grad
 #include "kifmm.h"
@@ -178,15 +106,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL yukawa_cd
 #include "kifmm.h"
@@ -194,15 +113,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL yukawa_cd_grad
 #include "kifmm.h"
@@ -210,15 +120,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL stokes
 #include "kifmm.h"
@@ -226,15 +127,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL stokes_grad
 #include "kifmm.h"
@@ -242,15 +134,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL stokes_pvel
 #include "kifmm.h"
@@ -258,15 +141,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL stokes_dl
 #include "kifmm.h"
@@ -274,15 +148,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL biot_savart
 #include "kifmm.h"
@@ -290,33 +155,17 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL biot_savart_grad
 #include "kifmm.h"
+#endif
 
 /* ---- float ---- */
+#if KIFMM__LIB_HALVES & 2
 #ifdef KIFMM_LIB_IMPLEMENT
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace
 #define KIFMM_REAL float
@@ -325,15 +174,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_grad
 #define KIFMM_REAL float
@@ -342,15 +182,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_hess
 #define KIFMM_REAL float
@@ -359,15 +190,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_dipole
 #define KIFMM_REAL float
@@ -376,15 +198,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_dipole_grad
 #define KIFMM_REAL float
@@ -393,15 +206,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_cd
 #define KIFMM_REAL float
@@ -410,15 +214,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_cd_grad
 #define KIFMM_REAL float
@@ -427,15 +222,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL laplace_cd_hess
 #define KIFMM_REAL float
@@ -444,15 +230,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL yukawa
 #define KIFMM_REAL float
@@ -461,15 +238,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL yukawa_grad
 #define KIFMM_REAL float
@@ -478,15 +246,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL yukawa_cd
 #define KIFMM_REAL float
@@ -495,15 +254,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL yukawa_cd_grad
 #define KIFMM_REAL float
@@ -512,15 +262,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL stokes
 #define KIFMM_REAL float
@@ -529,15 +270,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL stokes_grad
 #define KIFMM_REAL float
@@ -546,15 +278,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL stokes_pvel
 #define KIFMM_REAL float
@@ -563,15 +286,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL stokes_dl
 #define KIFMM_REAL float
@@ -580,15 +294,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL biot_savart
 #define KIFMM_REAL float
@@ -597,27 +302,10 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_IMPLEMENT
 #else
 #define KIFMM_DECLARE
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
-#endif
-
 #endif
 #define KIFMM_KERNEL biot_savart_grad
 #define KIFMM_REAL float
 #include "kifmm.h"
-
-/* kifmm_strerror is static in every translation unit (kifmm.h); the library
- * exports it under this name for hosts that cannot compile the header
- * (bindings through a foreign-function interface). */
-#ifdef __cplusplus
-extern "C" const char *kifmm_lib_strerror(int code);
-#else
-const char *kifmm_lib_strerror(int code);
 #endif
 
 #endif

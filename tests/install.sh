@@ -50,7 +50,7 @@ step() {
 }
 
 echo "== make install PREFIX=$PREFIX"
-step "make install" make --no-print-directory install PREFIX="$PREFIX"
+step "make install" make --no-print-directory -j2 install PREFIX="$PREFIX"
 export PKG_CONFIG_PATH="$PREFIX/lib/pkgconfig"
 
 echo "== a C host built with pkg-config"

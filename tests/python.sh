@@ -17,7 +17,7 @@ cd "$(dirname "$0")/.." || exit 1
 PY=${PYTHON:-python3}
 VENV=build/pyvenv
 fail() { echo "python: FAILED ($1)"; exit 1; }
-make --no-print-directory lib > /dev/null || fail "make lib"
+make --no-print-directory -j2 lib > /dev/null || fail "make lib"
 [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV" || fail "python3 -m venv"
 "$VENV/bin/pip" install -q numpy pytest || fail "pip install numpy pytest"
 LIB=$(ls "$(pwd)"/build/lib/libkifmm.so.*.*.*)
@@ -26,7 +26,7 @@ LIB=$(ls "$(pwd)"/build/lib/libkifmm.so.*.*.*)
 # system's MPI)
 export KIFMM_NO_MPI=1
 if command -v mpicc > /dev/null; then
-    make --no-print-directory lib-mpi > /dev/null || fail "make lib-mpi"
+    make --no-print-directory -j2 lib-mpi > /dev/null || fail "make lib-mpi"
     "$VENV/bin/pip" install -q mpi4py || fail "pip install mpi4py"
     export KIFMM_PREBUILT_MPI=$(pwd)/build/lib/libkifmm_mpi.so
     unset KIFMM_NO_MPI
