@@ -3,8 +3,10 @@
  * oversubscribed on small machines, one OpenMP thread a rank):
  *
  *   bench_mpi fixed N DIST [P]   N points in all (DIST cube, plummer or
- *                                clustered, bench/points.h's blobs),
- *                                sources = targets, each rank generating its
+ *                                clustered, bench/points.h's blobs,
+ *                                sources = targets; or hotspot, uniform
+ *                                sources and N / 2 targets in the cube
+ *                                [0.4, 0.5]^3), each rank generating its
  *                                share: per rank the points it owns after
  *                                the partition, ghosts, boxes, work (evaluate
  *                                less the time in MPI calls), bytes; the
@@ -31,19 +33,20 @@ typedef kifmm_laplace_grad fmm;
 
 static int rank_, size_;
 
-/* create, then evaluate 3 times: the fastest; its stats in *st */
-static int run(MPI_Comm comm, int64_t n, const double *x, const double *q, int p, double *tc,
-               double *te, kifmm_stats *st)
+/* create (targets y, ny of them: NULL for the sources), then evaluate 3
+ * times: the fastest; its stats in *st */
+static int run(MPI_Comm comm, int64_t n, const double *x, const double *q, int64_t ny, const double *y,
+               int p, double *tc, double *te, kifmm_stats *st)
 {
     kifmm_opts o;
     fmm *h = NULL;
-    double *out = (double *)malloc((size_t)(4 * n + 4) * sizeof(double)), t0;
+    double *out = (double *)malloc((size_t)(4 * (y ? ny : n) + 4) * sizeof(double)), t0;
     int rc, k;
     memset(&o, 0, sizeof o);
     o.order = p;
     MPI_Barrier(comm);
     t0 = MPI_Wtime();
-    rc = kifmm_laplace_grad_create_mpi(&h, comm, &o, n, x, n, x);
+    rc = y ? kifmm_laplace_grad_create_mpi(&h, comm, &o, n, x, ny, y) : kifmm_laplace_grad_create_mpi(&h, comm, &o, n, x, n, x);
     *tc = MPI_Wtime() - t0;
     *te = 1e30;
     for (k = 0; k < 3 && !rc; k++) {
@@ -70,14 +73,21 @@ static int fixed(int64_t N, const char *dist, int p)
 {
     const int64_t n = N / size_ + (rank_ < N % size_);
     double *x = (double *)malloc((size_t)(3 * n + 3) * sizeof(double));
-    double *q = (double *)malloc((size_t)(n + 1) * sizeof(double)), tc, te, row[11], *all = NULL;
+    double *q = (double *)malloc((size_t)(n + 1) * sizeof(double)), tc, te, row[11], *all = NULL, *y = NULL;
     double wmx, wmean, smx, smean, rmx, rmean;
     kifmm_stats st;
     int rc, r;
-    if (!strcmp(dist, "plummer")) make_plummer(n, 1, 1000 + (uint64_t)rank_, x, q);
+    if (!strcmp(dist, "hotspot")) { /* uniform sources, half as many targets in a cube a tenth as wide */
+        make_points(DIST_CUBE, n, 1, 1000 + (uint64_t)rank_, x, q);
+        double *qy = (double *)malloc((size_t)(n / 2 + 1) * sizeof(double));
+        y = (double *)malloc((size_t)(3 * (n / 2) + 3) * sizeof(double));
+        make_points(DIST_CUBE, n / 2, 1, 3000 + (uint64_t)rank_, y, qy);
+        free(qy);
+        for (int64_t i = 0; i < 3 * (n / 2); i++) y[i] = 0.4 + 0.1 * y[i];
+    } else if (!strcmp(dist, "plummer")) make_plummer(n, 1, 1000 + (uint64_t)rank_, x, q);
     else make_points(!strcmp(dist, "clustered") ? DIST_CLUSTERED : DIST_CUBE, n, 1, 1000 + (uint64_t)rank_, x, q);
     memset(&st, 0, sizeof st);
-    if ((rc = run(MPI_COMM_WORLD, n, x, q, p, &tc, &te, &st))) {
+    if ((rc = run(MPI_COMM_WORLD, n, x, q, n / 2, y, p, &tc, &te, &st))) {
         if (!rank_) printf("mpi fixed %s: %s\n", dist, kifmm_strerror(rc));
         return 1;
     }
@@ -107,6 +117,7 @@ static int fixed(int64_t N, const char *dist, int p)
         printf("  rank %d passes: p2m %.3f m2m %.3f m2l %.3f l2l %.3f p2l %.3f l2p %.3f m2p %.3f p2p %.3f\n", rank_,
                st.t_p2m, st.t_m2m, st.t_m2l, st.t_l2l, st.t_p2l, st.t_l2p, st.t_m2p, st.t_p2p);
     free(x);
+    free(y);
     free(q);
     return 0;
 }
@@ -121,8 +132,8 @@ static int weak(int64_t n, int p)
     make_points(DIST_CUBE, n, 1, 2000 + (uint64_t)rank_, x, q);
     memset(&st1, 0, sizeof st1);
     memset(&st, 0, sizeof st);
-    rc = run(MPI_COMM_SELF, n, x, q, p, &tc1, &te1, &st1);
-    if (!rc) rc = run(MPI_COMM_WORLD, n, x, q, p, &tc, &te, &st);
+    rc = run(MPI_COMM_SELF, n, x, q, 0, NULL, p, &tc1, &te1, &st1);
+    if (!rc) rc = run(MPI_COMM_WORLD, n, x, q, 0, NULL, p, &tc, &te, &st);
     MPI_Allreduce(MPI_IN_PLACE, &rc, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
     if (rc) {
         if (!rank_) printf("mpi weak: %s\n", kifmm_strerror(rc));
@@ -156,7 +167,7 @@ int main(int argc, char **argv)
     else if (argc >= 3 && !strcmp(argv[1], "weak"))
         rc = weak(atoll(argv[2]), argc > 3 ? atoi(argv[3]) : 6);
     else if (!rank_)
-        fprintf(stderr, "usage: bench_mpi fixed N cube|plummer|clustered [P] | weak NPER [P]\n");
+        fprintf(stderr, "usage: bench_mpi fixed N cube|plummer|clustered|hotspot [P] | weak NPER [P]\n");
     MPI_Finalize();
     return rc;
 }

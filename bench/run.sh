@@ -344,7 +344,8 @@ fi
 
 # ---------------------------------------------------------------- MPI
 # MPI mode (bench/bench_mpi.c): balance and bytes a rank on 1M points (4
-# ranks Plummer and clustered; 2, 4, 8 ranks uniform), and weak scaling (1M uniform
+# ranks Plummer, clustered and hotspot (uniform sources, targets in a small
+# cube); 2, 4, 8 ranks uniform), and weak scaling (1M uniform
 # points a rank, 1 to 16 ranks, as many as MPI_RANKS lists), one thread a
 # rank, oversubscribed where the cores are fewer; skipped without mpicc.
 echo
@@ -359,7 +360,7 @@ if command -v mpicc > /dev/null 2>&1 && command -v mpirun > /dev/null 2>&1; then
             -o "$OUT/bench_mpi" -llapacke -lopenblas -lm; then
         export OMPI_MCA_mpi_yield_when_idle=1 OMPI_MCA_btl_vader_single_copy_mechanism=none
         wait_quiet
-        for d in plummer clustered; do
+        for d in plummer clustered hotspot; do
             OMP_NUM_THREADS=1 "${MPIRUN[@]}" -np 4 "$OUT/bench_mpi" fixed "$MPN" "$d" || FAILED="$FAILED mpi/$d"
         done
         for np in 2 4 8; do
