@@ -9021,6 +9021,7 @@ struct KIFMM__F(__mpi) {
     int32_t *cbox, ncb, ncoarse; /* coarse boxes used: index of each in the levels 2..lc */
     unsigned char *plev;       /* the level of each proxy, then of each coarse box used */
     double *fit[KIFMM_MAX_DEPTH + 1]; /* the proxies' densities from a box's, by level (__mpi_fit) */
+    int picked, sel[KIFMM__SD]; /* 1: a selection does instead (__mpi_pick's sel), 2: not, 0: unknown */
     double *fut, *fvs;         /* pinv(K_QC) at half-width 1 (__mpi_fit), fk its rank, */
     int fk;                    /* fr, fc the degrees of K_QC's rows and columns */
     double fr[KIFMM__SD], fc[KIFMM__QD];
@@ -9522,15 +9523,13 @@ KIFMM__FN int KIFMM__F(__mpi_fit)(KIFMM__F(__mpi) *m, int l)
     const int nse = c->pl->surf.nse, ne = c->pl->surf.ne, nq = nse * KIFMM__QD;
     const double w = m->root[3] / (double)((int64_t)1 << l);
     double *f, rs[KIFMM__SD], cs[KIFMM__QD], *ut = NULL, *vs = NULL;
-    int sel[KIFMM__SD], j, q, k = 0, rc;
-    if (m->fit[l]) return KIFMM_SUCCESS;
-    if (!(f = m->fit[l] = (double *)kifmm__calloc((size_t)nq * ne, sizeof(double)))) return KIFMM_ERR_NOMEM;
-    if (KIFMM__F(__mpi_pick)(c->opts.kernel_param, sel)) {
-        for (j = 0; j < nse; j++)
-            for (q = 0; q < KIFMM__SD; q++)
-                if (sel[q] >= 0) f[(size_t)(j * KIFMM__QD + sel[q]) + (size_t)(j * KIFMM__SD + q) * nq] = 1.0;
-        return KIFMM_SUCCESS;
+    int sel[KIFMM__SD], q, k = 0, rc;
+    if (!m->picked) {
+        m->picked = KIFMM__F(__mpi_pick)(c->opts.kernel_param, sel) ? 1 : 2;
+        memcpy(m->sel, sel, sizeof sel);
     }
+    if (m->picked == 1 || m->fit[l]) return KIFMM_SUCCESS; /* __mpi_expand copies */
+    if (!(f = m->fit[l] = (double *)kifmm__calloc((size_t)nq * ne, sizeof(double)))) return KIFMM_ERR_NOMEM;
     if (KIFMM__F(__mpi_degrees)(c->opts.kernel_param, m->fr, m->fc)) {
         if (!m->fut && (rc = KIFMM__F(__mpi_qc_pinv)(c, 1.0, &m->fut, &m->fvs, &m->fk)) != KIFMM_SUCCESS) {
             kifmm__free(m->fut), kifmm__free(m->fvs);
@@ -9551,21 +9550,33 @@ KIFMM__FN int KIFMM__F(__mpi_fit)(KIFMM__F(__mpi) *m, int l)
 }
 
 /* The proxies' densities (nr vectors, nse QD each) from their boxes' (pb:
- * nr x (npx + ncb) x ne) into dm at p0. */
+ * nr x (npx + ncb) x ne) into dm at p0: the picked components copied, or
+ * F (nq x ne, by columns) applied 64 rows at a time. */
 KIFMM__FN void KIFMM__F(__mpi_expand)(const KIFMM__F(__mpi) *m, int nr, const KIFMM__R *pb, KIFMM__R *dm,
                                       size_t nsm, size_t p0)
 {
-    const int ne = m->pl->surf.ne, nq = m->pl->surf.nse * KIFMM__QD;
+    const int ne = m->pl->surf.ne, nse = m->pl->surf.nse, nq = nse * KIFMM__QD;
     const int64_t n = m->npx + m->ncb;
     for (int r = 0; r < nr; r++)
         for (int64_t k = 0; k < n; k++) {
             const double *f = m->fit[m->plev[k]];
             const KIFMM__R *x = pb + ((size_t)r * n + (size_t)k) * ne;
             KIFMM__R *v = dm + ((size_t)r * nsm + p0) * KIFMM__QD + (size_t)k * nq;
-            for (int i = 0; i < nq; i++) {
-                double acc = 0.0;
-                for (int j = 0; j < ne; j++) acc += f[i + (size_t)j * nq] * (double)x[j];
-                v[i] = (KIFMM__R)acc;
+            if (m->picked == 1) {
+                memset(v, 0, (size_t)nq * sizeof(KIFMM__R));
+                for (int j = 0; j < nse; j++)
+                    for (int q = 0; q < KIFMM__SD; q++)
+                        if (m->sel[q] >= 0) v[j * KIFMM__QD + m->sel[q]] = x[j * KIFMM__SD + q];
+                continue;
+            }
+            for (int i0 = 0; i0 < nq; i0 += 64) {
+                const int bi = nq - i0 < 64 ? nq - i0 : 64;
+                double acc[64] = {0.0};
+                for (int j = 0; j < ne; j++) {
+                    const double xj = (double)x[j], *fj = f + i0 + (size_t)j * nq;
+                    for (int i = 0; i < bi; i++) acc[i] += fj[i] * xj;
+                }
+                for (int i = 0; i < bi; i++) v[i0 + i] = (KIFMM__R)acc[i];
             }
         }
 }
