@@ -2841,6 +2841,115 @@ static inline __m256d kifmm_kernel__expn4(__m256d y)
 #undef KIFMM_KERNEL__EXP_HORNER
 
 /* ------------------------------------------------------------------------ */
+/* The vectorised sin and cos (AVX-512 or AVX2 + FMA)                       */
+/* ------------------------------------------------------------------------ */
+/* sin x and cos x together, for the oscillating kernels' near field: x = n
+ * pi / 2 + r, n = x 2 / pi rounded to the nearest integer (by adding 1.5
+ * 2^52 in one fused multiply-add: its low bits are n's), r from pi / 2 in
+ * three parts (the first two with 33 significant bits, so that n P1 and n
+ * P2 are exact for |n| < 2^20 and x - n P1 is exact; the third the rest of
+ * pi / 2 to double precision), |r| <= pi / 4; then sin r = r + r^3 S(r^2)
+ * and cos r = 1 - r^2 / 2 + r^4 C(r^2), S and C of degree 5 in r^2 (the
+ * minimax coefficients of fdlibm's kernels, errors below 2^-58 on |r| <=
+ * pi / 4), and the pair rotated to the quadrant n mod 4. Within 2 ulp of
+ * the C library's sin and cos, and within 2^-52 absolutely, for |x| up to
+ * KIFMM_KERNEL__SINCOS_MAX (tests/test_sincos.c); lanes beyond it, infinite
+ * or NaN take the C library's sin and cos one lane at a time (a NaN gives
+ * NaN, as there). */
+#define KIFMM_KERNEL__SINCOS_MAX 1.6e6 /* below 2^20 pi / 2 */
+#define KIFMM_KERNEL__PIO2_1 1.57079632673412561417e+00 /* 33 significant bits */
+#define KIFMM_KERNEL__PIO2_2 6.07710050630396597660e-11 /* 33 significant bits */
+#define KIFMM_KERNEL__PIO2_3 2.02226624879595063154e-21
+#define KIFMM_KERNEL__SINCOS_POLY(V, FMA, MUL, SUB, SET1, r, s, c)                               \
+    do {                                                                                       \
+        const V z_ = MUL(r, r);                                                                \
+        V p_ = FMA(FMA(FMA(FMA(SET1(1.58969099521155010221e-10), z_,                            \
+                               SET1(-2.50507602534068634195e-08)), z_,                          \
+                           SET1(2.75573137070700676789e-06)), z_,                               \
+                       SET1(-1.98412698298579493134e-04)), z_, SET1(8.33333333332248946124e-03)); \
+        V q_ = FMA(FMA(FMA(FMA(FMA(SET1(-1.13596475577881948265e-11), z_,                       \
+                                   SET1(2.08757232129817482790e-09)), z_,                       \
+                               SET1(-2.75573143513906633035e-07)), z_,                          \
+                           SET1(2.48015872894767294178e-05)), z_,                               \
+                       SET1(-1.38888888888741095749e-03)), z_, SET1(4.16666666666666019037e-02)); \
+        p_ = FMA(p_, z_, SET1(-1.66666666666666324348e-01));                                   \
+        s = FMA(MUL(p_, z_), r, r); /* +0 at r = -0: COPYSIGN below */                        \
+        c = SUB(SET1(1.0), FMA(SET1(0.5), z_, MUL(SET1(-1.0), MUL(MUL(z_, z_), q_))));        \
+    } while (0)
+
+#if defined(__AVX512F__)
+static inline void kifmm_kernel__sincos8(__m512d x, __m512d *sin_x, __m512d *cos_x)
+{
+    const __m512d big = _mm512_set1_pd(6755399441055744.0 /* 1.5 2^52 */);
+    const __m512i one = _mm512_set1_epi64(1), two = _mm512_set1_epi64(2);
+    __m512d t = _mm512_fmadd_pd(x, _mm512_set1_pd(0.63661977236758134308 /* 2 / pi */), big);
+    __m512d n = _mm512_sub_pd(t, big), r, s, c, u;
+    __m512i q = _mm512_castpd_si512(t);
+    __mmask8 swap, far = _mm512_cmp_pd_mask(_mm512_abs_pd(x), _mm512_set1_pd(KIFMM_KERNEL__SINCOS_MAX),
+                                            _CMP_NLE_UQ); /* also NaN */
+    r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__PIO2_1), x);
+    r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__PIO2_2), r);
+    r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__PIO2_3), r);
+    KIFMM_KERNEL__SINCOS_POLY(__m512d, _mm512_fmadd_pd, _mm512_mul_pd, _mm512_sub_pd, _mm512_set1_pd,
+                              r, s, c);
+    s = _mm512_castsi512_pd(_mm512_ternarylogic_epi64(/* s with the sign of r */
+        _mm512_castpd_si512(s), _mm512_castpd_si512(r), _mm512_set1_epi64(INT64_MIN), 0xd8));
+    swap = _mm512_test_epi64_mask(q, one); /* odd quadrants: sin <-> cos */
+    u = _mm512_mask_blend_pd(swap, s, c);
+    c = _mm512_mask_blend_pd(swap, c, s);
+    /* sin changes sign in quadrants 2, 3; cos in 1, 2 */
+    u = _mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(u),
+                                             _mm512_slli_epi64(_mm512_and_si512(q, two), 62)));
+    c = _mm512_castsi512_pd(_mm512_xor_si512(
+        _mm512_castpd_si512(c), _mm512_slli_epi64(_mm512_and_si512(_mm512_add_epi64(q, one), two), 62)));
+    if (far) {
+        double xs[8], ss[8], cs[8];
+        int k;
+        _mm512_storeu_pd(xs, x), _mm512_storeu_pd(ss, u), _mm512_storeu_pd(cs, c);
+        for (k = 0; k < 8; k++)
+            if (far >> k & 1) ss[k] = sin(xs[k]), cs[k] = cos(xs[k]);
+        u = _mm512_loadu_pd(ss), c = _mm512_loadu_pd(cs);
+    }
+    *sin_x = u, *cos_x = c;
+}
+#elif defined(__AVX2__) && defined(__FMA__)
+static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos_x)
+{
+    const __m256d big = _mm256_set1_pd(6755399441055744.0 /* 1.5 2^52 */);
+    const __m256i one = _mm256_set1_epi64x(1), two = _mm256_set1_epi64x(2);
+    const __m256d ax = _mm256_andnot_pd(_mm256_set1_pd(-0.0), x);
+    __m256d t = _mm256_fmadd_pd(x, _mm256_set1_pd(0.63661977236758134308 /* 2 / pi */), big);
+    __m256d n = _mm256_sub_pd(t, big), r, s, c, u, swap;
+    __m256i q = _mm256_castpd_si256(t);
+    int far = _mm256_movemask_pd(_mm256_cmp_pd(ax, _mm256_set1_pd(KIFMM_KERNEL__SINCOS_MAX),
+                                               _CMP_NLE_UQ)); /* also NaN */
+    r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__PIO2_1), x);
+    r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__PIO2_2), r);
+    r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__PIO2_3), r);
+    KIFMM_KERNEL__SINCOS_POLY(__m256d, _mm256_fmadd_pd, _mm256_mul_pd, _mm256_sub_pd, _mm256_set1_pd,
+                              r, s, c);
+    s = _mm256_or_pd(_mm256_andnot_pd(_mm256_set1_pd(-0.0), s), /* s with the sign of r */
+                     _mm256_and_pd(_mm256_set1_pd(-0.0), r));
+    swap = _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(q, one), one));
+    u = _mm256_blendv_pd(s, c, swap);
+    c = _mm256_blendv_pd(c, s, swap);
+    u = _mm256_xor_pd(u, _mm256_castsi256_pd(_mm256_slli_epi64(_mm256_and_si256(q, two), 62)));
+    c = _mm256_xor_pd(c, _mm256_castsi256_pd(
+                             _mm256_slli_epi64(_mm256_and_si256(_mm256_add_epi64(q, one), two), 62)));
+    if (far) {
+        double xs[4], ss[4], cs[4];
+        int k;
+        _mm256_storeu_pd(xs, x), _mm256_storeu_pd(ss, u), _mm256_storeu_pd(cs, c);
+        for (k = 0; k < 4; k++)
+            if (far >> k & 1) ss[k] = sin(xs[k]), cs[k] = cos(xs[k]);
+        u = _mm256_loadu_pd(ss), c = _mm256_loadu_pd(cs);
+    }
+    *sin_x = u, *cos_x = c;
+}
+#endif
+#undef KIFMM_KERNEL__SINCOS_POLY
+
+/* ------------------------------------------------------------------------ */
 /* Stokes near-field hooks (stokes): one-way and mutual, double and float   */
 /* ------------------------------------------------------------------------ */
 /* u_i += s sum_j (f_i / r + d_i (d . f) / r^3), s = scale / (8 pi mu). The
