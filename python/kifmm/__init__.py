@@ -199,22 +199,25 @@ def _mpi():
         return MPI, lib
 
 
+def _comm_type(MPI):
+    """The ctypes type of an MPI_Comm (a pointer in Open MPI, an int in MPICH)."""
+    return ctypes.c_void_p if MPI._sizeof(MPI.Comm) == ctypes.sizeof(ctypes.c_void_p) else ctypes.c_int
+
+
 def _comm(MPI, comm):
-    """comm's C handle as ctypes passes an MPI_Comm (a pointer in Open MPI,
-    an int in MPICH)."""
+    """comm's C handle as ctypes passes an MPI_Comm."""
     if not isinstance(comm, MPI.Comm) or not isinstance(comm, MPI.Intracomm):
         raise TypeError(f"kifmm.FMM: comm must be an mpi4py intracommunicator, not {_show(comm)}")
     if comm == MPI.COMM_NULL:
         raise ValueError("kifmm.FMM: comm is MPI.COMM_NULL")
-    t = ctypes.c_void_p if MPI._sizeof(MPI.Comm) == ctypes.sizeof(ctypes.c_void_p) else ctypes.c_int
-    return t, t(MPI._handleof(comm))
+    return _comm_type(MPI)(MPI._handleof(comm))
 
 
 def _api(kernel, dtype, mpi=False):
     """The instance's functions: kifmm_<kernel>[f]_*, from libkifmm or, for
     MPI handles, libkifmm_mpi (whose handles only its own functions take)."""
     key = (kernel, dtype, mpi)
-    lib = _mpi()[1] if mpi else _lib
+    MPI, lib = _mpi() if mpi else (None, _lib)
     with _funcs_lock:
         if key not in _funcs:
             pre = "kifmm_" + kernel + ("f" if dtype == np.float32 else "")
@@ -243,6 +246,9 @@ def _api(kernel, dtype, mpi=False):
             f["direct"].argtypes = [ctypes.POINTER(_Opts), _I64, _P, _P, _I64, _P, _P]
             f["estimate_bytes"].argtypes = [ctypes.POINTER(_Opts), _I64, _I64,
                                             ctypes.POINTER(ctypes.c_double)]
+            if mpi:
+                f["create_mpi"].argtypes = [ctypes.POINTER(_P), _comm_type(MPI), ctypes.POINTER(_Opts),
+                                            _I64, _P, _I64, _P]
             _funcs[key] = f
         return _funcs[key]
 
@@ -657,12 +663,11 @@ class FMM:
         if sources is None:
             raise TypeError("kifmm.FMM: sources are needed (this rank's; may be empty)")
         MPI, _ = _mpi()
-        ctype, handle = _comm(MPI, self.comm)
+        handle = _comm(MPI, self.comm)
         self.dtype = _dtype(dtype)
         self._f = _api(kernel, self.dtype, mpi=True)
         self._destroy = self._f["destroy"]
         f = self._f["create_mpi"]
-        f.argtypes = [ctypes.POINTER(_P), ctype, ctypes.POINTER(_Opts), _I64, _P, _I64, _P]
         src = _points(sources, self.dtype, "sources")
         trg = src if targets is None else _points(targets, self.dtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
