@@ -31,10 +31,10 @@
 # in test_accuracy, test_kernels, test_small, test_threads and test_offset,
 # order 12 left out except in the sanitizer build) to keep the whole run
 # short. The tsan and gcc-O0-omp configurations leave test_alloc out
-# unless CONFIGS=all (the fourth field of a configuration below): it runs
-# there for about 220 s each (2 cores, AMD EPYC Zen 4), and fails every
-# allocation in gcc-c11-omp (each one) and in asan (every third, with
-# LeakSanitizer) anyway.
+# unless CONFIGS=all or TESTS names it (the fourth field of a configuration
+# below): it runs there for about 220 s each (2 cores, AMD EPYC Zen 4),
+# and fails every allocation in gcc-c11-omp (each one) and in asan (every
+# third, with LeakSanitizer) anyway.
 #
 # Each test program ends with "RESULT <passed> <failed>".  This script sums
 # them over all programs and configurations; a build failure, a crash, a
@@ -66,6 +66,7 @@ WARN="-Wall -Wextra -Werror -pedantic"
 # test_linkage_b link against libkifmm_linkage.a, built first from
 # tests/linkage_lib.c (KIFMM_IMPLEMENT, see tests/test_linkage.h)
 # (TESTS="test_tree test_alloc" bash tests/run.sh: those programs only)
+NAMED=${TESTS:+1} # programs named by TESTS run even where a configuration leaves them out
 TESTS=${TESTS:-$(for f in tests/test_*.c; do
     n=$(basename "$f" .c)
     case "$n" in test_multi_tu_a) echo test_multi_tu ;; test_multi_tu_b) ;; *) echo "$n" ;; esac
@@ -194,7 +195,7 @@ run_config() {
     local running=0
     for prog in $TESTS; do
         case " $skip " in
-            *" $prog "*) case " ${CONFIGS:-} " in *" all "*) ;; *) left="$left $prog"; continue ;; esac ;;
+            *" $prog "*) case " ${CONFIGS:-}${NAMED:+ all} " in *" all "*) ;; *) left="$left $prog"; continue ;; esac ;;
         esac
         progs="$progs $prog"
     done
