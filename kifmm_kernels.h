@@ -2846,20 +2846,24 @@ static inline __m256d kifmm_kernel__expn4(__m256d y)
 /* sin x and cos x together, for the oscillating kernels' near field: x = n
  * pi / 2 + r, n = x 2 / pi rounded to the nearest integer (by adding 1.5
  * 2^52 in one fused multiply-add: its low bits are n's), r from pi / 2 in
- * three parts (the first two with 33 significant bits, so that n P1 and n
- * P2 are exact for |n| < 2^20 and x - n P1 is exact; the third the rest of
- * pi / 2 to double precision), |r| <= pi / 4; then sin r = r + r^3 S(r^2)
- * and cos r = 1 - r^2 / 2 + r^4 C(r^2), S and C of degree 5 in r^2 (the
- * minimax coefficients of fdlibm's kernels, errors below 2^-58 on |r| <=
- * pi / 4), and the pair rotated to the quadrant n mod 4. Within 2 ulp of
- * the C library's sin and cos, and within 2^-52 absolutely, for |x| up to
- * KIFMM_KERNEL__SINCOS_MAX (tests/test_sincos.c); lanes beyond it, infinite
- * or NaN take the C library's sin and cos one lane at a time (a NaN gives
- * NaN, as there). */
+ * four parts (fdlibm's: the first three with at most 33 significant bits,
+ * so that their products with |n| < 2^20 are exact, the fourth the rest of
+ * pi / 2 to double precision), one fused multiply-add each, |r| <= pi / 4
+ * (to an ulp); then sin r = r + r^3 S(r^2) and cos r = 1 - r^2 / 2 + r^4
+ * C(r^2), S and C of degree 5 in r^2 (the minimax coefficients of fdlibm's
+ * kernels, errors below 2^-58 on |r| <= pi / 4), and the pair rotated to
+ * the quadrant n mod 4. For |x| up to KIFMM_KERNEL__SINCOS_MAX, measured
+ * against a quad-precision reference: at most 2.5 ulp (2.0 from the C
+ * library's sin and cos) and 2^-52 absolutely over random arguments in
+ * every binade, 1 ulp at the doubles next to every multiple of pi / 2
+ * (tests/test_sincos.c bounds them at 3 ulp of the C library's and 1.5
+ * 2^-52); lanes beyond it, infinite or NaN take the C library's sin and
+ * cos one lane at a time (a NaN gives NaN, as there). */
 #define KIFMM_KERNEL__SINCOS_MAX 1.6e6 /* below 2^20 pi / 2 */
-#define KIFMM_KERNEL__PIO2_1 1.57079632673412561417e+00 /* 33 significant bits */
-#define KIFMM_KERNEL__PIO2_2 6.07710050630396597660e-11 /* 33 significant bits */
-#define KIFMM_KERNEL__PIO2_3 2.02226624879595063154e-21
+#define KIFMM_KERNEL__PIO2_1 1.57079632673412561417e+00 /* 31 significant bits */
+#define KIFMM_KERNEL__PIO2_2 6.07710050630396597660e-11 /* 32 significant bits */
+#define KIFMM_KERNEL__PIO2_3 2.02226624871116645580e-21 /* 28 significant bits */
+#define KIFMM_KERNEL__PIO2_4 8.47842766036889956997e-32
 #define KIFMM_KERNEL__SINCOS_POLY(V, FMA, MUL, SUB, SET1, r, s, c)                               \
     do {                                                                                       \
         const V z_ = MUL(r, r);                                                                \
@@ -2890,6 +2894,7 @@ static inline void kifmm_kernel__sincos8(__m512d x, __m512d *sin_x, __m512d *cos
     r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__PIO2_1), x);
     r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__PIO2_2), r);
     r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__PIO2_3), r);
+    r = _mm512_fnmadd_pd(n, _mm512_set1_pd(KIFMM_KERNEL__PIO2_4), r);
     KIFMM_KERNEL__SINCOS_POLY(__m512d, _mm512_fmadd_pd, _mm512_mul_pd, _mm512_sub_pd, _mm512_set1_pd,
                               r, s, c);
     s = _mm512_castsi512_pd(_mm512_ternarylogic_epi64(/* s with the sign of r */
@@ -2926,6 +2931,7 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
     r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__PIO2_1), x);
     r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__PIO2_2), r);
     r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__PIO2_3), r);
+    r = _mm256_fnmadd_pd(n, _mm256_set1_pd(KIFMM_KERNEL__PIO2_4), r);
     KIFMM_KERNEL__SINCOS_POLY(__m256d, _mm256_fmadd_pd, _mm256_mul_pd, _mm256_sub_pd, _mm256_set1_pd,
                               r, s, c);
     s = _mm256_or_pd(_mm256_andnot_pd(_mm256_set1_pd(-0.0), s), /* s with the sign of r */
@@ -2948,6 +2954,10 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
 }
 #endif
 #undef KIFMM_KERNEL__SINCOS_POLY
+#undef KIFMM_KERNEL__PIO2_1
+#undef KIFMM_KERNEL__PIO2_2
+#undef KIFMM_KERNEL__PIO2_3
+#undef KIFMM_KERNEL__PIO2_4
 
 /* ------------------------------------------------------------------------ */
 /* Stokes near-field hooks (stokes): one-way and mutual, double and float   */

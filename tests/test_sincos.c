@@ -39,11 +39,13 @@ static void sincos_vec(const double *x, double *s, double *c)
 #endif
 
 #if VW
-/* |a - b| in units of the last place of b (2^-1074 below the normal range) */
+/* |a - b| in units of the last place of b (2^-1074 below the normal range);
+ * a NaN against a number, or a number against a NaN, is infinitely wrong */
 static double ulps(double a, double b)
 {
     int e;
     double u;
+    if (isnan(a) || isnan(b)) return isnan(a) && isnan(b) ? 0.0 : HUGE_VAL;
     if (a == b) return 0.0;
     if (b == 0.0 || fabs(b) < DBL_MIN) u = ldexp(1.0, -1074);
     else {
@@ -70,19 +72,21 @@ static void measure(int64_t n, double (*gen)(t_rng *, int64_t), t_rng *r, worst 
         for (k = 0; k < VW; k++) {
             const double rs = sin(x[k]), rc = cos(x[k]);
             const double u = fmax(ulps(s[k], rs), ulps(c[k], rc));
-            const double a = fmax(fabs(s[k] - rs), fabs(c[k] - rc));
+            const double a = isnan(s[k]) || isnan(c[k]) ? HUGE_VAL : fmax(fabs(s[k] - rs), fabs(c[k] - rc));
             if (u > w->ulp) w->ulp = u, w->at = x[k];
             if (a > w->abs) w->abs = a;
         }
     }
 }
 
-/* every binade of |x| from 2^-40 to 2^20, both signs */
+/* every binade of |x| from 2^-40 to 2^20 (the last one up to
+ * KIFMM_KERNEL__SINCOS_MAX), both signs */
 static double gen_binades(t_rng *r, int64_t i)
 {
     const int e = (int)(i % 61) - 40;
-    const double x = ldexp(1.0 + t_rand01(r), e);
-    return fabs(x) <= KIFMM_KERNEL__SINCOS_MAX ? (i & 1 ? -x : x) : 1.5e6;
+    const double x = e < 20 ? ldexp(1.0 + t_rand01(r), e)
+                            : 1048576.0 + (KIFMM_KERNEL__SINCOS_MAX - 1048576.0) * t_rand01(r);
+    return i / 61 & 1 ? -x : x;
 }
 
 /* uniform on [-100, 100] (an oscillating kernel's k r near its sources) */
@@ -99,16 +103,18 @@ static double gen_wide(t_rng *r, int64_t i)
     return KIFMM_KERNEL__SINCOS_MAX * (2.0 * t_rand01(r) - 1.0);
 }
 
-/* the doubles next to m pi / 2, up to 2^20 of them: where x - n pi / 2
- * cancels to its last bits */
+/* every multiple m pi / 2 below KIFMM_KERNEL__SINCOS_MAX, as the doubles
+ * nearest it and two on each side (i = 5 (m - 1) + k), signs alternating
+ * with m: where x - n pi / 2 cancels to its last bits */
 static double gen_multiples(t_rng *r, int64_t i)
 {
-    const double m = floor(t_rand01(r) * 1000000.0) + 1.0;
-    double x = m * 1.5707963267948966;
-    int k = (int)(i % 7) - 3;
+    const int64_t m = i / 5 + 1;
+    double x = (double)m * 1.5707963267948966;
+    int k = (int)(i % 5) - 2;
+    (void)r;
     for (; k > 0; k--) x = nextafter(x, HUGE_VAL);
     for (; k < 0; k++) x = nextafter(x, -HUGE_VAL);
-    return i & 1 ? -x : x;
+    return m & 1 ? -x : x;
 }
 
 static void test_sincos(void)
@@ -117,18 +123,20 @@ static void test_sincos(void)
         const char *what;
         double (*gen)(t_rng *, int64_t);
         int64_t n;
-    } sets[] = {{"every binade of |x| from 2^-40 to 2^20", gen_binades, 1 << 20},
-                {"uniform on [-100, 100]", gen_near, 1 << 20},
-                {"uniform on [-1.6e6, 1.6e6]", gen_wide, 1 << 19},
-                {"next to multiples of pi / 2 up to 1.6e6", gen_multiples, 1 << 18}};
+        double bound; /* in ulp of the C library's; measured 2, 1, 2, 1 */
+    } sets[] = {{"every binade of |x| from 2^-40 to 2^20", gen_binades, 1 << 20, 3.0},
+                {"uniform on [-100, 100]", gen_near, 1 << 20, 1.5},
+                {"uniform on [-1.6e6, 1.6e6]", gen_wide, 1 << 19, 3.0},
+                {"the doubles next to every multiple of pi / 2 up to 1.6e6", gen_multiples,
+                 5 * (int64_t)(KIFMM_KERNEL__SINCOS_MAX / 1.5707963267948966), 1.5}};
     t_rng r = t_rng_seed(7);
     int j;
     t_group("vectorised sin and cos (" BODY ") against the C library's");
     for (j = 0; j < (int)(sizeof sets / sizeof sets[0]); j++) {
         worst w = {0.0, 0.0, 0.0};
         measure(sets[j].n, sets[j].gen, &r, &w);
-        CHECK_ERR(w.ulp, 2.0, "%s: largest error in ulp (at x = %.17g)", sets[j].what, w.at);
-        CHECK_ERR(w.abs, ldexp(1.0, -52), "  largest absolute error");
+        CHECK_ERR(w.ulp, sets[j].bound, "%s: largest error in ulp (at x = %.17g)", sets[j].what, w.at);
+        CHECK_ERR(w.abs, 3.0 * ldexp(1.0, -53), "  largest absolute error");
     }
     /* special arguments, one lane each, the others ordinary */
     {
@@ -144,7 +152,7 @@ static void test_sincos(void)
                 for (k = 0; k < VW; k++) {
                     const double rs = sin(x[k]), rc = cos(x[k]);
                     if (isnan(rs)) bad += !isnan(s[k]) || !isnan(c[k]);
-                    else bad += ulps(s[k], rs) > 2.0 || ulps(c[k], rc) > 2.0 ||
+                    else bad += ulps(s[k], rs) > 3.0 || ulps(c[k], rc) > 3.0 ||
                                 (rs == 0.0 && signbit(s[k]) != signbit(rs));
                 }
             }
