@@ -198,7 +198,7 @@ $(BUILD)/lib/libkifmm.a: $(LIB_OBJS)
 	ar rcs $@ $^
 
 $(BUILD)/lib/libkifmm.so.$(VERSION): $(LIB_OBJS)
-	$(CC) -shared -Wl,-soname,$(SONAME) -fopenmp $^ -o $@ $(LDLIBS)
+	$(CC) -shared -Wl,-soname,$(SONAME) $(LIB_CFLAGS) -fopenmp $^ -o $@ $(LDLIBS)
 
 lib: $(BUILD)/lib/libkifmm.a $(BUILD)/lib/libkifmm.so.$(VERSION)
 
@@ -210,7 +210,7 @@ $(BUILD)/lib/kifmm_mpi_%.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
 	    -DKIFMM_LIB_PART=$* -c $< -o $@
 
 $(BUILD)/lib/libkifmm_mpi.so: $(LIB_MPI_OBJS)
-	$(MPICC) -shared -fopenmp $^ -o $@ $(LDLIBS)
+	$(MPICC) -shared $(LIB_CFLAGS) -fopenmp $^ -o $@ $(LDLIBS)
 
 .PHONY: lib-mpi
 lib-mpi: $(BUILD)/lib/libkifmm_mpi.so

@@ -9566,7 +9566,7 @@ KIFMM__FN void KIFMM__F(__mpi_expand)(const KIFMM__F(__mpi) *m, int nr, const KI
                 memset(v, 0, (size_t)nq * sizeof(KIFMM__R));
                 for (int j = 0; j < nse; j++)
                     for (int q = 0; q < KIFMM__SD; q++)
-                        if (m->sel[q] >= 0) v[j * KIFMM__QD + m->sel[q]] = x[j * KIFMM__SD + q];
+                        if (m->sel[q] >= 0) v[j * KIFMM__QD + m->sel[q]] += x[j * KIFMM__SD + q];
                 continue;
             }
             for (int i0 = 0; i0 < nq; i0 += 64) {

@@ -26,8 +26,10 @@ const char *kifmm_lib_strerror(int code);
 
 #if !defined(KIFMM_LIB_IMPLEMENT) || !defined(KIFMM_LIB_PART)
 #define KIFMM__LIB_HALVES 3
-#else
+#elif KIFMM_LIB_PART == 1 || KIFMM_LIB_PART == 2
 #define KIFMM__LIB_HALVES KIFMM_LIB_PART
+#else
+#error "KIFMM_LIB_PART: 1 (the double instances) or 2 (the float ones)"
 #endif
 
 /* ---- double ---- */
@@ -307,5 +309,6 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_REAL float
 #include "kifmm.h"
 #endif
+#undef KIFMM__LIB_HALVES
 
 #endif
