@@ -2881,6 +2881,14 @@ static inline __m256d kifmm_kernel__expn4(__m256d y)
         c = SUB(SET1(1.0), FMA(SET1(0.5), z_, MUL(SET1(-1.0), MUL(MUL(z_, z_), q_))));        \
     } while (0)
 
+/* the lanes k < n of mask far: the C library's sin and cos */
+static inline void kifmm_kernel__sincos_lanes(int n, int far, const double *x, double *s, double *c)
+{
+    int k;
+    for (k = 0; k < n; k++)
+        if (far >> k & 1) s[k] = sin(x[k]), c[k] = cos(x[k]);
+}
+
 #if defined(__AVX512F__)
 static inline void kifmm_kernel__sincos8(__m512d x, __m512d *sin_x, __m512d *cos_x)
 {
@@ -2909,10 +2917,8 @@ static inline void kifmm_kernel__sincos8(__m512d x, __m512d *sin_x, __m512d *cos
         _mm512_castpd_si512(c), _mm512_slli_epi64(_mm512_and_si512(_mm512_add_epi64(q, one), two), 62)));
     if (far) {
         double xs[8], ss[8], cs[8];
-        int k;
         _mm512_storeu_pd(xs, x), _mm512_storeu_pd(ss, u), _mm512_storeu_pd(cs, c);
-        for (k = 0; k < 8; k++)
-            if (far >> k & 1) ss[k] = sin(xs[k]), cs[k] = cos(xs[k]);
+        kifmm_kernel__sincos_lanes(8, far, xs, ss, cs);
         u = _mm512_loadu_pd(ss), c = _mm512_loadu_pd(cs);
     }
     *sin_x = u, *cos_x = c;
@@ -2944,10 +2950,8 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
                              _mm256_slli_epi64(_mm256_and_si256(_mm256_add_epi64(q, one), two), 62)));
     if (far) {
         double xs[4], ss[4], cs[4];
-        int k;
         _mm256_storeu_pd(xs, x), _mm256_storeu_pd(ss, u), _mm256_storeu_pd(cs, c);
-        for (k = 0; k < 4; k++)
-            if (far >> k & 1) ss[k] = sin(xs[k]), cs[k] = cos(xs[k]);
+        kifmm_kernel__sincos_lanes(4, far, xs, ss, cs);
         u = _mm256_loadu_pd(ss), c = _mm256_loadu_pd(cs);
     }
     *sin_x = u, *cos_x = c;

@@ -330,6 +330,19 @@ static inline double *t_densities(uint64_t seed, int64_t n, int sd, int nv, int 
     return q;
 }
 
+/* |a - b| in units of the last place of b (2^-1074 below the normal range,
+ * DBL_MIN = 2^-1022); a NaN against a number, or a number against a NaN,
+ * is infinitely wrong, two NaNs agree */
+static inline double t_ulps(double a, double b)
+{
+    int e;
+    if (isnan(a) || isnan(b)) return isnan(a) && isnan(b) ? 0.0 : HUGE_VAL;
+    if (a == b) return 0.0;
+    if (b == 0.0 || fabs(b) < 2.2250738585072014e-308) return fabs(a - b) / ldexp(1.0, -1074);
+    frexp(b, &e);
+    return fabs(a - b) / ldexp(1.0, e - 53);
+}
+
 /* ------------------------------------------------------------------------ */
 /* Independent direct summation                                             */
 /* ------------------------------------------------------------------------ */

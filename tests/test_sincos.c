@@ -9,7 +9,6 @@
  * and cos to test, and the program says so. */
 #include "kifmm.h"
 
-#include <float.h>
 
 #include "test.h"
 
@@ -39,22 +38,6 @@ static void sincos_vec(const double *x, double *s, double *c)
 #endif
 
 #if VW
-/* |a - b| in units of the last place of b (2^-1074 below the normal range);
- * a NaN against a number, or a number against a NaN, is infinitely wrong */
-static double ulps(double a, double b)
-{
-    int e;
-    double u;
-    if (isnan(a) || isnan(b)) return isnan(a) && isnan(b) ? 0.0 : HUGE_VAL;
-    if (a == b) return 0.0;
-    if (b == 0.0 || fabs(b) < DBL_MIN) u = ldexp(1.0, -1074);
-    else {
-        frexp(b, &e);
-        u = ldexp(1.0, e - 53);
-    }
-    return fabs(a - b) / u;
-}
-
 /* the worst errors over arguments from gen(i, lane): in ulp of the C
  * library's result, and absolute */
 typedef struct {
@@ -71,7 +54,7 @@ static void measure(int64_t n, double (*gen)(t_rng *, int64_t), t_rng *r, worst 
         sincos_vec(x, s, c);
         for (k = 0; k < VW; k++) {
             const double rs = sin(x[k]), rc = cos(x[k]);
-            const double u = fmax(ulps(s[k], rs), ulps(c[k], rc));
+            const double u = fmax(t_ulps(s[k], rs), t_ulps(c[k], rc));
             const double a = isnan(s[k]) || isnan(c[k]) ? HUGE_VAL : fmax(fabs(s[k] - rs), fabs(c[k] - rc));
             if (u > w->ulp) w->ulp = u, w->at = x[k];
             if (a > w->abs) w->abs = a;
@@ -152,7 +135,7 @@ static void test_sincos(void)
                 for (k = 0; k < VW; k++) {
                     const double rs = sin(x[k]), rc = cos(x[k]);
                     if (isnan(rs)) bad += !isnan(s[k]) || !isnan(c[k]);
-                    else bad += ulps(s[k], rs) > 3.0 || ulps(c[k], rc) > 3.0 ||
+                    else bad += t_ulps(s[k], rs) > 3.0 || t_ulps(c[k], rc) > 3.0 ||
                                 (rs == 0.0 && signbit(s[k]) != signbit(rs));
                 }
             }
