@@ -4389,6 +4389,10 @@ typedef struct {
     KIFMM__R *stack;         /* 316 ne x (M2L block columns) */
     KIFMM__R *m2l_out;       /* kd x (M2L block columns) */
     KIFMM__R *qs;            /* densities in sorted order */
+#if defined(KIFMM_MPI)
+    KIFMM__R *qp;            /* MPI mode's main: the proxies' densities, SD each, by
+                                px.cum (px.n SD per vector), or NULL */
+#endif
     KIFMM__R *lat;           /* periodic trees: U's potentials, D's densities
                                 (__far_apply) */
     /* Outputs: either all of them in sorted order (outs), gathered into the
@@ -4508,6 +4512,13 @@ struct KIFMM_NAME {
         int m2l_cols;          /* dense M2L: columns (box x vector) per GEMM */
     } work;
     kifmm_stats stats;         /* written by create and evaluate */
+#if defined(KIFMM_MPI)
+    struct {                   /* MPI mode's main handle: proxies among the sources
+                                  (__mpi_roles), else cum NULL */
+        int64_t *cum;          /* proxies before each sorted position (ns + 1) */
+        int64_t n;             /* proxies */
+    } px;
+#endif
 };
 
 #if defined(KIFMM_MPI)
@@ -4666,6 +4677,43 @@ KIFMM__DEFINE_P2P_HOOKN(KIFMM__F(__p2p_sc), KIFMM__HOOK(SC, p2p), KIFMM__HOOK(SC
 KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_sc), KIFMM__HOOK(SC, p2p))
 #else
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p_sc), KIFMM__R_(SC, _eval), KIFMM__SD, KIFMM__SD)
+#endif
+
+#if defined(KIFMM_MPI)
+/* MPI mode's main handle may hold sources of two roles: the kernel's, and
+ * proxies (points of other ranks' equivalent surfaces carrying densities of
+ * the surface kernel; last in each leaf, __mpi_roles). The sorted sources
+ * [s0, s0 + n) (coordinates x, ld values a coordinate) to the ny points tx,
+ * ty, tz: runs of the kernel's through fq (densities in qs), runs of
+ * proxies through fs (densities in qp). */
+typedef void (*KIFMM__F(__p2p_fn))(const double *, const KIFMM__R *, const KIFMM__R *,
+                                    const KIFMM__R *, int64_t, const KIFMM__R *, const KIFMM__R *,
+                                    const KIFMM__R *, const KIFMM__R *, int64_t, int, size_t,
+                                    double, KIFMM__R *, size_t);
+
+KIFMM__FN void KIFMM__F(__p2p_roles)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
+                                     KIFMM__F(__p2p_fn) fq, KIFMM__F(__p2p_fn) fs,
+                                     const KIFMM__R *tx, const KIFMM__R *ty, const KIFMM__R *tz,
+                                     int64_t ny, const KIFMM__R *x, size_t ld, int64_t s0,
+                                     int64_t n, int nrhs, double scale,
+                                     KIFMM__R *out, size_t old)
+{
+    const int64_t *cum = c->px.cum + s0;
+    const double *prm = c->opts.kernel_param;
+    int64_t i = 0, j;
+    while (i < n) {
+        const int64_t p = cum[i + 1] - cum[i];
+        for (j = i + 1; j < n && cum[j + 1] - cum[j] == p; j++) continue;
+        if (p)
+            fs(prm, tx, ty, tz, ny, x + i, x + ld + i, x + 2 * ld + i,
+               w->qp + cum[i] * KIFMM__SD, j - i, nrhs, (size_t)c->px.n * KIFMM__SD, scale, out, old);
+        else
+            fq(prm, tx, ty, tz, ny, x + i, x + ld + i, x + 2 * ld + i,
+               w->qs + (s0 + i) * KIFMM__QD, j - i, nrhs, (size_t)c->tree->ns * KIFMM__QD, scale, out,
+               old);
+        i = j;
+    }
+}
 #endif
 
 
@@ -6169,6 +6217,9 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
     kifmm__free(w->ue); kifmm__free(w->de); kifmm__free(w->chk); kifmm__free(w->tmp);
     kifmm__free(w->stack); kifmm__free(w->m2l_out); kifmm__free(w->qs); kifmm__free(w->outs);
     kifmm__free(w->lbuf); kifmm__free(w->lat);
+#if defined(KIFMM_MPI)
+    kifmm__free(w->qp);
+#endif
     kifmm__free(w);
 }
 
@@ -6271,6 +6322,12 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
     w->de = (KIFMM__R *)kifmm__take(held, n * sz[0], sizeof(KIFMM__R));
     w->chk = (KIFMM__R *)kifmm__take(held, n * sz[1], sizeof(KIFMM__R));
     w->qs = (KIFMM__R *)kifmm__take(held, n * sz[3], sizeof(KIFMM__R));
+#if defined(KIFMM_MPI)
+    if (c->px.n > 0 && !(w->qp = (KIFMM__R *)kifmm__take(held, n * (size_t)c->px.n * KIFMM__SD, sizeof(KIFMM__R)))) {
+        KIFMM__F(__work_free)(w);
+        return NULL;
+    }
+#endif
     if (c->far && c->far->zu)
         w->lat = (KIFMM__R *)kifmm__take(held, n * ((size_t)2 * c->far->nzu * KIFMM__SD +
                                          (size_t)c->far->zku + (size_t)c->far->zkd), sizeof(KIFMM__R));
@@ -6516,8 +6573,16 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
             int64_t s;
             int k;
             for (k = 0; k < KIFMM__QD; k++) sq[k] = 0.0;
-            for (s = t->s0[b]; s < t->s1[b]; s++)
+            for (s = t->s0[b]; s < t->s1[b]; s++) {
+#if defined(KIFMM_MPI)
+                if (c->px.cum && c->px.cum[s + 1] > c->px.cum[s]) { /* a proxy: the surface's */
+                    for (a = 0; a < KIFMM__SD; a++)
+                        m[a] += (double)w->qp[((size_t)r * c->px.n + c->px.cum[s]) * KIFMM__SD + a];
+                    continue;
+                }
+#endif
                 for (k = 0; k < KIFMM__QD; k++) sq[k] += (double)q[(size_t)s * KIFMM__QD + k];
+            }
             for (k = 0; k < KIFMM__QD; k++)
                 for (a = 0; a < KIFMM__SD; a++) m[a] += e->mono[a + k * KIFMM__SD] * sq[k];
         } else {
@@ -6561,6 +6626,15 @@ KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, ns, fc, KIFMM__F(__framebuf)(c));
         kifmm__sub3(ctr, fc, rc);
         KIFMM__F(__place)(c->pl->surf.unit_c, c->pl->surf.nsc, rc, c->pl->surf.ao * half, pc);
+#if defined(KIFMM_MPI)
+        if (c->px.cum) {
+            KIFMM__F(__p2p_roles)(c, w, KIFMM__F(__p2p_qc), KIFMM__F(__p2p_sc), pc, pc + c->pl->surf.nsc,
+                                  pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, ld, s0, ns, nrhs, scale,
+                                  w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc,
+                                  (size_t)nl * c->pl->surf.nc);
+            continue;
+        }
+#endif
         KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, xs + ld,
                               xs + 2 * ld, w->qs + s0 * KIFMM__QD, ns, nrhs,
                               (size_t)t->ns * KIFMM__QD, scale,
@@ -6994,6 +7068,13 @@ KIFMM__FN void KIFMM__F(__from_sources)(const KIFMM_NAME *c, const KIFMM__F(__wo
     const int64_t s0 = t->s0[a];
     size_t ld;
     const KIFMM__R *xs = KIFMM__F(__image)(c, a, s, &ld);
+#if defined(KIFMM_MPI)
+    if (c->px.cum) {
+        KIFMM__F(__p2p_roles)(c, w, KIFMM__F(__p2p_qt), KIFMM__F(__p2p_st), tx, ty, tz, nt, xs, ld, s0,
+                              t->s1[a] - s0, nrhs, 1.0, out, old);
+        return;
+    }
+#endif
     KIFMM__F(__p2p_qt)(c->opts.kernel_param, tx, ty, tz, nt, xs, xs + ld, xs + 2 * ld,
                        w->qs + s0 * KIFMM__QD, t->s1[a] - s0, nrhs, (size_t)t->ns * KIFMM__QD,
                        1.0, out, old);
@@ -7058,6 +7139,13 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
         if (!KIFMM__FLOAT && t->periodic)
             KIFMM__F(__place)(c->pl->surf.unit_c, nsc, cs, c->pl->surf.ai * half, pc);
+#if defined(KIFMM_MPI)
+        if (c->px.cum) {
+            KIFMM__F(__p2p_roles)(c, w, KIFMM__F(__p2p_qc), KIFMM__F(__p2p_sc), pc, pc + nsc, pc + 2 * nsc,
+                                  nsc, xs, ld, s0, t->s1[xb] - s0, nrhs, scale, chk, cst);
+            continue;
+        }
+#endif
         KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, xs, xs + ld,
                            xs + 2 * ld, w->qs + s0 * KIFMM__QD, t->s1[xb] - s0, nrhs,
                            (size_t)t->ns * KIFMM__QD, scale, chk, cst);
@@ -7627,6 +7715,11 @@ KIFMM__FN void KIFMM__F(__points_free)(KIFMM_NAME *h)
     kifmm__free(h->fft.sch);
     kifmm__free(h->near.chunk);
     kifmm__free(h->lat.zt);
+#if defined(KIFMM_MPI)
+    kifmm__free(h->px.cum);
+    h->px.cum = NULL;
+    h->px.n = 0;
+#endif
 }
 
 KIFMM__API void KIFMM__F(_destroy)(KIFMM_NAME *h)
@@ -8583,6 +8676,22 @@ KIFMM__FN void KIFMM__F(__gather_densities)(const KIFMM_NAME *h, KIFMM__F(__work
             for (k = 0; k < KIFMM__QD; k++) q[k] = (KIFMM__R)(lin[k] * sc);
         }
     }
+#if defined(KIFMM_MPI)
+    /* MPI mode's proxies: their first SD values are the surface kernel's
+     * densities (__p2p_roles) */
+    if (!h->px.cum) return;
+    KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads))
+    for (int64_t i = 0; i < t->ns; i++) {
+        const int64_t p = h->px.cum[i];
+        int k, r;
+        for (r = 0; r < nr && h->px.cum[i + 1] > p; r++) {
+            const double sc = ldexp(1.0, -e[r]);
+            const KIFMM__R *u = d + r * uper + t->sperm[i] * KIFMM__UD;
+            for (k = 0; k < KIFMM__SD; k++)
+                w->qp[((size_t)r * h->px.n + p) * KIFMM__SD + k] = (KIFMM__R)(u[k] * sc);
+        }
+    }
+#endif
 }
 
 /* One group of nr vectors (densities d, outputs o: the group's first
@@ -8995,10 +9104,14 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
  * equivalent surface as sources, with its densities where the kernel's
  * sources carry the surface kernel's, else with densities fitted to them,
  * __mpi_fit). Boxes of levels 2 to lc come summed over all ranks (one
- * allreduce) instead of from each rank. Kernels with a density map are
- * refused (stokes_dl: sources whose images are fitted densities, three at
- * each point, came to 12 times one process's error at p = 10). */
-#define KIFMM__MPI_KERNEL (!(KIFMM__HAS_OF(KIFMM_KERNEL) & KIFMM_HAS_DENSITY))
+ * allreduce) instead of from each rank. Kernels with a density map
+ * (stokes_dl) take the proxies as a second role of main's sources instead,
+ * with the surface kernel's densities (__mpi_roles; stokes_dl's sources
+ * with densities fitted to a box's, three at each point, came to 12 times
+ * one process's error at p = 10); they need as many density values a
+ * source as the surface kernel's (UD >= SD), else KIFMM_ERR_MPI. */
+#define KIFMM__MPI_ROLES (KIFMM__HAS_OF(KIFMM_KERNEL) & KIFMM_HAS_DENSITY)
+#define KIFMM__MPI_KERNEL (!KIFMM__MPI_ROLES || KIFMM__UD >= KIFMM__SD)
 
 struct KIFMM__F(__mpi) {
     MPI_Comm comm;
@@ -9582,6 +9695,72 @@ KIFMM__FN void KIFMM__F(__mpi_expand)(const KIFMM__F(__mpi) *m, int nr, const KI
 }
 #endif
 
+#if KIFMM__MPI_ROLES
+/* main's sources given from index p0 on are proxies (__p2p_roles): within
+ * each leaf they move after the kernel's, both in their sorted order;
+ * px.cum counts them, and the workspace gets room for their densities. */
+KIFMM__FN int KIFMM__F(__mpi_roles)(KIFMM_NAME *c, int64_t p0)
+{
+    kifmm__tree *t = &c->tr->t;
+    const int64_t ns = t->ns;
+#if KIFMM__FLOAT
+    float *x = c->tr->fsrc;
+#else
+    double *x = t->src;
+#endif
+    KIFMM__R *tx = (KIFMM__R *)kifmm__alloc((size_t)(3 * ns) + 1, sizeof(KIFMM__R));
+    int64_t *tp = (int64_t *)kifmm__alloc((size_t)ns + 1, sizeof(int64_t));
+    KIFMM__F(__work) *nw = NULL;
+    int rc = KIFMM_SUCCESS;
+    c->px.cum = (int64_t *)kifmm__take(&c->held, (size_t)ns + 1, sizeof(int64_t));
+    if (!tx || !tp || !c->px.cum || t->same) rc = tx && tp && c->px.cum ? KIFMM_ERR_INTERNAL : KIFMM_ERR_NOMEM;
+    if (!rc) { /* each leaf writes its own range */
+        KIFMM__OMP(parallel for schedule(dynamic, 64) num_threads(c->opts.nthreads))
+        for (int32_t b = 0; b < t->nbox; b++) {
+            int64_t i, j = t->s0[b];
+            int pass, d;
+            if (t->child[b] >= 0) continue;
+            for (pass = 0; pass < 2; pass++)
+                for (i = t->s0[b]; i < t->s1[b]; i++)
+                    if ((t->sperm[i] >= p0) == pass) {
+                        for (d = 0; d < 3; d++) tx[d * ns + j] = x[d * ns + i];
+                        tp[j++] = t->sperm[i];
+                    }
+            for (i = t->s0[b]; i < t->s1[b]; i++) {
+                for (d = 0; d < 3; d++) x[d * ns + i] = tx[d * ns + i];
+                t->sperm[i] = tp[i];
+            }
+        }
+        c->px.cum[0] = 0;
+        for (int64_t i = 0; i < ns; i++) c->px.cum[i + 1] = c->px.cum[i] + (t->sperm[i] >= p0);
+        c->px.n = c->px.cum[ns];
+        if (!(nw = KIFMM__F(__work_new)(c, c->work.w->nrhs))) rc = KIFMM_ERR_NOMEM;
+    }
+    if (nw) {
+        KIFMM__F(__work_free)(c->work.w);
+        c->work.w = nw;
+        c->stats.bytes = KIFMM__F(__held)(c, c->pbytes);
+    }
+    kifmm__free(tx);
+    kifmm__free(tp);
+    return rc;
+}
+
+/* The proxies' densities (pb: nr x (npx + ncb) x ne) into dm at p0, each
+ * point's SD values first of its UD (__gather_densities' proxies). */
+KIFMM__FN void KIFMM__F(__mpi_pad)(const KIFMM__F(__mpi) *m, int nr, const KIFMM__R *pb, KIFMM__R *dm,
+                                   size_t nsm, size_t p0)
+{
+    const size_t np = (size_t)(m->npx + m->ncb) * (size_t)m->pl->surf.nse;
+    for (int r = 0; r < nr; r++)
+        for (size_t j = 0; j < np; j++) {
+            KIFMM__R *v = dm + ((size_t)r * nsm + p0 + j) * KIFMM__UD;
+            memset(v, 0, KIFMM__UD * sizeof(KIFMM__R));
+            memcpy(v, pb + ((size_t)r * np + j) * KIFMM__SD, KIFMM__SD * sizeof(KIFMM__R));
+        }
+}
+#endif
+
 /* main: the owned sources, the ghosts, the proxies' surfaces (the
  * equivalent surface of each box, at the radius of the upward pass) as
  * sources; the owned targets. */
@@ -9637,7 +9816,9 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
         }
     }
     rc = KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, nsm, xs, m->nto, m->to);
-#if KIFMM__QD != KIFMM__SD
+#if KIFMM__MPI_ROLES
+    if (!rc && m->npx + m->ncb > 0) rc = KIFMM__F(__mpi_roles)(m->main, m->nso + m->ng);
+#elif KIFMM__QD != KIFMM__SD
     for (k = 0; k < m->npx + m->ncb && !rc; k++) rc = KIFMM__F(__mpi_fit)(m, m->plev[k]);
 #endif
     kifmm__free(xs);
@@ -9839,7 +10020,9 @@ KIFMM__FN int KIFMM__F(__mpi_sources)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R
         for (r = 0; r < nr; r++)
             memcpy(KIFMM__MPI_BOXES(r) + (size_t)(m->npx + i) * ne,
                    co + ((size_t)r * m->ncoarse + (size_t)m->cbox[i]) * ne, (size_t)ne * sizeof(KIFMM__R));
-#if KIFMM__QD != KIFMM__SD
+#if KIFMM__MPI_ROLES
+    if (!rc) KIFMM__F(__mpi_pad)(m, nr, pb, dm, nsm, p0);
+#elif KIFMM__QD != KIFMM__SD
     if (!rc) KIFMM__F(__mpi_expand)(m, nr, pb, dm, nsm, p0);
 #else
     (void)pb;
@@ -10103,6 +10286,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
 
 #undef KIFMM__MPI_REAL
 #undef KIFMM__MPI_KERNEL
+#undef KIFMM__MPI_ROLES
 #undef KIFMM__MPI_BOXES
 #undef KIFMM__MPI_CUTOFF
 #endif /* KIFMM_MPI */

@@ -4,7 +4,8 @@
 # UBSan, and with mpicxx (as C++, without OpenMP), run under mpirun with 1,
 # 2, 3 and 4 ranks (the C build; the sanitizer build with 2, the C++ one
 # with 3; those two and the 1-rank run with fewer cases, KIFMM_TEST_MPI_LIGHT,
-# unless CONFIGS=all), oversubscribed (--oversubscribe; as root also
+# unless CONFIGS=all, which also adds stokes_dl at p = 8 to the 2-rank run,
+# KIFMM_TEST_MPI_ALL), oversubscribed (--oversubscribe; as root also
 # --allow-run-as-root), one OpenMP thread a rank, two for the one rank; the
 # 3-rank run fails every allocation of create_mpi, evaluate and update_points
 # on one rank in turn (KIFMM_TEST_ALLOC_ALL), the others about 50 of them.
@@ -72,7 +73,7 @@ run() { # name ranks threads
 if build c11 mpicc -std=c11 -O2 -march=native -fopenmp; then
     LIGHT=$([ "${CONFIGS:-}" = all ] || echo 1)
     KIFMM_TEST_MPI_LIGHT=$LIGHT run c11 1 2
-    run c11 2 1
+    KIFMM_TEST_MPI_ALL=$([ -z "$LIGHT" ] && echo 1) run c11 2 1
     KIFMM_TEST_ALLOC_ALL=1 run c11 3 1
     run c11 4 1
 fi

@@ -550,9 +550,9 @@ class FMM:
                   sets. Needs mpi4py (imported only here) and the package's
                   libkifmm_mpi.so (built when mpicc was found at install;
                   KIFMM_MPI_LIBRARY to name another). Not with plan= or
-                  tree=; periodic options and stokes_dl raise KifmmError
-                  (-14, -24). Close the FMM (or leave a with block) on
-                  every rank before MPI is finalized
+                  tree=; periodic options raise KifmmError (-14). Close
+                  the FMM (or leave a with block) on every rank before MPI
+                  is finalized
 
     tol: the order is picked so that every output of the kernel (potential,
     gradient, Hessian, velocity, pressure, velocity gradient) meets tol in
