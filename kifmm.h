@@ -263,7 +263,10 @@ extern "C++" {
       "another leaf size, depth, period or domain, or without the V lists of a dense M2L")   \
     X(KIFMM_ERR_MPI, -24,                                                                     \
       "MPI mode: MPI is not initialised or an MPI call failed, the ranks passed different "   \
-      "counts of vectors, or this kernel has no MPI mode yet (docs/api.md, \"MPI\")")
+      "counts of vectors, or this kernel has no MPI mode yet (docs/api.md, \"MPI\")")        \
+    X(KIFMM_ERR_FREQUENCY, -25,                                                               \
+      "the boxes that carry expansions are too many wavelengths wide for this order "         \
+      "(an oscillating kernel: raise opts.order, docs/kernels.md, \"Helmholtz\")")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -7850,6 +7853,10 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
     if (!rc) rc = KIFMM__F(__check_sets)(o, ns, src, nt, trg);
     if (!rc) rc = KIFMM__F(__params)(o->kernel_param, param);
     if (!rc) memcpy(o->kernel_param, param, sizeof param);
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+    /* oscillating kernels: free space only (no quasi-periodic boundaries yet) */
+    if (!rc && (o->period[0] > 0.0 || o->period[1] > 0.0 || o->period[2] > 0.0)) rc = KIFMM_ERR_PERIODIC;
+#endif
     return rc;
 }
 
@@ -8343,6 +8350,33 @@ KIFMM__FN int KIFMM__F(__tree_fits)(const kifmm_tree *tr, const int *shape, int 
     return KIFMM_SUCCESS;
 }
 
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+/* An oscillating kernel (KIFMM_HAS_WAVES): the widest boxes whose
+ * expansions the passes use (the first level with M2L, the boxes of W
+ * lists, the owners of X lists), in wavelengths of the wavenumber's real
+ * part, against the most the order takes (the kernel's _WAVES_MAX,
+ * measured: docs/kernels.md); KIFMM_ERR_FREQUENCY beyond. */
+KIFMM__FN int KIFMM__F(__frequency)(const KIFMM_NAME *h)
+{
+    static const double most[KIFMM_MAX_ORDER + 1] = KIFMM__K(_WAVES_MAX);
+    const kifmm__tree *t = h->tree;
+    int l, lmin = t->nlev;
+    int32_t b, e;
+    for (l = 0; l < t->nlev && lmin == t->nlev; l++)
+        if (t->m2lo[l + 1] > t->m2lo[l]) lmin = l;
+    for (b = 0; b < t->nbox; b++) {
+        if (t->xo[b + 1] > t->xo[b] && t->lev[b] < lmin) lmin = t->lev[b];
+        for (e = t->wo[b]; e < t->wo[b + 1]; e++)
+            if (t->lev[t->w[e]] < lmin) lmin = t->lev[t->w[e]];
+    }
+    if (lmin >= t->nlev) return KIFMM_SUCCESS; /* direct sums only */
+    return t->width / (double)((int64_t)1 << lmin) * KIFMM__K(_wavenumber)(h->opts.kernel_param) <=
+                   2.0 * 3.14159265358979323846 * most[h->opts.order]
+               ? KIFMM_SUCCESS
+               : KIFMM_ERR_FREQUENCY;
+}
+#endif
+
 /* A handle on plan pl (one more of its handles) for these points, checked
  * (options o, pl's), or on the tree tr (fitting o: __tree_fits) if not
  * NULL: the points' part; the operator sets and far images the tree needs,
@@ -8380,6 +8414,9 @@ KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int share
     t1 = t2 = t0;
     if (ns > 0 && nt > 0) {
         rc = KIFMM__F(__points_build)(h, ns, src, nt, trg);
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+        if (!rc) rc = KIFMM__F(__frequency)(h); /* before the operators */
+#endif
         t1 = kifmm__now();
         if (!rc) rc = KIFMM__F(__plan_ops)(h, &h->pbytes);
         t2 = kifmm__now();

@@ -61,8 +61,11 @@ extern "C++" {
  * for opts.tol (kifmm_kernel_NAME_TOL_ERRORS, an initializer of
  * KIFMM_MAX_ORDER + 1 numbers: the largest relative L2 error of its worst
  * output measured at each order, 0 where not measured (orders 0 and 1
- * always), which tol never takes; without it, laplace's table). A
- * misspelt bit stops the build. */
+ * always), which tol never takes; without it, laplace's table); and WAVES,
+ * an oscillating kernel (helmholtz): kifmm_kernel_NAME_wavenumber(param)
+ * gives the real part of its wavenumber, from which create refuses boxes
+ * too many wavelengths wide for the order (KIFMM_ERR_FREQUENCY), and
+ * periodic options are refused. A misspelt bit stops the build. */
 #define KIFMM_HAS_SETUP 1
 #define KIFMM_HAS_P2P 2
 #define KIFMM_HAS_P2PF 4
@@ -77,7 +80,8 @@ extern "C++" {
 #define KIFMM_HAS_EWALD 2048
 #define KIFMM_HAS_BACKGROUND 4096
 #define KIFMM_HAS_TOL 8192
-#define KIFMM_HAS_ALL 16383
+#define KIFMM_HAS_WAVES 16384
+#define KIFMM_HAS_ALL 32767
 
 /* Three periodic directions (docs/api.md) need two more hooks of a
  * scale-invariant kernel. EWALD, on the surface kernel (SD x SD, k[a SD +
@@ -535,6 +539,128 @@ static inline void kifmm_kernel_yukawa_cd_grad_eval(const double *param, double 
                                                     double dz, double *k)
 {
     kifmm_kernel__yuk_cd(param, dx, dy, dz, 4, k);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Helmholtz: complex values as (re, im) pairs                              */
+/* ------------------------------------------------------------------------ */
+/* G(r) = exp(i k r) / (4 pi r), the wavenumber k = param[0] + i param[1]
+ * (param[1] >= 0: waves damped as they travel; k = 0 is Laplace's kernel).
+ * Densities and outputs are complex numbers stored as (re, im) pairs of
+ * reals, and each complex entry c of the kernel is the real 2 x 2 block
+ * [[Re c, -Im c], [Im c, Re c]] (rows: an output's re, im; columns: a
+ * density's re, im), so that the method runs on real pairs. With d = target
+ * - source, z = i k r: grad_target G = A d, A = G (z - 1) / r^2; the
+ * Hessian is A delta_ij + B d_i d_j, B = G (3 - 3 z + z^2) / r^4. A charge q
+ * gives q G, gradient q A d; a dipole v gives v . grad_source G = -A (v .
+ * d), gradient -A v - B (v . d) d (k = i lambda: yukawa_cd's). Densities
+ * (q, v), outputs potential then gradient, each a complex pair. */
+static inline int kifmm_kernel__wavenumber_setup(const double *in, double *out)
+{
+    out[0] = in[0], out[1] = in[1];
+    out[2] = out[3] = 0.0;
+    return fabs(out[0]) <= 1e150 && out[1] >= 0.0 && out[1] <= 1e150 ? 0 : -1;
+}
+static inline double kifmm_kernel__wavenumber(const double *param) { return fabs(param[0]); }
+/* complex c at (output a, density b) of a kernel matrix of ld reals a row */
+static inline void kifmm_kernel__cput(double *k, int ld, int a, int b, double cr, double ci)
+{
+    k[2 * a * ld + 2 * b] = cr, k[2 * a * ld + 2 * b + 1] = -ci;
+    k[(2 * a + 1) * ld + 2 * b] = ci, k[(2 * a + 1) * ld + 2 * b + 1] = cr;
+}
+/* rows 1 (potential) or 4 (and gradient) of charges (cd 0) or charges and
+ * dipoles (cd 1) */
+static inline void kifmm_kernel__helm(const double *param, double dx, double dy, double dz,
+                                      int rows, int cd, double *k)
+{
+    const int ld = cd ? 8 : 2;
+    double d[3], inv, ir2, r, e, g[2], t[2], a[2], b[2];
+    int i, j;
+    if (!kifmm_kernel__begin(dx, dy, dz, 2 * rows * ld, d, &inv, &ir2, k)) return;
+    r = 1.0 / inv;
+    e = KIFMM_INV_4PI * exp(-param[1] * r) * inv;
+    g[0] = e * cos(param[0] * r), g[1] = e * sin(param[0] * r); /* G */
+    kifmm_kernel__cput(k, ld, 0, 0, g[0], g[1]);
+    if (rows == 1 && !cd) return;
+    t[0] = -param[1] * r - 1.0, t[1] = param[0] * r;           /* z - 1 */
+    a[0] = (g[0] * t[0] - g[1] * t[1]) * ir2, a[1] = (g[0] * t[1] + g[1] * t[0]) * ir2;
+    t[0] = 3.0 + 3.0 * param[1] * r + param[1] * param[1] * r * r - param[0] * param[0] * r * r;
+    t[1] = -3.0 * param[0] * r - 2.0 * param[1] * param[0] * r * r; /* 3 - 3 z + z^2 */
+    b[0] = (g[0] * t[0] - g[1] * t[1]) * ir2 * ir2, b[1] = (g[0] * t[1] + g[1] * t[0]) * ir2 * ir2;
+    for (i = 0; i < 3 && rows > 1; i++) kifmm_kernel__cput(k, ld, 1 + i, 0, a[0] * d[i], a[1] * d[i]);
+    for (j = 0; j < 3 && cd; j++) {
+        kifmm_kernel__cput(k, ld, 0, 1 + j, -a[0] * d[j], -a[1] * d[j]);
+        for (i = 0; i < 3 && rows > 1; i++)
+            kifmm_kernel__cput(k, ld, 1 + i, 1 + j, -(i == j ? a[0] : 0.0) - b[0] * d[i] * d[j],
+                               -(i == j ? a[1] : 0.0) - b[1] * d[i] * d[j]);
+    }
+}
+#define KIFMM_KERNEL__HELM_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_WAVES)
+/* The widest box an expansion may span, in wavelengths, per order (0 to
+ * KIFMM_MAX_ORDER): the largest of 0.25, 0.375, ..., 2 at which helmholtz
+ * (20,000 uniform points, Im k = 0, the level-2 boxes' expansions the
+ * widest) stayed within 10 times its error at 0.05 wavelengths, with every
+ * smaller width (docs/kernels.md, "Helmholtz") */
+#define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.625, 0.75, 0.875, 0.875, 1.0, 1.0, 1.25, 1.25, 1.25}
+
+/* helmholtz: charges -> potential (a complex pair each) */
+#define kifmm_kernel_helmholtz_SRC_DIM 2
+#define kifmm_kernel_helmholtz_TRG_DIM 2
+#define kifmm_kernel_helmholtz_SCALE_INVARIANT 0
+#define kifmm_kernel_helmholtz_DEGREE 0
+#define kifmm_kernel_helmholtz_HAS KIFMM_KERNEL__HELM_HAS
+#define kifmm_kernel_helmholtz_setup kifmm_kernel__wavenumber_setup
+#define kifmm_kernel_helmholtz_wavenumber kifmm_kernel__wavenumber
+#define kifmm_kernel_helmholtz_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+static inline void kifmm_kernel_helmholtz_eval(const double *param, double dx, double dy,
+                                               double dz, double *k)
+{
+    kifmm_kernel__helm(param, dx, dy, dz, 1, 0, k);
+}
+
+/* helmholtz_grad: charges -> potential and gradient (4 complex pairs) */
+#define kifmm_kernel_helmholtz_grad_SRC_DIM 2
+#define kifmm_kernel_helmholtz_grad_TRG_DIM 8
+#define kifmm_kernel_helmholtz_grad_SCALE_INVARIANT 0
+#define kifmm_kernel_helmholtz_grad_DEGREE 0
+#define kifmm_kernel_helmholtz_grad_EQUIV helmholtz
+#define kifmm_kernel_helmholtz_grad_HAS KIFMM_KERNEL__HELM_HAS
+#define kifmm_kernel_helmholtz_grad_setup kifmm_kernel__wavenumber_setup
+#define kifmm_kernel_helmholtz_grad_wavenumber kifmm_kernel__wavenumber
+#define kifmm_kernel_helmholtz_grad_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+static inline void kifmm_kernel_helmholtz_grad_eval(const double *param, double dx, double dy,
+                                                    double dz, double *k)
+{
+    kifmm_kernel__helm(param, dx, dy, dz, 4, 0, k);
+}
+
+/* helmholtz_cd_grad: charges and dipoles (q, v: 4 complex pairs a source)
+ * -> potential and gradient: the combined field of boundary integral
+ * equations */
+#define kifmm_kernel_helmholtz_cd_grad_SRC_DIM 8
+#define kifmm_kernel_helmholtz_cd_grad_TRG_DIM 8
+#define kifmm_kernel_helmholtz_cd_grad_SCALE_INVARIANT 0
+#define kifmm_kernel_helmholtz_cd_grad_DEGREE 0
+#define kifmm_kernel_helmholtz_cd_grad_HAS KIFMM_KERNEL__HELM_HAS
+#define kifmm_kernel_helmholtz_cd_grad_setup kifmm_kernel__wavenumber_setup
+#define kifmm_kernel_helmholtz_cd_grad_wavenumber kifmm_kernel__wavenumber
+#define kifmm_kernel_helmholtz_cd_grad_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+#define kifmm_kernel_helmholtz_cd_grad_EQUIV helmholtz
+#define kifmm_kernel_helmholtz_cd_grad_USE_EQUIV 1
+#define kifmm_kernel_helmholtz_cd_grad_SURFACE helmholtz_grad
+#define kifmm_kernel_helmholtz_cd_grad_CHECK _helmholtz_cd
+static inline void kifmm_kernel_helmholtz_cd_grad_eval(const double *param, double dx, double dy,
+                                                       double dz, double *k)
+{
+    kifmm_kernel__helm(param, dx, dy, dz, 4, 1, k);
+}
+/* its check kernel: charges and dipoles -> potential */
+#define kifmm_kernel__helmholtz_cd_SRC_DIM 8
+#define kifmm_kernel__helmholtz_cd_TRG_DIM 2
+static inline void kifmm_kernel__helmholtz_cd_eval(const double *param, double dx, double dy,
+                                                   double dz, double *k)
+{
+    kifmm_kernel__helm(param, dx, dy, dz, 1, 1, k);
 }
 
 /* ------------------------------------------------------------------------ */

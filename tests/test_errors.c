@@ -219,8 +219,9 @@ static void test_strerror(void)
                                 KIFMM_ERR_KERNEL,  KIFMM_ERR_PERIOD,    KIFMM_ERR_PERIODIC,
                                 KIFMM_ERR_NEUTRAL, KIFMM_ERR_TOL,       KIFMM_ERR_VERBOSE,
                                 KIFMM_ERR_RANGE,   KIFMM_ERR_DENSITY,   KIFMM_ERR_OVERLAP,
-                                KIFMM_ERR_OVERFLOW};
-    static const int unknown[] = {1, -22, 42, -1000, 2147483647, -2147483647 - 1};
+                                KIFMM_ERR_OVERFLOW, KIFMM_ERR_DOMAIN,   KIFMM_ERR_TREE,
+                                KIFMM_ERR_MPI,     KIFMM_ERR_FREQUENCY};
+    static const int unknown[] = {1, -26, 42, -1000, 2147483647, -2147483647 - 1};
     const int nc = (int)(sizeof codes / sizeof codes[0]);
     int i, j;
     /* the documented values */
@@ -231,7 +232,8 @@ static void test_strerror(void)
               KIFMM_ERR_KERNEL == -12 && KIFMM_ERR_PERIOD == -13 && KIFMM_ERR_PERIODIC == -14 &&
               KIFMM_ERR_NEUTRAL == -15 && KIFMM_ERR_TOL == -16 && KIFMM_ERR_VERBOSE == -17 &&
               KIFMM_ERR_RANGE == -18 && KIFMM_ERR_DENSITY == -19 && KIFMM_ERR_OVERLAP == -20 &&
-              KIFMM_ERR_OVERFLOW == -21,
+              KIFMM_ERR_OVERFLOW == -21 && KIFMM_ERR_DOMAIN == -22 && KIFMM_ERR_TREE == -23 &&
+              KIFMM_ERR_MPI == -24 && KIFMM_ERR_FREQUENCY == -25,
           "error code values differ from the documented ones");
     CHECK(KIFMM_MAX_ORDER == 12 && KIFMM_MAX_DEPTH == 20, "KIFMM_MAX_ORDER %d KIFMM_MAX_DEPTH %d",
           (int)KIFMM_MAX_ORDER, (int)KIFMM_MAX_DEPTH);

@@ -1,0 +1,330 @@
+/* test_helmholtz.c - the Helmholtz kernels, complex values as (re, im)
+ * pairs (kifmm_kernels.h, "Helmholtz"):
+ *   - every entry of helmholtz_cd_grad's kernel matrix (and helmholtz's,
+ *     helmholtz_grad's) against exp(i k r) / (4 pi r) in long double and
+ *     its central differences (first and second), at real, complex and zero
+ *     wavenumbers; the 2 x 2 blocks' structure
+ *   - the FMM against direct sums in long double written here (their
+ *     formulas are the ones the differences check), at roots of 0.2, 2 and
+ *     3.6 wavelengths, uniform, sphere and corner points, sources =
+ *     targets and separate targets, a complex wavenumber; float too
+ *   - KIFMM_ERR_FREQUENCY beyond the order's range from create (no handle)
+ *     and update_points (the handle kept, its outputs unchanged); a tree of
+ *     direct sums only at any frequency; periodic options and Im k < 0
+ *     refused. */
+#include "kifmm.h"
+#define KIFMM_KERNEL helmholtz
+#include "kifmm.h"
+#define KIFMM_KERNEL helmholtz_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL helmholtz_cd_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL helmholtz_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+
+#include "test.h"
+
+#define LPI 3.141592653589793238462643383279502884L
+
+/* G(d) = exp(i k |d|) / (4 pi |d|) in long double: g = (re, im) */
+static void g_ld(long double kr, long double ki, const long double *d, long double *g)
+{
+    const long double r = sqrtl(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    const long double e = expl(-ki * r) / (4.0L * LPI * r);
+    g[0] = e * cosl(kr * r), g[1] = e * sinl(kr * r);
+}
+
+/* entry (a, b) of a kernel matrix of ld reals a row, as (re, im); 0 when
+ * the 2 x 2 block is not [[re, -im], [im, re]] */
+static int entry(const double *k, int ld, int a, int b, double *c)
+{
+    c[0] = k[2 * a * ld + 2 * b], c[1] = k[(2 * a + 1) * ld + 2 * b];
+    return k[2 * a * ld + 2 * b + 1] == -c[1] && k[(2 * a + 1) * ld + 2 * b + 1] == c[0];
+}
+
+/* the kernel's entries against G's differences: charge potential G,
+ * gradient dG/dd_i; dipole potential -dG/dd_j, gradient -d2G/dd_i dd_j */
+static void test_entries(void)
+{
+    static const double ks[4][2] = {{7.3, 0.0}, {2.1, 0.8}, {0.0, 0.0}, {25.0, 0.3}};
+    const long double h = 1e-6L;
+    double worst = 0.0;
+    int blocks = 1, n;
+    t_rng r = t_rng_seed(41);
+    t_group("kernel entries against long double differences of exp(i k r) / (4 pi r)");
+    for (n = 0; n < 200; n++) {
+        const double *kk = ks[n % 4], prm[4] = {kk[0], kk[1], 0.0, 0.0};
+        double d[3], k[64], k1[4], k4[16], c[2], scale;
+        long double dl[3], g[2], gp[2], gm[2], ref[4][4][2];
+        int i, j, s;
+        do {
+            for (i = 0; i < 3; i++) d[i] = t_uniform(&r, -1.5, 1.5);
+        } while (sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) < 0.3);
+        for (i = 0; i < 3; i++) dl[i] = d[i];
+        g_ld(kk[0], kk[1], dl, g);
+        ref[0][0][0] = g[0], ref[0][0][1] = g[1];
+        for (i = 0; i < 3; i++) { /* first differences */
+            long double e[3] = {dl[0], dl[1], dl[2]};
+            e[i] = dl[i] + h, g_ld(kk[0], kk[1], e, gp);
+            e[i] = dl[i] - h, g_ld(kk[0], kk[1], e, gm);
+            for (s = 0; s < 2; s++) {
+                ref[1 + i][0][s] = (gp[s] - gm[s]) / (2.0L * h);
+                ref[0][1 + i][s] = -ref[1 + i][0][s];
+            }
+        }
+        for (i = 0; i < 3; i++) /* second differences */
+            for (j = 0; j < 3; j++) {
+                long double acc[2] = {0.0L, 0.0L}, e[3];
+                int a, b;
+                for (a = -1; a <= 1; a += 2)
+                    for (b = -1; b <= 1; b += 2) {
+                        e[0] = dl[0], e[1] = dl[1], e[2] = dl[2];
+                        e[i] += a * h, e[j] += b * h;
+                        g_ld(kk[0], kk[1], e, gp);
+                        for (s = 0; s < 2; s++) acc[s] += a * b * gp[s];
+                    }
+                for (s = 0; s < 2; s++) ref[1 + i][1 + j][s] = -acc[s] / (4.0L * h * h);
+            }
+        kifmm_kernel_helmholtz_cd_grad_eval(prm, d[0], d[1], d[2], k);
+        kifmm_kernel_helmholtz_eval(prm, d[0], d[1], d[2], k1);
+        kifmm_kernel_helmholtz_grad_eval(prm, d[0], d[1], d[2], k4);
+        scale = 0.0;
+        for (i = 0; i < 4; i++)
+            for (j = 0; j < 4; j++) scale = fmax(scale, (double)fabsl(ref[i][j][0]) + (double)fabsl(ref[i][j][1]));
+        for (i = 0; i < 4; i++)
+            for (j = 0; j < 4; j++) {
+                /* G itself; differences: h^2 k^3 and, second, 1e-19 / h^2 */
+                const double tol = i == 0 && j == 0 ? 1e-14 : i > 0 && j > 0 ? 1e-5 : 1e-7;
+                blocks &= entry(k, 8, i, j, c);
+                worst = fmax(worst, (fabs(c[0] - (double)ref[i][j][0]) + fabs(c[1] - (double)ref[i][j][1])) /
+                                        scale / tol);
+                if (j == 0) { /* helmholtz_grad: the charge column; helmholtz: its first entry */
+                    double c4[2];
+                    blocks &= entry(k4, 2, i, 0, c4) && c4[0] == c[0] && c4[1] == c[1];
+                    if (i == 0) blocks &= entry(k1, 2, 0, 0, c4) && c4[0] == c[0] && c4[1] == c[1];
+                }
+            }
+    }
+    CHECK(blocks, "every entry a [[re, -im], [im, re]] block, helmholtz and helmholtz_grad's equal to helmholtz_cd_grad's");
+    CHECK_ERR(worst, 1.0, "largest entry error over the largest entry, in units of its tolerance (G 1e-14, "
+                          "first differences 1e-7, second 1e-5)");
+    {
+        const double prm[4] = {3.0, 0.5, 0.0, 0.0};
+        double k[64];
+        int i, zero = 1;
+        kifmm_kernel_helmholtz_cd_grad_eval(prm, 0.0, 0.0, 0.0, k);
+        for (i = 0; i < 64; i++) zero &= k[i] == 0.0;
+        CHECK(zero, "coincident points: a zero matrix");
+    }
+}
+
+/* direct sums in long double at target y: helmholtz_grad (cd 0: charges q,
+ * 2 reals a source) or helmholtz_cd_grad (cd 1: (q, v), 8 reals); out: 8
+ * reals (potential, gradient) */
+static void direct_ld(int cd, long double kr, long double ki, int64_t ns, const double *x,
+                      const double *q, const double *y, double *out)
+{
+    long double acc[8] = {0.0L};
+    const int sd = cd ? 8 : 2;
+    int64_t i;
+    int m, j, s;
+    for (i = 0; i < ns; i++) {
+        long double d[3], r2, r, g[2], z1[2], a[2], t[2], b[2], qq[4][2];
+        for (m = 0; m < 3; m++) d[m] = (long double)y[m] - (long double)x[3 * i + m];
+        r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        if (r2 == 0.0L) continue;
+        r = sqrtl(r2);
+        g_ld(kr, ki, d, g);
+        z1[0] = -ki * r - 1.0L, z1[1] = kr * r; /* i k r - 1 */
+        a[0] = (g[0] * z1[0] - g[1] * z1[1]) / r2, a[1] = (g[0] * z1[1] + g[1] * z1[0]) / r2;
+        t[0] = 3.0L + 3.0L * ki * r + (ki * ki - kr * kr) * r2, t[1] = -3.0L * kr * r - 2.0L * kr * ki * r2;
+        b[0] = (g[0] * t[0] - g[1] * t[1]) / (r2 * r2), b[1] = (g[0] * t[1] + g[1] * t[0]) / (r2 * r2);
+        for (m = 0; m < (cd ? 4 : 1); m++) qq[m][0] = q[sd * i + 2 * m], qq[m][1] = q[sd * i + 2 * m + 1];
+#define CMAC(o, u, w) (o)[0] += (u)[0] * (w)[0] - (u)[1] * (w)[1], (o)[1] += (u)[0] * (w)[1] + (u)[1] * (w)[0]
+        CMAC(acc, g, qq[0]);
+        for (m = 0; m < 3; m++) {
+            long double am[2] = {a[0] * d[m], a[1] * d[m]};
+            CMAC(acc + 2 + 2 * m, am, qq[0]);
+        }
+        for (j = 0; cd && j < 3; j++) {
+            long double pj[2] = {-a[0] * d[j], -a[1] * d[j]};
+            CMAC(acc, pj, qq[1 + j]);
+            for (m = 0; m < 3; m++) {
+                long double hm[2];
+                for (s = 0; s < 2; s++) hm[s] = -(m == j ? a[s] : 0.0L) - b[s] * d[m] * d[j];
+                CMAC(acc + 2 + 2 * m, hm, qq[1 + j]);
+            }
+        }
+#undef CMAC
+    }
+    for (m = 0; m < 8; m++) out[m] = (double)acc[m];
+}
+
+/* points of a kind (0 uniform in the unit cube, 1 sphere, 2 clustered
+ * toward a corner, density r^-2) */
+static double *points(int kind, int64_t n, uint64_t seed)
+{
+    double *x = t_doubles(3 * n + 3);
+    t_rng r = t_rng_seed(seed);
+    if (kind == 1) t_gen_sphere(&r, n, x);
+    else if (kind == 2) t_gen_corner(&r, n, x);
+    else t_gen_cube(&r, n, x, 0.0, 1.0);
+    return x;
+}
+
+/* the edge of the cube around the points */
+static double extent(int64_t n, const double *x)
+{
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300}, w = 0.0;
+    int64_t i;
+    int d;
+    for (i = 0; i < n; i++)
+        for (d = 0; d < 3; d++) lo[d] = fmin(lo[d], x[3 * i + d]), hi[d] = fmax(hi[d], x[3 * i + d]);
+    for (d = 0; d < 3; d++) w = fmax(w, hi[d] - lo[d]);
+    return w;
+}
+
+static const char *kind_name[3] = {"uniform", "sphere", "corner"};
+
+/* cd 0: helmholtz_grad (fl: float), 1: helmholtz_cd_grad; N sources of a
+ * kind, NT separate uniform targets (0: the sources), order p, a root of
+ * `waves` wavelengths, Im k = ki: the relative L2 error of potential and
+ * gradient at 150 targets against direct_ld, within bound */
+static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, double waves, double ki,
+                     double bound)
+{
+    const int sd = cd ? 8 : 2;
+    double *x = points(kind, N, 7 + (uint64_t)kind), *y = NT ? points(0, NT, 9) : x;
+    double *q = t_densities(11, N, sd, 1, 0), *out = t_doubles(8 * (NT ? NT : N) + 8);
+    const int64_t nt = NT ? NT : N, m = nt < 150 ? nt : 150;
+    kifmm_opts o = t_opts(p, 0, 0);
+    double e2 = 0.0, r2 = 0.0, ref[8];
+    int64_t i, j;
+    int rc, c;
+    o.kernel_param[0] = 2.0 * T_PI * waves / extent(N, x);
+    o.kernel_param[1] = ki;
+    if (cd) {
+        kifmm_helmholtz_cd_grad *h = NULL;
+        rc = kifmm_helmholtz_cd_grad_create(&h, &o, N, x, nt, y);
+        if (!rc) rc = kifmm_helmholtz_cd_grad_evaluate(h, q, out);
+        kifmm_helmholtz_cd_grad_destroy(h);
+    } else if (fl) {
+        float *xf = (float *)t_malloc_or_die((size_t)(3 * N + 1) * sizeof(float));
+        float *qf = (float *)t_malloc_or_die((size_t)(2 * N + 1) * sizeof(float));
+        float *of = (float *)t_malloc_or_die((size_t)(8 * N + 8) * sizeof(float));
+        kifmm_helmholtz_gradf *h = NULL;
+        for (i = 0; i < 3 * N; i++) xf[i] = (float)x[i];
+        for (i = 0; i < 2 * N; i++) qf[i] = (float)q[i];
+        for (i = 0; i < 3 * N; i++) x[i] = xf[i]; /* the reference at the float points */
+        rc = kifmm_helmholtz_gradf_create(&h, &o, N, xf, N, xf);
+        if (!rc) rc = kifmm_helmholtz_gradf_evaluate(h, qf, of);
+        for (i = 0; i < 8 * N; i++) out[i] = of[i];
+        for (i = 0; i < 2 * N; i++) q[i] = qf[i];
+        kifmm_helmholtz_gradf_destroy(h);
+        free(xf), free(qf), free(of);
+    } else {
+        kifmm_helmholtz_grad *h = NULL;
+        rc = kifmm_helmholtz_grad_create(&h, &o, N, x, nt, y);
+        if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, out);
+        kifmm_helmholtz_grad_destroy(h);
+    }
+    CHECK(rc == KIFMM_SUCCESS, "create and evaluate: %s", kifmm_strerror(rc));
+    for (i = 0; i < m && !rc; i++) {
+        j = t_sample_index(i, m, nt);
+        direct_ld(cd, o.kernel_param[0], ki, N, x, q, y + 3 * j, ref);
+        for (c = 0; c < 8; c++) {
+            e2 += (out[8 * j + c] - ref[c]) * (out[8 * j + c] - ref[c]);
+            r2 += ref[c] * ref[c];
+        }
+    }
+    if (!rc)
+        CHECK_ERR(sqrt(e2 / r2), bound, "%s%s %s %lld%s, p = %d, root %.1f wavelengths, Im k %.1f",
+                  cd ? "helmholtz_cd_grad" : "helmholtz_grad", fl ? "f" : "", kind_name[kind], (long long)N,
+                  NT ? " + separate targets" : "", p, waves, ki);
+    free(x), free(q), free(out);
+    if (NT) free(y);
+}
+
+/* KIFMM_ERR_FREQUENCY, a tree of direct sums, periodic and Im k < 0 */
+static void test_refusals(void)
+{
+    const int64_t N = 3000;
+    double *x = points(0, N, 21), *x5 = t_doubles(3 * N), *q = t_densities(22, N, 2, 1, 0);
+    double *o1 = t_doubles(8 * N), *o2 = t_doubles(8 * N), ref[8];
+    kifmm_opts o = t_opts(8, 64, 0); /* leaves of 64: expansions from level 2 */
+    kifmm_helmholtz_grad *h = (kifmm_helmholtz_grad *)x;
+    int64_t i;
+    int rc;
+    t_group("frequency range and refusals");
+    for (i = 0; i < 3 * N; i++) x5[i] = 5.0 * x[i];
+    o.kernel_param[0] = 2.0 * T_PI * 10.0; /* 10 wavelengths a unit: 2.5 on a level-2 box */
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    CHECK(rc == KIFMM_ERR_FREQUENCY && h == NULL, "10 wavelengths at p = 8: %s", kifmm_strerror(rc));
+    o.order = 12;
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    CHECK(rc == KIFMM_ERR_FREQUENCY && h == NULL, "10 wavelengths at p = 12: %s", kifmm_strerror(rc));
+    /* 2 wavelengths a unit, then the points 5 times as far apart */
+    o.order = 8;
+    o.kernel_param[0] = 2.0 * T_PI * 2.0;
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, o1);
+    CHECK(rc == KIFMM_SUCCESS, "2 wavelengths at p = 8: %s", kifmm_strerror(rc));
+    if (!rc) {
+        rc = kifmm_helmholtz_grad_update_points(h, N, x5, N, x5);
+        CHECK(rc == KIFMM_ERR_FREQUENCY, "update_points to 10 wavelengths: %s", kifmm_strerror(rc));
+        rc = kifmm_helmholtz_grad_evaluate(h, q, o2);
+        CHECK(rc == KIFMM_SUCCESS && !memcmp(o1, o2, 8 * (size_t)N * sizeof(double)),
+              "the handle kept its points: %s", kifmm_strerror(rc));
+        kifmm_helmholtz_grad_destroy(h);
+    }
+    /* 60 points, one leaf: direct sums only, at 100 wavelengths */
+    o.kernel_param[0] = 2.0 * T_PI * 100.0;
+    h = NULL;
+    rc = kifmm_helmholtz_grad_create(&h, &o, 60, x, 60, x);
+    if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, o1);
+    CHECK(rc == KIFMM_SUCCESS, "60 points (no expansions) at 100 wavelengths: %s", kifmm_strerror(rc));
+    if (!rc) {
+        double e2 = 0.0, r2 = 0.0;
+        int c;
+        for (i = 0; i < 60; i += 3) {
+            direct_ld(0, o.kernel_param[0], 0.0, 60, x, q, x + 3 * i, ref);
+            for (c = 0; c < 8; c++) e2 += (o1[8 * i + c] - ref[c]) * (o1[8 * i + c] - ref[c]), r2 += ref[c] * ref[c];
+        }
+        CHECK_ERR(sqrt(e2 / r2), 1e-13, "  against the sums");
+    }
+    kifmm_helmholtz_grad_destroy(h);
+    o.kernel_param[0] = 5.0;
+    o.period[0] = o.period[1] = o.period[2] = 1.0;
+    h = (kifmm_helmholtz_grad *)x;
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    CHECK(rc == KIFMM_ERR_PERIODIC && h == NULL, "periodic: %s", kifmm_strerror(rc));
+    o.period[0] = o.period[1] = o.period[2] = 0.0;
+    o.kernel_param[1] = -0.1;
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    CHECK(rc == KIFMM_ERR_PARAM && h == NULL, "Im k < 0: %s", kifmm_strerror(rc));
+    free(x), free(x5), free(q), free(o1), free(o2);
+}
+
+int main(void)
+{
+    test_entries();
+    test_refusals();
+    t_group("FMM against direct sums in long double");
+#ifdef KIFMM_TEST_QUICK
+    fmm_case(0, 0, 0, 4000, 0, 8, 2.0, 0.5, 1e-6);
+    fmm_case(1, 0, 1, 3000, 2000, 8, 2.0, 0.0, 1e-6);
+#else
+    fmm_case(0, 0, 0, 8000, 0, 8, 0.2, 0.0, 1e-6);
+    fmm_case(0, 0, 0, 8000, 0, 8, 2.0, 0.5, 1e-6);
+    fmm_case(1, 0, 1, 6000, 3000, 8, 2.0, 0.0, 1e-6);
+    fmm_case(0, 0, 0, 8000, 0, 8, 3.6, 0.0, 1e-6);
+    fmm_case(0, 0, 2, 8000, 4000, 8, 3.6, 1.0, 1e-6);
+    fmm_case(0, 0, 1, 8000, 0, 8, 3.6, 0.0, 1e-6);
+    fmm_case(1, 0, 0, 8000, 0, 8, 3.6, 0.2, 1e-6);
+    fmm_case(0, 0, 0, 12000, 0, 12, 0.2, 0.0, 1e-9);
+    fmm_case(0, 0, 1, 12000, 0, 12, 2.0, 0.0, 1e-9);
+#endif
+    fmm_case(0, 1, 0, 4000, 0, 4, 2.0, 0.0, 2e-3);
+    return t_finish();
+}
