@@ -608,7 +608,7 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
 #define kifmm_kernel_helmholtz_TRG_DIM 2
 #define kifmm_kernel_helmholtz_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_DEGREE 0
-#define kifmm_kernel_helmholtz_HAS KIFMM_KERNEL__HELM_HAS
+#define kifmm_kernel_helmholtz_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS) /* hook below */
 #define kifmm_kernel_helmholtz_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
@@ -624,7 +624,7 @@ static inline void kifmm_kernel_helmholtz_eval(const double *param, double dx, d
 #define kifmm_kernel_helmholtz_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_grad_DEGREE 0
 #define kifmm_kernel_helmholtz_grad_EQUIV helmholtz
-#define kifmm_kernel_helmholtz_grad_HAS KIFMM_KERNEL__HELM_HAS
+#define kifmm_kernel_helmholtz_grad_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS)
 #define kifmm_kernel_helmholtz_grad_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_grad_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_grad_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
@@ -3088,6 +3088,143 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
 #undef KIFMM_KERNEL__PIO2_2
 #undef KIFMM_KERNEL__PIO2_3
 #undef KIFMM_KERNEL__PIO2_4
+
+/* ------------------------------------------------------------------------ */
+/* Helmholtz near-field hooks (helmholtz, helmholtz_grad; double)           */
+/* ------------------------------------------------------------------------ */
+/* outa[TD i ..] += scale sum_j G q_j (and A q_j d), complex values as (re,
+ * im) pairs (the kernels' formulas, "Helmholtz" above): the sources in
+ * blocks of 128 points copied once into structure-of-arrays
+ * on the stack (charges deinterleaved, zero past the block's end), 1 / r
+ * zeroed where r = 0 (coincident points add nothing), exp(-Im k r) by the
+ * vectorised exp (skipped for Im k = 0) and sin, cos of Re k r by the
+ * vectorised sin and cos above. AVX-512 or AVX2 + FMA builds; others take
+ * the kernels' eval pair by pair. */
+#if defined(__AVX512F__) || (defined(__AVX2__) && defined(__FMA__))
+#define KIFMM_KERNEL__HELM_HOOKS KIFMM_HAS_P2P
+#if defined(__AVX512F__)
+#define KIFMM_KERNEL__HV __m512d
+#define KIFMM_KERNEL__HW 8
+#define KIFMM_KERNEL__HSET1 _mm512_set1_pd
+#define KIFMM_KERNEL__HLOAD _mm512_loadu_pd
+#define KIFMM_KERNEL__HSUB _mm512_sub_pd
+#define KIFMM_KERNEL__HMUL _mm512_mul_pd
+#define KIFMM_KERNEL__HFMA _mm512_fmadd_pd
+#define KIFMM_KERNEL__HFNMA _mm512_fnmadd_pd
+#define KIFMM_KERNEL__HINV(r2)                                                                  \
+    _mm512_maskz_div_pd(_mm512_cmp_pd_mask(r2, _mm512_setzero_pd(), _CMP_GT_OQ), _mm512_set1_pd(1.0), \
+                        _mm512_sqrt_pd(r2))
+#define KIFMM_KERNEL__HEXPN kifmm_kernel__expn8
+#define KIFMM_KERNEL__HSINCOS kifmm_kernel__sincos8
+#define KIFMM_KERNEL__HSUM _mm512_reduce_add_pd
+#else
+#define KIFMM_KERNEL__HV __m256d
+#define KIFMM_KERNEL__HW 4
+#define KIFMM_KERNEL__HSET1 _mm256_set1_pd
+#define KIFMM_KERNEL__HLOAD _mm256_loadu_pd
+#define KIFMM_KERNEL__HSUB _mm256_sub_pd
+#define KIFMM_KERNEL__HMUL _mm256_mul_pd
+#define KIFMM_KERNEL__HFMA _mm256_fmadd_pd
+#define KIFMM_KERNEL__HFNMA _mm256_fnmadd_pd
+#define KIFMM_KERNEL__HINV(r2)                                                                  \
+    _mm256_and_pd(_mm256_cmp_pd(r2, _mm256_setzero_pd(), _CMP_GT_OQ),                            \
+                  _mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(r2)))
+#define KIFMM_KERNEL__HEXPN kifmm_kernel__expn4
+#define KIFMM_KERNEL__HSINCOS kifmm_kernel__sincos4
+static inline double kifmm_kernel__hsum4(__m256d v)
+{
+    const __m128d a = _mm_add_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
+    return _mm_cvtsd_f64(_mm_add_sd(a, _mm_unpackhi_pd(a, a)));
+}
+#define KIFMM_KERNEL__HSUM kifmm_kernel__hsum4
+#endif
+static inline void kifmm_kernel__helm_p2p(const double *param, const double *ax, const double *ay,
+                                          const double *az, int64_t na, const double *bx,
+                                          const double *by, const double *bz, const double *qb,
+                                          int64_t nb, double scale, double *outa, int grad)
+{
+    typedef KIFMM_KERNEL__HV V;
+    enum { SB_ = 128, W_ = KIFMM_KERNEL__HW };
+    const V KR = KIFMM_KERNEL__HSET1(param[0]), KI = KIFMM_KERNEL__HSET1(param[1]);
+    const V ONE = KIFMM_KERNEL__HSET1(1.0), ZERO = KIFMM_KERNEL__HSET1(0.0);
+    const double s = scale * KIFMM_INV_4PI;
+    double px[SB_], py[SB_], pz[SB_], pr[SB_], pi[SB_];
+    int64_t i, j, j0, jb, jp, k;
+    int c;
+    for (j0 = 0; j0 < nb; j0 += SB_) {
+        jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;
+        jp = (jb + W_ - 1) / W_ * W_;
+        for (k = 0; k < jp; k++) {
+            const int in = k < jb;
+            px[k] = in ? bx[j0 + k] : 0.0, py[k] = in ? by[j0 + k] : 0.0, pz[k] = in ? bz[j0 + k] : 0.0;
+            pr[k] = in ? qb[2 * (j0 + k)] : 0.0, pi[k] = in ? qb[2 * (j0 + k) + 1] : 0.0;
+        }
+        for (i = 0; i < na; i++) {
+            const V X = KIFMM_KERNEL__HSET1(ax[i]), Y = KIFMM_KERNEL__HSET1(ay[i]);
+            const V Z = KIFMM_KERNEL__HSET1(az[i]);
+            V o[8];
+            double sums[8];
+            for (c = 0; c < 8; c++) o[c] = ZERO;
+            for (j = 0; j < jp; j += W_) {
+                const V dx = KIFMM_KERNEL__HSUB(X, KIFMM_KERNEL__HLOAD(px + j));
+                const V dy = KIFMM_KERNEL__HSUB(Y, KIFMM_KERNEL__HLOAD(py + j));
+                const V dz = KIFMM_KERNEL__HSUB(Z, KIFMM_KERNEL__HLOAD(pz + j));
+                const V r2 = KIFMM_KERNEL__HFMA(dz, dz, KIFMM_KERNEL__HFMA(dy, dy, KIFMM_KERNEL__HMUL(dx, dx)));
+                const V inv = KIFMM_KERNEL__HINV(r2), qr = KIFMM_KERNEL__HLOAD(pr + j);
+                const V qi = KIFMM_KERNEL__HLOAD(pi + j), r = KIFMM_KERNEL__HMUL(r2, inv);
+                V e = inv, sn, cs, gr, gi;
+                if (param[1] != 0.0) e = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HEXPN(KIFMM_KERNEL__HMUL(KI, r)), inv);
+                KIFMM_KERNEL__HSINCOS(KIFMM_KERNEL__HMUL(KR, r), &sn, &cs);
+                gr = KIFMM_KERNEL__HMUL(e, cs), gi = KIFMM_KERNEL__HMUL(e, sn); /* G */
+                o[0] = KIFMM_KERNEL__HFMA(gr, qr, KIFMM_KERNEL__HFNMA(gi, qi, o[0]));
+                o[1] = KIFMM_KERNEL__HFMA(gr, qi, KIFMM_KERNEL__HFMA(gi, qr, o[1]));
+                if (grad) { /* A q, A = G (i k r - 1) / r^2 */
+                    const V ir2 = KIFMM_KERNEL__HMUL(inv, inv);
+                    const V t0 = KIFMM_KERNEL__HFNMA(KI, r, KIFMM_KERNEL__HSUB(ZERO, ONE)), t1 = KIFMM_KERNEL__HMUL(KR, r);
+                    const V ar = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi, t1, KIFMM_KERNEL__HMUL(gr, t0)), ir2);
+                    const V ai = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi, t0, KIFMM_KERNEL__HMUL(gr, t1)), ir2);
+                    const V aqr = KIFMM_KERNEL__HFNMA(ai, qi, KIFMM_KERNEL__HMUL(ar, qr));
+                    const V aqi = KIFMM_KERNEL__HFMA(ai, qr, KIFMM_KERNEL__HMUL(ar, qi));
+                    o[2] = KIFMM_KERNEL__HFMA(aqr, dx, o[2]), o[3] = KIFMM_KERNEL__HFMA(aqi, dx, o[3]);
+                    o[4] = KIFMM_KERNEL__HFMA(aqr, dy, o[4]), o[5] = KIFMM_KERNEL__HFMA(aqi, dy, o[5]);
+                    o[6] = KIFMM_KERNEL__HFMA(aqr, dz, o[6]), o[7] = KIFMM_KERNEL__HFMA(aqi, dz, o[7]);
+                }
+            }
+            for (c = 0; c < (grad ? 8 : 2); c++) sums[c] = KIFMM_KERNEL__HSUM(o[c]);
+            for (c = 0; c < (grad ? 8 : 2); c++) outa[(grad ? 8 : 2) * i + c] += s * sums[c];
+        }
+    }
+}
+#undef KIFMM_KERNEL__HV
+#undef KIFMM_KERNEL__HW
+#undef KIFMM_KERNEL__HSET1
+#undef KIFMM_KERNEL__HLOAD
+#undef KIFMM_KERNEL__HSUB
+#undef KIFMM_KERNEL__HMUL
+#undef KIFMM_KERNEL__HFMA
+#undef KIFMM_KERNEL__HFNMA
+#undef KIFMM_KERNEL__HINV
+#undef KIFMM_KERNEL__HEXPN
+#undef KIFMM_KERNEL__HSINCOS
+#undef KIFMM_KERNEL__HSUM
+static inline void kifmm_kernel_helmholtz_p2p(const double *param, const double *ax, const double *ay,
+                                              const double *az, int64_t na, const double *bx,
+                                              const double *by, const double *bz, const double *qb,
+                                              int64_t nb, double scale, double *outa)
+{
+    kifmm_kernel__helm_p2p(param, ax, ay, az, na, bx, by, bz, qb, nb, scale, outa, 0);
+}
+static inline void kifmm_kernel_helmholtz_grad_p2p(const double *param, const double *ax,
+                                                   const double *ay, const double *az, int64_t na,
+                                                   const double *bx, const double *by,
+                                                   const double *bz, const double *qb, int64_t nb,
+                                                   double scale, double *outa)
+{
+    kifmm_kernel__helm_p2p(param, ax, ay, az, na, bx, by, bz, qb, nb, scale, outa, 1);
+}
+#else
+#define KIFMM_KERNEL__HELM_HOOKS 0
+#endif
 
 /* ------------------------------------------------------------------------ */
 /* Stokes near-field hooks (stokes): one-way and mutual, double and float   */

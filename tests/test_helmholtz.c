@@ -161,6 +161,54 @@ static void direct_ld(int cd, long double kr, long double ki, int64_t ns, const 
     for (m = 0; m < 8; m++) out[m] = (double)acc[m];
 }
 
+#if KIFMM_KERNEL__HELM_HOOKS
+/* the hooks' reference: sums in long double of G q (td 2) or G q, A q d
+ * (td 8) at target a over nb sources b (3 each), and the sums of the
+ * terms' magnitudes, |G| |q| and |A| |q| r (a component of a complex
+ * product cancels: its rounding is relative to them) */
+static double g_kr, g_ki;
+static void hook_ref(int td, int64_t nb, const double *b, const double *q, const double *a,
+                     double *ref, double *mag)
+{
+    double one[8];
+    int64_t j;
+    int c;
+    for (c = 0; c < 8; c++) ref[c] = mag[c] = 0.0;
+    for (j = 0; j < nb; j++) {
+        const double dx = a[0] - b[3 * j], dy = a[1] - b[3 * j + 1], dz = a[2] - b[3 * j + 2];
+        const double r = sqrt(dx * dx + dy * dy + dz * dz), aq = hypot(q[2 * j], q[2 * j + 1]);
+        const double g = r > 0.0 ? exp(-g_ki * r) / (4.0 * T_PI * r) : 0.0;
+        direct_ld(0, g_kr, g_ki, 1, b + 3 * j, q + 2 * j, a, one);
+        for (c = 0; c < td; c++) ref[c] += one[c];
+        mag[0] += g * aq, mag[1] += g * aq;
+        for (c = 2; c < td; c++) mag[c] += r > 0.0 ? g * hypot(g_ki * r + 1.0, g_kr * r) / r * aq : 0.0;
+    }
+    for (c = 0; c < td; c++) mag[c] += 1e-300;
+}
+static void hook_ref2(int64_t nb, const double *b, const double *q, const double *a, double *ref,
+                      double *mag)
+{
+    hook_ref(2, nb, b, q, a, ref, mag);
+}
+static void hook_ref8(int64_t nb, const double *b, const double *q, const double *a, double *ref,
+                      double *mag)
+{
+    hook_ref(8, nb, b, q, a, ref, mag);
+}
+static void test_hooks(void)
+{
+    static const double ks[3][2] = {{7.3, 0.0}, {20.0, 0.6}, {0.0, 0.0}};
+    int n;
+    t_group("near-field hooks (vectorised sin, cos, exp) against long double");
+    for (n = 0; n < 3; n++) {
+        const double prm[4] = {ks[n][0], ks[n][1], 0.0, 0.0};
+        g_kr = ks[n][0], g_ki = ks[n][1];
+        t_check_hooks("helmholtz", 2, 2, prm, 2e-14, kifmm_kernel_helmholtz_p2p, NULL, hook_ref2);
+        t_check_hooks("helmholtz_grad", 2, 8, prm, 2e-14, kifmm_kernel_helmholtz_grad_p2p, NULL, hook_ref8);
+    }
+}
+#endif
+
 /* points of a kind (0 uniform in the unit cube, 1 sphere, 2 clustered
  * toward a corner, density r^-2) */
 static double *points(int kind, int64_t n, uint64_t seed)
@@ -198,8 +246,10 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
     double *x = points(kind, N, 7 + (uint64_t)kind), *y = NT ? points(0, NT, 9) : x;
     double *q = t_densities(11, N, sd, 1, 0), *out = t_doubles(8 * (NT ? NT : N) + 8);
     const int64_t nt = NT ? NT : N, m = nt < 150 ? nt : 150;
-    kifmm_opts o = t_opts(p, 0, 0);
+    kifmm_opts o = t_opts(p, p >= 12 ? 128 : 64, 0); /* (the default leaves hold 8,000 points) */
+    kifmm_stats st;
     double e2 = 0.0, r2 = 0.0, ref[8];
+    memset(&st, 0, sizeof st);
     int64_t i, j;
     int rc, c;
     o.kernel_param[0] = 2.0 * T_PI * waves / extent(N, x);
@@ -208,6 +258,7 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
         kifmm_helmholtz_cd_grad *h = NULL;
         rc = kifmm_helmholtz_cd_grad_create(&h, &o, N, x, nt, y);
         if (!rc) rc = kifmm_helmholtz_cd_grad_evaluate(h, q, out);
+        if (!rc) rc = kifmm_helmholtz_cd_grad_stats(h, &st);
         kifmm_helmholtz_cd_grad_destroy(h);
     } else if (fl) {
         float *xf = (float *)t_malloc_or_die((size_t)(3 * N + 1) * sizeof(float));
@@ -219,6 +270,7 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
         for (i = 0; i < 3 * N; i++) x[i] = xf[i]; /* the reference at the float points */
         rc = kifmm_helmholtz_gradf_create(&h, &o, N, xf, N, xf);
         if (!rc) rc = kifmm_helmholtz_gradf_evaluate(h, qf, of);
+        if (!rc) rc = kifmm_helmholtz_gradf_stats(h, &st);
         for (i = 0; i < 8 * N; i++) out[i] = of[i];
         for (i = 0; i < 2 * N; i++) q[i] = qf[i];
         kifmm_helmholtz_gradf_destroy(h);
@@ -227,9 +279,11 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
         kifmm_helmholtz_grad *h = NULL;
         rc = kifmm_helmholtz_grad_create(&h, &o, N, x, nt, y);
         if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, out);
+        if (!rc) rc = kifmm_helmholtz_grad_stats(h, &st);
         kifmm_helmholtz_grad_destroy(h);
     }
     CHECK(rc == KIFMM_SUCCESS, "create and evaluate: %s", kifmm_strerror(rc));
+    CHECK(rc || st.levels >= 4, "a tree of %d levels (expansions from level 2 on)", rc ? 0 : st.levels);
     for (i = 0; i < m && !rc; i++) {
         j = t_sample_index(i, m, nt);
         direct_ld(cd, o.kernel_param[0], ki, N, x, q, y + 3 * j, ref);
@@ -309,6 +363,9 @@ static void test_refusals(void)
 int main(void)
 {
     test_entries();
+#if KIFMM_KERNEL__HELM_HOOKS
+    test_hooks();
+#endif
     test_refusals();
     t_group("FMM against direct sums in long double");
 #ifdef KIFMM_TEST_QUICK
