@@ -69,6 +69,8 @@ static void count_free(void *p)
 #include "kifmm.h"
 #define KIFMM_KERNEL stokes_dl
 #include "kifmm.h"
+#define KIFMM_KERNEL helmholtz_grad
+#include "kifmm.h"
 
 #include "../test.h"
 
@@ -233,6 +235,10 @@ T_MPI_API(kifmm_yukawa_cd, double, 4, 1)
 T_MPI_API(kifmm_stokes_pvel, double, 3, 4)
 T_MPI_API(kifmm_biot_savart, double, 3, 3)
 T_MPI_API(kifmm_stokes_dl, double, 6, 3)
+T_MPI_API(kifmm_helmholtz_grad, double, 2, 8)
+
+/* the kernel parameters of run_case (0: each kernel's defaults) */
+static double g_kparam[2];
 
 /* the global sample: every step-th of the NT targets */
 static int64_t sample_step(int64_t NT) { return NT / NSAMPLE > 0 ? NT / NSAMPLE : 1; }
@@ -367,7 +373,9 @@ static void run_case(const m_api *a, int kind, int mode, int64_t NT, int64_t N, 
     int64_t cnt[2];
     kifmm_stats st;
     void *h = NULL;
-    int rc = a->create_mpi(&h, &o, c.ns, c.x, c.nt, c.y);
+    int rc;
+    o.kernel_param[0] = g_kparam[0], o.kernel_param[1] = g_kparam[1];
+    rc = a->create_mpi(&h, &o, c.ns, c.x, c.nt, c.y);
     CHECK(rc == KIFMM_SUCCESS, "%s create_mpi: %s", a->name, kifmm_strerror(rc));
     if (rc) return;
     rc = a->evaluate(h, nv, c.ns, c.q, c.nt, c.out);
@@ -580,6 +588,12 @@ int main(int argc, char **argv)
         group("a kernel with a density map (proxies as the surface kernel's sources)");
         run_case(&kifmm_stokes_dl_m, 2, 0, 0, 10000, 1, 6, 3e-5);
         if (!light) run_case(&kifmm_stokes_dl_m, 1, 1, 6000, 8000, 2, 6, 3e-5);
+        /* (MPI mode's trees may take expansions of boxes twice as wide as one
+         * process's: 2 wavelengths a unit gave KIFMM_ERR_FREQUENCY at p = 6) */
+        group("helmholtz_grad (complex pairs), 1.5 wavelengths a unit, Im k 0.3");
+        g_kparam[0] = 2.0 * T_PI * 1.5, g_kparam[1] = 0.3;
+        run_case(&kifmm_helmholtz_grad_m, 0, 0, 0, 10000, 1, 6, 3e-5);
+        g_kparam[0] = g_kparam[1] = 0.0;
         /* (CONFIGS=all: three handles' operators at p = 8, 35 s on 2 ranks) */
         if (getenv("KIFMM_TEST_MPI_ALL") && *getenv("KIFMM_TEST_MPI_ALL") && g_size == 2)
             run_case(&kifmm_stokes_dl_m, 0, 0, 0, 20000, 1, 8, 1e-7);
