@@ -286,6 +286,41 @@ else
     FAILED="$FAILED kernels/build"
 fi
 
+# ---------------------------------------------------------------- Helmholtz
+# helmholtz_grad against laplace_grad on the same uniform points, a root of 2
+# wavelengths (bench/bench_helmholtz.c), and FMM3D's hfmm3d (charges, potential and
+# gradient) on them at matching error (bench/fmm3d_kernels.py)
+echo
+echo "== Helmholtz: helmholtz_grad against laplace_grad, 2 wavelengths across the cube, ${OMP_NUM_THREADS} threads"
+# shellcheck disable=SC2086
+if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. bench/bench_helmholtz.c \
+        -o "$OUT/bench_helmholtz" -llapacke -lopenblas -lm; then
+    for n in $KNS; do
+        for p in 6 8; do
+            hargs=("$n" "$p" 2 --sample 300 --repeat 2)
+            [ -n "$PY" ] && hargs+=(--dump "$OUT/helmholtz_${n}_${p}.bin")
+            wait_quiet
+            if run_measured "$OUT/bench_helmholtz" "${hargs[@]}" > "$OUT/.hrows"; then
+                sed "/^helm/s/\$/    $BG/" "$OUT/.hrows"
+            else
+                echo "helmholtz $n p $p: FAILED"
+                FAILED="$FAILED helmholtz/$n/$p"
+            fi
+            if [ -n "$PY" ] && [ -f "$OUT/helmholtz_${n}_${p}.bin" ]; then
+                wait_quiet
+                if run_measured "$PY" bench/fmm3d_kernels.py "$OUT/helmholtz_${n}_${p}.bin" > "$OUT/.fh"; then
+                    sed "/^#/!s/\$/    $BG/" "$OUT/.fh"
+                else
+                    echo "fmm3d helmholtz $n p $p: FAILED"
+                fi
+            fi
+        done
+    done
+else
+    echo "bench_helmholtz: build failed"
+    FAILED="$FAILED helmholtz/build"
+fi
+
 # ---------------------------------------------------------------- periodic boundaries
 # the same uniform points in the unit cell, free space and periodic (bench/bench_periodic.c)
 echo
