@@ -243,9 +243,10 @@ extern "C++" {
       "with these periodic directions and this kernel the densities must sum to zero "        \
       "(docs/api.md, \"Periodic boundaries\")")                                               \
     X(KIFMM_ERR_TOL, -16,                                                                     \
-      "opts.tol is negative, not finite, set together with opts.order, or below what the "    \
+      "opts.tol is negative, not finite, set together with opts.order, below what the "       \
       "largest order reaches for the kernel (laplace: about 2.6e-11; docs/api.md, "           \
-      "\"Tolerance\"; float instances 2e-5)")                                                 \
+      "\"Tolerance\"; float instances 2e-5), or set for an oscillating kernel (Helmholtz: "   \
+      "set opts.order)")                                                                      \
     X(KIFMM_ERR_VERBOSE, -17, "opts.verbose is neither 0 nor 1")                              \
     X(KIFMM_ERR_RANGE, -18,                                                                   \
       "a coordinate or period is beyond KIFMM_COORD_MAX (1e150; float 1e18), or a period or "  \
@@ -7856,8 +7857,11 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
     if (!rc) rc = KIFMM__F(__params)(o->kernel_param, param);
     if (!rc) memcpy(o->kernel_param, param, sizeof param);
 #if KIFMM__HAS_QT & KIFMM_HAS_WAVES
-    /* oscillating kernels: free space only (no quasi-periodic boundaries yet) */
+    /* oscillating kernels: free space only (no quasi-periodic boundaries
+     * yet), and opts.order, not opts.tol (laplace's table, which tol would
+     * take, misses the frequency: 1.4e-5 at tol 1e-5, p = 6, 0.875 wavelengths) */
     if (!rc && (o->period[0] > 0.0 || o->period[1] > 0.0 || o->period[2] > 0.0)) rc = KIFMM_ERR_PERIODIC;
+    if (!rc && opts && opts->tol != 0.0) rc = KIFMM_ERR_TOL;
 #endif
     return rc;
 }

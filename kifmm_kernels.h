@@ -582,11 +582,14 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
     g[0] = e * cos(param[0] * r), g[1] = e * sin(param[0] * r); /* G */
     kifmm_kernel__cput(k, ld, 0, 0, g[0], g[1]);
     if (rows == 1 && !cd) return;
-    t[0] = -param[1] * r - 1.0, t[1] = param[0] * r;           /* z - 1 */
-    a[0] = (g[0] * t[0] - g[1] * t[1]) * ir2, a[1] = (g[0] * t[1] + g[1] * t[0]) * ir2;
-    t[0] = 3.0 + 3.0 * param[1] * r + param[1] * param[1] * r * r - param[0] * param[0] * r * r;
-    t[1] = -3.0 * param[0] * r - 2.0 * param[1] * param[0] * r * r; /* 3 - 3 z + z^2 */
-    b[0] = (g[0] * t[0] - g[1] * t[1]) * ir2 * ir2, b[1] = (g[0] * t[1] + g[1] * t[0]) * ir2 * ir2;
+    if (g[0] == 0.0 && g[1] == 0.0) return; /* exp(-Im k r) below the range: all zero */
+    /* (z - 1) / r^2 = u / r - 1 / r^2 and (3 - 3 z + z^2) / r^4 = 3 / r^4 - 3 u
+     * / r^3 + u^2 / r^2, u = i k: no k^2 r^2, which overflows first */
+    t[0] = -param[1] * inv - ir2, t[1] = param[0] * inv;
+    a[0] = g[0] * t[0] - g[1] * t[1], a[1] = g[0] * t[1] + g[1] * t[0];
+    t[0] = 3.0 * ir2 * ir2 + 3.0 * param[1] * ir2 * inv + (param[1] * param[1] - param[0] * param[0]) * ir2;
+    t[1] = -3.0 * param[0] * ir2 * inv - 2.0 * param[1] * param[0] * ir2;
+    b[0] = g[0] * t[0] - g[1] * t[1], b[1] = g[0] * t[1] + g[1] * t[0];
     for (i = 0; i < 3 && rows > 1; i++) kifmm_kernel__cput(k, ld, 1 + i, 0, a[0] * d[i], a[1] * d[i]);
     for (j = 0; j < 3 && cd; j++) {
         kifmm_kernel__cput(k, ld, 0, 1 + j, -a[0] * d[j], -a[1] * d[j]);
@@ -600,8 +603,12 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
  * KIFMM_MAX_ORDER): the largest of 0.25, 0.375, ..., 2 at which helmholtz
  * (20,000 uniform points, Im k = 0, the level-2 boxes' expansions the
  * widest) stayed within 10 times its error at 0.05 wavelengths, with every
- * smaller width (docs/kernels.md, "Helmholtz") */
-#define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.625, 0.75, 0.875, 0.875, 1.0, 1.0, 1.25, 1.25, 1.25}
+ * smaller width, and at most 0.8: a box whose inner surface (the box
+ * itself) is sqrt(3) / 2 = 0.866 wavelengths wide is at the cube's first
+ * interior resonance, where the pseudo-inverses fit anything (p = 8 at
+ * 0.8660254 wavelengths: error 4.8e3; the next resonances, 1.2247 and 1.5,
+ * break p = 10 to 12 too) (docs/kernels.md, "Helmholtz") */
+#define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.625, 0.75, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8}
 
 /* helmholtz: charges -> potential (a complex pair each) */
 #define kifmm_kernel_helmholtz_SRC_DIM 2
