@@ -606,8 +606,8 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
  * smaller width, and at most 0.8: a box whose inner surface (the box
  * itself) is sqrt(3) / 2 = 0.866 wavelengths wide is at the cube's first
  * interior resonance, where the pseudo-inverses fit anything (p = 8 at
- * 0.8660254 wavelengths: error 4.8e3; the next resonances, 1.2247 and 1.5,
- * break p = 10 to 12 too) (docs/kernels.md, "Helmholtz") */
+ * 0.8660254 wavelengths: error 4.8e3; p = 10 there 0.54, and 0.13 at the
+ * next resonance, 1.2247) (docs/kernels.md, "Helmholtz") */
 #define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.625, 0.75, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8}
 
 /* helmholtz: charges -> potential (a complex pair each) */
