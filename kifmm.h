@@ -2632,6 +2632,33 @@ KIFMM__FN double kifmm__alpha_inner(int sd, int narrow)
                   : sd > 1 ? KIFMM__ALPHA_INNER_MULTI : KIFMM__ALPHA_INNER;
 }
 
+/* An oscillating kernel's inner surfaces, for boxes x wavelengths wide: the
+ * check-to-equivalent solves determine nothing where the inner surface, a
+ * cube a x wavelengths wide (a = the radius in half-widths), is at one of
+ * its interior Dirichlet resonances, sqrt(i^2 + j^2 + k^2) / 2 wavelengths
+ * wide (i, j, k >= 1: 0.866, 1.2247, 1.5, ...). The errors peak sharply
+ * there (docs/kernels.md: p = 10 eleven times its neighbours' 0.02 % from
+ * 1.2247, 1.2 times 0.4 % away; p = 8 within 10 % of smooth 0.5 % from
+ * 0.866): the radius nearest `base` (in steps of 0.25 %, within 10 %) that
+ * keeps 1.5 % from each of them; `base` for every box narrower than 0.85
+ * wavelengths. */
+#define KIFMM__WAVES_GAP 0.015
+KIFMM__FN double kifmm__alpha_waves(double base, double x)
+{
+    static const unsigned char m[] = {3,  6,  9,  11, 12, 14, 17, 18, 19, 21, 22, 24, 26, 27, 29,
+                                      30, 33, 34, 35, 36, 38, 41, 42, 43, 44, 45, 46, 48, 49, 50};
+    int j, i, ok;
+    for (j = 0; j <= 80; j++) {
+        const double a = base * (1.0 + ((j & 1) ? 0.0025 : -0.0025) * ((j + 1) / 2));
+        for (i = 0, ok = 1; i < (int)sizeof m && ok; i++) {
+            const double s = 0.5 * sqrt((double)m[i]);
+            ok = fabs(a * x - s) >= KIFMM__WAVES_GAP * s;
+        }
+        if (ok) return a;
+    }
+    return base; /* (boxes this wide are refused: KIFMM_ERR_FREQUENCY) */
+}
+
 
 /* ---- operators in double (every instance builds its own) ------------------ */
 
@@ -4590,6 +4617,20 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
         for (i = 0; i < n; i++) out[d * n + i] = (KIFMM__R)(c[d] + radius * unit[d * n + i]);
 }
 
+/* The inner surfaces' radius (upward equivalent, downward check) of boxes of
+ * half-width r: ai r, for an oscillating kernel moved off the resonances
+ * (kifmm__alpha_waves). Every surface, operator and grid of a level takes
+ * it from here. */
+KIFMM__FN double KIFMM__F(__rin)(const KIFMM__F(_plan) *pl, double r)
+{
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+    const double x = KIFMM__K(_wavenumber)(pl->opts.kernel_param) * r / 3.14159265358979323846;
+    return kifmm__alpha_waves(pl->surf.ai, x) * r;
+#else
+    return pl->surf.ai * r;
+#endif
+}
+
 // >>kernels
 
 /* The signature of the instance's direct-interaction loops below. */
@@ -4797,12 +4838,12 @@ KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, double ao, 
     o->kdn = (double *)kifmm__alloc(nn, sizeof(double));
     if (!o->kup || !o->kdn) return KIFMM_ERR_NOMEM;
     rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, ao * r, c->pl->surf.unit_e,
-                               c->pl->surf.nse, zero, c->pl->surf.ai * r, 1.0, o->kup,
+                               c->pl->surf.nse, zero, KIFMM__F(__rin)(c->pl, r), 1.0, o->kup,
                                (size_t)c->pl->surf.nc, &big);
     if (rc) return rc;
     o->sigma = big >= KIFMM__TINY ? 1.0 / big : 0.0;
     for (i = 0; i < nn; i++) o->kup[i] *= o->sigma;
-    return KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ai * r,
+    return KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
                                  c->pl->surf.unit_e, c->pl->surf.nse, zero, ao * r, o->sigma, o->kdn,
                                  (size_t)c->pl->surf.nc, NULL);
 }
@@ -4879,10 +4920,10 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
             cl[d] = -r * sgn[d];
         }
         rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ao * r, c->pl->surf.unit_e, c->pl->surf.nse, cm,
-                                   c->pl->surf.ai * 0.5 * r, o->sigma,
+                                   KIFMM__F(__rin)(c->pl, 0.5 * r), o->sigma,
                                    o->m2m + (size_t)oct * ne * nc, nc, NULL);
         if (!rc)
-            rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ai * r,
+            rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
                                        c->pl->surf.unit_e, c->pl->surf.nse, cl, c->pl->surf.ao * 2.0 * r, o->sigma,
                                        o->l2l + (size_t)oct * nc, 8 * nc, NULL);
     }
@@ -4916,10 +4957,10 @@ KIFMM__FN int KIFMM__F(__build_conv)(const KIFMM_NAME *c, double r, kifmm__ops *
     if (!kb || !a || !uf) { rc = KIFMM_ERR_NOMEM; goto done; }
     kifmm__surf_unit(qf, uf);
     rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->pl->surf.ao * r, c->pl->surf.unit_e, c->pl->surf.nse, zero,
-                               c->pl->surf.ai * r, 1.0, kb, (size_t)nf, NULL);
+                               KIFMM__F(__rin)(c->pl, r), 1.0, kb, (size_t)nf, NULL);
     if (!rc)
         rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->pl->surf.ao * r, c->pl->surf.unit_c, c->pl->surf.nsc,
-                                   zero, c->pl->surf.ai * r, 1.0, a, (size_t)nf, NULL);
+                                   zero, KIFMM__F(__rin)(c->pl, r), 1.0, a, (size_t)nf, NULL);
     if (!rc) rc = kifmm__pinv(a, nf, nc, KIFMM__CUTOFF, &ut, &vs, &k);
     if (rc) goto done;
     tmp = (double *)kifmm__alloc((size_t)k * ne, sizeof(double));
@@ -4951,7 +4992,7 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
     const kifmm__fft *pl = &c->pl->fft;
     const int n = pl->n, p = pl->p;
     const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
-    const double h = 2.0 * c->pl->surf.ai * r / (p - 1);
+    const double h = 2.0 * KIFMM__F(__rin)(c->pl, r) / (p - 1);
     double *gall = (double *)kifmm__alloc((size_t)nth * per, sizeof(double)), mx = 0.0;
     int bad = 0;
     if (!gall) return KIFMM_ERR_NOMEM;
@@ -5072,8 +5113,8 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
             cs[0] = 2.0 * r * d[0];
             cs[1] = 2.0 * r * d[1];
             cs[2] = 2.0 * r * d[2];
-            bad |= KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ai * r,
-                                         c->pl->surf.unit_e, c->pl->surf.nse, cs, c->pl->surf.ai * r,
+            bad |= KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
+                                         c->pl->surf.unit_e, c->pl->surf.nse, cs, KIFMM__F(__rin)(c->pl, r),
                                          o->sigma, kall + (size_t)k * nc * ne, (size_t)nc,
                                          NULL) != KIFMM_SUCCESS;
         }
@@ -7121,7 +7162,7 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     double ctr[3], half;
     int32_t e;
     kifmm__box_center(t, b, ctr, &half);
-    KIFMM__F(__place)(c->pl->surf.unit_c, nsc, KIFMM__FLOAT ? zero : ctr, c->pl->surf.ai * half, pc);
+    KIFMM__F(__place)(c->pl->surf.unit_c, nsc, KIFMM__FLOAT ? zero : ctr, KIFMM__F(__rin)(c->pl, half), pc);
     if (a >= 0 && a != t->parent[b]) {
         double ac[3], ah;
         kifmm__box_center(t, a, ac, &ah);
@@ -7144,7 +7185,7 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
         for (d = 0; d < 3; d++) fc[d] = cs[d] = ctr[d] - sh[d] * t->cell;
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
         if (!KIFMM__FLOAT && t->periodic)
-            KIFMM__F(__place)(c->pl->surf.unit_c, nsc, cs, c->pl->surf.ai * half, pc);
+            KIFMM__F(__place)(c->pl->surf.unit_c, nsc, cs, KIFMM__F(__rin)(c->pl, half), pc);
 #if defined(KIFMM_MPI)
         if (c->px.cum) {
             KIFMM__F(__p2p_roles)(c, w, KIFMM__F(__p2p_qc), KIFMM__F(__p2p_sc), pc, pc + nsc, pc + 2 * nsc,
@@ -7228,7 +7269,7 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
             }
             kifmm__box_center(t, b, cb, &hb);
             kifmm__sub3(cb, c0, cb);
-            KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, cb, c->pl->surf.ai * hb, pe);
+            KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, cb, KIFMM__F(__rin)(c->pl, hb), pe);
             KIFMM__F(__p2p_sc)(c->opts.kernel_param, pu + i0, pu + nu + i0, pu + 2 * nu + i0, n, pe,
                                pe + c->pl->surf.nse, pe + 2 * c->pl->surf.nse, w->ue + (size_t)b * c->pl->surf.ne,
                                c->pl->surf.nse, nrhs, per, 1.0, phi + (size_t)i0 * KIFMM__SD, (size_t)mu);
@@ -7245,7 +7286,7 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
         if (t->t1[b] == t->t0[b] || t->child[b] < 0) continue;
         kifmm__box_center(t, b, cb, &hb);
         kifmm__sub3(cb, c0, cb);
-        KIFMM__F(__place)(c->pl->surf.unit_c, c->pl->surf.nsc, cb, c->pl->surf.ai * hb, pc);
+        KIFMM__F(__place)(c->pl->surf.unit_c, c->pl->surf.nsc, cb, KIFMM__F(__rin)(c->pl, hb), pc);
         KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc,
                            c->pl->surf.nsc, pu, pu + nu, pu + 2 * nu, psi, nu, nrhs, (size_t)mu, scale,
                            w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc, cst);
@@ -7288,10 +7329,11 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
 
 /* out += the field, at nt targets (coordinates in the frame centred at fc,
  * see __frame), of densities (vector stride nbox ne) on the surface of
- * image s of box a (radius alpha half-widths); pe holds the placed surface;
+ * image s of box a (its inner surface, or its outer one where inner is 0);
+ * pe holds the placed surface;
  * vector r's outputs from out + r old on. */
 KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
-                                        int32_t a, int s, double alpha, const KIFMM__R *dens,
+                                        int32_t a, int s, int inner, const KIFMM__R *dens,
                                         const double *fc, const KIFMM__R *tx,
                                         const KIFMM__R *ty, const KIFMM__R *tz, int64_t nt,
                                         KIFMM__R *pe, KIFMM__R *out, size_t old)
@@ -7301,7 +7343,8 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
     kifmm__box_center(c->tree, a, ctr, &half);
     kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree->cell - fc[d]; /* in the targets' frame */
-    KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, ctr, alpha * half, pe);
+    KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, ctr,
+                      inner ? KIFMM__F(__rin)(c->pl, half) : c->pl->surf.ao * half, pe);
     KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + c->pl->surf.nse, pe + 2 * c->pl->surf.nse, dens, c->pl->surf.nse,
                     nrhs, (size_t)c->tree->nbox * c->pl->surf.ne, 1.0, out, old);
     (void)w;
@@ -7409,7 +7452,7 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
         xf = KIFMM__F(__frame)(c->pts.trg, &ld, t0, ntb, fc, KIFMM__F(__framebuf)(c));
     }
     if (c->dsrc[b] >= 0)
-        KIFMM__F(__from_surface)(c, w, nrhs, c->dsrc[b], KIFMM__NOSHIFT, c->pl->surf.ao,
+        KIFMM__F(__from_surface)(c, w, nrhs, c->dsrc[b], KIFMM__NOSHIFT, 0,
                                  w->de + (size_t)c->dsrc[b] * c->pl->surf.ne, fc, xf, xf + ld,
                                  xf + 2 * ld, ntb, pe, out, old);
     c1 = kifmm__now();
@@ -7419,7 +7462,7 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
         if (t->s1[a] - t->s0[a] <= c->pl->surf.nse)
             KIFMM__F(__from_sources)(c, w, nrhs, a, s, tx, ty, tz, ntb, out, old);
         else
-            KIFMM__F(__from_surface)(c, w, nrhs, a, s, c->pl->surf.ai,
+            KIFMM__F(__from_surface)(c, w, nrhs, a, s, 1,
                                      w->ue + (size_t)a * c->pl->surf.ne, fc, xf, xf + ld, xf + 2 * ld,
                                      ntb, pe, out, old);
     }
@@ -9571,7 +9614,7 @@ KIFMM__FN int KIFMM__F(__mpi_qc)(const KIFMM_NAME *c, double w, double *a)
     int i, j, q, s, ok = 1;
     if (!pc) return KIFMM_ERR_NOMEM;
     kifmm__surf_place(c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao * w, pc);
-    kifmm__surf_place(c->pl->surf.unit_e, nse, zero, c->pl->surf.ai * w, pe);
+    kifmm__surf_place(c->pl->surf.unit_e, nse, zero, KIFMM__F(__rin)(c->pl, w), pe);
     for (j = 0; j < nse; j++)
         for (i = 0; i < nsc; i++) {
             KIFMM__R_(QC, _eval)(c->opts.kernel_param, pc[i] - pe[j], pc[nsc + i] - pe[nse + j],
@@ -9655,7 +9698,7 @@ KIFMM__FN int KIFMM__F(__mpi_apply)(const KIFMM_NAME *c, double w, const double 
     size_t i;
     int rc = b && t ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
     if (!rc) rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao * w, c->pl->surf.unit_e,
-                                        nse, zero, c->pl->surf.ai * w, 1.0, b, (size_t)nc, NULL);
+                                        nse, zero, KIFMM__F(__rin)(c->pl, w), 1.0, b, (size_t)nc, NULL);
     if (!rc) {
         for (i = 0; i < (size_t)nc * ne; i++) b[i] *= rs[i % (size_t)nc % KIFMM__SD];
         memset(f, 0, (size_t)nq * ne * sizeof(double));
@@ -9855,7 +9898,7 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
         for (d = 0; d < 3; d++) {
             const double c = m->root[d] - m->root[3] + (a[d + 1] + 0.5) * w;
             for (q = 0; q < nse; q++)
-                xs[3 * (j + q) + d] = (KIFMM__R)(c + m->pl->surf.ai * 0.5 * w * m->pl->surf.unit_e[d * nse + q]);
+                xs[3 * (j + q) + d] = (KIFMM__R)(c + KIFMM__F(__rin)(m->pl, 0.5 * w) * m->pl->surf.unit_e[d * nse + q]);
         }
     }
     rc = KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, nsm, xs, m->nto, m->to);

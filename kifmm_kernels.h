@@ -64,8 +64,9 @@ extern "C++" {
  * always), which tol never takes; without it, laplace's table); and WAVES,
  * an oscillating kernel (helmholtz): kifmm_kernel_NAME_wavenumber(param)
  * gives the real part of its wavenumber, from which create refuses boxes
- * too many wavelengths wide for the order (KIFMM_ERR_FREQUENCY), and
- * periodic options are refused. A misspelt bit stops the build. */
+ * too many wavelengths wide for the order (KIFMM_ERR_FREQUENCY) and moves
+ * each level's inner surfaces off their interior resonances, and periodic
+ * options are refused. A misspelt bit stops the build. */
 #define KIFMM_HAS_SETUP 1
 #define KIFMM_HAS_P2P 2
 #define KIFMM_HAS_P2PF 4
@@ -600,15 +601,16 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
 }
 #define KIFMM_KERNEL__HELM_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_WAVES)
 /* The widest box an expansion may span, in wavelengths, per order (0 to
- * KIFMM_MAX_ORDER): the largest of 0.25, 0.375, ..., 2 at which helmholtz
- * (20,000 uniform points, Im k = 0, the level-2 boxes' expansions the
- * widest) stayed within 10 times its error at 0.05 wavelengths, with every
- * smaller width, and at most 0.8: a box whose inner surface (the box
- * itself) is sqrt(3) / 2 = 0.866 wavelengths wide is at the cube's first
- * interior resonance, where the pseudo-inverses fit anything (p = 8 at
- * 0.8660254 wavelengths: error 4.8e3; p = 10 there 0.54, and 0.13 at the
- * next resonance, 1.2247) (docs/kernels.md, "Helmholtz") */
-#define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.625, 0.75, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8, 0.8}
+ * KIFMM_MAX_ORDER): the widest at which helmholtz (bench/bench_waves.c:
+ * 20,000 uniform points in a fixed unit root, Im k = 0, the level-2 boxes'
+ * expansions the widest; steps of 0.02 at p = 6 and 8, 0.05 at 4 and 5,
+ * 0.1 above) stayed within 100 times its error at 0.05 wavelengths (two
+ * digits), with every smaller width, and at most 1.6 (measured to 1.7;
+ * p = 2, 3 kept at 0.5). The inner surfaces move off their interior
+ * resonances (kifmm.h, kifmm__alpha_waves), which had capped every order
+ * at 0.8: p = 8 gave an error of 4.8e3 at 0.8660254 wavelengths, 3.4e-8
+ * since (docs/kernels.md, "Helmholtz"). */
+#define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.9, 1.0, 1.1, 1.2, 1.34, 1.5, 1.6, 1.6, 1.6}
 
 /* helmholtz: charges -> potential (a complex pair each) */
 #define kifmm_kernel_helmholtz_SRC_DIM 2

@@ -589,7 +589,7 @@ int main(int argc, char **argv)
         run_case(&kifmm_stokes_dl_m, 2, 0, 0, 10000, 1, 6, 3e-5);
         if (!light) run_case(&kifmm_stokes_dl_m, 1, 1, 6000, 8000, 2, 6, 3e-5);
         /* (MPI mode's trees may take expansions of boxes twice as wide as one
-         * process's: 2 wavelengths a unit gave KIFMM_ERR_FREQUENCY at p = 6) */
+         * process's: half the wavelengths a unit; docs/kernels.md) */
         group("helmholtz_grad (complex pairs), 1.5 wavelengths a unit, Im k 0.3");
         g_kparam[0] = 2.0 * T_PI * 1.5, g_kparam[1] = 0.3;
         run_case(&kifmm_helmholtz_grad_m, 0, 0, 0, 10000, 1, 6, 3e-5);
