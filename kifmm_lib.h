@@ -160,6 +160,27 @@ const char *kifmm_lib_strerror(int code);
 #endif
 #define KIFMM_KERNEL biot_savart_grad
 #include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL helmholtz
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL helmholtz_grad
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL helmholtz_cd_grad
+#include "kifmm.h"
 #endif
 
 /* ---- float ---- */
@@ -306,6 +327,30 @@ const char *kifmm_lib_strerror(int code);
 #define KIFMM_DECLARE
 #endif
 #define KIFMM_KERNEL biot_savart_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL helmholtz
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL helmholtz_grad
+#define KIFMM_REAL float
+#include "kifmm.h"
+#ifdef KIFMM_LIB_IMPLEMENT
+#define KIFMM_IMPLEMENT
+#else
+#define KIFMM_DECLARE
+#endif
+#define KIFMM_KERNEL helmholtz_cd_grad
 #define KIFMM_REAL float
 #include "kifmm.h"
 #endif

@@ -29,12 +29,15 @@ import numpy as np
 
 from . import _kernels
 
-__all__ = ["FMM", "Plan", "direct", "estimate_bytes", "kernel_help", "KERNELS", "KifmmError",
+__all__ = ["FMM", "Plan", "direct", "estimate_bytes", "kernel_help", "KERNELS", "COMPLEX", "KifmmError",
            "OptionError", "MAX_ORDER", "MAX_DEPTH", "MAX_THREADS", "MAX_POINTS"]
 __version__ = "0.2.0"
 
-# name: (density components per source, output components per target)
+# name: (density components per source, output components per target;
+# complex numbers for the complex kernels, kifmm.COMPLEX)
 KERNELS = {k.name: (_kernels.src_dim(k), _kernels.trg_dim(k)) for k in _kernels.KERNEL_TABLE}
+# the kernels whose densities and outputs are complex (helmholtz)
+COMPLEX = frozenset(k.name for k in _kernels.KERNEL_TABLE if k.value == "complex")
 
 # kifmm.h's limits, as the library was compiled with them (a test compares
 # them with kifmm.h)
@@ -260,10 +263,25 @@ def _kernel(kernel):
 
 
 def _dtype(dtype):
+    """the instance's real type: float64 or float32 (complex128 and complex64
+    name them too, for the complex kernels' sake)"""
     dt = np.dtype(dtype)
+    if dt == np.dtype(np.complex128):
+        dt = np.dtype(np.float64)
+    elif dt == np.dtype(np.complex64):
+        dt = np.dtype(np.float32)
     if dt not in (np.dtype(np.float64), np.dtype(np.float32)):
-        raise TypeError(f"kifmm: dtype must be float64 or float32, not {dt}")
+        raise TypeError(f"kifmm: dtype must be float64 or float32 (or complex128, complex64), "
+                        f"not {dt}")
     return dt.type
+
+
+def _values(kernel, dtype):
+    """the type of the kernel's densities and outputs: dtype, or its complex
+    type for a complex kernel"""
+    if kernel not in COMPLEX:
+        return dtype
+    return np.complex128 if dtype == np.float64 else np.complex64
 
 
 def _real(a, dtype, what):
@@ -335,6 +353,8 @@ def _kernel_param(kernel, v, where):
     would be the C default, not a zero screening or viscosity, and a value
     given to a kernel without parameters would be ignored: both refused."""
     out = [0.0] * 4
+    if kernel in COMPLEX:
+        return _wavenumber(kernel, v, where)
     if v is None:
         return out
     prm = _reals(v, "kernel_param", where, [(), (1,), (2,), (3,), (4,)], _ERR_PARAM)
@@ -429,14 +449,38 @@ def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size
     return o
 
 
+def _wavenumber(kernel, v, where):
+    """a complex kernel's kernel_param, the wavenumber k (a complex or real
+    number, needed), as (Re k, Im k, 0, 0)"""
+    p = _kernels.BY_NAME[kernel].param
+    if v is None:
+        raise OptionError(_ERR_PARAM, where, f"kernel {kernel!r} needs kernel_param, "
+                          f"{p.symbol}: {p.meaning} ({p.valid})")
+    if not isinstance(v, numbers.Complex) or isinstance(v, (bool, np.bool_)):
+        raise TypeError(f"{where}: kernel_param of {kernel!r} must be a number (the wavenumber, "
+                        f"complex or real), not {_show(v)}")
+    k = complex(v)
+    if not (np.isfinite(k.real) and np.isfinite(k.imag) and abs(k.real) <= p.hi
+            and 0.0 <= k.imag <= p.hi):
+        raise OptionError(_ERR_PARAM, where, f"kernel_param: {kernel!r} needs {p.valid}, not {v!r}")
+    return [k.real, k.imag, 0.0, 0.0]
+
+
 def _count(v, name, where):
     return _int(v, name, 0, MAX_POINTS, where, _ERR_COUNT, None)
 
 
 def _densities(d, dtype, ns, sd):
     """(arr, nrhs, lead): the densities as a C-contiguous block of nrhs
-    vectors; lead is the leading axis's length or None."""
-    arr = _real(d, dtype, "densities")
+    vectors; lead is the leading axis's length or None. dtype complex: real
+    or complex numbers, as complex ones (their (re, im) pairs are C's)."""
+    if np.issubdtype(dtype, np.complexfloating):
+        arr = np.asarray(d)
+        if arr.dtype.kind not in "fiubc":
+            raise TypeError(f"kifmm: densities must be numbers, not {arr.dtype}")
+        arr = np.ascontiguousarray(arr, dtype=dtype)
+    else:
+        arr = _real(d, dtype, "densities")
     shapes = [(ns, sd)] + ([(ns,)] if sd == 1 else [])
     if arr.shape in shapes:
         return arr, 1, None
@@ -509,13 +553,21 @@ class FMM:
     tol           instead of order: the relative L2 error wanted, a finite
                   number > 0 (below), ``options["order"]`` reports the
                   order picked
-    dtype         numpy.float64 or numpy.float32 (the float instances)
+    dtype         numpy.float64 or numpy.float32 (the float instances);
+                  complex128 and complex64 name the same two. Complex
+                  kernels (kifmm.COMPLEX: helmholtz) take complex densities
+                  (real ones are read as complex) and return complex
+                  outputs, of the matching complex type
     nthreads      OpenMP threads, 0 to 1024 (None or 0: all)
     kernel_param  the kernel's parameter (yukawa kernels: lambda > 0;
                   stokes, stokes_grad, stokes_pvel: the viscosity mu > 0),
                   a number or a list of up to 4; None: the default (1). An
                   explicit 0 is refused, and so is a nonzero value for a
-                  kernel without parameters
+                  kernel without parameters. Helmholtz kernels: the
+                  wavenumber k, a complex (or real) number with Im k >= 0
+                  (damped waves), needed; the boxes that carry expansions
+                  may be at most 0.5 to 1.6 wavelengths wide, by order
+                  (else KifmmError, code -25; docs/kernels.md)
     leaf_size     points per leaf, an integer >= 1 (None or 0: chosen per
                   order)
     max_depth     deepest tree level, 1 to 20 (None or 0: 16); boxes there
@@ -703,10 +755,11 @@ class FMM:
         with self._lock:
             # the counts are read under the lock: update_points may change them
             h = self._handle()
-            d, nrhs, lead = _densities(densities, self.dtype, self.nsources, self.src_dim)
+            vt = _values(self.kernel, self.dtype)
+            d, nrhs, lead = _densities(densities, vt, self.nsources, self.src_dim)
             shape = (self.ntargets, self.trg_dim) if lead is None else (lead, self.ntargets,
                                                                         self.trg_dim)
-            out = np.empty(shape, dtype=self.dtype)
+            out = np.empty(shape, dtype=vt)
             if nrhs == 0:
                 return out
             if nrhs == 1:
@@ -853,10 +906,10 @@ def direct(kernel, sources, densities, targets, kernel_param=None, *, dtype=np.f
     opts = _opts("kifmm.direct", kernel, nthreads=nthreads, kernel_param=kernel_param)
     src = _points(sources, dt, "sources")
     trg = _points(targets, dt, "targets")
-    d, nrhs, lead = _densities(densities, dt, src.shape[0], sd)
+    d, nrhs, lead = _densities(densities, _values(kernel, dt), src.shape[0], sd)
     if lead is not None:
         raise ValueError("kifmm.direct: one density set (no leading axis)")
-    out = np.empty((trg.shape[0], td), dtype=dt)
+    out = np.empty((trg.shape[0], td), dtype=_values(kernel, dt))
     rc = f["direct"](ctypes.byref(opts), src.shape[0], _ptr(src), _ptr(d), trg.shape[0],
                      _ptr(trg), _ptr(out))
     if rc != 0:

@@ -5,17 +5,24 @@ The formulas are those of the _eval functions of kifmm_kernels.h."""
 from collections import namedtuple
 
 Param = namedtuple("Param", "symbol meaning default lo hi valid")
-Kernel = namedtuple("Kernel", "name summary densities outputs formula param degree")
+Kernel = namedtuple("Kernel", "name summary densities outputs formula param degree value",
+                    defaults=("real",))
 # densities: ((symbol, count, meaning), ...) in the order they are passed per
 # source; outputs: ((label, count, meaning), ...) in the order they come per
 # target;
 # degree: the surface kernel's degree of homogeneity (-1), None when it is
-# not scale invariant (operators built per tree level)
+# not scale invariant (operators built per tree level); value: "real", or
+# "complex" (densities, outputs and the counts above are complex numbers,
+# (re, im) pairs of reals in C: SRC_DIM and TRG_DIM are twice the counts)
 
 # lo and hi are the bounds of kifmm_kernels.h's setup functions, inclusive
 LAMBDA = Param("lambda", "the screening constant (an inverse length)", 1.0, 5e-324, 1e300,
                "0 < lambda <= 1e300")
 MU = Param("mu", "the viscosity", 1.0, 1e-150, 1e150, "1e-150 <= mu <= 1e150")
+# a complex number: kernel_param[0] its real part, kernel_param[1] its
+# imaginary part; no default (None is refused); lo, hi bound |Re k| and Im k
+WAVENUMBER = Param("k", "the wavenumber, complex (Im k > 0: damped waves)", None, 0.0, 1e150,
+                   "a complex number, |Re k| <= 1e150, 0 <= Im k <= 1e150")
 
 _Q = (("q", 1, "charge"),)
 _V = (("v", 3, "dipole moment"),)
@@ -50,6 +57,14 @@ _STOKES_DU = ("du_i/dy_j = sum ((delta_ij d_k + delta_jk d_i - delta_ik d_j) / r
 _BS = ("u = sum a x d / (4 pi r^3), the curl of a / (4 pi r) (a = (0, 0, 1) at the origin, "
        "target (1, 0, 0): u = (0, 1 / (4 pi), 0))")
 _BS_DU = "du_i/dy_j = sum (eps_ilj a_l / r^3 - 3 (a x d)_i d_j / r^5) / (4 pi)"
+_CQ = (("q", 1, "complex charge"),)
+_CQV = (("q", 1, "complex charge"), ("v", 3, "complex dipole moment"))
+_HELM = "phi = sum q G, G = exp(i k r) / (4 pi r)"
+_HELM_GRAD = "grad phi = sum q (i k r - 1) G d / r^2"
+_HELM_CD = ("phi = sum q G + v . grad_source G = q G - (i k r - 1) G (v . d) / r^2; grad phi: a "
+            "charge's q A d, a dipole's -A v - B (v . d) d, A = (i k r - 1) G / r^2, "
+            "B = (3 - 3 i k r - k^2 r^2) G / r^4 (the combined field of boundary integral "
+            "equations)")
 
 KERNEL_TABLE = (
     Kernel("laplace", "Laplace potential of charges", _Q, (_PHI,),
@@ -100,9 +115,19 @@ KERNEL_TABLE = (
     Kernel("biot_savart", "Biot-Savart: velocity of vortex particles", _A, (_U,), _BS, None, -1),
     Kernel("biot_savart_grad", "Biot-Savart velocity and its gradient", _A, (_U, _DU),
            _BS + "; " + _BS_DU, None, -1),
+    Kernel("helmholtz", "Helmholtz potential of complex charges", _CQ, (_PHI,), _HELM,
+           WAVENUMBER, None, "complex"),
+    Kernel("helmholtz_grad", "Helmholtz potential of complex charges and its gradient", _CQ,
+           (_PHI, _GRAD), _HELM + "; " + _HELM_GRAD, WAVENUMBER, None, "complex"),
+    Kernel("helmholtz_cd_grad", "Helmholtz potential of complex charges and dipoles and its "
+           "gradient", _CQV, (_PHI, _GRAD), _HELM_CD, WAVENUMBER, None, "complex"),
 )
 
 BY_NAME = {k.name: k for k in KERNEL_TABLE}
+
+COMPLEX = ("Complex kernels (helmholtz): densities and outputs are complex numbers, in C (re, im) "
+           "pairs of reals (SRC_DIM and TRG_DIM count reals; the offsets above count complex "
+           "values), in Python complex128 or complex64 arrays.")
 
 CONVENTIONS = ("d = y - x, the target y minus the source x, r = |d|; sums over every source "
                "(a source at a target's position adds nothing); derivatives with respect to "
@@ -115,6 +140,11 @@ def src_dim(k):
 
 def trg_dim(k):
     return sum(n for _, n, _ in k.outputs)
+
+
+def reals(k):
+    """reals per value: 2 for a complex kernel, else 1"""
+    return 2 if k.value == "complex" else 1
 
 
 def _layout(items):
@@ -130,6 +160,8 @@ def _param_text(k):
     p = k.param
     if p is None:
         return "none (kernel_param must be None or zeros)"
+    if p.default is None:
+        return f"kernel_param = {p.symbol}, {p.meaning}: {p.valid}; needed (no default)"
     return (f"kernel_param = {p.symbol}, {p.meaning}: {p.valid}; None gives the default "
             f"{p.symbol} = {p.default:g} (an explicit 0 is refused)")
 
@@ -140,10 +172,11 @@ def help_text(name):
     k = BY_NAME[name]
     dens = _layout([(f"{s}: {m}", n) for s, n, m in k.densities])
     outs = _layout([(f"{s}: {m}", n) for s, n, m in k.outputs])
+    kind = ", complex" if k.value == "complex" else ""
     lines = [f"{k.name}: {k.summary}",
-             f"  densities per source ({src_dim(k)}, a row of the densities array):"]
+             f"  densities per source ({src_dim(k)}{kind}, a row of the densities array):"]
     lines += [f"    {t}" for t in dens]
-    lines.append(f"  outputs per target ({trg_dim(k)}, a row of evaluate's result):")
+    lines.append(f"  outputs per target ({trg_dim(k)}{kind}, a row of evaluate's result):")
     lines += [f"    {t}" for t in outs]
     lines.append(f"  formula: {k.formula}")
     lines.append(f"  ({CONVENTIONS})")
@@ -180,13 +213,17 @@ def markdown():
            "|---|---|---|---|---|---|---|"]
     for k in KERNEL_TABLE:
         inv = f"yes ({k.degree})" if k.degree is not None else "no"
-        prm = (f"{k.param.symbol}: {k.param.valid}, default {k.param.default:g}"
-               if k.param else "unused")
+        if k.param is None:
+            prm = "unused"
+        elif k.param.default is None:
+            prm = f"Re {k.param.symbol} (param[1]: Im {k.param.symbol}): {k.param.valid}"
+        else:
+            prm = f"{k.param.symbol}: {k.param.valid}, default {k.param.default:g}"
         dens = ", ".join(f"{s} ({n}): {m}" if n > 1 else f"{s}: {m}" for s, n, m in k.densities)
         outs = ", ".join(cell(t) for t in _layout([(s, n) for s, n, _ in k.outputs]))
-        out.append(f"| `{k.name}` | {src_dim(k)} | {trg_dim(k)} | {inv} | {cell(prm)} | "
-                   f"{cell(dens)} | {outs} |")
-    out += ["", CONVENTIONS, ""]
+        out.append(f"| `{k.name}` | {src_dim(k) * reals(k)} | {trg_dim(k) * reals(k)} | {inv} | "
+                   f"{cell(prm)} | {cell(dens)} | {outs} |")
+    out += ["", CONVENTIONS, "", COMPLEX, ""]
     out += [f"- `{k.name}`: {k.formula}." for k in KERNEL_TABLE]
     out += ["", MD_END]
     return "\n".join(out) + "\n"

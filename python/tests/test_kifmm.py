@@ -75,11 +75,75 @@ def test_every_kernel_against_direct(kernel, dtype):
     rng = np.random.default_rng(7)
     dens = rng.random((3000, sd)) - 0.5
     prm = [3.0] if kernel.startswith("yukawa") else None
+    want = dtype
+    if kernel in kifmm.COMPLEX:  # 1.5 wavelengths across the cube, damped
+        dens = dens + 1j * (rng.random((3000, sd)) - 0.5)
+        prm = 2 * np.pi * 1.5 + 0.3j
+        want = np.complex128 if dtype == np.float64 else np.complex64
     order, bound = (6, 1e-4) if dtype == np.float64 else (4, 2e-3)
     out = kifmm.FMM(kernel, x, order=order, dtype=dtype, kernel_param=prm).evaluate(dens)
-    assert out.dtype == dtype and out.shape == (3000, td)
+    assert out.dtype == want and out.shape == (3000, td)
     ref = kifmm.direct(kernel, x, dens, x[:100], kernel_param=prm)
-    assert rel(out[:100].astype(np.float64), ref) < bound
+    assert rel(out[:100].astype(ref.dtype), ref) < bound
+
+
+@pytest.mark.parametrize("tol", [1e-3, 1e-6, 1e-9])
+def helmholtz_numpy(x, q, t, k):
+    """potential and gradient of complex charges q at x, at targets t, from
+    G = exp(i k r) / (4 pi r) (a target on a source leaves it out)"""
+    d = t[:, None, :] - x[None, :, :]
+    r = np.sqrt((d * d).sum(axis=2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = np.where(r > 0, np.exp(1j * k * r) / (PI4 * r), 0.0)
+        a = np.where(r > 0, g * (1j * k * r - 1.0) / r**2, 0.0)
+    return (q[None, :] * g).sum(axis=1), (q[None, :, None] * a[:, :, None] * d).sum(axis=1)
+
+
+@pytest.mark.parametrize("dtype,order,bound", [(np.complex128, 8, 1e-6), (np.complex64, 4, 2e-3)])
+def test_helmholtz_against_numpy(dtype, order, bound):
+    """complex charges, 2 wavelengths across the cube and a damped
+    wavenumber, separate targets, against numpy's sums; kifmm.direct too"""
+    x, t = points(5000, 60), points(2000, 61)
+    rng = np.random.default_rng(62)
+    q = (rng.random(5000) - 0.5) + 1j * (rng.random(5000) - 0.5)
+    k = 2 * np.pi * 2.0 + 0.5j
+    fmm = kifmm.FMM("helmholtz_grad", x, t, order=order, dtype=dtype, kernel_param=k)
+    out = fmm.evaluate(q.astype(dtype))
+    assert out.dtype == dtype and out.shape == (2000, 4)
+    pot, grad = helmholtz_numpy(x.astype(dtype(0).real.dtype).astype(np.float64), q, t[:200], k)
+    assert rel(out[:200, 0], pot) < bound and rel(out[:200, 1:], grad) < bound
+    pot, grad = helmholtz_numpy(x, q, t[:200], k)
+    ref = kifmm.direct("helmholtz_grad", x, q, t[:200], kernel_param=k)
+    assert rel(ref[:, 0], pot) < 1e-12 and rel(ref[:, 1:], grad) < 1e-12
+    many = fmm.evaluate(np.stack([q, 2j * q]).astype(dtype))
+    assert many.shape == (2, 2000, 4) and rel(many[1], 2j * out) < 1e-5
+    # real charges are read as complex ones
+    assert np.array_equal(fmm.evaluate(q.real), fmm.evaluate(q.real + 0j))
+
+
+def test_helmholtz_options_and_errors():
+    x = points(2000, 63)
+    q = np.ones(2000, dtype=complex)
+    with pytest.raises(kifmm.OptionError):
+        kifmm.FMM("helmholtz", x)  # the wavenumber is needed
+    with pytest.raises(kifmm.OptionError):
+        kifmm.FMM("helmholtz", x, kernel_param=3.0 - 0.1j)  # Im k < 0
+    with pytest.raises(kifmm.OptionError):
+        kifmm.FMM("helmholtz", x, kernel_param=complex(np.inf, 0))
+    with pytest.raises(TypeError):
+        kifmm.FMM("helmholtz", x, kernel_param=[3.0, 0.1])
+    with pytest.raises(TypeError):
+        kifmm.FMM("helmholtz", x, kernel_param="3")
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace", x).evaluate(q)  # complex charges for a real kernel
+    fmm = kifmm.FMM("helmholtz", x, kernel_param=5.0, dtype=np.complex128)
+    assert fmm.options["kernel_param"][:2] == [5.0, 0.0] and fmm.dtype == np.float64
+    with pytest.raises(kifmm.KifmmError) as e:  # 40 wavelengths across: boxes of 10
+        kifmm.FMM("helmholtz", x, kernel_param=2 * np.pi * 40, order=6, leaf_size=32)
+    assert e.value.code == -25
+    with pytest.raises(kifmm.KifmmError) as e:
+        kifmm.FMM("helmholtz", x, kernel_param=5.0, period=1.0)
+    assert e.value.code == -14
 
 
 @pytest.mark.parametrize("tol", [1e-3, 1e-6, 1e-9])

@@ -27,7 +27,8 @@ PI4 = 4.0 * np.pi
 
 def test_kernel_table_is_the_source():
     assert list(kifmm.KERNELS) == [k.name for k in _kernels.KERNEL_TABLE]
-    assert len(kifmm.KERNELS) == 18
+    assert len(kifmm.KERNELS) == 21
+    assert kifmm.COMPLEX == {"helmholtz", "helmholtz_grad", "helmholtz_cd_grad"}
     for name, (sd, td) in kifmm.KERNELS.items():
         text = kifmm.kernel_help(name)
         assert text.startswith(name + ":")
@@ -40,6 +41,8 @@ def test_kernel_table_is_the_source():
     assert "Hessian (xx, yy, zz, xy, xz, yz)" in kifmm.kernel_help("laplace_hess")
     assert "8 pi mu" in kifmm.kernel_help("stokes")
     assert "an explicit 0 is refused" in kifmm.kernel_help("yukawa")
+    assert "(4, complex," in kifmm.kernel_help("helmholtz_cd_grad")
+    assert "needed (no default)" in kifmm.kernel_help("helmholtz")
 
 
 def test_tol_docstring():
@@ -95,23 +98,28 @@ def test_kernel_formulas_and_signs():
     ("yukawa_cd_grad", "yukawa_cd", 1.5),
     ("stokes_grad", "stokes", 0.7),
     ("biot_savart_grad", "biot_savart", None),
+    ("helmholtz_grad", "helmholtz", 7.0 + 0.4j),
+    ("helmholtz_cd_grad", "helmholtz_cd_grad", 3.0 + 0.5j),
 ])
 def test_derivative_layouts(kernel, base, prm):
     """each derivative output, at the offset the table gives, is the
-    central difference of the outputs it differentiates"""
+    central difference of the outputs it differentiates (complex kernels:
+    complex densities; helmholtz_cd_grad's gradient, of its own potential)"""
     rng = np.random.default_rng(50)
     sd = kifmm.KERNELS[kernel][0]
     src, dens = rng.random((3, 3)), rng.random((3, sd)) - 0.5
+    if kernel in kifmm.COMPLEX:
+        dens = dens + 1j * (rng.random((3, sd)) - 0.5)
     y, eps = np.array([1.3, 0.9, 1.1]), 1e-5
-    nb = kifmm.KERNELS[base][1]
+    nb = 1 if base == kernel else kifmm.KERNELS[base][1]
     out = kifmm.direct(kernel, src, dens, y[None], kernel_param=prm)[0]
-    jac = np.empty((nb, 3))
+    jac = np.empty((nb, 3), dtype=out.dtype)
     for j in range(3):
         e = np.eye(3)[j] * eps
-        hi = kifmm.direct(base, src, dens, (y + e)[None], kernel_param=prm)[0]
-        lo = kifmm.direct(base, src, dens, (y - e)[None], kernel_param=prm)[0]
+        hi = kifmm.direct(base, src, dens, (y + e)[None], kernel_param=prm)[0][:nb]
+        lo = kifmm.direct(base, src, dens, (y - e)[None], kernel_param=prm)[0][:nb]
         jac[:, j] = (hi - lo) / (2 * eps)
-    assert np.allclose(out[:nb], kifmm.direct(base, src, dens, y[None], kernel_param=prm)[0])
+    assert np.allclose(out[:nb], kifmm.direct(base, src, dens, y[None], kernel_param=prm)[0][:nb])
     if kernel == "laplace_hess":
         full = jac[1:4]  # d(grad phi)_i / dy_j
         want = [full[0, 0], full[1, 1], full[2, 2], full[0, 1], full[0, 2], full[1, 2]]
