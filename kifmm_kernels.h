@@ -650,7 +650,7 @@ static inline void kifmm_kernel_helmholtz_grad_eval(const double *param, double 
 #define kifmm_kernel_helmholtz_cd_grad_TRG_DIM 8
 #define kifmm_kernel_helmholtz_cd_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_cd_grad_DEGREE 0
-#define kifmm_kernel_helmholtz_cd_grad_HAS KIFMM_KERNEL__HELM_HAS
+#define kifmm_kernel_helmholtz_cd_grad_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS)
 #define kifmm_kernel_helmholtz_cd_grad_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_cd_grad_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_cd_grad_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
@@ -3099,12 +3099,14 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
 #undef KIFMM_KERNEL__PIO2_4
 
 /* ------------------------------------------------------------------------ */
-/* Helmholtz near-field hooks (helmholtz, helmholtz_grad; double)           */
+/* Helmholtz near-field hooks (helmholtz, _grad, _cd_grad; double)          */
 /* ------------------------------------------------------------------------ */
-/* outa[TD i ..] += scale sum_j G q_j (and A q_j d), complex values as (re,
- * im) pairs (the kernels' formulas, "Helmholtz" above): the sources in
- * blocks of 128 points copied once into structure-of-arrays
- * on the stack (charges deinterleaved, zero past the block's end), 1 / r
+/* outa[TD i ..] += scale sum_j G q_j (mode 0), and A q_j d (mode 1), or
+ * with dipoles v_j (mode 2, helmholtz_cd_grad) q_j G - A (v_j . d) and
+ * (q_j A - B (v_j . d)) d - A v_j; complex values as (re, im) pairs (the
+ * kernels' formulas, "Helmholtz" above): the sources in blocks of 128
+ * points copied once into structure-of-arrays on the stack (densities
+ * deinterleaved, zero past the block's end), 1 / r
  * zeroed where r = 0 (coincident points add nothing), exp(-Im k r) by the
  * vectorised exp (skipped for Im k = 0) and sin, cos of Re k r by the
  * vectorised sin and cos above. AVX-512 or AVX2 + FMA builds; others take
@@ -3147,17 +3149,48 @@ static inline double kifmm_kernel__hsum4(__m256d v)
 }
 #define KIFMM_KERNEL__HSUM kifmm_kernel__hsum4
 #endif
+/* mode 2's terms of one block of lanes: the dipoles' (pv: re, im of v_x,
+ * v_y, v_z, each SB_ long) and the charges' gradient, given G (gr, gi), A
+ * (ar, ai) and q (qr, qi), into o[0..7] */
+#define KIFMM_KERNEL__HELM_CD(pv, j)                                                            \
+    do {                                                                                       \
+        const V zr = KIFMM_KERNEL__HFNMA(KI, r, ZERO), zi = t1, ir4 = KIFMM_KERNEL__HMUL(ir2, ir2); \
+        const V br = KIFMM_KERNEL__HFMA(zr, zr, KIFMM_KERNEL__HFNMA(zi, zi, KIFMM_KERNEL__HFNMA(THREE, zr, THREE))); \
+        const V bi = KIFMM_KERNEL__HMUL(zi, KIFMM_KERNEL__HFMA(TWO, zr, NTHREE));            \
+        const V bbr = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi, bi, KIFMM_KERNEL__HMUL(gr, br)), ir4); \
+        const V bbi = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi, br, KIFMM_KERNEL__HMUL(gr, bi)), ir4); \
+        const V vxr = KIFMM_KERNEL__HLOAD((pv) + (j)), vxi = KIFMM_KERNEL__HLOAD((pv) + SB_ + (j)); \
+        const V vyr = KIFMM_KERNEL__HLOAD((pv) + 2 * SB_ + (j));                             \
+        const V vyi = KIFMM_KERNEL__HLOAD((pv) + 3 * SB_ + (j));                             \
+        const V vzr = KIFMM_KERNEL__HLOAD((pv) + 4 * SB_ + (j));                             \
+        const V vzi = KIFMM_KERNEL__HLOAD((pv) + 5 * SB_ + (j));                             \
+        const V vdr = KIFMM_KERNEL__HFMA(vzr, dz, KIFMM_KERNEL__HFMA(vyr, dy, KIFMM_KERNEL__HMUL(vxr, dx))); \
+        const V vdi = KIFMM_KERNEL__HFMA(vzi, dz, KIFMM_KERNEL__HFMA(vyi, dy, KIFMM_KERNEL__HMUL(vxi, dx))); \
+        const V cr = KIFMM_KERNEL__HSUB(aqr, KIFMM_KERNEL__HFNMA(bbi, vdi, KIFMM_KERNEL__HMUL(bbr, vdr))); \
+        const V ci = KIFMM_KERNEL__HSUB(aqi, KIFMM_KERNEL__HFMA(bbi, vdr, KIFMM_KERNEL__HMUL(bbr, vdi))); \
+        o[0] = KIFMM_KERNEL__HSUB(o[0], KIFMM_KERNEL__HFNMA(ai, vdi, KIFMM_KERNEL__HMUL(ar, vdr))); \
+        o[1] = KIFMM_KERNEL__HSUB(o[1], KIFMM_KERNEL__HFMA(ai, vdr, KIFMM_KERNEL__HMUL(ar, vdi))); \
+        o[2] = KIFMM_KERNEL__HFMA(cr, dx, KIFMM_KERNEL__HSUB(o[2], KIFMM_KERNEL__HFNMA(ai, vxi, KIFMM_KERNEL__HMUL(ar, vxr)))); \
+        o[3] = KIFMM_KERNEL__HFMA(ci, dx, KIFMM_KERNEL__HSUB(o[3], KIFMM_KERNEL__HFMA(ai, vxr, KIFMM_KERNEL__HMUL(ar, vxi)))); \
+        o[4] = KIFMM_KERNEL__HFMA(cr, dy, KIFMM_KERNEL__HSUB(o[4], KIFMM_KERNEL__HFNMA(ai, vyi, KIFMM_KERNEL__HMUL(ar, vyr)))); \
+        o[5] = KIFMM_KERNEL__HFMA(ci, dy, KIFMM_KERNEL__HSUB(o[5], KIFMM_KERNEL__HFMA(ai, vyr, KIFMM_KERNEL__HMUL(ar, vyi)))); \
+        o[6] = KIFMM_KERNEL__HFMA(cr, dz, KIFMM_KERNEL__HSUB(o[6], KIFMM_KERNEL__HFNMA(ai, vzi, KIFMM_KERNEL__HMUL(ar, vzr)))); \
+        o[7] = KIFMM_KERNEL__HFMA(ci, dz, KIFMM_KERNEL__HSUB(o[7], KIFMM_KERNEL__HFMA(ai, vzr, KIFMM_KERNEL__HMUL(ar, vzi)))); \
+    } while (0)
 static inline void kifmm_kernel__helm_p2p(const double *param, const double *ax, const double *ay,
                                           const double *az, int64_t na, const double *bx,
                                           const double *by, const double *bz, const double *qb,
-                                          int64_t nb, double scale, double *outa, int grad)
+                                          int64_t nb, double scale, double *outa, int mode)
 {
     typedef KIFMM_KERNEL__HV V;
     enum { SB_ = 128, W_ = KIFMM_KERNEL__HW };
     const V KR = KIFMM_KERNEL__HSET1(param[0]), KI = KIFMM_KERNEL__HSET1(param[1]);
     const V ONE = KIFMM_KERNEL__HSET1(1.0), ZERO = KIFMM_KERNEL__HSET1(0.0);
+    const V TWO = KIFMM_KERNEL__HSET1(2.0), THREE = KIFMM_KERNEL__HSET1(3.0);
+    const V NTHREE = KIFMM_KERNEL__HSET1(-3.0);
     const double s = scale * KIFMM_INV_4PI;
-    double px[SB_], py[SB_], pz[SB_], pr[SB_], pi[SB_];
+    const int sd = mode == 2 ? 8 : 2, td = mode ? 8 : 2;
+    double px[SB_], py[SB_], pz[SB_], pr[SB_], pi[SB_], pv[6 * SB_];
     int64_t i, j, j0, jb, jp, k;
     int c;
     for (j0 = 0; j0 < nb; j0 += SB_) {
@@ -3166,7 +3199,8 @@ static inline void kifmm_kernel__helm_p2p(const double *param, const double *ax,
         for (k = 0; k < jp; k++) {
             const int in = k < jb;
             px[k] = in ? bx[j0 + k] : 0.0, py[k] = in ? by[j0 + k] : 0.0, pz[k] = in ? bz[j0 + k] : 0.0;
-            pr[k] = in ? qb[2 * (j0 + k)] : 0.0, pi[k] = in ? qb[2 * (j0 + k) + 1] : 0.0;
+            pr[k] = in ? qb[sd * (j0 + k)] : 0.0, pi[k] = in ? qb[sd * (j0 + k) + 1] : 0.0;
+            for (c = 0; c < 6 && mode == 2; c++) pv[c * SB_ + k] = in ? qb[sd * (j0 + k) + 2 + c] : 0.0;
         }
         for (i = 0; i < na; i++) {
             const V X = KIFMM_KERNEL__HSET1(ax[i]), Y = KIFMM_KERNEL__HSET1(ay[i]);
@@ -3187,20 +3221,24 @@ static inline void kifmm_kernel__helm_p2p(const double *param, const double *ax,
                 gr = KIFMM_KERNEL__HMUL(e, cs), gi = KIFMM_KERNEL__HMUL(e, sn); /* G */
                 o[0] = KIFMM_KERNEL__HFMA(gr, qr, KIFMM_KERNEL__HFNMA(gi, qi, o[0]));
                 o[1] = KIFMM_KERNEL__HFMA(gr, qi, KIFMM_KERNEL__HFMA(gi, qr, o[1]));
-                if (grad) { /* A q, A = G (i k r - 1) / r^2 */
+                if (mode) { /* A q, A = G (i k r - 1) / r^2 */
                     const V ir2 = KIFMM_KERNEL__HMUL(inv, inv);
                     const V t0 = KIFMM_KERNEL__HFNMA(KI, r, KIFMM_KERNEL__HSUB(ZERO, ONE)), t1 = KIFMM_KERNEL__HMUL(KR, r);
                     const V ar = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi, t1, KIFMM_KERNEL__HMUL(gr, t0)), ir2);
                     const V ai = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi, t0, KIFMM_KERNEL__HMUL(gr, t1)), ir2);
                     const V aqr = KIFMM_KERNEL__HFNMA(ai, qi, KIFMM_KERNEL__HMUL(ar, qr));
                     const V aqi = KIFMM_KERNEL__HFMA(ai, qr, KIFMM_KERNEL__HMUL(ar, qi));
+                    if (mode == 2) {
+                        KIFMM_KERNEL__HELM_CD(pv, j);
+                        continue;
+                    }
                     o[2] = KIFMM_KERNEL__HFMA(aqr, dx, o[2]), o[3] = KIFMM_KERNEL__HFMA(aqi, dx, o[3]);
                     o[4] = KIFMM_KERNEL__HFMA(aqr, dy, o[4]), o[5] = KIFMM_KERNEL__HFMA(aqi, dy, o[5]);
                     o[6] = KIFMM_KERNEL__HFMA(aqr, dz, o[6]), o[7] = KIFMM_KERNEL__HFMA(aqi, dz, o[7]);
                 }
             }
-            for (c = 0; c < (grad ? 8 : 2); c++) sums[c] = KIFMM_KERNEL__HSUM(o[c]);
-            for (c = 0; c < (grad ? 8 : 2); c++) outa[(grad ? 8 : 2) * i + c] += s * sums[c];
+            for (c = 0; c < td; c++) sums[c] = KIFMM_KERNEL__HSUM(o[c]);
+            for (c = 0; c < td; c++) outa[td * i + c] += s * sums[c];
         }
     }
 }
@@ -3216,6 +3254,7 @@ static inline void kifmm_kernel__helm_p2p(const double *param, const double *ax,
 #undef KIFMM_KERNEL__HEXPN
 #undef KIFMM_KERNEL__HSINCOS
 #undef KIFMM_KERNEL__HSUM
+#undef KIFMM_KERNEL__HELM_CD
 static inline void kifmm_kernel_helmholtz_p2p(const double *param, const double *ax, const double *ay,
                                               const double *az, int64_t na, const double *bx,
                                               const double *by, const double *bz, const double *qb,
@@ -3230,6 +3269,15 @@ static inline void kifmm_kernel_helmholtz_grad_p2p(const double *param, const do
                                                    double scale, double *outa)
 {
     kifmm_kernel__helm_p2p(param, ax, ay, az, na, bx, by, bz, qb, nb, scale, outa, 1);
+}
+static inline void kifmm_kernel_helmholtz_cd_grad_p2p(const double *param, const double *ax,
+                                                      const double *ay, const double *az,
+                                                      int64_t na, const double *bx,
+                                                      const double *by, const double *bz,
+                                                      const double *qb, int64_t nb, double scale,
+                                                      double *outa)
+{
+    kifmm_kernel__helm_p2p(param, ax, ay, az, na, bx, by, bz, qb, nb, scale, outa, 2);
 }
 #else
 #define KIFMM_KERNEL__HELM_HOOKS 0

@@ -4,6 +4,8 @@
  *     helmholtz_grad's) against exp(i k r) / (4 pi r) in long double and
  *     its central differences (first and second), at real, complex and zero
  *     wavenumbers; the 2 x 2 blocks' structure
+ *   - the three kernels' near-field hooks (AVX-512 or AVX2 + FMA builds)
+ *     against long double, relative to the terms' magnitudes
  *   - the FMM against direct sums in long double written here (their
  *     formulas are the ones the differences check), at roots of 0.2, 2, 3
  *     and 5 wavelengths, uniform, sphere and corner points, sources =
@@ -197,6 +199,31 @@ static void hook_ref8(int64_t nb, const double *b, const double *q, const double
 {
     hook_ref(8, nb, b, q, a, ref, mag);
 }
+/* helmholtz_cd_grad's: (q, v) 8 reals a source; the magnitudes |G| |q| +
+ * |A| r |v| (potential) and |A| r |q| + |A| |v| + |B| r^2 |v| (gradient) */
+static void hook_ref_cd(int64_t nb, const double *b, const double *q, const double *a, double *ref,
+                        double *mag)
+{
+    double one[8];
+    int64_t j;
+    int c;
+    for (c = 0; c < 8; c++) ref[c] = mag[c] = 0.0;
+    for (j = 0; j < nb; j++) {
+        const double dx = a[0] - b[3 * j], dy = a[1] - b[3 * j + 1], dz = a[2] - b[3 * j + 2];
+        const double r = sqrt(dx * dx + dy * dy + dz * dz), aq = hypot(q[8 * j], q[8 * j + 1]);
+        const double av = sqrt(q[8 * j + 2] * q[8 * j + 2] + q[8 * j + 3] * q[8 * j + 3] + q[8 * j + 4] * q[8 * j + 4] +
+                               q[8 * j + 5] * q[8 * j + 5] + q[8 * j + 6] * q[8 * j + 6] + q[8 * j + 7] * q[8 * j + 7]);
+        const double g = r > 0.0 ? exp(-g_ki * r) / (4.0 * T_PI * r) : 0.0;
+        const double zr = -g_ki * r, zi = g_kr * r;
+        const double ar = r > 0.0 ? g * hypot(zr - 1.0, zi) / r : 0.0; /* |A| r */
+        const double br = r > 0.0 ? g * hypot(3.0 - 3.0 * zr + zr * zr - zi * zi, zi * (2.0 * zr - 3.0)) / (r * r) : 0.0;
+        direct_ld(1, g_kr, g_ki, 1, b + 3 * j, q + 8 * j, a, one);
+        for (c = 0; c < 8; c++) ref[c] += one[c];
+        mag[0] += g * aq + ar * av, mag[1] += g * aq + ar * av;
+        for (c = 2; c < 8; c++) mag[c] += ar * aq + (r > 0.0 ? ar / r : 0.0) * av + br * av;
+    }
+    for (c = 0; c < 8; c++) mag[c] += 1e-300;
+}
 static void test_hooks(void)
 {
     static const double ks[3][2] = {{7.3, 0.0}, {20.0, 0.6}, {0.0, 0.0}};
@@ -207,6 +234,8 @@ static void test_hooks(void)
         g_kr = ks[n][0], g_ki = ks[n][1];
         t_check_hooks("helmholtz", 2, 2, prm, 2e-14, kifmm_kernel_helmholtz_p2p, NULL, hook_ref2);
         t_check_hooks("helmholtz_grad", 2, 8, prm, 2e-14, kifmm_kernel_helmholtz_grad_p2p, NULL, hook_ref8);
+        t_check_hooks("helmholtz_cd_grad", 8, 8, prm, 2e-14, kifmm_kernel_helmholtz_cd_grad_p2p, NULL,
+                      hook_ref_cd);
     }
 }
 #endif
