@@ -3112,7 +3112,7 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
  * vectorised sin and cos above. AVX-512 or AVX2 + FMA builds; others take
  * the kernels' eval pair by pair. */
 #if defined(__AVX512F__) || (defined(__AVX2__) && defined(__FMA__))
-#define KIFMM_KERNEL__HELM_HOOKS KIFMM_HAS_P2P
+#define KIFMM_KERNEL__HELM_HOOKS (KIFMM_HAS_P2P | KIFMM_HAS_P2PF)
 #if defined(__AVX512F__)
 #define KIFMM_KERNEL__HV __m512d
 #define KIFMM_KERNEL__HW 8
@@ -3177,68 +3177,104 @@ static inline double kifmm_kernel__hsum4(__m256d v)
         o[6] = KIFMM_KERNEL__HFMA(cr, dz, KIFMM_KERNEL__HSUB(o[6], KIFMM_KERNEL__HFNMA(ai, vzi, KIFMM_KERNEL__HMUL(ar, vzr)))); \
         o[7] = KIFMM_KERNEL__HFMA(ci, dz, KIFMM_KERNEL__HSUB(o[7], KIFMM_KERNEL__HFMA(ai, vzr, KIFMM_KERNEL__HMUL(ar, vzi)))); \
     } while (0)
-static inline void kifmm_kernel__helm_p2p(const double *param, const double *ax, const double *ay,
-                                          const double *az, int64_t na, const double *bx,
-                                          const double *by, const double *bz, const double *qb,
-                                          int64_t nb, double scale, double *outa, int mode)
+enum { KIFMM_KERNEL__HSB = 128 };
+/* a block of up to 128 sources (of nb from j0; double or float, the other
+ * pointer NULL) into structure-of-arrays, zero past nb up to a whole
+ * number of vectors: positions p[0..2], densities p[3] (re), p[4] (im)
+ * and, in mode 2, p[5..10] (re, im of v_x, v_y, v_z); the count padded */
+static inline int64_t kifmm_kernel__helm_fill(const double *const *bd, const float *const *bf,
+                                              const double *qd, const float *qf, int64_t nb,
+                                              int64_t j0, int mode, double (*p)[KIFMM_KERNEL__HSB])
+{
+    const int sd = mode == 2 ? 8 : 2;
+    const int64_t jb = nb - j0 < KIFMM_KERNEL__HSB ? nb - j0 : (int64_t)KIFMM_KERNEL__HSB;
+    const int64_t jp = (jb + KIFMM_KERNEL__HW - 1) / KIFMM_KERNEL__HW * KIFMM_KERNEL__HW;
+    int64_t k;
+    int c;
+    for (k = 0; k < jp; k++)
+        for (c = 0; c < (mode == 2 ? 11 : 5); c++) {
+            const int64_t at = sd * (j0 + k) + c - 3;
+            p[c][k] = k >= jb  ? 0.0
+                      : c < 3 ? (bd ? bd[c][j0 + k] : (double)bf[c][j0 + k])
+                              : (qd ? qd[at] : (double)qf[at]);
+        }
+    return jp;
+}
+
+/* one target (x, y, z) against a filled block of jp sources: the sums of
+ * the mode's td outputs, without scale and 1 / (4 pi) */
+static inline void kifmm_kernel__helm_row(const double *param, double x, double y, double z,
+                                          double (*p)[KIFMM_KERNEL__HSB], int64_t jp, int mode,
+                                          double *sums)
 {
     typedef KIFMM_KERNEL__HV V;
-    enum { SB_ = 128, W_ = KIFMM_KERNEL__HW };
+    enum { SB_ = KIFMM_KERNEL__HSB, W_ = KIFMM_KERNEL__HW };
     const V KR = KIFMM_KERNEL__HSET1(param[0]), KI = KIFMM_KERNEL__HSET1(param[1]);
     const V ONE = KIFMM_KERNEL__HSET1(1.0), ZERO = KIFMM_KERNEL__HSET1(0.0);
     const V TWO = KIFMM_KERNEL__HSET1(2.0), THREE = KIFMM_KERNEL__HSET1(3.0);
     const V NTHREE = KIFMM_KERNEL__HSET1(-3.0);
-    const double s = scale * KIFMM_INV_4PI;
-    const int sd = mode == 2 ? 8 : 2, td = mode ? 8 : 2;
-    double px[SB_], py[SB_], pz[SB_], pr[SB_], pi[SB_], pv[6 * SB_];
-    int64_t i, j, j0, jb, jp, k;
+    const V X = KIFMM_KERNEL__HSET1(x), Y = KIFMM_KERNEL__HSET1(y), Z = KIFMM_KERNEL__HSET1(z);
+    const double *px = p[0], *py = p[1], *pz = p[2], *pr = p[3], *pi = p[4], *pv = p[5];
+    V o[8];
+    int64_t j;
     int c;
-    for (j0 = 0; j0 < nb; j0 += SB_) {
-        jb = nb - j0 < SB_ ? nb - j0 : (int64_t)SB_;
-        jp = (jb + W_ - 1) / W_ * W_;
-        for (k = 0; k < jp; k++) {
-            const int in = k < jb;
-            px[k] = in ? bx[j0 + k] : 0.0, py[k] = in ? by[j0 + k] : 0.0, pz[k] = in ? bz[j0 + k] : 0.0;
-            pr[k] = in ? qb[sd * (j0 + k)] : 0.0, pi[k] = in ? qb[sd * (j0 + k) + 1] : 0.0;
-            for (c = 0; c < 6 && mode == 2; c++) pv[c * SB_ + k] = in ? qb[sd * (j0 + k) + 2 + c] : 0.0;
-        }
-        for (i = 0; i < na; i++) {
-            const V X = KIFMM_KERNEL__HSET1(ax[i]), Y = KIFMM_KERNEL__HSET1(ay[i]);
-            const V Z = KIFMM_KERNEL__HSET1(az[i]);
-            V o[8];
-            double sums[8];
-            for (c = 0; c < 8; c++) o[c] = ZERO;
-            for (j = 0; j < jp; j += W_) {
-                const V dx = KIFMM_KERNEL__HSUB(X, KIFMM_KERNEL__HLOAD(px + j));
-                const V dy = KIFMM_KERNEL__HSUB(Y, KIFMM_KERNEL__HLOAD(py + j));
-                const V dz = KIFMM_KERNEL__HSUB(Z, KIFMM_KERNEL__HLOAD(pz + j));
-                const V r2 = KIFMM_KERNEL__HFMA(dz, dz, KIFMM_KERNEL__HFMA(dy, dy, KIFMM_KERNEL__HMUL(dx, dx)));
-                const V inv = KIFMM_KERNEL__HINV(r2), qr = KIFMM_KERNEL__HLOAD(pr + j);
-                const V qi = KIFMM_KERNEL__HLOAD(pi + j), r = KIFMM_KERNEL__HMUL(r2, inv);
-                V e = inv, sn, cs, gr, gi;
-                if (param[1] != 0.0) e = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HEXPN(KIFMM_KERNEL__HMUL(KI, r)), inv);
-                KIFMM_KERNEL__HSINCOS(KIFMM_KERNEL__HMUL(KR, r), &sn, &cs);
-                gr = KIFMM_KERNEL__HMUL(e, cs), gi = KIFMM_KERNEL__HMUL(e, sn); /* G */
-                o[0] = KIFMM_KERNEL__HFMA(gr, qr, KIFMM_KERNEL__HFNMA(gi, qi, o[0]));
-                o[1] = KIFMM_KERNEL__HFMA(gr, qi, KIFMM_KERNEL__HFMA(gi, qr, o[1]));
-                if (mode) { /* A q, A = G (i k r - 1) / r^2 */
-                    const V ir2 = KIFMM_KERNEL__HMUL(inv, inv);
-                    const V t0 = KIFMM_KERNEL__HFNMA(KI, r, KIFMM_KERNEL__HSUB(ZERO, ONE)), t1 = KIFMM_KERNEL__HMUL(KR, r);
-                    const V ar = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi, t1, KIFMM_KERNEL__HMUL(gr, t0)), ir2);
-                    const V ai = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi, t0, KIFMM_KERNEL__HMUL(gr, t1)), ir2);
-                    const V aqr = KIFMM_KERNEL__HFNMA(ai, qi, KIFMM_KERNEL__HMUL(ar, qr));
-                    const V aqi = KIFMM_KERNEL__HFMA(ai, qr, KIFMM_KERNEL__HMUL(ar, qi));
-                    if (mode == 2) {
-                        KIFMM_KERNEL__HELM_CD(pv, j);
-                        continue;
-                    }
-                    o[2] = KIFMM_KERNEL__HFMA(aqr, dx, o[2]), o[3] = KIFMM_KERNEL__HFMA(aqi, dx, o[3]);
-                    o[4] = KIFMM_KERNEL__HFMA(aqr, dy, o[4]), o[5] = KIFMM_KERNEL__HFMA(aqi, dy, o[5]);
-                    o[6] = KIFMM_KERNEL__HFMA(aqr, dz, o[6]), o[7] = KIFMM_KERNEL__HFMA(aqi, dz, o[7]);
-                }
+    for (c = 0; c < 8; c++) o[c] = ZERO;
+    for (j = 0; j < jp; j += W_) {
+        const V dx = KIFMM_KERNEL__HSUB(X, KIFMM_KERNEL__HLOAD(px + j));
+        const V dy = KIFMM_KERNEL__HSUB(Y, KIFMM_KERNEL__HLOAD(py + j));
+        const V dz = KIFMM_KERNEL__HSUB(Z, KIFMM_KERNEL__HLOAD(pz + j));
+        const V r2 = KIFMM_KERNEL__HFMA(dz, dz, KIFMM_KERNEL__HFMA(dy, dy, KIFMM_KERNEL__HMUL(dx, dx)));
+        const V inv = KIFMM_KERNEL__HINV(r2), qr = KIFMM_KERNEL__HLOAD(pr + j);
+        const V qi = KIFMM_KERNEL__HLOAD(pi + j), r = KIFMM_KERNEL__HMUL(r2, inv);
+        V e = inv, sn, cs, gr, gi;
+        if (param[1] != 0.0) e = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HEXPN(KIFMM_KERNEL__HMUL(KI, r)), inv);
+        KIFMM_KERNEL__HSINCOS(KIFMM_KERNEL__HMUL(KR, r), &sn, &cs);
+        gr = KIFMM_KERNEL__HMUL(e, cs), gi = KIFMM_KERNEL__HMUL(e, sn); /* G */
+        o[0] = KIFMM_KERNEL__HFMA(gr, qr, KIFMM_KERNEL__HFNMA(gi, qi, o[0]));
+        o[1] = KIFMM_KERNEL__HFMA(gr, qi, KIFMM_KERNEL__HFMA(gi, qr, o[1]));
+        if (mode) { /* A q, A = G (i k r - 1) / r^2 */
+            const V ir2 = KIFMM_KERNEL__HMUL(inv, inv);
+            const V t0 = KIFMM_KERNEL__HFNMA(KI, r, KIFMM_KERNEL__HSUB(ZERO, ONE)), t1 = KIFMM_KERNEL__HMUL(KR, r);
+            const V ar = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi, t1, KIFMM_KERNEL__HMUL(gr, t0)), ir2);
+            const V ai = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi, t0, KIFMM_KERNEL__HMUL(gr, t1)), ir2);
+            const V aqr = KIFMM_KERNEL__HFNMA(ai, qi, KIFMM_KERNEL__HMUL(ar, qr));
+            const V aqi = KIFMM_KERNEL__HFMA(ai, qr, KIFMM_KERNEL__HMUL(ar, qi));
+            if (mode == 2) {
+                KIFMM_KERNEL__HELM_CD(pv, j);
+                continue;
             }
-            for (c = 0; c < td; c++) sums[c] = KIFMM_KERNEL__HSUM(o[c]);
-            for (c = 0; c < td; c++) outa[td * i + c] += s * sums[c];
+            o[2] = KIFMM_KERNEL__HFMA(aqr, dx, o[2]), o[3] = KIFMM_KERNEL__HFMA(aqi, dx, o[3]);
+            o[4] = KIFMM_KERNEL__HFMA(aqr, dy, o[4]), o[5] = KIFMM_KERNEL__HFMA(aqi, dy, o[5]);
+            o[6] = KIFMM_KERNEL__HFMA(aqr, dz, o[6]), o[7] = KIFMM_KERNEL__HFMA(aqi, dz, o[7]);
+        }
+    }
+    for (c = 0; c < (mode ? 8 : 2); c++) sums[c] = KIFMM_KERNEL__HSUM(o[c]);
+}
+
+/* the hooks: double (the float pointers NULL) or float (the double ones
+ * NULL) inputs and outputs, sums in double either way; a, b: x, y, z */
+static inline void kifmm_kernel__helm_p2p(const double *param, const double *const *ad,
+                                          const float *const *af, int64_t na,
+                                          const double *const *bd, const float *const *bf,
+                                          int64_t nb, const double *qd, const float *qf,
+                                          double scale, double *od, float *of, int mode)
+{
+    const double s = scale * KIFMM_INV_4PI;
+    const int td = mode ? 8 : 2;
+    double p[11][KIFMM_KERNEL__HSB], sums[8];
+    int64_t i, j0, jp;
+    int c;
+    for (j0 = 0; j0 < nb; j0 += KIFMM_KERNEL__HSB) {
+        jp = kifmm_kernel__helm_fill(bd, bf, qd, qf, nb, j0, mode, p);
+        for (i = 0; i < na; i++) {
+            if (ad)
+                kifmm_kernel__helm_row(param, ad[0][i], ad[1][i], ad[2][i], p, jp, mode, sums);
+            else
+                kifmm_kernel__helm_row(param, af[0][i], af[1][i], af[2][i], p, jp, mode, sums);
+            for (c = 0; c < td; c++) {
+                if (od) od[td * i + c] += s * sums[c];
+                else of[td * i + c] += (float)(s * sums[c]);
+            }
         }
     }
 }
@@ -3256,28 +3292,46 @@ static inline void kifmm_kernel__helm_p2p(const double *param, const double *ax,
 #undef KIFMM_KERNEL__HSUM
 #undef KIFMM_KERNEL__HELM_CD
 static inline void kifmm_kernel_helmholtz_p2p(const double *param, const double *ax, const double *ay,
-                                              const double *az, int64_t na, const double *bx,
-                                              const double *by, const double *bz, const double *qb,
-                                              int64_t nb, double scale, double *outa)
+    const double *az, int64_t na, const double *bx, const double *by, const double *bz,
+    const double *qb, int64_t nb, double scale, double *outa)
 {
-    kifmm_kernel__helm_p2p(param, ax, ay, az, na, bx, by, bz, qb, nb, scale, outa, 0);
+    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2p(param, a, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, 0);
 }
-static inline void kifmm_kernel_helmholtz_grad_p2p(const double *param, const double *ax,
-                                                   const double *ay, const double *az, int64_t na,
-                                                   const double *bx, const double *by,
-                                                   const double *bz, const double *qb, int64_t nb,
-                                                   double scale, double *outa)
+static inline void kifmm_kernel_helmholtz_p2pf(const double *param, const float *ax, const float *ay,
+    const float *az, int64_t na, const float *bx, const float *by, const float *bz,
+    const float *qb, int64_t nb, float scale, float *outa)
 {
-    kifmm_kernel__helm_p2p(param, ax, ay, az, na, bx, by, bz, qb, nb, scale, outa, 1);
+    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2p(param, NULL, a, na, NULL, b, nb, NULL, qb, scale, NULL, outa, 0);
 }
-static inline void kifmm_kernel_helmholtz_cd_grad_p2p(const double *param, const double *ax,
-                                                      const double *ay, const double *az,
-                                                      int64_t na, const double *bx,
-                                                      const double *by, const double *bz,
-                                                      const double *qb, int64_t nb, double scale,
-                                                      double *outa)
+static inline void kifmm_kernel_helmholtz_grad_p2p(const double *param, const double *ax, const double *ay,
+    const double *az, int64_t na, const double *bx, const double *by, const double *bz,
+    const double *qb, int64_t nb, double scale, double *outa)
 {
-    kifmm_kernel__helm_p2p(param, ax, ay, az, na, bx, by, bz, qb, nb, scale, outa, 2);
+    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2p(param, a, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, 1);
+}
+static inline void kifmm_kernel_helmholtz_grad_p2pf(const double *param, const float *ax, const float *ay,
+    const float *az, int64_t na, const float *bx, const float *by, const float *bz,
+    const float *qb, int64_t nb, float scale, float *outa)
+{
+    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2p(param, NULL, a, na, NULL, b, nb, NULL, qb, scale, NULL, outa, 1);
+}
+static inline void kifmm_kernel_helmholtz_cd_grad_p2p(const double *param, const double *ax, const double *ay,
+    const double *az, int64_t na, const double *bx, const double *by, const double *bz,
+    const double *qb, int64_t nb, double scale, double *outa)
+{
+    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2p(param, a, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, 2);
+}
+static inline void kifmm_kernel_helmholtz_cd_grad_p2pf(const double *param, const float *ax, const float *ay,
+    const float *az, int64_t na, const float *bx, const float *by, const float *bz,
+    const float *qb, int64_t nb, float scale, float *outa)
+{
+    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2p(param, NULL, a, na, NULL, b, nb, NULL, qb, scale, NULL, outa, 2);
 }
 #else
 #define KIFMM_KERNEL__HELM_HOOKS 0

@@ -4,8 +4,9 @@
  *     helmholtz_grad's) against exp(i k r) / (4 pi r) in long double and
  *     its central differences (first and second), at real, complex and zero
  *     wavenumbers; the 2 x 2 blocks' structure
- *   - the three kernels' near-field hooks (AVX-512 or AVX2 + FMA builds)
- *     against long double, relative to the terms' magnitudes
+ *   - the three kernels' near-field hooks (AVX-512 or AVX2 + FMA builds),
+ *     double and float, against long double, relative to the terms'
+ *     magnitudes
  *   - the FMM against direct sums in long double written here (their
  *     formulas are the ones the differences check), at roots of 0.2, 2, 3
  *     and 5 wavelengths, uniform, sphere and corner points, sources =
@@ -232,9 +233,10 @@ static void test_hooks(void)
     for (n = 0; n < 3; n++) {
         const double prm[4] = {ks[n][0], ks[n][1], 0.0, 0.0};
         g_kr = ks[n][0], g_ki = ks[n][1];
-        t_check_hooks("helmholtz", 2, 2, prm, 2e-14, kifmm_kernel_helmholtz_p2p, NULL, hook_ref2);
-        t_check_hooks("helmholtz_grad", 2, 8, prm, 2e-14, kifmm_kernel_helmholtz_grad_p2p, NULL, hook_ref8);
-        t_check_hooks("helmholtz_cd_grad", 8, 8, prm, 2e-14, kifmm_kernel_helmholtz_cd_grad_p2p, NULL,
+        t_check_hooks("helmholtz", 2, 2, prm, 2e-14, kifmm_kernel_helmholtz_p2p, kifmm_kernel_helmholtz_p2pf, hook_ref2);
+        t_check_hooks("helmholtz_grad", 2, 8, prm, 2e-14, kifmm_kernel_helmholtz_grad_p2p, kifmm_kernel_helmholtz_grad_p2pf,
+                      hook_ref8);
+        t_check_hooks("helmholtz_cd_grad", 8, 8, prm, 2e-14, kifmm_kernel_helmholtz_cd_grad_p2p, kifmm_kernel_helmholtz_cd_grad_p2pf,
                       hook_ref_cd);
     }
 }
