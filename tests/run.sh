@@ -3,7 +3,7 @@
 #
 #   bash tests/run.sh                 the default configurations (below)
 #   CONFIGS="gcc-c11-omp asan" bash tests/run.sh   a subset, by name
-#   CONFIGS=all bash tests/run.sh     all fifteen
+#   CONFIGS=all bash tests/run.sh     all sixteen
 #
 # Configurations: {gcc, clang} x {-std=c99, -std=c11} x {with, without -fopenmp},
 # all with -Wall -Wextra -Werror -pedantic -O2 -march=native; one
@@ -21,7 +21,10 @@
 # standard, with and without OpenMP, -O0 and -O2, builds without -march, C++
 # and both sanitizers: gcc-c11-omp, asan, gcc-O0-omp (no -march, C99), gxx
 # (C++ without OpenMP) and tsan (clang, C11, OpenMP, -O1; clang also builds
-# the fuzz target). The others run with CONFIGS=all or by name: gcc-c99 (C
+# the fuzz target); on a CPU with AVX-512 a sixth, gcc-avx2 (-mno-avx512f),
+# builds the near-field hooks' tests only (test_p2p, test_yukawa_p2p,
+# test_stokes_p2p, test_sincos, test_helmholtz: 50 s), whose AVX2 + FMA
+# code no other configuration compiles there. The others run with CONFIGS=all or by name: gcc-c99 (C
 # without OpenMP) and gxx-omp were defaults until on 2 cores of an AMD EPYC
 # (AVX2) the seven defaults' tests took about 40 minutes; clang-O0-omp until
 # the six took 37 minutes on an AMD EPYC with AVX-512 (Zen 4), 2 cores, with
@@ -97,7 +100,8 @@ if [ -z "${OPENBLAS_CORETYPE+x}" ]; then
     fi
 fi
 
-# name | compiler | flags | programs left out unless CONFIGS=all
+# name | compiler | flags | programs left out unless CONFIGS=all (or, after
+# "only: ", the only programs it builds)
 ALL_CONFIGS="
 gcc-c99|gcc|-std=c99 -O2 -march=native -DKIFMM_TEST_QUICK
 gcc-c99-omp|gcc|-std=c99 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
@@ -114,9 +118,14 @@ clang-O0-omp|clang|-std=c99 -O0 -march=native -fopenmp -DKIFMM_TEST_QUICK
 gxx-omp|g++|-x c++ -std=c++11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 gxx|g++|-x c++ -std=c++11 -O2 -march=native -DKIFMM_TEST_QUICK
 tsan|clang|-std=c11 -O1 -g -march=native -fopenmp -fsanitize=thread -DKIFMM_TEST_QUICK|test_alloc test_tol test_slab
+gcc-avx2|gcc|-std=c11 -O2 -march=native -mno-avx512f -fopenmp -DKIFMM_TEST_QUICK|only: test_p2p test_yukawa_p2p test_stokes_p2p test_sincos test_helmholtz
 "
 
 DEFAULT_CONFIGS="gcc-c11-omp asan gcc-O0-omp gxx tsan"
+# on an AVX-512 machine the AVX2 + FMA near-field hooks (and the vectorised
+# sin, cos and exp under them) are compiled by no other configuration:
+# gcc-avx2 builds the tests of the hooks without AVX-512 (about a minute)
+if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then DEFAULT_CONFIGS="$DEFAULT_CONFIGS gcc-avx2"; fi
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
@@ -202,12 +211,18 @@ run_config() {
     build_linkage_lib "$cc" "$flags" "$dir"
     local running=0
     for prog in $TESTS; do
+        case "$skip" in
+            "only: "*) case " ${skip#only:} " in *" $prog "*) progs="$progs $prog" ;; esac; continue ;;
+        esac
         case " $skip " in
             *" $prog "*) case " ${CONFIGS:-}${NAMED:+ all} " in *" all "*) ;; *) left="$left $prog"; continue ;; esac ;;
         esac
         progs="$progs $prog"
     done
-    case " $flags " in *" -x c++ "*) progs="$progs test_extern_c" ;; *) progs="$progs laplace" ;; esac
+    case "$skip" in
+        "only: "*) ;;
+        *) case " $flags " in *" -x c++ "*) progs="$progs test_extern_c" ;; *) progs="$progs laplace" ;; esac ;;
+    esac
     for prog in $progs; do
         if [ "$running" -ge "$JOBS" ]; then
             wait -n 2>/dev/null || true
@@ -279,8 +294,10 @@ $(tail -n 15 "$log" | sed 's/^/      /')"
         fi
     done
 
+    local tail="${left:+   (left out, CONFIGS=all runs them:$left)}"
+    case "$skip" in "only: "*) tail="   (these programs only:${skip#only:})" ;; esac
     printf '%-14s %6d passed, %3d failed   (build %3ds, run %3ds)%s\n' "$name" "$pass" "$fail" \
-        "$tb" $((SECONDS - t0 - tb)) "${left:+   (left out, CONFIGS=all runs them:$left)}"
+        "$tb" $((SECONDS - t0 - tb)) "$tail"
     if [ -n "$notes" ]; then echo "$notes" | sed '1{/^$/d}'; fi
     total_pass=$((total_pass + pass))
     total_fail=$((total_fail + fail))
