@@ -439,6 +439,10 @@ def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size
     o.max_depth = _int(max_depth, "max_depth", 0, MAX_DEPTH, where, _ERR_DEPTH,
                        " (None or 0: 16)")
     o.verbose = _verbose(verbose, where)
+    if kernel in COMPLEX and tol is not None:
+        raise OptionError(_ERR_TOL, where, f"tol: {kernel!r}, an oscillating kernel, has no "
+                          "tolerance table (its error depends on the boxes' width in "
+                          "wavelengths): give order (docs/kernels.md, Helmholtz)")
     for i, x in enumerate(_kernel_param(kernel, kernel_param, where)):
         o.kernel_param[i] = x
     per = _period(period, where)
@@ -450,15 +454,27 @@ def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size
 
 
 def _wavenumber(kernel, v, where):
-    """a complex kernel's kernel_param, the wavenumber k (a complex or real
-    number, needed), as (Re k, Im k, 0, 0)"""
+    """a complex kernel's kernel_param, the wavenumber k, as (Re k, Im k, 0,
+    0): a complex or real number (or a 0-d array of one), or C's layout, up
+    to 4 reals (Re k, Im k, 0, 0), as options["kernel_param"] gives it.
+    Needed."""
     p = _kernels.BY_NAME[kernel].param
     if v is None:
         raise OptionError(_ERR_PARAM, where, f"kernel {kernel!r} needs kernel_param, "
                           f"{p.symbol}: {p.meaning} ({p.valid})")
-    if not isinstance(v, numbers.Complex) or isinstance(v, (bool, np.bool_)):
-        raise TypeError(f"{where}: kernel_param of {kernel!r} must be a number (the wavenumber, "
-                        f"complex or real), not {_show(v)}")
+    arr = None if isinstance(v, numbers.Complex) else np.asarray(v)
+    if arr is not None and arr.ndim == 0 and arr.dtype.kind in "iufc":
+        v, arr = arr.item(), None
+    if isinstance(v, (bool, np.bool_)) or (arr is not None and (
+            arr.ndim != 1 or not 1 <= arr.shape[0] <= 4 or arr.dtype.kind not in "iuf")):
+        raise TypeError(f"{where}: kernel_param of {kernel!r} must be the wavenumber, a complex "
+                        f"or real number, or up to 4 reals (Re k, Im k, 0, 0), not {_show(v)}")
+    if arr is not None:
+        prm = arr.astype(np.float64)
+        if np.any(prm[2:] != 0.0):
+            raise OptionError(_ERR_PARAM, where, f"kernel_param of {kernel!r}: (Re k, Im k) "
+                              f"and zeros, not {prm.tolist()}")
+        v = complex(prm[0], prm[1] if prm.shape[0] > 1 else 0.0)
     k = complex(v)
     if not (np.isfinite(k.real) and np.isfinite(k.imag) and abs(k.real) <= p.hi
             and 0.0 <= k.imag <= p.hi):
@@ -509,8 +525,9 @@ class Plan:
         self._p = None
         self.kernel = kernel
         _kernel(kernel)
-        self.dtype = _dtype(dtype)
-        self._f = _api(kernel, self.dtype)
+        self._rtype = _dtype(dtype)
+        self.dtype = _values(kernel, self._rtype)
+        self._f = _api(kernel, self._rtype)
         self._destroy = self._f["plan_destroy"]
         opts = _opts("kifmm.Plan", kernel, order, nthreads, kernel_param, leaf_size, period, tol,
                      verbose, max_depth, domain)
@@ -557,7 +574,8 @@ class FMM:
                   complex128 and complex64 name the same two. Complex
                   kernels (kifmm.COMPLEX: helmholtz) take complex densities
                   (real ones are read as complex) and return complex
-                  outputs, of the matching complex type
+                  outputs, of the matching complex type, which the FMM's
+                  dtype attribute then is (points stay real)
     nthreads      OpenMP threads, 0 to 1024 (None or 0: all)
     kernel_param  the kernel's parameter (yukawa kernels: lambda > 0;
                   stokes, stokes_grad, stokes_pvel: the viscosity mu > 0),
@@ -565,7 +583,9 @@ class FMM:
                   explicit 0 is refused, and so is a nonzero value for a
                   kernel without parameters. Helmholtz kernels: the
                   wavenumber k, a complex (or real) number with Im k >= 0
-                  (damped waves), needed; the boxes that carry expansions
+                  (damped waves), or up to 4 reals (Re k, Im k, 0, 0) as
+                  options gives them, needed; no tol (give order); the
+                  boxes that carry expansions
                   may be at most 0.5 to 1.6 wavelengths wide, by order
                   (else KifmmError, code -25; docs/kernels.md)
     leaf_size     points per leaf, an integer >= 1 (None or 0: chosen per
@@ -658,9 +678,9 @@ class FMM:
             if sources is not None or targets is not None:
                 raise TypeError("kifmm.FMM: with tree=, the points are the tree's: sources and "
                                 "targets cannot be given")
-            if tree.dtype != _dtype(dtype):
-                raise ValueError(f"kifmm.FMM: the tree is {np.dtype(tree.dtype).name}, not "
-                                 f"{np.dtype(dtype).name}")
+            if tree._rtype != _dtype(dtype):
+                raise ValueError(f"kifmm.FMM: the tree is {np.dtype(tree._rtype).name}, not "
+                                 f"{np.dtype(_dtype(dtype)).name}")
         elif sources is None:
             raise TypeError("kifmm.FMM: sources are needed (or tree=, another FMM)")
         if plan is not None:
@@ -673,13 +693,15 @@ class FMM:
             if given or verbose:
                 raise TypeError(f"kifmm.FMM: the plan holds the options; {given or ['verbose']} "
                                 "cannot be given with it")
-            if plan.kernel != kernel or plan.dtype != _dtype(dtype):
+            if plan.kernel != kernel or plan._rtype != _dtype(dtype):
                 raise ValueError(f"kifmm.FMM: the plan is for {plan.kernel!r} "
-                                 f"{np.dtype(plan.dtype).name}, not {kernel!r} {np.dtype(dtype).name}")
+                                 f"{np.dtype(plan.dtype).name}, not {kernel!r} "
+                                 f"{np.dtype(_values(kernel, _dtype(dtype))).name}")
             if plan._p is None:
                 raise ValueError("kifmm.FMM: the plan is closed")
-        self.dtype = _dtype(dtype)
-        self._f = _api(kernel, self.dtype)
+        self._rtype = _dtype(dtype)
+        self.dtype = _values(kernel, self._rtype)
+        self._f = _api(kernel, self._rtype)
         self._destroy = self._f["destroy"]
         if plan is None:
             opts = _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size, period,
@@ -697,8 +719,8 @@ class FMM:
                 raise KifmmError(rc, f"kifmm_{kernel}_create_on_tree")
             self._h = h
             return
-        src = _points(sources, self.dtype, "sources")
-        trg = src if targets is None else _points(targets, self.dtype, "targets")
+        src = _points(sources, self._rtype, "sources")
+        trg = src if targets is None else _points(targets, self._rtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
         if plan is None:
             rc = self._f["create"](ctypes.byref(h), ctypes.byref(opts), self.nsources, _ptr(src),
@@ -716,12 +738,13 @@ class FMM:
             raise TypeError("kifmm.FMM: sources are needed (this rank's; may be empty)")
         MPI, _ = _mpi()
         handle = _comm(MPI, self.comm)
-        self.dtype = _dtype(dtype)
-        self._f = _api(kernel, self.dtype, mpi=True)
+        self._rtype = _dtype(dtype)
+        self.dtype = _values(kernel, self._rtype)
+        self._f = _api(kernel, self._rtype, mpi=True)
         self._destroy = self._f["destroy"]
         f = self._f["create_mpi"]
-        src = _points(sources, self.dtype, "sources")
-        trg = src if targets is None else _points(targets, self.dtype, "targets")
+        src = _points(sources, self._rtype, "sources")
+        trg = src if targets is None else _points(targets, self._rtype, "targets")
         self.nsources, self.ntargets = src.shape[0], trg.shape[0]
         h = _P()
         rc = f(ctypes.byref(h), handle, ctypes.byref(opts), self.nsources, _ptr(src),
@@ -755,7 +778,7 @@ class FMM:
         with self._lock:
             # the counts are read under the lock: update_points may change them
             h = self._handle()
-            vt = _values(self.kernel, self.dtype)
+            vt = self.dtype
             d, nrhs, lead = _densities(densities, vt, self.nsources, self.src_dim)
             shape = (self.ntargets, self.trg_dim) if lead is None else (lead, self.ntargets,
                                                                         self.trg_dim)
@@ -777,8 +800,8 @@ class FMM:
         operators. The results are those of a new FMM on the same points.
         On an error (KifmmError) the FMM keeps its old points and stays
         usable. The GIL is released while the library runs."""
-        src = _points(sources, self.dtype, "sources")
-        trg = src if targets is None else _points(targets, self.dtype, "targets")
+        src = _points(sources, self._rtype, "sources")
+        trg = src if targets is None else _points(targets, self._rtype, "targets")
         with self._lock:
             h = self._handle()
             rc = self._f["update_points"](h, src.shape[0], _ptr(src), trg.shape[0], _ptr(trg))
@@ -797,9 +820,9 @@ class FMM:
         if not isinstance(other, FMM):
             raise TypeError(f"kifmm.FMM.update_on_tree: other must be a kifmm.FMM, not "
                             f"{_show(other)}")
-        if other.dtype != self.dtype:
+        if other._rtype != self._rtype:
             raise ValueError(f"kifmm.FMM.update_on_tree: the tree is "
-                             f"{np.dtype(other.dtype).name}, not {np.dtype(self.dtype).name}")
+                             f"{np.dtype(other._rtype).name}, not {np.dtype(self._rtype).name}")
         # both locks, in one order whoever calls (a.update_on_tree(b) against
         # b.update_on_tree(a) on another thread)
         locks = [self._lock] if other is self else sorted((self._lock, other._lock), key=id)

@@ -130,14 +130,28 @@ def test_helmholtz_options_and_errors():
         kifmm.FMM("helmholtz", x, kernel_param=3.0 - 0.1j)  # Im k < 0
     with pytest.raises(kifmm.OptionError):
         kifmm.FMM("helmholtz", x, kernel_param=complex(np.inf, 0))
-    with pytest.raises(TypeError):
-        kifmm.FMM("helmholtz", x, kernel_param=[3.0, 0.1])
+    with pytest.raises(kifmm.OptionError):
+        kifmm.FMM("helmholtz", x, kernel_param=[3.0, 0.1, 1.0])  # (Re k, Im k) and zeros
     with pytest.raises(TypeError):
         kifmm.FMM("helmholtz", x, kernel_param="3")
     with pytest.raises(TypeError):
+        kifmm.FMM("helmholtz", x, kernel_param=[[3.0]])
+    with pytest.raises(TypeError):
         kifmm.FMM("laplace", x).evaluate(q)  # complex charges for a real kernel
-    fmm = kifmm.FMM("helmholtz", x, kernel_param=5.0, dtype=np.complex128)
-    assert fmm.options["kernel_param"][:2] == [5.0, 0.0] and fmm.dtype == np.float64
+    with pytest.raises(kifmm.OptionError) as e:
+        kifmm.FMM("helmholtz", x, kernel_param=5.0, tol=1e-6)
+    assert e.value.code == -16 and "order" in str(e.value)
+    fmm = kifmm.FMM("helmholtz", x, kernel_param=5.0, dtype=np.complex64)
+    assert fmm.options["kernel_param"][:2] == [5.0, 0.0] and fmm.dtype == np.complex64
+    assert kifmm.Plan("helmholtz", kernel_param=5.0).dtype == np.complex128
+    # the forms of the wavenumber: C's layout (as options gives it), a 0-d
+    # array, numpy scalars
+    for k in ([3.0, 0.1], [3.0, 0.1, 0.0, 0.0], np.array(3.0 + 0.1j), np.complex64(3.0 + 0.1j)):
+        with kifmm.FMM("helmholtz", x, kernel_param=k) as f:
+            got = f.options["kernel_param"]
+            assert abs(complex(got[0], got[1]) - (3.0 + 0.1j)) < 1e-6
+            with kifmm.FMM("helmholtz", x, kernel_param=got) as g:
+                assert g.options["kernel_param"] == got
     with pytest.raises(kifmm.KifmmError) as e:  # 40 wavelengths across: boxes of 10
         kifmm.FMM("helmholtz", x, kernel_param=2 * np.pi * 40, order=6, leaf_size=32)
     assert e.value.code == -25
