@@ -2648,6 +2648,7 @@ KIFMM__FN double kifmm__alpha_waves(double base, double x)
     static const unsigned char m[] = {3,  6,  9,  11, 12, 14, 17, 18, 19, 21, 22, 24, 26, 27, 29,
                                       30, 33, 34, 35, 36, 38, 41, 42, 43, 44, 45, 46, 48, 49, 50};
     int j, i, ok;
+    if (base * x < 0.85) return base; /* below the first (0.866), the common case */
     for (j = 0; j <= 80; j++) {
         const double a = base * (1.0 + ((j & 1) ? 0.0025 : -0.0025) * ((j + 1) / 2));
         for (i = 0, ok = 1; i < (int)sizeof m && ok; i++) {

@@ -167,12 +167,13 @@ static void direct_ld(int cd, long double kr, long double ki, int64_t ns, const 
 }
 
 #if KIFMM_KERNEL__HELM_HOOKS
-/* the hooks' reference: sums in long double of G q (td 2) or G q, A q d
- * (td 8) at target a over nb sources b (3 each), and the sums of the
- * terms' magnitudes, |G| |q| and |A| |q| r (a component of a complex
- * product cancels: its rounding is relative to them) */
+/* the hooks' reference: sums in long double at target a over nb sources b
+ * (3 each) of G q (sd 2, td 2), G q, A q d (sd 2, td 8) or helmholtz_cd_grad's
+ * (sd 8: q, v), and the sums of the terms' magnitudes, |G| |q| + |A| r |v|
+ * (potential) and |A| r |q| + |A| |v| + |B| r^2 |v| (gradient): a component
+ * of a complex product cancels, its rounding is relative to them */
 static double g_kr, g_ki;
-static void hook_ref(int td, int64_t nb, const double *b, const double *q, const double *a,
+static void hook_ref(int sd, int td, int64_t nb, const double *b, const double *q, const double *a,
                      double *ref, double *mag)
 {
     double one[8];
@@ -180,50 +181,37 @@ static void hook_ref(int td, int64_t nb, const double *b, const double *q, const
     int c;
     for (c = 0; c < 8; c++) ref[c] = mag[c] = 0.0;
     for (j = 0; j < nb; j++) {
+        const double *qj = q + sd * j;
         const double dx = a[0] - b[3 * j], dy = a[1] - b[3 * j + 1], dz = a[2] - b[3 * j + 2];
-        const double r = sqrt(dx * dx + dy * dy + dz * dz), aq = hypot(q[2 * j], q[2 * j + 1]);
+        const double r = sqrt(dx * dx + dy * dy + dz * dz), aq = hypot(qj[0], qj[1]);
         const double g = r > 0.0 ? exp(-g_ki * r) / (4.0 * T_PI * r) : 0.0;
-        direct_ld(0, g_kr, g_ki, 1, b + 3 * j, q + 2 * j, a, one);
+        const double zr = -g_ki * r, zi = g_kr * r;
+        const double ar = r > 0.0 ? g * hypot(zr - 1.0, zi) / r : 0.0; /* |A| r */
+        const double br = r > 0.0 ? g * hypot(3.0 - 3.0 * zr + zr * zr - zi * zi, zi * (2.0 * zr - 3.0)) / (r * r) : 0.0;
+        double av = 0.0;
+        for (c = 2; c < sd; c++) av += qj[c] * qj[c];
+        av = sqrt(av);
+        direct_ld(sd == 8, g_kr, g_ki, 1, b + 3 * j, qj, a, one);
         for (c = 0; c < td; c++) ref[c] += one[c];
-        mag[0] += g * aq, mag[1] += g * aq;
-        for (c = 2; c < td; c++) mag[c] += r > 0.0 ? g * hypot(g_ki * r + 1.0, g_kr * r) / r * aq : 0.0;
+        mag[0] += g * aq + ar * av, mag[1] += g * aq + ar * av;
+        for (c = 2; c < td; c++) mag[c] += ar * aq + (r > 0.0 ? ar / r : 0.0) * av + br * av;
     }
     for (c = 0; c < td; c++) mag[c] += 1e-300;
 }
 static void hook_ref2(int64_t nb, const double *b, const double *q, const double *a, double *ref,
                       double *mag)
 {
-    hook_ref(2, nb, b, q, a, ref, mag);
+    hook_ref(2, 2, nb, b, q, a, ref, mag);
 }
 static void hook_ref8(int64_t nb, const double *b, const double *q, const double *a, double *ref,
                       double *mag)
 {
-    hook_ref(8, nb, b, q, a, ref, mag);
+    hook_ref(2, 8, nb, b, q, a, ref, mag);
 }
-/* helmholtz_cd_grad's: (q, v) 8 reals a source; the magnitudes |G| |q| +
- * |A| r |v| (potential) and |A| r |q| + |A| |v| + |B| r^2 |v| (gradient) */
 static void hook_ref_cd(int64_t nb, const double *b, const double *q, const double *a, double *ref,
                         double *mag)
 {
-    double one[8];
-    int64_t j;
-    int c;
-    for (c = 0; c < 8; c++) ref[c] = mag[c] = 0.0;
-    for (j = 0; j < nb; j++) {
-        const double dx = a[0] - b[3 * j], dy = a[1] - b[3 * j + 1], dz = a[2] - b[3 * j + 2];
-        const double r = sqrt(dx * dx + dy * dy + dz * dz), aq = hypot(q[8 * j], q[8 * j + 1]);
-        const double av = sqrt(q[8 * j + 2] * q[8 * j + 2] + q[8 * j + 3] * q[8 * j + 3] + q[8 * j + 4] * q[8 * j + 4] +
-                               q[8 * j + 5] * q[8 * j + 5] + q[8 * j + 6] * q[8 * j + 6] + q[8 * j + 7] * q[8 * j + 7]);
-        const double g = r > 0.0 ? exp(-g_ki * r) / (4.0 * T_PI * r) : 0.0;
-        const double zr = -g_ki * r, zi = g_kr * r;
-        const double ar = r > 0.0 ? g * hypot(zr - 1.0, zi) / r : 0.0; /* |A| r */
-        const double br = r > 0.0 ? g * hypot(3.0 - 3.0 * zr + zr * zr - zi * zi, zi * (2.0 * zr - 3.0)) / (r * r) : 0.0;
-        direct_ld(1, g_kr, g_ki, 1, b + 3 * j, q + 8 * j, a, one);
-        for (c = 0; c < 8; c++) ref[c] += one[c];
-        mag[0] += g * aq + ar * av, mag[1] += g * aq + ar * av;
-        for (c = 2; c < 8; c++) mag[c] += ar * aq + (r > 0.0 ? ar / r : 0.0) * av + br * av;
-    }
-    for (c = 0; c < 8; c++) mag[c] += 1e-300;
+    hook_ref(8, 8, nb, b, q, a, ref, mag);
 }
 static void test_hooks(void)
 {
