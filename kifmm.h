@@ -2839,7 +2839,12 @@ KIFMM__FN double kifmm__max_abs(const double *x, size_t n)
  * components has SD^2 such blocks per parent pair and frequency (target
  * component a, source component b), each component's spectra in a slot of
  * their own: SD forward and SD inverse transforms per parent, SD^2 times
- * the scalar products. Below, p is the lattice order q. */
+ * the scalar products. A complex kernel (KIFMM_HAS_COMPLEX: SD = 2, the
+ * real 2 x 2 form of one complex value) instead transforms its (re, im)
+ * density as one complex lattice over the full grid (kz in 0 .. n - 1,
+ * nh = n): one forward and one inverse transform and one block per
+ * frequency, n^3 products against 4 n^2 (n/2 + 1). Below, p is the
+ * lattice order q. */
 #define KIFMM__FFT_F 4 /* frequencies per chunk (the AVX2 product kernels assume 4) */
 #define KIFMM__FFT_KB_MB 8 /* the products' blocks are kept if they fit in this */
 KIFMM__STATIC_ASSERT(KIFMM__FFT_F == 4, fft_product_kernels_take_4_frequencies_per_chunk);
@@ -2847,6 +2852,7 @@ KIFMM__STATIC_ASSERT(KIFMM__FFT_F == 4, fft_product_kernels_take_4_frequencies_p
 typedef struct kifmm__fft {
     int p, n, nh, nf, nchunk, nfp, ne; /* nfp = nchunk * F */
     int single;                        /* spectra and products in float */
+    int cplx;                          /* complex lattices, full spectra (nh = n) */
     int *ijk;                          /* lattice indices of the surface points */
     double *wr, *wi;                   /* exp(-2 pi i a b / n), [a * n + b] */
     double *wz;                        /* weights of the inverse real transform, / n^3 */
@@ -2858,11 +2864,11 @@ KIFMM__FN void kifmm__fft_free(kifmm__fft *pl)
     memset(pl, 0, sizeof *pl);
 }
 
-KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p, size_t *held)
+KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p, int cplx, size_t *held)
 {
-    int n = 2 * p - 1, nh = n / 2 + 1, a, b, c = 0, i, j, k;
+    int n = 2 * p - 1, nh = cplx ? n : n / 2 + 1, a, b, c = 0, i, j, k;
     memset(pl, 0, sizeof *pl);
-    pl->p = p; pl->n = n; pl->nh = nh; pl->nf = n * n * nh;
+    pl->p = p; pl->n = n; pl->nh = nh; pl->nf = n * n * nh; pl->cplx = cplx;
     pl->nchunk = (pl->nf + KIFMM__FFT_F - 1) / KIFMM__FFT_F;
     pl->nfp = pl->nchunk * KIFMM__FFT_F;
     pl->ne = kifmm__surf_count(p);
@@ -2885,7 +2891,7 @@ KIFMM__FN int kifmm__fft_init(kifmm__fft *pl, int p, size_t *held)
             pl->wr[a * n + b] = cos(ang);
             pl->wi[a * n + b] = sin(ang);
         }
-    for (a = 0; a < nh; a++) pl->wz[a] = (a == 0 ? 1.0 : 2.0) / ((double)n * n * n);
+    for (a = 0; a < nh; a++) pl->wz[a] = (a == 0 || cplx ? 1.0 : 2.0) / ((double)n * n * n);
     return KIFMM_SUCCESS;
 }
 
@@ -2896,9 +2902,11 @@ KIFMM__FN size_t kifmm__fft_work(const kifmm__fft *pl)
 }
 
 
-/* Spectrum of a real n^3 grid g ([(i n + j) n + k]) into khat (frequency f
- * at 2 f, re and im), full transform. */
-KIFMM__FN void kifmm__fft_grid(const kifmm__fft *pl, const double *g, double *khat, double *work)
+/* Spectrum of an n^3 grid g ([(i n + j) n + k]; its imaginary part gi, or
+ * NULL for a real grid) into khat (frequency f at 2 f, re and im), the
+ * stored frequencies (kz below nh). */
+KIFMM__FN void kifmm__fft_grid(const kifmm__fft *pl, const double *g, const double *gi,
+                               double *khat, double *work)
 {
     int n = pl->n, nh = pl->nh, i, j, k, kx, ky, kz;
     double *s1r = work, *s1i = s1r + n * n * nh, *s2r = s1i + n * n * nh, *s2i = s2r + n * n * nh;
@@ -2908,6 +2916,10 @@ KIFMM__FN void kifmm__fft_grid(const kifmm__fft *pl, const double *g, double *kh
             for (k = 0; k < n; k++) {
                 sr += g[i * n + k] * pl->wr[kz * n + k];
                 si += g[i * n + k] * pl->wi[kz * n + k];
+            }
+            for (k = 0; gi && k < n; k++) {
+                sr -= gi[i * n + k] * pl->wi[kz * n + k];
+                si += gi[i * n + k] * pl->wr[kz * n + k];
             }
             s1r[i * nh + kz] = sr; s1i[i * nh + kz] = si;
         }
@@ -2977,7 +2989,8 @@ KIFMM__FN int kifmm__lat_sorted(int64_t e, int q)
 
 /* The spectrum of a grid turned by sigma (kifmm__tv_turn) from the grid's:
  * with G'[sigma x] = G[x], G'^[k] = G^[k'], k'_pi(a) = s_a k_a (mod n);
- * where k'_z is past the stored half, G^[k'] = conj G^[-k'] (a real grid).
+ * where k'_z is past the stored half, G^[k'] = conj G^[-k'] (a real grid;
+ * a complex one stores every frequency).
  * Frequency f of the result (re, im) at out + f ostride. */
 KIFMM__FN void kifmm__fft_turn(const kifmm__fft *pl, const int *pi, const int *s, const double *in,
                                double *out, size_t ostride)
@@ -3687,8 +3700,9 @@ KIFMM__FN void KIFMM__P(kifmm__dft_sum)(int len, int nin, const double *wr, cons
 }
 
 /* The first stage of the forward transforms: along z, each lattice point's
- * 8 lane values (component comp of sd: m[8 (s sd + comp) + v]) into the
- * (x, y) row of its kx = a, ky = b (s1 re, im). */
+ * 8 lane values (component comp of sd: m[8 (s sd + comp) + v]; complex
+ * lattices: components comp and comp + 1 its re and im) into the (x, y)
+ * row of its kx = a, ky = b (s1 re, im). */
 KIFMM__FN void KIFMM__P(kifmm__fft_zstage)(const kifmm__fft *pl, const double *m, int sd, int comp,
                                            KIFMM__T *s1r, KIFMM__T *s1i)
 {
@@ -3697,8 +3711,16 @@ KIFMM__FN void KIFMM__P(kifmm__fft_zstage)(const kifmm__fft *pl, const double *m
     memset(s1r, 0, sizeof(KIFMM__T) * 2 * L * p * p * nh);
     for (s = 0; s < pl->ne; s++) {
         const int a = pl->ijk[3 * s], b = pl->ijk[3 * s + 1], c = pl->ijk[3 * s + 2];
-        KIFMM__T mv[KIFMM__FFT_L], *r = s1r + L * (a * p + b) * nh, *im = s1i + L * (a * p + b) * nh;
+        KIFMM__T mv[KIFMM__FFT_L], mi[KIFMM__FFT_L];
+        KIFMM__T *r = s1r + L * (a * p + b) * nh, *im = s1i + L * (a * p + b) * nh;
         for (v = 0; v < L; v++) mv[v] = (KIFMM__T)m[L * (s * sd + comp) + v];
+        if (pl->cplx) {
+            for (v = 0; v < L; v++) mi[v] = (KIFMM__T)m[L * (s * sd + comp + 1) + v];
+            for (kz = 0; kz < nh; kz++) /* (mv + i mi) (w0 + i w1) */
+                KIFMM__P(kifmm__caxpy)(L, (KIFMM__T)pl->wr[kz * n + c], (KIFMM__T)pl->wi[kz * n + c],
+                                       mv, mi, r + L * kz, im + L * kz);
+            continue;
+        }
         for (kz = 0; kz < nh; kz++) {
             const KIFMM__T w0 = (KIFMM__T)pl->wr[kz * n + c], w1 = (KIFMM__T)pl->wi[kz * n + c];
             for (v = 0; v < L; v++) {
@@ -3744,7 +3766,8 @@ KIFMM__FN void KIFMM__P(kifmm__fft_forward8)(const kifmm__fft *pl, const double 
 }
 
 /* 8 half spectra addressed as in forward8 -> the values at the ne lattice
- * surface points, component comp of sd: chk[(s sd + comp) 8 + v]. */
+ * surface points, component comp of sd: chk[(s sd + comp) 8 + v]
+ * (complex lattices: 8 full spectra -> re at comp, im at comp + 1). */
 KIFMM__FN void KIFMM__P(kifmm__fft_inverse8)(const kifmm__fft *pl, const KIFMM__T *in,
                                              size_t cstride, int sd, int comp, double *chk,
                                              KIFMM__T *work)
@@ -3769,18 +3792,24 @@ KIFMM__FN void KIFMM__P(kifmm__fft_inverse8)(const kifmm__fft *pl, const KIFMM__
                                      t1r + L * i * n * nh, t1i + L * i * n * nh, (size_t)L * nh,
                                      t2r + L * (i * p + j) * nh, t2i + L * (i * p + j) * nh);
     for (s = 0; s < pl->ne; s++) {
-        KIFMM__T acc[KIFMM__FFT_L];
+        KIFMM__T acc[KIFMM__FFT_L], aci[KIFMM__FFT_L];
         const KIFMM__T *xr, *xi;
         i = pl->ijk[3 * s];
         j = pl->ijk[3 * s + 1];
         k = pl->ijk[3 * s + 2];
         xr = t2r + L * (i * p + j) * nh;
         xi = t2i + L * (i * p + j) * nh;
-        for (v = 0; v < L; v++) acc[v] = 0;
-        for (kz = 0; kz < nh; kz++) {
+        for (v = 0; v < L; v++) acc[v] = 0, aci[v] = 0;
+        if (pl->cplx) /* (xr + i xi) conj(w) */
+            KIFMM__P(kifmm__dft_sum)(L, nh, pl->wr + k, pl->wi + k, n, -1.0, xr, xi, L, acc, aci);
+        for (kz = 0; !pl->cplx && kz < nh; kz++) { /* its real part, twice for kz > 0 */
             const KIFMM__T w0 = (KIFMM__T)(pl->wz[kz] * pl->wr[kz * n + k]);
             const KIFMM__T w1 = (KIFMM__T)(pl->wz[kz] * pl->wi[kz * n + k]);
             for (v = 0; v < L; v++) acc[v] += xr[L * kz + v] * w0 + xi[L * kz + v] * w1;
+        }
+        for (v = 0; pl->cplx && v < L; v++) { /* wz = 1 / n^3 throughout */
+            acc[v] *= (KIFMM__T)pl->wz[0];
+            chk[L * (s * sd + comp + 1) + v] = (double)(aci[v] * (KIFMM__T)pl->wz[0]);
         }
         for (v = 0; v < L; v++) chk[L * (s * sd + comp) + v] = (double)acc[v];
     }
@@ -4285,6 +4314,13 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
  * spectra of the 316 transfer vectors are those of 16, turned, and the M2M
  * and L2L of the 8 octants those of one, mirrored. */
 #define KIFMM__RADIAL (KIFMM__SD == 1 && (KIFMM__HAS_SC & KIFMM_HAS_RADIAL) != 0)
+/* A complex surface kernel (KIFMM_HAS_COMPLEX, SD = 2): the FFT M2L's
+ * lattices are complex, FSD = 1 component of them; the M2L's spectra are
+ * turned from 16 transfer vectors for a radial complex kernel as well
+ * (FRADIAL). */
+#define KIFMM__CPLX (KIFMM__SD == 2 && (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) != 0)
+#define KIFMM__FSD (KIFMM__CPLX ? 1 : KIFMM__SD)
+#define KIFMM__FRADIAL (KIFMM__RADIAL || (KIFMM__CPLX && (KIFMM__HAS_SC & KIFMM_HAS_RADIAL) != 0))
 /* Three periodic directions of a scale-invariant kernel: its surface
  * kernel's Ewald split and the background of it and of the kernel. */
 #if KIFMM__SI && (KIFMM__HAS_SC & KIFMM_HAS_EWALD) && (KIFMM__HAS_SC & KIFMM_HAS_BACKGROUND) && \
@@ -4350,9 +4386,9 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
  * transform work: the blocks of a chunk (SD^2 x 27 of them), and the
  * products of ftb parents (SD components each). Spectra and products keep
  * one slot per parent and component: slot b SD + j, F 16 values per chunk. */
-#define KIFMM__FFT_KBN ((size_t)27 * 128 * KIFMM__FFT_F * KIFMM__SD * KIFMM__SD)
-#define KIFMM__FFT_PN ((size_t)KIFMM__FFT_F * 16 * KIFMM__SD)
-#define KIFMM__FFT_OUTN(c) ((size_t)(c)->pl->fft.nfp * (size_t)(c)->fft.ftb * 16 * KIFMM__SD)
+#define KIFMM__FFT_KBN ((size_t)27 * 128 * KIFMM__FFT_F * KIFMM__FSD * KIFMM__FSD)
+#define KIFMM__FFT_PN ((size_t)KIFMM__FFT_F * 16 * KIFMM__FSD)
+#define KIFMM__FFT_OUTN(c) ((size_t)(c)->pl->fft.nfp * (size_t)(c)->fft.ftb * 16 * KIFMM__FSD)
 
 /* Singular value cutoff of the check-to-equivalent pseudo-inverses; the
  * smallest kernel magnitude on the surfaces for which a level keeps its far
@@ -4981,15 +5017,17 @@ done:
 
 /* The 316 lattice grids of the FFT M2L's kernel for boxes of half-width r,
  * times sigma, each component ab (target a, source b) transformed
- * (kifmm__fft_grid) into kt[(t SD^2 + ab) 2 nfp]: the kernel at the
- * lattice offsets h (i - j) - 2 r t on the (2q - 1)^3 grid; for a radial
- * kernel only the 16 transfer vectors with t_x >= t_y >= t_z >= 0 (the
- * others are these turned, kifmm__tv_turn). *big gets the largest |value|
- * (the same over the 16). KIFMM_ERR_KERNEL if a value was not finite. */
+ * (kifmm__fft_grid) into kt[(t FSD^2 + ab) 2 nfp]: the kernel at the
+ * lattice offsets h (i - j) - 2 r t on the (2q - 1)^3 grid (a complex
+ * kernel: one complex grid, k[0] + i k[2]); for a radial kernel only the
+ * 16 transfer vectors with t_x >= t_y >= t_z >= 0 (the others are these
+ * turned, kifmm__tv_turn). *big gets the largest |value| (the same over the
+ * 16). KIFMM_ERR_KERNEL if a value was not finite, or a complex kernel's
+ * block not of the form {a, -b, b, a}. */
 KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma, int nth,
                                     double *kt, double *big)
 {
-    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    enum { SD2 = KIFMM__SD * KIFMM__SD, FSD2 = KIFMM__FSD * KIFMM__FSD };
     const kifmm__fft *pl = &c->pl->fft;
     const int n = pl->n, p = pl->p;
     const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
@@ -5004,7 +5042,7 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
         double *g = gall + (size_t)kifmm__thread_num() * per, kv[SD2];
         int d[3] = {0, 0, 0}, pi[3], sg[3], i, j, k, ab;
         kifmm__transfer_vector(tv, d);
-        if (KIFMM__RADIAL && kifmm__tv_turn(d, pi, sg) != tv) continue; /* turned below */
+        if (KIFMM__FRADIAL && kifmm__tv_turn(d, pi, sg) != tv) continue; /* turned below */
         memset(g, 0, sizeof(double) * SD2 * nnn);
         for (i = 1 - p; i < p; i++)
             for (j = 1 - p; j < p; j++)
@@ -5017,9 +5055,13 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
                         mx = fabs(sigma * kv[ab]) > mx ? fabs(sigma * kv[ab]) : mx;
                         g[ab * nnn + at] = sigma * kv[ab];
                     }
+                    if (KIFMM__CPLX) bad |= kv[0] != kv[SD2 - 1] || kv[1] != -kv[2];
                 }
-        for (ab = 0; ab < SD2; ab++)
-            kifmm__fft_grid(pl, g + ab * nnn, kt + ((size_t)tv * SD2 + ab) * 2 * pl->nfp, g + SD2 * nnn);
+        if (KIFMM__CPLX)
+            kifmm__fft_grid(pl, g, g + 2 * nnn, kt + (size_t)tv * 2 * pl->nfp, g + SD2 * nnn);
+        for (ab = 0; !KIFMM__CPLX && ab < SD2; ab++)
+            kifmm__fft_grid(pl, g + ab * nnn, NULL, kt + ((size_t)tv * SD2 + ab) * 2 * pl->nfp,
+                            g + SD2 * nnn);
     }
     kifmm__free(gall);
     *big = mx;
@@ -5027,12 +5069,12 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
 }
 
 /* The FFT M2L's kernel spectra for boxes of half-width r, times sigma
- * (kifmm__m2l_grids), stored frequency-major (khat[((f 316 + t) SD^2 + ab)
- * 2], re and im) so that the blocks of a chunk of frequencies read one
- * contiguous piece: 316 SD^2 nfp complex values, independent of the tree. */
+ * (kifmm__m2l_grids), stored frequency-major (khat[((f 316 + t) FSD^2 +
+ * ab) 2], re and im) so that the blocks of a chunk of frequencies read one
+ * contiguous piece: 316 FSD^2 nfp complex values, independent of the tree. */
 KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, kifmm__ops *o)
 {
-    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    enum { SD2 = KIFMM__FSD * KIFMM__FSD };
     const kifmm__fft *pl = &c->pl->fft;
     const size_t nk = (size_t)KIFMM__NT * SD2 * 2 * pl->nfp;
     double *kt; /* spectra per transfer vector */
@@ -5044,13 +5086,13 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, 
         kifmm__free(kt);
         return KIFMM_ERR_NOMEM;
     }
-    if (!KIFMM__RADIAL) memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
+    if (!KIFMM__FRADIAL) memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
     rc = KIFMM__F(__m2l_grids)(c, r, o->sigma, nth, kt, &big);
     if (rc == KIFMM_ERR_NOMEM) {
         kifmm__free(kt);
         return KIFMM_ERR_NOMEM;
     }
-#if KIFMM__RADIAL
+#if KIFMM__FRADIAL
     /* each transfer vector t writes its own column of khat, turned from the
      * spectrum of its vector among the 16 (at kt + 2 nfp c) */
     KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
@@ -5163,7 +5205,7 @@ KIFMM__FN int KIFMM__F(__ops_solves)(const KIFMM_NAME *c, double r, int m2l, kif
  * the spectra khat (kifmm__build_m2l_fft's layout) */
 KIFMM__FN void KIFMM__F(__m2l_nonzero)(const KIFMM_NAME *c, const double *khat, unsigned char *nz)
 {
-    enum { SD2 = KIFMM__SD * KIFMM__SD };
+    enum { SD2 = KIFMM__FSD * KIFMM__FSD };
     const size_t n = (size_t)c->pl->fft.nfp * KIFMM__NT * SD2;
     size_t f;
     int ab, left = 0;
@@ -5249,8 +5291,8 @@ KIFMM__FN int KIFMM__F(__keep_blocks)(const KIFMM_NAME *c, KIFMM__F(__ops) **e, 
         /* each chunk writes its own blocks */
         KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
         for (int ch = 0; ch < pl->nchunk; ch++) {
-            if (o->kbf) kifmm__fft_blocksf(o->khat, tvm, KIFMM__SD, ch, o->kbf + per * (size_t)ch);
-            else kifmm__fft_blocksd(o->khat, tvm, KIFMM__SD, ch, o->kbd + per * (size_t)ch);
+            if (o->kbf) kifmm__fft_blocksf(o->khat, tvm, KIFMM__FSD, ch, o->kbf + per * (size_t)ch);
+            else kifmm__fft_blocksd(o->khat, tvm, KIFMM__FSD, ch, o->kbd + per * (size_t)ch);
         }
     }
     return KIFMM_SUCCESS;
@@ -6858,8 +6900,8 @@ KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32
 {
     const size_t cs = (size_t)c->fft.slots * KIFMM__FFT_F * 16, at = (size_t)ch * cs;
     const size_t ax = (size_t)chx * cs, esz = c->fft.specf ? sizeof(float) : sizeof(double);
-    int32_t nb2[27 * KIFMM__SD];
-    unsigned char no2[27 * KIFMM__SD];
+    int32_t nb2[27 * KIFMM__FSD];
+    unsigned char no2[27 * KIFMM__FSD];
     const int32_t *nbs = nbr;
     const unsigned char *nos = cc;
     int e, q, a, b, m = nn;
@@ -6868,14 +6910,14 @@ KIFMM__FN void KIFMM__F(__fft_products)(const KIFMM_NAME *c, int ch, const int32
         const char *p = c->fft.specf ? (const char *)(c->fft.specf + v) : (const char *)(c->fft.specd + v);
         for (q = 0; q < (int)(KIFMM__FFT_PN * esz); q += 64) KIFMM__PREFETCH(p + q);
     }
-    for (a = 0; a < KIFMM__SD; a++) {
-        const size_t ka = (size_t)a * 27 * KIFMM__SD * KIFMM__FFT_F * 128, oa = (size_t)a * KIFMM__FFT_F * 16;
-        if (KIFMM__SD > 1) { /* the (parent, component) pairs of row a's nonzero blocks */
+    for (a = 0; a < KIFMM__FSD; a++) {
+        const size_t ka = (size_t)a * 27 * KIFMM__FSD * KIFMM__FFT_F * 128, oa = (size_t)a * KIFMM__FFT_F * 16;
+        if (KIFMM__FSD > 1) { /* the (parent, component) pairs of row a's nonzero blocks */
             for (m = 0, e = 0; e < nn; e++)
-                for (b = 0; b < KIFMM__SD; b++)
-                    if (c->nz[a * KIFMM__SD + b]) {
-                        nb2[m] = nbr[e] * KIFMM__SD + b;
-                        no2[m++] = (unsigned char)(cc[e] * KIFMM__SD + b);
+                for (b = 0; b < KIFMM__FSD; b++)
+                    if (c->nz[a * KIFMM__FSD + b]) {
+                        nb2[m] = nbr[e] * KIFMM__FSD + b;
+                        no2[m++] = (unsigned char)(cc[e] * KIFMM__FSD + b);
                     }
             nbs = nb2;
             nos = no2;
@@ -6899,7 +6941,7 @@ KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, KIF
     double *dchk = KIFMM__F(__mbuf)(c);
     KIFMM__F(__sp) work = KIFMM__F(__fbuf)(c, woff);
     int q, i, a;
-    for (a = 0; a < KIFMM__SD; a++) {
+    for (a = 0; a < KIFMM__FSD; a++) { /* (a complex lattice: both components) */
         const size_t oa = (size_t)a * KIFMM__FFT_F * 16;
         if (op.f) kifmm__fft_inverse8f(&c->pl->fft, op.f + oa, ocs, KIFMM__SD, a, dchk, work.f);
         else kifmm__fft_inverse8d(&c->pl->fft, op.d + oa, ocs, KIFMM__SD, a, dchk, work.d);
@@ -6928,10 +6970,10 @@ KIFMM__FN int32_t KIFMM__F(__fft_slab)(const KIFMM_NAME *c, int l, int kept, int
     for (s1 = s0; s1 < ni; s1++) {
         const int32_t g = base + s1;
         int32_t add = 0;
-        if (!kept && (s1 - s0 + 1) * KIFMM__SD > c->fft.slots) break;
+        if (!kept && (s1 - s0 + 1) * KIFMM__FSD > c->fft.slots) break;
         if (!KIFMM__F(__fft_wanted)(t, l, s1)) continue; /* no child has a V list */
         for (e = co[g]; e < co[g + 1]; e++) add += loc[cj[e]] < 0;
-        if (s1 > s0 && (*nneed + add) * KIFMM__SD > c->fft.slots) break;
+        if (s1 > s0 && (*nneed + add) * KIFMM__FSD > c->fft.slots) break;
         for (e = co[g]; e < co[g + 1]; e++) {
             if (loc[cj[e]] < 0) {
                 loc[cj[e]] = *nneed;
@@ -6962,13 +7004,13 @@ KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__
         const KIFMM__F(__sp) s = KIFMM__F(__sp_at)(c->fft.specf, c->fft.specd, (size_t)b * KIFMM__FFT_PN);
         const KIFMM__F(__sp) work = KIFMM__F(__fbuf)(c, woff);
         double *m = KIFMM__F(__mbuf)(c);
-        unsigned char *h = c->fft.sch + 9 * (size_t)b * KIFMM__SD;
+        unsigned char *h = c->fft.sch + 9 * (size_t)b * KIFMM__FSD;
         int q, j;
         for (h[0] = 0, q = 0; q < 8; q++)
             if (kifmm__has_src(t, ch0 + q)) h[1 + h[0]++] = (unsigned char)q;
-        for (j = 1; j < KIFMM__SD; j++) memcpy(h + 9 * j, h, 9);
+        for (j = 1; j < KIFMM__FSD; j++) memcpy(h + 9 * j, h, 9);
         KIFMM__F(__conv8)(o->conv, nc, ne, ue + (size_t)8 * c->fft.need[b] * ne, m);
-        for (j = 0; j < KIFMM__SD; j++) {
+        for (j = 0; j < KIFMM__FSD; j++) { /* (a complex lattice: both components) */
             const size_t sj = (size_t)j * KIFMM__FFT_F * 16;
             if (s.f) kifmm__fft_forward8f(pl, m, KIFMM__SD, j, s.f + sj, cstride, work.f);
             else kifmm__fft_forward8d(pl, m, KIFMM__SD, j, s.d + sj, cstride, work.d);
@@ -6991,8 +7033,8 @@ KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM
     for (int ch = 0; ch < c->pl->fft.nchunk; ch++) {
         const KIFMM__F(__sp) kb = KIFMM__F(__fbuf)(c, 0);
         int32_t P;
-        if (kb.f) kifmm__fft_blocksf(o->khat, tv, KIFMM__SD, ch, kb.f);
-        else kifmm__fft_blocksd(o->khat, tv, KIFMM__SD, ch, kb.d);
+        if (kb.f) kifmm__fft_blocksf(o->khat, tv, KIFMM__FSD, ch, kb.f);
+        else kifmm__fft_blocksd(o->khat, tv, KIFMM__FSD, ch, kb.d);
         for (P = s0; P < s1; P++) {
             /* (slots are set only for wanted target parents) */
             const int32_t g = base + P;
@@ -7939,7 +7981,7 @@ KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
         kifmm__surf_unit(p + pl->surf.cdiff, pl->surf.unit_c);
     }
 #if KIFMM__FFT
-    if (!rc) rc = kifmm__fft_init(&pl->fft, p + pl->surf.cdiff, &pl->held);
+    if (!rc) rc = kifmm__fft_init(&pl->fft, p + pl->surf.cdiff, KIFMM__CPLX, &pl->held);
     /* float spectra for float instances, and on request for double
      * instances of scale-invariant kernels (whose spectra's range fits float
      * at every level, unlike those of a Yukawa kernel at large lambda r) */
@@ -8071,14 +8113,14 @@ KIFMM__FN int KIFMM__F(__work_buffers)(KIFMM_NAME *h)
  * both caps. */
 KIFMM__FN int32_t KIFMM__F(__fft_slots)(const KIFMM_NAME *h, size_t esz, int32_t m)
 {
-    const size_t slot = (size_t)h->pl->fft.nfp * 16 * esz * KIFMM__SD, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
+    const size_t slot = (size_t)h->pl->fft.nfp * 16 * esz * KIFMM__FSD, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
     size_t budget = (size_t)h->tree->nbox * (size_t)h->pl->surf.ne * sizeof(KIFMM__R);
     int32_t slots;
     if (h->tree->periodic) budget *= 4; /* see above */
     budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
     slots = (int32_t)(budget / slot);
     if (slots < 256) slots = 256;
-    return (slots > m ? m : slots) * KIFMM__SD;
+    return (slots > m ? m : slots) * KIFMM__FSD;
 }
 
 /* The FFT M2L's slab bookkeeping: the largest level's internal boxes (m) and
@@ -8115,7 +8157,7 @@ KIFMM__FN int KIFMM__F(__points_slabs)(KIFMM_NAME *h, size_t esz)
 KIFMM__FN void KIFMM__F(__fft_per)(KIFMM_NAME *h, size_t esz)
 {
     const kifmm__fft *pl = &h->pl->fft;
-    h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz * KIFMM__SD));
+    h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz * KIFMM__FSD));
     h->fft.ftb = h->fft.ftb > 128 ? 128 : h->fft.ftb < 1 ? 1 : h->fft.ftb;
     h->fft.per = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(h) + kifmm__fft_work8(pl);
     h->fft.per = (h->fft.per + 15) / 16 * 16; /* each thread's part 64-byte aligned */
@@ -9065,7 +9107,7 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
 #if KIFMM__FFT
     const kifmm__fft *pl = &h->pl->fft;
     const double kb = (double)KIFMM__FFT_KBN * pl->nchunk * (pl->single ? 4.0 : 8.0);
-    m2l = (double)KIFMM__NT * KIFMM__SD * KIFMM__SD * 2.0 * pl->nfp * sizeof(double);
+    m2l = (double)KIFMM__NT * KIFMM__FSD * KIFMM__FSD * 2.0 * pl->nfp * sizeof(double);
     if (kb * (m2ls > 1.0 ? m2ls : 1.0) <= (double)((size_t)KIFMM__FFT_KB_MB << 20)) {
         m2l += kb;
         *fout = 0.0;
@@ -10406,6 +10448,9 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
 #undef KIFMM__SD
 #undef KIFMM__SI
 #undef KIFMM__RADIAL
+#undef KIFMM__CPLX
+#undef KIFMM__FSD
+#undef KIFMM__FRADIAL
 #undef KIFMM__EWALD
 #undef KIFMM__DEGREE
 #undef KIFMM__ROLE_QT

@@ -66,7 +66,12 @@ extern "C++" {
  * gives the real part of its wavenumber, from which create refuses boxes
  * too many wavelengths wide for the order (KIFMM_ERR_FREQUENCY) and moves
  * each level's inner surfaces off their interior resonances, and periodic
- * options are refused. A misspelt bit stops the build. */
+ * options are refused; and COMPLEX, a two-component kernel that is the real
+ * 2 x 2 form of one complex value G (densities and outputs (re, im) pairs,
+ * k = {Re G, -Im G, Im G, Re G}), whose FFT M2L then runs on complex
+ * spectra of the full grid, one product a frequency (with RADIAL as well:
+ * G depends on |d| alone, spectra built for 16 transfer vectors). A
+ * misspelt bit stops the build. */
 #define KIFMM_HAS_SETUP 1
 #define KIFMM_HAS_P2P 2
 #define KIFMM_HAS_P2PF 4
@@ -82,7 +87,8 @@ extern "C++" {
 #define KIFMM_HAS_BACKGROUND 4096
 #define KIFMM_HAS_TOL 8192
 #define KIFMM_HAS_WAVES 16384
-#define KIFMM_HAS_ALL 32767
+#define KIFMM_HAS_COMPLEX 32768
+#define KIFMM_HAS_ALL 65535
 
 /* Three periodic directions (docs/api.md) need two more hooks of a
  * scale-invariant kernel. EWALD, on the surface kernel (SD x SD, k[a SD +
@@ -599,7 +605,7 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
                                -(i == j ? a[1] : 0.0) - b[1] * d[i] * d[j]);
     }
 }
-#define KIFMM_KERNEL__HELM_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_WAVES)
+#define KIFMM_KERNEL__HELM_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_WAVES | KIFMM_HAS_COMPLEX | KIFMM_HAS_RADIAL)
 /* The widest box an expansion may span, in wavelengths, per order (0 to
  * KIFMM_MAX_ORDER): the widest at which helmholtz (bench/bench_waves.c:
  * 20,000 uniform points in a fixed unit root, Im k = 0, the level-2 boxes'

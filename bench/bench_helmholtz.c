@@ -10,7 +10,12 @@
  * evaluate (the fastest of R) seconds, their sum and its ratio to
  * laplace_grad's, the near field's and the M2L's share of the evaluate,
  * and the relative L2 errors of the potential and of the gradient at S
- * sample targets against direct sums computed here. --dump FILE writes the
+ * sample targets against direct sums computed here. A third row runs the
+ * same helmholtz_grad as a real 2 x 2 kernel (helmholtz_2x2 below: the same
+ * values and near-field hooks, its surface kernel without
+ * KIFMM_HAS_COMPLEX), and the last lines compare the two: each pass's
+ * seconds, and the M2L's seconds and the plan's (operators') memory side
+ * by side. --dump FILE writes the
  * helmholtz_grad case for bench/fmm3d_kernels.py (kind 2: its format, then
  * the wavenumber's real and imaginary parts).
  */
@@ -21,6 +26,35 @@
 #define KIFMM_KERNEL laplace_grad
 #include "kifmm.h"
 #define KIFMM_KERNEL helmholtz_grad
+#include "kifmm.h"
+
+/* helmholtz_grad written as a real 2 x 2 kernel, as a user would without
+ * KIFMM_HAS_COMPLEX: its FFT M2L transforms the re and im components apart
+ * and multiplies 2 x 2 blocks of half spectra */
+#define kifmm_kernel_helm2_SRC_DIM 2
+#define kifmm_kernel_helm2_TRG_DIM 2
+#define kifmm_kernel_helm2_SCALE_INVARIANT 0
+#define kifmm_kernel_helm2_DEGREE 0
+#define kifmm_kernel_helm2_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_WAVES | KIFMM_KERNEL__HELM_HOOKS)
+#define kifmm_kernel_helm2_setup kifmm_kernel__wavenumber_setup
+#define kifmm_kernel_helm2_wavenumber kifmm_kernel__wavenumber
+#define kifmm_kernel_helm2_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+#define kifmm_kernel_helm2_eval kifmm_kernel_helmholtz_eval
+#define kifmm_kernel_helm2_p2p kifmm_kernel_helmholtz_p2p
+#define kifmm_kernel_helm2_p2pf kifmm_kernel_helmholtz_p2pf
+#define kifmm_kernel_helmholtz_2x2_SRC_DIM 2
+#define kifmm_kernel_helmholtz_2x2_TRG_DIM 8
+#define kifmm_kernel_helmholtz_2x2_SCALE_INVARIANT 0
+#define kifmm_kernel_helmholtz_2x2_DEGREE 0
+#define kifmm_kernel_helmholtz_2x2_EQUIV helm2
+#define kifmm_kernel_helmholtz_2x2_HAS kifmm_kernel_helm2_HAS
+#define kifmm_kernel_helmholtz_2x2_setup kifmm_kernel__wavenumber_setup
+#define kifmm_kernel_helmholtz_2x2_wavenumber kifmm_kernel__wavenumber
+#define kifmm_kernel_helmholtz_2x2_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+#define kifmm_kernel_helmholtz_2x2_eval kifmm_kernel_helmholtz_grad_eval
+#define kifmm_kernel_helmholtz_2x2_p2p kifmm_kernel_helmholtz_grad_p2p
+#define kifmm_kernel_helmholtz_2x2_p2pf kifmm_kernel_helmholtz_grad_p2pf
+#define KIFMM_KERNEL helmholtz_2x2
 #include "kifmm.h"
 
 #include "points.h"
@@ -109,9 +143,9 @@ int main(int argc, char **argv)
 {
     int64_t n, ns = 300, s;
     int p, rep = 3, a;
-    double waves, k, *x, *q, *ql, *out, *ref, lc, le, hc, he, tail[3];
+    double waves, k, *x, *q, *ql, *out, *ref, lc, le, hc, he, tail[3], rc2, re2;
     const char *dpath = NULL;
-    kifmm_stats sl, sh;
+    kifmm_stats sl, sh, s2;
     kifmm_opts o;
     int64_t *idx;
     if (argc < 4) {
@@ -137,6 +171,7 @@ int main(int argc, char **argv)
     memset(&o, 0, sizeof o);
     memset(&sl, 0, sizeof sl);
     memset(&sh, 0, sizeof sh);
+    memset(&s2, 0, sizeof s2);
     o.order = p;
     RUN(kifmm_laplace_grad, 4, ql, out, sl, lc, le);
     direct(-1.0, n, x, q, ns, idx, ref);
@@ -152,6 +187,19 @@ int main(int argc, char **argv)
     printf("helmholtz_grad %5lld %2d %6.1f %7.3f %7.3f %7.3f %7.2f  %4.0f  %4.0f  %.2e   %.2e\n", (long long)n, p, waves,
            hc, he, hc + he, (hc + he) / (lc + le), 100.0 * sh.t_p2p / he, 100.0 * sh.t_m2l / he, tail[0], tail[1]);
     if (dpath) dump(dpath, n, x, q, ns, idx, ref, tail, k);
+    RUN(kifmm_helmholtz_2x2, 8, q, out, s2, rc2, re2);
+    printf("helmholtz 2x2  %5lld %2d %6.1f %7.3f %7.3f %7.3f %7.2f  %4.0f  %4.0f  %.2e   %.2e\n", (long long)n, p, waves,
+           rc2, re2, rc2 + re2, (rc2 + re2) / (lc + le), 100.0 * s2.t_p2p / re2, 100.0 * s2.t_m2l / re2,
+           rel(8, 0, 2, ns, idx, out, ref), rel(8, 2, 8, ns, idx, out, ref));
+    for (a = 0; a < 2; a++) { /* each pass's seconds, native and 2 x 2 */
+        const kifmm_stats *z = a ? &s2 : &sh;
+        printf("%s passes: p2m %.3f m2m %.3f m2l %.3f l2l %.3f l2p %.3f p2p %.3f, other %.3f\n",
+               a ? "2x2    " : "complex", z->t_p2m, z->t_m2m, z->t_m2l, z->t_l2l, z->t_l2p, z->t_p2p,
+               z->t_p2l + z->t_m2p);
+    }
+    printf("complex M2L %.3f s against 2x2 %.3f s (%.2fx), plan %.1f MiB against %.1f MiB (%.2fx)\n", sh.t_m2l,
+           s2.t_m2l, s2.t_m2l / sh.t_m2l, sh.plan_bytes / 1048576.0, s2.plan_bytes / 1048576.0,
+           s2.plan_bytes / sh.plan_bytes);
     free(x), free(q), free(ql), free(out), free(ref), free(idx);
     return 0;
 }
