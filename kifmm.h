@@ -2559,6 +2559,16 @@ KIFMM__FN void kifmm__surf_place(const double *unit, int n, const double *c, dou
  * (Biot-Savart) and the pressure-velocity surfaces measured the same or
  * worse (docs/algorithm.md). */
 #define KIFMM__ALPHA_INNER_NARROW 0.95
+/* A complex kernel (KIFMM_HAS_COMPLEX) takes a one-component kernel's
+ * square systems (check order p, radii 1.05 and 4.5) up to this order, and
+ * the two-component surfaces above. helmholtz, 20,000 uniform points,
+ * level-2 boxes 0.03 to 1.15 wavelengths wide (bench/bench_waves.c): p = 5
+ * and 6 0.82 to 0.98 and 0.68 to 0.96 times the two-component surfaces'
+ * errors below 0.8 wavelengths, 1.0 to 1.27 and 1.0 to 1.17 times above;
+ * p = 7 erratic (1.5e-5 at 0.35 wavelengths against 1.3e-7). The FFT grid
+ * is then (2p - 1)^3 against (2p + 1)^3: evaluate 0.76 against 0.95 s at
+ * 200,000 points, p = 6, 2 wavelengths. */
+#define KIFMM__CPLX_SQUARE_MAX 6
 
 /* The check surfaces' order minus the equivalent surfaces' order p, for an
  * instance with the FFT M2L (fft) or not, and sd surface density
@@ -7958,7 +7968,7 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
 KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
 {
     KIFMM__F(_plan) *pl = (KIFMM__F(_plan) *)kifmm__calloc(1, sizeof *pl);
-    int p, rc = KIFMM_SUCCESS;
+    int p, sd, rc = KIFMM_SUCCESS;
     if (!pl) return NULL;
     kifmm__lock_init(&pl->lock);
     pl->held = sizeof *pl;
@@ -7966,9 +7976,12 @@ KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
     pl->opts = *o;
     pl->ops.degree = (double)(KIFMM__DEGREE);
     p = o->order;
-    pl->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT, KIFMM__SD);
-    pl->surf.ao = kifmm__alpha_outer(pl->surf.cdiff, KIFMM__SD);
-    pl->surf.ai = kifmm__alpha_inner(KIFMM__SD, KIFMM__IS_ONE(KIFMM__R_(SC, _INNER_NARROW)));
+    /* a complex kernel's surfaces up to order KIFMM__CPLX_SQUARE_MAX: a
+     * one-component kernel's square systems, else two components' */
+    sd = KIFMM__CPLX && KIFMM__FFT && p <= KIFMM__CPLX_SQUARE_MAX ? 1 : KIFMM__SD;
+    pl->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT, sd);
+    pl->surf.ao = kifmm__alpha_outer(pl->surf.cdiff, sd);
+    pl->surf.ai = kifmm__alpha_inner(sd, KIFMM__IS_ONE(KIFMM__R_(SC, _INNER_NARROW)));
     pl->surf.nse = kifmm__surf_count(p);
     pl->surf.nsc = kifmm__surf_count(p + pl->surf.cdiff);
     pl->surf.ne = pl->surf.nse * KIFMM__SD;

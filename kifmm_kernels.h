@@ -609,14 +609,16 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
 /* The widest box an expansion may span, in wavelengths, per order (0 to
  * KIFMM_MAX_ORDER): the widest at which helmholtz (bench/bench_waves.c:
  * 20,000 uniform points in a fixed unit root, Im k = 0, the level-2 boxes'
- * expansions the widest; steps of 0.02 at p = 6 and 8, 0.05 at 4 and 5,
- * 0.1 above) stayed within 100 times its error at 0.05 wavelengths (two
+ * expansions the widest; steps of 0.01 near the limits at p = 4 to 6
+ * (their surfaces those of a one-component kernel, kifmm.h,
+ * KIFMM__CPLX_SQUARE_MAX), 0.02 at p = 8, 0.1 above) stayed within 100
+ * times its error at 0.05 wavelengths (two
  * digits), with every smaller width, and at most 1.6 (measured to 1.7;
  * p = 2, 3 kept at 0.5). The inner surfaces move off their interior
  * resonances (kifmm.h, kifmm__alpha_waves), which had capped every order
  * at 0.8: p = 8 gave an error of 4.8e3 at 0.8660254 wavelengths, 3.4e-8
  * since (docs/kernels.md, "Helmholtz"). */
-#define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.9, 1.0, 1.1, 1.2, 1.34, 1.5, 1.6, 1.6, 1.6}
+#define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.87, 0.99, 1.08, 1.2, 1.34, 1.5, 1.6, 1.6, 1.6}
 
 /* helmholtz: charges -> potential (a complex pair each) */
 #define kifmm_kernel_helmholtz_SRC_DIM 2
