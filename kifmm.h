@@ -4895,6 +4895,9 @@ KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, double ao, 
                                  (size_t)c->pl->surf.nc, NULL);
 }
 
+/* The sign of row or column i in KIFMM__F(__c2e_solve): -1 for the
+ * imaginary parts of a complex kernel's pairs. */
+#define KIFMM__C2E_SIGN(i) (KIFMM__CPLX && ((i) & 1) ? -1.0 : 1.0)
 /* The two pseudo-inverses of those matrices (which they destroy). With the
  * same points on both surfaces and a kernel with K(-d) = K(d)^T (Laplace,
  * Yukawa, Stokes) the downward matrix is the transpose of the upward one,
@@ -4905,12 +4908,22 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
 {
     const int nc = c->pl->surf.nc, ne = c->pl->surf.ne;
     int i, j, tr = nc == ne, rc;
+    /* a complex kernel's downward matrix is the upward one's complex
+     * transpose (blocks moved, not turned): J kup^T J, J = diag(1, -1, 1,
+     * -1, ...) (the conjugation of (re, im) pairs), exactly; its factors
+     * then come from the upward SVD's turned, signs flipped by J */
     for (j = 0; j < ne && tr; j++)
-        for (i = 0; i < nc && tr; i++) tr = o->kdn[i + (size_t)j * nc] == o->kup[j + (size_t)i * nc];
+        for (i = 0; i < nc && tr; i++)
+            tr = o->kdn[i + (size_t)j * nc] == KIFMM__C2E_SIGN(i) * KIFMM__C2E_SIGN(j) * o->kup[j + (size_t)i * nc];
     rc = kifmm__pinv(o->kup, nc, ne, KIFMM__CUTOFF, &o->ut_up, &o->vs_up, &o->ku);
     if (!rc && tr) {
         o->kd = o->ku;
         rc = kifmm__pinv_transposed(nc, nc, o->ku, o->ut_up, o->vs_up, &o->ut_dn, &o->vs_dn);
+        for (j = 0; !rc && KIFMM__CPLX && j < o->kd; j++)
+            for (i = 1; i < nc; i += 2) {
+                o->vs_dn[i + (size_t)j * nc] = -o->vs_dn[i + (size_t)j * nc];
+                o->ut_dn[j + (size_t)i * o->kd] = -o->ut_dn[j + (size_t)i * o->kd];
+            }
     } else if (!rc) {
         rc = kifmm__pinv(o->kdn, nc, ne, KIFMM__CUTOFF, &o->ut_dn, &o->vs_dn, &o->kd);
     }
@@ -10462,6 +10475,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
 #undef KIFMM__SI
 #undef KIFMM__RADIAL
 #undef KIFMM__CPLX
+#undef KIFMM__C2E_SIGN
 #undef KIFMM__FSD
 #undef KIFMM__FRADIAL
 #undef KIFMM__EWALD
