@@ -625,7 +625,7 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
 #define kifmm_kernel_helmholtz_TRG_DIM 2
 #define kifmm_kernel_helmholtz_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_DEGREE 0
-#define kifmm_kernel_helmholtz_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS) /* hook below */
+#define kifmm_kernel_helmholtz_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS | KIFMM_KERNEL__HELM_MUTUAL) /* hooks below */
 #define kifmm_kernel_helmholtz_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
@@ -641,7 +641,7 @@ static inline void kifmm_kernel_helmholtz_eval(const double *param, double dx, d
 #define kifmm_kernel_helmholtz_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_grad_DEGREE 0
 #define kifmm_kernel_helmholtz_grad_EQUIV helmholtz
-#define kifmm_kernel_helmholtz_grad_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS)
+#define kifmm_kernel_helmholtz_grad_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS | KIFMM_KERNEL__HELM_MUTUAL)
 #define kifmm_kernel_helmholtz_grad_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_grad_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_grad_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
@@ -3126,13 +3126,12 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
 #define KIFMM_KERNEL__HW 8
 #define KIFMM_KERNEL__HSET1 _mm512_set1_pd
 #define KIFMM_KERNEL__HLOAD _mm512_loadu_pd
+#define KIFMM_KERNEL__HACC(a, v) _mm512_storeu_pd((a), _mm512_add_pd(_mm512_loadu_pd(a), (v)))
 #define KIFMM_KERNEL__HSUB _mm512_sub_pd
 #define KIFMM_KERNEL__HMUL _mm512_mul_pd
 #define KIFMM_KERNEL__HFMA _mm512_fmadd_pd
 #define KIFMM_KERNEL__HFNMA _mm512_fnmadd_pd
-#define KIFMM_KERNEL__HINV(r2)                                                                  \
-    _mm512_maskz_div_pd(_mm512_cmp_pd_mask(r2, _mm512_setzero_pd(), _CMP_GT_OQ), _mm512_set1_pd(1.0), \
-                        _mm512_sqrt_pd(r2))
+#define KIFMM_KERNEL__HINV kifmm_kernel__rinv8 /* no square root or division */
 #define KIFMM_KERNEL__HEXPN kifmm_kernel__expn8
 #define KIFMM_KERNEL__HSINCOS kifmm_kernel__sincos8
 #define KIFMM_KERNEL__HSUM _mm512_reduce_add_pd
@@ -3141,6 +3140,7 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
 #define KIFMM_KERNEL__HW 4
 #define KIFMM_KERNEL__HSET1 _mm256_set1_pd
 #define KIFMM_KERNEL__HLOAD _mm256_loadu_pd
+#define KIFMM_KERNEL__HACC(a, v) _mm256_storeu_pd((a), _mm256_add_pd(_mm256_loadu_pd(a), (v)))
 #define KIFMM_KERNEL__HSUB _mm256_sub_pd
 #define KIFMM_KERNEL__HMUL _mm256_mul_pd
 #define KIFMM_KERNEL__HFMA _mm256_fmadd_pd
@@ -3210,9 +3210,12 @@ static inline int64_t kifmm_kernel__helm_fill(const double *const *bd, const flo
 }
 
 /* one target (x, y, z) against a filled block of jp sources: the sums of
- * the mode's td outputs, without scale and 1 / (4 pi) */
+ * the mode's td outputs, without scale and 1 / (4 pi); with pb (modes 0
+ * and 1, the mutual hooks), the target's density qa (re, im) as a source
+ * of the block's points as well, added to their sums pb[c][j] */
 static inline void kifmm_kernel__helm_row(const double *param, double x, double y, double z,
                                           double (*p)[KIFMM_KERNEL__HSB], int64_t jp, int mode,
+                                          const double *qa, double (*pb)[KIFMM_KERNEL__HSB],
                                           double *sums)
 {
     typedef KIFMM_KERNEL__HV V;
@@ -3222,6 +3225,7 @@ static inline void kifmm_kernel__helm_row(const double *param, double x, double 
     const V TWO = KIFMM_KERNEL__HSET1(2.0), THREE = KIFMM_KERNEL__HSET1(3.0);
     const V NTHREE = KIFMM_KERNEL__HSET1(-3.0);
     const V X = KIFMM_KERNEL__HSET1(x), Y = KIFMM_KERNEL__HSET1(y), Z = KIFMM_KERNEL__HSET1(z);
+    const V QAR = KIFMM_KERNEL__HSET1(qa ? qa[0] : 0.0), QAI = KIFMM_KERNEL__HSET1(qa ? qa[1] : 0.0);
     const double *px = p[0], *py = p[1], *pz = p[2], *pr = p[3], *pi = p[4], *pv = p[5];
     V o[8];
     int64_t j;
@@ -3240,6 +3244,10 @@ static inline void kifmm_kernel__helm_row(const double *param, double x, double 
         gr = KIFMM_KERNEL__HMUL(e, cs), gi = KIFMM_KERNEL__HMUL(e, sn); /* G */
         o[0] = KIFMM_KERNEL__HFMA(gr, qr, KIFMM_KERNEL__HFNMA(gi, qi, o[0]));
         o[1] = KIFMM_KERNEL__HFMA(gr, qi, KIFMM_KERNEL__HFMA(gi, qr, o[1]));
+        if (pb) { /* G qa */
+            KIFMM_KERNEL__HACC(pb[0] + j, KIFMM_KERNEL__HFNMA(gi, QAI, KIFMM_KERNEL__HMUL(gr, QAR)));
+            KIFMM_KERNEL__HACC(pb[1] + j, KIFMM_KERNEL__HFMA(gi, QAR, KIFMM_KERNEL__HMUL(gr, QAI)));
+        }
         if (mode) { /* A q, A = G (i k r - 1) / r^2 */
             const V ir2 = KIFMM_KERNEL__HMUL(inv, inv);
             const V t0 = KIFMM_KERNEL__HFNMA(KI, r, KIFMM_KERNEL__HSUB(ZERO, ONE)), t1 = KIFMM_KERNEL__HMUL(KR, r);
@@ -3254,6 +3262,16 @@ static inline void kifmm_kernel__helm_row(const double *param, double x, double 
             o[2] = KIFMM_KERNEL__HFMA(aqr, dx, o[2]), o[3] = KIFMM_KERNEL__HFMA(aqi, dx, o[3]);
             o[4] = KIFMM_KERNEL__HFMA(aqr, dy, o[4]), o[5] = KIFMM_KERNEL__HFMA(aqi, dy, o[5]);
             o[6] = KIFMM_KERNEL__HFMA(aqr, dz, o[6]), o[7] = KIFMM_KERNEL__HFMA(aqi, dz, o[7]);
+            if (pb) { /* -A qa d: d is the other way for the block's points */
+                const V bqr = KIFMM_KERNEL__HFNMA(ar, QAR, KIFMM_KERNEL__HMUL(ai, QAI));
+                const V bqi = KIFMM_KERNEL__HFNMA(ai, QAR, KIFMM_KERNEL__HFNMA(ar, QAI, ZERO));
+                KIFMM_KERNEL__HACC(pb[2] + j, KIFMM_KERNEL__HMUL(bqr, dx));
+                KIFMM_KERNEL__HACC(pb[3] + j, KIFMM_KERNEL__HMUL(bqi, dx));
+                KIFMM_KERNEL__HACC(pb[4] + j, KIFMM_KERNEL__HMUL(bqr, dy));
+                KIFMM_KERNEL__HACC(pb[5] + j, KIFMM_KERNEL__HMUL(bqi, dy));
+                KIFMM_KERNEL__HACC(pb[6] + j, KIFMM_KERNEL__HMUL(bqr, dz));
+                KIFMM_KERNEL__HACC(pb[7] + j, KIFMM_KERNEL__HMUL(bqi, dz));
+            }
         }
     }
     for (c = 0; c < (mode ? 8 : 2); c++) sums[c] = KIFMM_KERNEL__HSUM(o[c]);
@@ -3276,9 +3294,9 @@ static inline void kifmm_kernel__helm_p2p(const double *param, const double *con
         jp = kifmm_kernel__helm_fill(bd, bf, qd, qf, nb, j0, mode, p);
         for (i = 0; i < na; i++) {
             if (ad)
-                kifmm_kernel__helm_row(param, ad[0][i], ad[1][i], ad[2][i], p, jp, mode, sums);
+                kifmm_kernel__helm_row(param, ad[0][i], ad[1][i], ad[2][i], p, jp, mode, NULL, NULL, sums);
             else
-                kifmm_kernel__helm_row(param, af[0][i], af[1][i], af[2][i], p, jp, mode, sums);
+                kifmm_kernel__helm_row(param, af[0][i], af[1][i], af[2][i], p, jp, mode, NULL, NULL, sums);
             for (c = 0; c < td; c++) {
                 if (od) od[td * i + c] += s * sums[c];
                 else of[td * i + c] += (float)(s * sums[c]);
@@ -3286,10 +3304,52 @@ static inline void kifmm_kernel__helm_p2p(const double *param, const double *con
         }
     }
 }
+
+/* the mutual hooks (modes 0 and 1: G(-d) = G(d), A(-d) (-d) = -A(d) d):
+ * both directions between the disjoint sets A (a, qa) and B, each pair's
+ * sin, cos and exp once; B in blocks as above, the block's sums in pb,
+ * added to outb after the block has met every point of A */
+static inline void kifmm_kernel__helm_p2ps(const double *param, const double *const *ad,
+                                           const float *const *af, const double *qad,
+                                           const float *qaf, int64_t na,
+                                           const double *const *bd, const float *const *bf,
+                                           int64_t nb, const double *qbd, const float *qbf,
+                                           double scale, double *oad, float *oaf, double *obd,
+                                           float *obf, int mode)
+{
+    const double s = scale * KIFMM_INV_4PI;
+    const int td = mode ? 8 : 2;
+    double p[11][KIFMM_KERNEL__HSB], pb[8][KIFMM_KERNEL__HSB], sums[8], qa[2];
+    int64_t i, j0, jp, k;
+    int c;
+    for (j0 = 0; j0 < nb; j0 += KIFMM_KERNEL__HSB) {
+        jp = kifmm_kernel__helm_fill(bd, bf, qbd, qbf, nb, j0, mode, p);
+        for (c = 0; c < td; c++)
+            for (k = 0; k < jp; k++) pb[c][k] = 0.0;
+        for (i = 0; i < na; i++) {
+            qa[0] = qad ? qad[2 * i] : (double)qaf[2 * i];
+            qa[1] = qad ? qad[2 * i + 1] : (double)qaf[2 * i + 1];
+            if (ad)
+                kifmm_kernel__helm_row(param, ad[0][i], ad[1][i], ad[2][i], p, jp, mode, qa, pb, sums);
+            else
+                kifmm_kernel__helm_row(param, af[0][i], af[1][i], af[2][i], p, jp, mode, qa, pb, sums);
+            for (c = 0; c < td; c++) {
+                if (oad) oad[td * i + c] += s * sums[c];
+                else oaf[td * i + c] += (float)(s * sums[c]);
+            }
+        }
+        for (k = 0; k < jp && j0 + k < nb; k++)
+            for (c = 0; c < td; c++) {
+                if (obd) obd[td * (j0 + k) + c] += s * pb[c][k];
+                else obf[td * (j0 + k) + c] += (float)(s * pb[c][k]);
+            }
+    }
+}
 #undef KIFMM_KERNEL__HV
 #undef KIFMM_KERNEL__HW
 #undef KIFMM_KERNEL__HSET1
 #undef KIFMM_KERNEL__HLOAD
+#undef KIFMM_KERNEL__HACC
 #undef KIFMM_KERNEL__HSUB
 #undef KIFMM_KERNEL__HMUL
 #undef KIFMM_KERNEL__HFMA
@@ -3341,8 +3401,43 @@ static inline void kifmm_kernel_helmholtz_cd_grad_p2pf(const double *param, cons
     const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
     kifmm_kernel__helm_p2p(param, NULL, a, na, NULL, b, nb, NULL, qb, scale, NULL, outa, 2);
 }
+static inline void kifmm_kernel_helmholtz_p2ps(const double *param, const double *ax, const double *ay, const double *az,
+    const double *qa, int64_t na, const double *bx, const double *by, const double *bz, const double *qb, int64_t nb,
+    double scale, double *outa, double *outb)
+{
+    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2ps(param, a, NULL, qa, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, outb,
+                            NULL, 0);
+}
+static inline void kifmm_kernel_helmholtz_p2psf(const double *param, const float *ax, const float *ay, const float *az,
+    const float *qa, int64_t na, const float *bx, const float *by, const float *bz, const float *qb, int64_t nb,
+    float scale, float *outa, float *outb)
+{
+    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2ps(param, NULL, a, NULL, qa, na, NULL, b, nb, NULL, qb, scale, NULL, outa, NULL,
+                            outb, 0);
+}
+static inline void kifmm_kernel_helmholtz_grad_p2ps(const double *param, const double *ax, const double *ay, const double *az,
+    const double *qa, int64_t na, const double *bx, const double *by, const double *bz, const double *qb, int64_t nb,
+    double scale, double *outa, double *outb)
+{
+    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2ps(param, a, NULL, qa, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, outb,
+                            NULL, 1);
+}
+static inline void kifmm_kernel_helmholtz_grad_p2psf(const double *param, const float *ax, const float *ay, const float *az,
+    const float *qa, int64_t na, const float *bx, const float *by, const float *bz, const float *qb, int64_t nb,
+    float scale, float *outa, float *outb)
+{
+    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
+    kifmm_kernel__helm_p2ps(param, NULL, a, NULL, qa, na, NULL, b, nb, NULL, qb, scale, NULL, outa, NULL,
+                            outb, 1);
+}
+/* mutual hooks: helmholtz and helmholtz_grad (a dipole's potential is odd in d) */
+#define KIFMM_KERNEL__HELM_MUTUAL (KIFMM_HAS_P2PS | KIFMM_HAS_P2PSF)
 #else
 #define KIFMM_KERNEL__HELM_HOOKS 0
+#define KIFMM_KERNEL__HELM_MUTUAL 0
 #endif
 
 /* ------------------------------------------------------------------------ */

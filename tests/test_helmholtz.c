@@ -28,6 +28,24 @@
 #define KIFMM_REAL float
 #include "kifmm.h"
 
+/* a two-component kernel flagged KIFMM_HAS_COMPLEX whose blocks are not
+ * the real form of a complex value ({G, 0, 0, 2 G}): create must refuse it
+ * (KIFMM_ERR_KERNEL) when the FFT M2L builds its spectra */
+#define kifmm_kernel_notcplx_SRC_DIM 2
+#define kifmm_kernel_notcplx_TRG_DIM 2
+#define kifmm_kernel_notcplx_SCALE_INVARIANT 0
+#define kifmm_kernel_notcplx_DEGREE 0
+#define kifmm_kernel_notcplx_HAS (KIFMM_HAS_COMPLEX)
+static inline void kifmm_kernel_notcplx_eval(const double *param, double dx, double dy, double dz,
+                                             double *k)
+{
+    const double r2 = dx * dx + dy * dy + dz * dz, g = r2 > 0.0 ? 1.0 / sqrt(r2) : 0.0;
+    (void)param;
+    k[0] = g, k[1] = 0.0, k[2] = 0.0, k[3] = 2.0 * g;
+}
+#define KIFMM_KERNEL notcplx
+#include "kifmm.h"
+
 #include "test.h"
 
 #define LPI 3.141592653589793238462643383279502884L
@@ -213,6 +231,47 @@ static void hook_ref_cd(int64_t nb, const double *b, const double *q, const doub
 {
     hook_ref(8, 8, nb, b, q, a, ref, mag);
 }
+/* The mutual hooks (_p2ps, helmholtz and helmholtz_grad) as one-way ones
+ * for t_check_hooks: the targets as set A (g_side 0) or as set B (1) with
+ * zero densities, the other set's outputs into scratch; so each side's
+ * sums meet the long double reference on their own. */
+typedef void (*mut_d)(const double *, const double *, const double *, const double *, const double *,
+                      int64_t, const double *, const double *, const double *, const double *, int64_t,
+                      double, double *, double *);
+typedef void (*mut_f)(const double *, const float *, const float *, const float *, const float *,
+                      int64_t, const float *, const float *, const float *, const float *, int64_t,
+                      float, float *, float *);
+static int g_side;
+static mut_d g_md;
+static mut_f g_mf;
+
+static void as_one_d(const double *prm, const double *ax, const double *ay, const double *az,
+                     int64_t na, const double *bx, const double *by, const double *bz,
+                     const double *q, int64_t nb, double scale, double *out)
+{
+    double *z = t_doubles(2 * na), *scr = t_doubles(8 * nb);
+    int64_t i;
+    for (i = 0; i < 2 * na; i++) z[i] = 0.0;
+    for (i = 0; i < 8 * nb; i++) scr[i] = 0.0;
+    if (g_side == 0) g_md(prm, ax, ay, az, z, na, bx, by, bz, q, nb, scale, out, scr);
+    else g_md(prm, bx, by, bz, q, nb, ax, ay, az, z, na, scale, scr, out);
+    free(z), free(scr);
+}
+
+static void as_one_f(const double *prm, const float *ax, const float *ay, const float *az,
+                     int64_t na, const float *bx, const float *by, const float *bz, const float *q,
+                     int64_t nb, float scale, float *out)
+{
+    float *z = (float *)t_malloc_or_die(sizeof(float) * (size_t)(2 * na + 1));
+    float *scr = (float *)t_malloc_or_die(sizeof(float) * (size_t)(8 * nb + 1));
+    int64_t i;
+    for (i = 0; i < 2 * na; i++) z[i] = 0.0f;
+    for (i = 0; i < 8 * nb; i++) scr[i] = 0.0f;
+    if (g_side == 0) g_mf(prm, ax, ay, az, z, na, bx, by, bz, q, nb, scale, out, scr);
+    else g_mf(prm, bx, by, bz, q, nb, ax, ay, az, z, na, scale, scr, out);
+    free(z), free(scr);
+}
+
 static void test_hooks(void)
 {
     static const double ks[3][2] = {{7.3, 0.0}, {20.0, 0.6}, {0.0, 0.0}};
@@ -226,6 +285,14 @@ static void test_hooks(void)
                       hook_ref8);
         t_check_hooks("helmholtz_cd_grad", 8, 8, prm, 2e-14, kifmm_kernel_helmholtz_cd_grad_p2p, kifmm_kernel_helmholtz_cd_grad_p2pf,
                       hook_ref_cd);
+        for (g_side = 0; g_side < 2; g_side++) {
+            g_md = kifmm_kernel_helmholtz_p2ps, g_mf = kifmm_kernel_helmholtz_p2psf;
+            t_check_hooks(g_side ? "helmholtz mutual, B side" : "helmholtz mutual, A side", 2, 2, prm,
+                          2e-14, as_one_d, as_one_f, hook_ref2);
+            g_md = kifmm_kernel_helmholtz_grad_p2ps, g_mf = kifmm_kernel_helmholtz_grad_p2psf;
+            t_check_hooks(g_side ? "helmholtz_grad mutual, B side" : "helmholtz_grad mutual, A side", 2, 8,
+                          prm, 2e-14, as_one_d, as_one_f, hook_ref8);
+        }
     }
 }
 #endif
@@ -334,6 +401,12 @@ static void test_refusals(void)
     int64_t i;
     int rc;
     t_group("frequency range and refusals");
+    {
+        kifmm_notcplx *hn = (kifmm_notcplx *)x;
+        rc = kifmm_notcplx_create(&hn, &o, N, x, N, x);
+        CHECK(rc == KIFMM_ERR_KERNEL && hn == NULL, "KIFMM_HAS_COMPLEX on a kernel of other blocks: %s",
+              kifmm_strerror(rc));
+    }
     for (i = 0; i < 3 * N; i++) x5[i] = 5.0 * x[i];
     o.kernel_param[0] = 2.0 * T_PI * 10.0; /* 10 wavelengths a unit: 2.5 on a level-2 box */
     rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
