@@ -5050,7 +5050,7 @@ done:
 KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma, int nth,
                                     double *kt, double *big)
 {
-    enum { SD2 = KIFMM__SD * KIFMM__SD, FSD2 = KIFMM__FSD * KIFMM__FSD };
+    enum { SD2 = KIFMM__SD * KIFMM__SD };
     const kifmm__fft *pl = &c->pl->fft;
     const int n = pl->n, p = pl->p;
     const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
@@ -5078,7 +5078,9 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
                         mx = fabs(sigma * kv[ab]) > mx ? fabs(sigma * kv[ab]) : mx;
                         g[ab * nnn + at] = sigma * kv[ab];
                     }
-                    if (KIFMM__CPLX) bad |= kv[0] != kv[SD2 - 1] || kv[1] != -kv[2];
+#if KIFMM__CPLX
+                    bad |= kv[0] != kv[3] || kv[1] != -kv[2];
+#endif
                 }
         if (KIFMM__CPLX)
             kifmm__fft_grid(pl, g, g + 2 * nnn, kt + (size_t)tv * 2 * pl->nfp, g + SD2 * nnn);
@@ -8283,7 +8285,9 @@ KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
              "near field: %s, %s; level passes: %s; M2L: %s%s; %s %d thread%s", KIFMM__SIMD_NAME,
              near, KIFMM__GC_FAST ? KIFMM__SIMD_NAME " column GEMM" : "BLAS",
              KIFMM__FFT ? "FFT, " KIFMM__SIMD_NAME " products, " : "dense BLAS",
-             KIFMM__FFT ? (h->pl->fft.single ? "float spectra" : "double spectra") : "",
+             KIFMM__FFT ? (h->pl->fft.single ? (KIFMM__CPLX ? "complex lattices, float spectra" : "float spectra")
+                                             : (KIFMM__CPLX ? "complex lattices, double spectra" : "double spectra"))
+                        : "",
 #ifdef _OPENMP
              "OpenMP,",
 #else
