@@ -2650,7 +2650,7 @@ KIFMM__FN double kifmm__alpha_inner(int sd, int narrow)
  * there (docs/kernels.md: p = 10 eleven times its neighbours' 0.02 % from
  * 1.2247, 1.2 times 0.4 % away; p = 8 within 10 % of smooth 0.5 % from
  * 0.866): the radius nearest `base` (in steps of 0.25 %, within 10 %) that
- * keeps 1.5 % from each of them; `base` for every box narrower than 0.85
+ * keeps 1.5 % from each of them; `base` wherever base x is below 0.85
  * wavelengths. */
 #define KIFMM__WAVES_GAP 0.015
 KIFMM__FN double kifmm__alpha_waves(double base, double x)
@@ -4329,6 +4329,8 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
  * turned from 16 transfer vectors for a radial complex kernel as well
  * (FRADIAL). */
 #define KIFMM__CPLX (KIFMM__SD == 2 && (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) != 0)
+KIFMM__STATIC_ASSERT(KIFMM__SD == 2 || (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) == 0,
+                     KIFMM__CAT(KIFMM_NAME, _complex_kernel_must_have_two_components));
 #define KIFMM__FSD (KIFMM__CPLX ? 1 : KIFMM__SD)
 #define KIFMM__FRADIAL (KIFMM__RADIAL || (KIFMM__CPLX && (KIFMM__HAS_SC & KIFMM_HAS_RADIAL) != 0))
 /* Three periodic directions of a scale-invariant kernel: its surface
@@ -7992,8 +7994,11 @@ KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
     pl->ops.degree = (double)(KIFMM__DEGREE);
     p = o->order;
     /* a complex kernel's surfaces up to order KIFMM__CPLX_SQUARE_MAX: a
-     * one-component kernel's square systems, else two components' */
-    sd = KIFMM__CPLX && KIFMM__FFT && p <= KIFMM__CPLX_SQUARE_MAX ? 1 : KIFMM__SD;
+     * one-component kernel's square systems (where the build's options
+     * give those), else two components' */
+    sd = KIFMM__CPLX && KIFMM__FFT && p <= KIFMM__CPLX_SQUARE_MAX && kifmm__check_diff(p, 1, 1) == 0
+             ? 1
+             : KIFMM__SD;
     pl->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT, sd);
     pl->surf.ao = kifmm__alpha_outer(pl->surf.cdiff, sd);
     pl->surf.ai = kifmm__alpha_inner(sd, KIFMM__IS_ONE(KIFMM__R_(SC, _INNER_NARROW)));

@@ -605,7 +605,7 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
                                -(i == j ? a[1] : 0.0) - b[1] * d[i] * d[j]);
     }
 }
-#define KIFMM_KERNEL__HELM_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_WAVES | KIFMM_HAS_COMPLEX | KIFMM_HAS_RADIAL)
+#define KIFMM_KERNEL__HELM_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_WAVES)
 /* The widest box an expansion may span, in wavelengths, per order (0 to
  * KIFMM_MAX_ORDER): the widest at which helmholtz (bench/bench_waves.c:
  * 20,000 uniform points in a fixed unit root, Im k = 0, the level-2 boxes'
@@ -625,7 +625,9 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
 #define kifmm_kernel_helmholtz_TRG_DIM 2
 #define kifmm_kernel_helmholtz_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_DEGREE 0
-#define kifmm_kernel_helmholtz_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS | KIFMM_KERNEL__HELM_MUTUAL) /* hooks below */
+#define kifmm_kernel_helmholtz_HAS                                                            \
+    (KIFMM_KERNEL__HELM_HAS | KIFMM_HAS_COMPLEX | KIFMM_HAS_RADIAL | KIFMM_KERNEL__HELM_HOOKS |  \
+     KIFMM_KERNEL__HELM_MUTUAL) /* hooks below; the others' surface kernel */
 #define kifmm_kernel_helmholtz_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_WAVES_MAX KIFMM_KERNEL__HELM_WAVES

@@ -10,7 +10,11 @@
  *   - the FMM against direct sums in long double written here (their
  *     formulas are the ones the differences check), at roots of 0.2, 2, 3
  *     and 5 wavelengths, uniform, sphere and corner points, sources =
- *     targets and separate targets, a complex wavenumber; float too
+ *     targets and separate targets, a complex wavenumber; float too; p = 5
+ *     and 6 (one-component square surfaces); a complex surface kernel
+ *     that is not radial (all 316 transfer vectors' complex spectra)
+ *   - the mutual hooks, each side against long double; a kernel flagged
+ *     KIFMM_HAS_COMPLEX whose blocks are not complex values refused
  *   - boxes at the inner surfaces' interior resonances (moved off them) and
  *     beside them, within bound
  *   - KIFMM_ERR_FREQUENCY beyond the order's range from create (no handle)
@@ -44,6 +48,35 @@ static inline void kifmm_kernel_notcplx_eval(const double *param, double dx, dou
     k[0] = g, k[1] = 0.0, k[2] = 0.0, k[3] = 2.0 * g;
 }
 #define KIFMM_KERNEL notcplx
+#include "kifmm.h"
+
+/* helmholtz_grad on a surface kernel flagged KIFMM_HAS_COMPLEX but not
+ * RADIAL: the complex FFT M2L with the spectra of all 316 transfer vectors
+ * (fmm_case's fl 2) */
+#define kifmm_kernel_helm_nr_SRC_DIM 2
+#define kifmm_kernel_helm_nr_TRG_DIM 2
+#define kifmm_kernel_helm_nr_SCALE_INVARIANT 0
+#define kifmm_kernel_helm_nr_DEGREE 0
+#define kifmm_kernel_helm_nr_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_HAS_COMPLEX | KIFMM_KERNEL__HELM_HOOKS)
+#define kifmm_kernel_helm_nr_setup kifmm_kernel__wavenumber_setup
+#define kifmm_kernel_helm_nr_wavenumber kifmm_kernel__wavenumber
+#define kifmm_kernel_helm_nr_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+#define kifmm_kernel_helm_nr_eval kifmm_kernel_helmholtz_eval
+#define kifmm_kernel_helm_nr_p2p kifmm_kernel_helmholtz_p2p
+#define kifmm_kernel_helm_nr_p2pf kifmm_kernel_helmholtz_p2pf
+#define kifmm_kernel_helmholtz_grad_nr_SRC_DIM 2
+#define kifmm_kernel_helmholtz_grad_nr_TRG_DIM 8
+#define kifmm_kernel_helmholtz_grad_nr_SCALE_INVARIANT 0
+#define kifmm_kernel_helmholtz_grad_nr_DEGREE 0
+#define kifmm_kernel_helmholtz_grad_nr_EQUIV helm_nr
+#define kifmm_kernel_helmholtz_grad_nr_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS)
+#define kifmm_kernel_helmholtz_grad_nr_setup kifmm_kernel__wavenumber_setup
+#define kifmm_kernel_helmholtz_grad_nr_wavenumber kifmm_kernel__wavenumber
+#define kifmm_kernel_helmholtz_grad_nr_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+#define kifmm_kernel_helmholtz_grad_nr_eval kifmm_kernel_helmholtz_grad_eval
+#define kifmm_kernel_helmholtz_grad_nr_p2p kifmm_kernel_helmholtz_grad_p2p
+#define kifmm_kernel_helmholtz_grad_nr_p2pf kifmm_kernel_helmholtz_grad_p2pf
+#define KIFMM_KERNEL helmholtz_grad_nr
 #include "kifmm.h"
 
 #include "test.h"
@@ -323,7 +356,8 @@ static double extent(int64_t n, const double *x)
 
 static const char *kind_name[3] = {"uniform", "sphere", "corner"};
 
-/* cd 0: helmholtz_grad (fl: float), 1: helmholtz_cd_grad; N sources of a
+/* cd 0: helmholtz_grad (fl 1: float, 2: helmholtz_grad_nr), 1:
+ * helmholtz_cd_grad; N sources of a
  * kind, NT separate uniform targets (0: the sources), order p, a root of
  * `waves` wavelengths, Im k = ki: the relative L2 error of potential and
  * gradient at 150 targets against direct_ld, within bound */
@@ -348,6 +382,12 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
         if (!rc) rc = kifmm_helmholtz_cd_grad_evaluate(h, q, out);
         if (!rc) rc = kifmm_helmholtz_cd_grad_stats(h, &st);
         kifmm_helmholtz_cd_grad_destroy(h);
+    } else if (fl == 2) {
+        kifmm_helmholtz_grad_nr *h = NULL;
+        rc = kifmm_helmholtz_grad_nr_create(&h, &o, N, x, nt, y);
+        if (!rc) rc = kifmm_helmholtz_grad_nr_evaluate(h, q, out);
+        if (!rc) rc = kifmm_helmholtz_grad_nr_stats(h, &st);
+        kifmm_helmholtz_grad_nr_destroy(h);
     } else if (fl) {
         float *xf = (float *)t_malloc_or_die((size_t)(3 * N + 1) * sizeof(float));
         float *qf = (float *)t_malloc_or_die((size_t)(2 * N + 1) * sizeof(float));
@@ -382,7 +422,7 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
     }
     if (!rc) {
         CHECK_ERR(sqrt(e2[0] / r2[0]), bound, "%s%s %s %lld%s, p = %d, root %.1f wavelengths, Im k %.1f: potential",
-                  cd ? "helmholtz_cd_grad" : "helmholtz_grad", fl ? "f" : "", kind_name[kind], (long long)N,
+                  cd ? "helmholtz_cd_grad" : "helmholtz_grad", fl == 2 ? "_nr" : fl ? "f" : "", kind_name[kind], (long long)N,
                   NT ? " + separate targets" : "", p, waves, ki);
         CHECK_ERR(sqrt(e2[1] / r2[1]), bound, "  gradient");
     }
@@ -516,5 +556,17 @@ int main(void)
     fmm_case(0, 0, 1, 12000, 0, 12, 2.0, 0.0, 1e-9);
 #endif
     fmm_case(0, 1, 0, 4000, 0, 4, 2.0, 0.0, 2e-3);
+    /* p <= 6: one-component square surfaces, the downward solve from the
+     * upward SVD (1.1e-6 to 9.8e-6 at p = 6, 2.2e-5 at p = 5); a complex
+     * surface kernel that is not radial (1.5e-6, 5.8e-6) */
+#ifdef KIFMM_TEST_QUICK
+    fmm_case(0, 0, 0, 3000, 0, 6, 2.0, 0.0, 3e-5);
+    fmm_case(0, 2, 2, 3000, 1500, 6, 2.0, 0.5, 3e-5);
+#else
+    fmm_case(0, 0, 0, 6000, 0, 6, 2.0, 0.0, 3e-5);
+    fmm_case(1, 0, 1, 5000, 3000, 6, 2.0, 0.3, 3e-5);
+    fmm_case(0, 0, 2, 5000, 0, 5, 3.0, 0.0, 1e-4);
+    fmm_case(0, 2, 2, 5000, 2000, 6, 2.0, 0.5, 3e-5);
+#endif
     return t_finish();
 }
