@@ -3370,80 +3370,53 @@ static inline void kifmm_kernel__helm_p2ps(const double *param, const double *co
 #undef KIFMM_KERNEL__HSUM
 #undef KIFMM_KERNEL__HELM_CD
 #undef KIFMM_KERNEL__HELM_BACK
-static inline void kifmm_kernel_helmholtz_p2p(const double *param, const double *ax, const double *ay,
-    const double *az, int64_t na, const double *bx, const double *by, const double *bz,
-    const double *qb, int64_t nb, double scale, double *outa)
-{
-    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2p(param, a, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, 0);
-}
-static inline void kifmm_kernel_helmholtz_p2pf(const double *param, const float *ax, const float *ay,
-    const float *az, int64_t na, const float *bx, const float *by, const float *bz,
-    const float *qb, int64_t nb, float scale, float *outa)
-{
-    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2p(param, NULL, a, na, NULL, b, nb, NULL, qb, scale, NULL, outa, 0);
-}
-static inline void kifmm_kernel_helmholtz_grad_p2p(const double *param, const double *ax, const double *ay,
-    const double *az, int64_t na, const double *bx, const double *by, const double *bz,
-    const double *qb, int64_t nb, double scale, double *outa)
-{
-    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2p(param, a, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, 1);
-}
-static inline void kifmm_kernel_helmholtz_grad_p2pf(const double *param, const float *ax, const float *ay,
-    const float *az, int64_t na, const float *bx, const float *by, const float *bz,
-    const float *qb, int64_t nb, float scale, float *outa)
-{
-    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2p(param, NULL, a, na, NULL, b, nb, NULL, qb, scale, NULL, outa, 1);
-}
-static inline void kifmm_kernel_helmholtz_cd_grad_p2p(const double *param, const double *ax, const double *ay,
-    const double *az, int64_t na, const double *bx, const double *by, const double *bz,
-    const double *qb, int64_t nb, double scale, double *outa)
-{
-    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2p(param, a, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, 2);
-}
-static inline void kifmm_kernel_helmholtz_cd_grad_p2pf(const double *param, const float *ax, const float *ay,
-    const float *az, int64_t na, const float *bx, const float *by, const float *bz,
-    const float *qb, int64_t nb, float scale, float *outa)
-{
-    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2p(param, NULL, a, na, NULL, b, nb, NULL, qb, scale, NULL, outa, 2);
-}
-static inline void kifmm_kernel_helmholtz_p2ps(const double *param, const double *ax, const double *ay, const double *az,
-    const double *qa, int64_t na, const double *bx, const double *by, const double *bz, const double *qb, int64_t nb,
-    double scale, double *outa, double *outb)
-{
-    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2ps(param, a, NULL, qa, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, outb,
-                            NULL, 0);
-}
-static inline void kifmm_kernel_helmholtz_p2psf(const double *param, const float *ax, const float *ay, const float *az,
-    const float *qa, int64_t na, const float *bx, const float *by, const float *bz, const float *qb, int64_t nb,
-    float scale, float *outa, float *outb)
-{
-    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2ps(param, NULL, a, NULL, qa, na, NULL, b, nb, NULL, qb, scale, NULL, outa, NULL,
-                            outb, 0);
-}
-static inline void kifmm_kernel_helmholtz_grad_p2ps(const double *param, const double *ax, const double *ay, const double *az,
-    const double *qa, int64_t na, const double *bx, const double *by, const double *bz, const double *qb, int64_t nb,
-    double scale, double *outa, double *outb)
-{
-    const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2ps(param, a, NULL, qa, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, outb,
-                            NULL, 1);
-}
-static inline void kifmm_kernel_helmholtz_grad_p2psf(const double *param, const float *ax, const float *ay, const float *az,
-    const float *qa, int64_t na, const float *bx, const float *by, const float *bz, const float *qb, int64_t nb,
-    float scale, float *outa, float *outb)
-{
-    const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};
-    kifmm_kernel__helm_p2ps(param, NULL, a, NULL, qa, na, NULL, b, nb, NULL, qb, scale, NULL, outa, NULL,
-                            outb, 1);
-}
+/* the hooks of kernel NAME (mode M): one-way in double and float, and the
+ * mutual ones (modes 0 and 1) */
+#define KIFMM_KERNEL__HELM_ONEWAY(NAME, M)                                                     \
+    static inline void NAME##_p2p(const double *param, const double *ax, const double *ay,     \
+                                  const double *az, int64_t na, const double *bx,              \
+                                  const double *by, const double *bz, const double *qb,        \
+                                  int64_t nb, double scale, double *outa)                      \
+    {                                                                                          \
+        const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};                               \
+        kifmm_kernel__helm_p2p(param, a, NULL, na, b, NULL, nb, qb, NULL, scale, outa, NULL, M); \
+    }                                                                                          \
+    static inline void NAME##_p2pf(const double *param, const float *ax, const float *ay,      \
+                                   const float *az, int64_t na, const float *bx,               \
+                                   const float *by, const float *bz, const float *qb,          \
+                                   int64_t nb, float scale, float *outa)                       \
+    {                                                                                          \
+        const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};                                \
+        kifmm_kernel__helm_p2p(param, NULL, a, na, NULL, b, nb, NULL, qb, scale, NULL, outa, M); \
+    }
+#define KIFMM_KERNEL__HELM_MUTUAL_FNS(NAME, M)                                                 \
+    static inline void NAME##_p2ps(const double *param, const double *ax, const double *ay,    \
+                                   const double *az, const double *qa, int64_t na,             \
+                                   const double *bx, const double *by, const double *bz,       \
+                                   const double *qb, int64_t nb, double scale, double *outa,   \
+                                   double *outb)                                               \
+    {                                                                                          \
+        const double *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};                               \
+        kifmm_kernel__helm_p2ps(param, a, NULL, qa, NULL, na, b, NULL, nb, qb, NULL, scale, outa, \
+                                NULL, outb, NULL, M);                                          \
+    }                                                                                          \
+    static inline void NAME##_p2psf(const double *param, const float *ax, const float *ay,     \
+                                    const float *az, const float *qa, int64_t na,              \
+                                    const float *bx, const float *by, const float *bz,         \
+                                    const float *qb, int64_t nb, float scale, float *outa,     \
+                                    float *outb)                                               \
+    {                                                                                          \
+        const float *a[3] = {ax, ay, az}, *b[3] = {bx, by, bz};                                \
+        kifmm_kernel__helm_p2ps(param, NULL, a, NULL, qa, na, NULL, b, nb, NULL, qb, scale, NULL, \
+                                outa, NULL, outb, M);                                          \
+    }
+KIFMM_KERNEL__HELM_ONEWAY(kifmm_kernel_helmholtz, 0)
+KIFMM_KERNEL__HELM_ONEWAY(kifmm_kernel_helmholtz_grad, 1)
+KIFMM_KERNEL__HELM_ONEWAY(kifmm_kernel_helmholtz_cd_grad, 2)
+KIFMM_KERNEL__HELM_MUTUAL_FNS(kifmm_kernel_helmholtz, 0)
+KIFMM_KERNEL__HELM_MUTUAL_FNS(kifmm_kernel_helmholtz_grad, 1)
+#undef KIFMM_KERNEL__HELM_ONEWAY
+#undef KIFMM_KERNEL__HELM_MUTUAL_FNS
 /* mutual hooks: helmholtz and helmholtz_grad (a dipole's potential is odd in d) */
 #define KIFMM_KERNEL__HELM_MUTUAL (KIFMM_HAS_P2PS | KIFMM_HAS_P2PSF)
 #else
