@@ -261,8 +261,10 @@ bench-memory:
 	$(BUILD)/bench/bench_memory $(if $(Q),--quick,)
 
 # opts.tol's tables (bench/bench_tol.c): every output's error per order at
-# 20,000 points (two seeds) and 200,000 (one), cube, sphere and clustered;
-# KERNELS="laplace_hess stokes_grad" for some (about 90 minutes for all)
+# 20,000 points (two seeds) and 200,000 (one), cube, sphere and clustered,
+# and the Helmholtz kernels' per order and width; KERNELS="laplace_hess
+# stokes_grad" for some (about 90 minutes for all but the Helmholtz kernels,
+# which take about 2 hours more)
 .PHONY: bench-tol
 bench-tol:
 	@mkdir -p $(BUILD)/bench

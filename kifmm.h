@@ -245,8 +245,9 @@ extern "C++" {
     X(KIFMM_ERR_TOL, -16,                                                                     \
       "opts.tol is negative, not finite, set together with opts.order, below what the "       \
       "largest order reaches for the kernel (laplace: about 2.6e-11; docs/api.md, "           \
-      "\"Tolerance\"; float instances 2e-5), or set for an oscillating kernel (Helmholtz: "   \
-      "set opts.order)")                                                                      \
+      "\"Tolerance\"; float instances 2e-5), or given for an oscillating kernel to a call "   \
+      "that chooses the order before it sees every point (plan_create, estimate_bytes, "      \
+      "create_mpi) without opts.domain")                                                      \
     X(KIFMM_ERR_VERBOSE, -17, "opts.verbose is neither 0 nor 1")                              \
     X(KIFMM_ERR_RANGE, -18,                                                                   \
       "a coordinate or period is beyond KIFMM_COORD_MAX (1e150; float 1e18), or a period or "  \
@@ -266,8 +267,9 @@ extern "C++" {
       "MPI mode: MPI is not initialised or an MPI call failed, the ranks passed different "   \
       "counts of vectors, or this kernel has no MPI mode yet (docs/api.md, \"MPI\")")        \
     X(KIFMM_ERR_FREQUENCY, -25,                                                               \
-      "the boxes that carry expansions are too many wavelengths wide for this order "         \
-      "(an oscillating kernel: raise opts.order, docs/kernels.md, \"Helmholtz\")")
+      "the boxes that carry expansions are too many wavelengths wide for this order, or "     \
+      "for any order that meets opts.tol (an oscillating kernel: raise opts.order or tol, "   \
+      "docs/kernels.md, \"Helmholtz\")")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -633,6 +635,41 @@ KIFMM__FN int kifmm__order_for_tol(double tol, const double *err)
     if (!err) err = lap;
     for (p = 2; p <= KIFMM_MAX_ORDER; p++)
         if (err[p] > 0.0 && 1.5 * err[p] <= tol) return p; /* 0: not measured, not taken */
+    return 0;
+}
+
+/* opts.tol for an oscillating kernel (KIFMM_HAS_WAVES and KIFMM_HAS_TOL):
+ * err, order p's row of the kernel's table, its largest errors measured
+ * with the widest expansions KIFMM_TOL_WAVES_WIDTHS[j] wavelengths wide (j <
+ * KIFMM_TOL_WAVES_NW; those below the order's limit `most`) and at the
+ * limit (j = KIFMM_TOL_WAVES_NW). The error taken at x wavelengths: the
+ * largest at every width up to the first at or beyond x (the limit's where
+ * no fixed width below it is), as the errors grow with the width (between
+ * the resonances' bumps: docs/kernels.md); HUGE_VAL past the limit or
+ * where a width it needs was not measured. */
+KIFMM__FN double kifmm__waves_err(const double *err, double most, double x)
+{
+    static const double w[KIFMM_TOL_WAVES_NW] = KIFMM_TOL_WAVES_WIDTHS;
+    double e = 0.0;
+    int j;
+    if (!(x >= 0.0 && x <= most)) return HUGE_VAL;
+    for (j = 0; j < KIFMM_TOL_WAVES_NW && w[j] < most; j++) {
+        if (!(err[j] > 0.0)) return HUGE_VAL;
+        e = err[j] > e ? err[j] : e;
+        if (w[j] >= x) return e;
+    }
+    if (!(err[KIFMM_TOL_WAVES_NW] > 0.0)) return HUGE_VAL;
+    return err[KIFMM_TOL_WAVES_NW] > e ? err[KIFMM_TOL_WAVES_NW] : e;
+}
+
+/* The smallest order whose error at x wavelengths (kifmm__waves_err), 1.5
+ * times the table's, is at most tol; 0 if none is. err: the kernel's table
+ * (KIFMM_TOL_WAVES_NW + 1 a row), most: its limits per order. */
+KIFMM__FN int kifmm__order_for_tol_waves(double tol, double x, const double *err, const double *most)
+{
+    int p;
+    for (p = 2; p <= KIFMM_MAX_ORDER; p++)
+        if (1.5 * kifmm__waves_err(err + p * (KIFMM_TOL_WAVES_NW + 1), most[p], x) <= tol) return p;
     return 0;
 }
 
@@ -7910,11 +7947,15 @@ KIFMM__FN int KIFMM__F(__params)(const double *in, double *out)
     return KIFMM_SUCCESS;
 }
 
-/* opts.tol's table: the kernel's own errors per order (KIFMM_HAS_TOL), or
- * NULL for laplace's (kifmm__order_for_tol). */
+/* opts.tol's table: the kernel's own errors per order (KIFMM_HAS_TOL; an
+ * oscillating kernel's per order and width, KIFMM_TOL_WAVES_NW + 1 a row),
+ * or NULL for laplace's (kifmm__order_for_tol). */
 KIFMM__FN const double *KIFMM__F(__tol_errors)(void)
 {
-#if KIFMM__HAS_QT & KIFMM_HAS_TOL
+#if (KIFMM__HAS_QT & KIFMM_HAS_TOL) && (KIFMM__HAS_QT & KIFMM_HAS_WAVES)
+    static const double err[KIFMM_MAX_ORDER + 1][KIFMM_TOL_WAVES_NW + 1] = KIFMM__K(_TOL_ERRORS);
+    return &err[0][0];
+#elif KIFMM__HAS_QT & KIFMM_HAS_TOL
     static const double err[KIFMM_MAX_ORDER + 1] = KIFMM__K(_TOL_ERRORS);
     return err;
 #else
@@ -7957,24 +7998,116 @@ KIFMM__FN int KIFMM__F(__check_sets)(const kifmm_opts *o, int64_t ns, const KIFM
     return KIFMM_SUCCESS;
 }
 
+#if (KIFMM__HAS_QT & KIFMM_HAS_WAVES) && (KIFMM__HAS_QT & KIFMM_HAS_TOL)
+/* The root's width a tree on these points would take (kifmm__tree_bounds;
+ * float points through a double copy, as __tree_build does); 0 on
+ * allocation failure. */
+KIFMM__FN double KIFMM__F(__root_width)(const kifmm_opts *o, int64_t ns, const KIFMM__R *src,
+                                        int64_t nt, const KIFMM__R *trg)
+{
+    kifmm__tree t;
+    memset(&t, 0, sizeof t);
+#if KIFMM__FLOAT
+    {
+        const int same = src == trg && ns == nt; /* (zeroed: gcc 12 takes them for unset) */
+        double *s = (double *)kifmm__calloc((size_t)(3 * ns) + 1, sizeof(double));
+        double *g = same ? s : (double *)kifmm__calloc((size_t)(3 * nt) + 1, sizeof(double));
+        int64_t i;
+        if (s && g) {
+            for (i = 0; i < 3 * ns; i++) s[i] = src[i];
+            for (i = 0; i < 3 * nt && !same; i++) g[i] = trg[i];
+            kifmm__tree_bounds(&t, ns, s, nt, g, o->nthreads, o->domain);
+        }
+        kifmm__free(s);
+        if (!same) kifmm__free(g);
+    }
+#else
+    kifmm__tree_bounds(&t, ns, src, nt, trg, o->nthreads, o->domain);
+#endif
+    return t.width;
+}
+
+/* opts.tol (o->tol) for an oscillating kernel: o->order, the smallest
+ * whose measured error (the kernel's table, kifmm__order_for_tol_waves) at
+ * the widest boxes that can carry expansions, a quarter of a root `width`
+ * wide (0: the narrowest), meets it, and the leaf size for it (`leaf`, the
+ * caller's, or its default). KIFMM_ERR_TOL where no order meets tol even
+ * at the narrowest. Where none does at this width, the narrowest's: a tree
+ * of direct sums runs at any width, and __frequency refuses the others
+ * (KIFMM_ERR_FREQUENCY) once the tree is built. */
+KIFMM__FN int KIFMM__F(__tol_root)(kifmm_opts *o, int leaf, double width)
+{
+    static const double most[KIFMM_MAX_ORDER + 1] = KIFMM__K(_WAVES_MAX);
+    const double *err = KIFMM__F(__tol_errors)();
+    const double x = 0.25 * width * KIFMM__K(_wavenumber)(o->kernel_param) / (2.0 * 3.14159265358979323846);
+    int p = kifmm__order_for_tol_waves(o->tol, x, err, most);
+    if (!p && !(p = kifmm__order_for_tol_waves(o->tol, 0.0, err, most))) return KIFMM_ERR_TOL;
+    o->order = p;
+    o->leaf_size = leaf ? leaf : kifmm__default_leaf(p, KIFMM__LEAF_MULTI);
+    return KIFMM_SUCCESS;
+}
+/* opts.tol without a root: a call that does not see every point */
+#define KIFMM__TOL_UNROOTED(o) ((o).tol != 0.0 && !((o).domain[3] > 0.0))
+
+/* create and update_points: opts.tol's order (__tol_root) for the root of
+ * tree, if not NULL, else of these points, where opts.domain gives none */
+KIFMM__FN int KIFMM__F(__tol_points)(kifmm_opts *o, int leaf, const kifmm_tree *tree, int64_t ns,
+                                     const KIFMM__R *src, int64_t nt, const KIFMM__R *trg)
+{
+    double w;
+    if (!KIFMM__TOL_UNROOTED(*o)) return KIFMM_SUCCESS;
+    w = tree ? tree->t.width : KIFMM__F(__root_width)(o, ns, src, nt, trg);
+    return w > 0.0 ? KIFMM__F(__tol_root)(o, leaf, w) : KIFMM_ERR_NOMEM;
+}
+#else
+/* (other kernels: opts.tol resolved with the options; an oscillating one
+ * without a table has no opts.tol) */
+KIFMM__FN int KIFMM__F(__tol_root)(kifmm_opts *o, int leaf, double width)
+{
+    (void)o, (void)leaf, (void)width;
+    return (KIFMM__HAS_QT & KIFMM_HAS_WAVES) ? KIFMM_ERR_TOL : KIFMM_SUCCESS;
+}
+#define KIFMM__TOL_UNROOTED(o) 0
+#define KIFMM__TOL_POINTS(o, leaf, tree, ns, src, nt, trg) KIFMM_SUCCESS
+#endif
+#ifndef KIFMM__TOL_POINTS
+#define KIFMM__TOL_POINTS KIFMM__F(__tol_points)
+#endif
+
 /* Create's checks: the options, both point sets and the kernel's
  * parameters; *o gets the options with every default resolved. */
 KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIFMM__R *src,
                                    int64_t nt, const KIFMM__R *trg, kifmm_opts *o)
 {
+    const double tol = opts ? opts->tol : 0.0;
     double param[4];
-    int rc = kifmm__resolve_opts(opts, KIFMM__LEAF_MULTI, KIFMM__F(__tol_errors)(), o);
+    kifmm_opts in;
+    int rc;
+    if (opts) in = *opts;
+    else memset(&in, 0, sizeof in);
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+    /* an oscillating kernel's opts.tol: its order comes from the root's
+     * width (__tol_root, below); the other options are resolved first */
+    if (tol != 0.0 && (!(tol > 0.0 && tol <= DBL_MAX) || in.order != 0)) return KIFMM_ERR_TOL;
+    if (tol != 0.0) in.tol = 0.0, in.order = 2;
+#endif
+    rc = kifmm__resolve_opts(&in, KIFMM__LEAF_MULTI, KIFMM__F(__tol_errors)(), o);
     /* float's floor: at order 6 laplacef measured up to 1.05e-5 */
-    if (!rc && KIFMM__FLOAT && o->tol != 0.0 && o->tol < 2e-5) rc = KIFMM_ERR_TOL;
+    if (!rc && KIFMM__FLOAT && tol != 0.0 && tol < 2e-5) rc = KIFMM_ERR_TOL;
     if (!rc) rc = KIFMM__F(__check_sets)(o, ns, src, nt, trg);
     if (!rc) rc = KIFMM__F(__params)(o->kernel_param, param);
     if (!rc) memcpy(o->kernel_param, param, sizeof param);
 #if KIFMM__HAS_QT & KIFMM_HAS_WAVES
     /* oscillating kernels: free space only (no quasi-periodic boundaries
-     * yet), and opts.order, not opts.tol (laplace's table, which tol would
-     * take, misses the frequency: 1.4e-5 at tol 1e-5, p = 6, 0.875 wavelengths) */
+     * yet); opts.tol's order for the root opts.domain gives, else for the
+     * narrowest (create and update_points choose again from the points'
+     * root; the calls that do not see every point refuse it,
+     * KIFMM__TOL_UNROOTED) */
     if (!rc && (o->period[0] > 0.0 || o->period[1] > 0.0 || o->period[2] > 0.0)) rc = KIFMM_ERR_PERIODIC;
-    if (!rc && opts && opts->tol != 0.0) rc = KIFMM_ERR_TOL;
+    if (!rc && tol != 0.0) {
+        o->tol = tol;
+        rc = KIFMM__F(__tol_root)(o, in.leaf_size, o->domain[3] > 0.0 ? 2.0 * o->domain[3] : 0.0);
+    }
 #endif
     return rc;
 }
@@ -8038,8 +8171,8 @@ KIFMM__FN int KIFMM__F(__tree_build)(kifmm_tree *tr, const kifmm_opts *o, int64_
 #if KIFMM__FLOAT
     {
         const int same = src == trg && ns == nt; /* one copy, and the tree sorts once */
-        double *s = (double *)kifmm__alloc((size_t)(3 * ns), sizeof(double));
-        double *g = same ? s : (double *)kifmm__alloc((size_t)(3 * nt), sizeof(double));
+        double *s = (double *)kifmm__calloc((size_t)(3 * ns) + 1, sizeof(double));
+        double *g = same ? s : (double *)kifmm__calloc((size_t)(3 * nt) + 1, sizeof(double));
         if (!s || !g) {
             kifmm__free(s);
             if (!same) kifmm__free(g);
@@ -8487,6 +8620,7 @@ KIFMM__FN int KIFMM__F(__frequency)(const KIFMM_NAME *h)
 {
     static const double most[KIFMM_MAX_ORDER + 1] = KIFMM__K(_WAVES_MAX);
     const kifmm__tree *t = h->tree;
+    double kw; /* the widest boxes' width times the wavenumber */
     int l, lmin = t->nlev;
     int32_t b, e;
     for (l = 0; l < t->nlev && lmin == t->nlev; l++)
@@ -8497,10 +8631,15 @@ KIFMM__FN int KIFMM__F(__frequency)(const KIFMM_NAME *h)
             if (t->lev[t->w[e]] < lmin) lmin = t->lev[t->w[e]];
     }
     if (lmin >= t->nlev) return KIFMM_SUCCESS; /* direct sums only */
-    return t->width / (double)((int64_t)1 << lmin) * KIFMM__K(_wavenumber)(h->opts.kernel_param) <=
-                   2.0 * 3.14159265358979323846 * most[h->opts.order]
-               ? KIFMM_SUCCESS
-               : KIFMM_ERR_FREQUENCY;
+    kw = t->width / (double)((int64_t)1 << lmin) * KIFMM__K(_wavenumber)(h->opts.kernel_param);
+#if KIFMM__HAS_QT & KIFMM_HAS_TOL
+    /* opts.tol: its order's error here within tol (as __tol_root chose it) */
+    if (h->opts.tol != 0.0 &&
+        !(1.5 * kifmm__waves_err(KIFMM__F(__tol_errors)() + h->opts.order * (KIFMM_TOL_WAVES_NW + 1),
+                                 most[h->opts.order], kw / (2.0 * 3.14159265358979323846)) <= h->opts.tol))
+        return KIFMM_ERR_FREQUENCY;
+#endif
+    return kw <= 2.0 * 3.14159265358979323846 * most[h->opts.order] ? KIFMM_SUCCESS : KIFMM_ERR_FREQUENCY;
 }
 #endif
 
@@ -8577,6 +8716,9 @@ KIFMM__FN int KIFMM__F(__create)(KIFMM_NAME **out, const kifmm_opts *opts, kifmm
     *out = NULL;
     if ((rc = KIFMM__F(__validate)(opts, nsources, src_xyz, ntargets, trg_xyz, &o))) return rc;
     if (tree && (rc = KIFMM__F(__tree_fits)(tree, shape, 1, &o))) return rc;
+    if ((rc = KIFMM__TOL_POINTS(&o, tree ? o.leaf_size : shape[0], tree, nsources, src_xyz, ntargets,
+                                trg_xyz)))
+        return rc;
     if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
     rc = KIFMM__F(__build)(out, pl, 0, 1, &o, shape, tree, nsources, src_xyz, ntargets, trg_xyz);
     memset(&tmp, 0, sizeof tmp); /* the plan is the handle's alone now, or freed */
@@ -8612,6 +8754,7 @@ KIFMM__FN int KIFMM__F(__update)(KIFMM_NAME *h, kifmm_tree *tree, int64_t nsourc
                                  const KIFMM__R *src_xyz, int64_t ntargets, const KIFMM__R *trg_xyz)
 {
     KIFMM_NAME *n, tmp;
+    KIFMM__F(_plan) *pl;
     kifmm_opts o;
     kifmm_stats st;
     double t0 = kifmm__now();
@@ -8621,13 +8764,25 @@ KIFMM__FN int KIFMM__F(__update)(KIFMM_NAME *h, kifmm_tree *tree, int64_t nsourc
     if (h->mpi) return tree ? KIFMM_ERR_TREE : KIFMM__F(__mpi_update)(h, nsources, src_xyz, ntargets, trg_xyz);
 #endif
     o = h->opts;
+    pl = h->pl;
     if (tree && (rc = KIFMM__F(__tree_fits)(tree, h->shape, 0, &o))) return rc;
     if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
+    /* opts.tol's order for the new root, on a plan of its own if it moves
+     * (a shared plan's has opts.domain's root) */
+    if (!h->shared && (rc = KIFMM__TOL_POINTS(&o, tree ? o.leaf_size : h->shape[0], tree, nsources,
+                                               src_xyz, ntargets, trg_xyz)))
+        return rc;
+    if (o.order != pl->opts.order && !(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
     /* on the same plan, which keeps the operator sets both trees use; as
      * many vectors' workspace as the handle has grown to */
-    if ((rc = KIFMM__F(__build)(&n, h->pl, h->shared, h->work.w ? h->work.w->nrhs : 1, &o,
-                                h->shape, tree, nsources, src_xyz, ntargets, trg_xyz)))
-        return rc;
+    rc = KIFMM__F(__build)(&n, pl, h->shared, h->work.w ? h->work.w->nrhs : 1, &o, h->shape, tree,
+                           nsources, src_xyz, ntargets, trg_xyz);
+    if (pl != h->pl) { /* the new plan is the new state's alone, or freed */
+        memset(&tmp, 0, sizeof tmp);
+        tmp.pl = pl;
+        KIFMM__F(__plan_release)(&tmp);
+    }
+    if (rc) return rc;
     /* the new state into the caller's handle, the old one freed (and the
      * plan's entries only it used) */
     st = h->stats;
@@ -8669,6 +8824,7 @@ KIFMM__API int KIFMM__F(_plan_create)(KIFMM__F(_plan) **out, const kifmm_opts *o
     if (!out) return KIFMM_ERR_NULL;
     *out = NULL;
     if ((rc = KIFMM__F(__validate)(opts, 0, NULL, 0, NULL, &o))) return rc;
+    if (KIFMM__TOL_UNROOTED(o)) return KIFMM_ERR_TOL;
     if (KIFMM__SI && !KIFMM__EWALD && o.period[0] > 0.0 && o.period[1] > 0.0 && o.period[2] > 0.0)
         return KIFMM_ERR_PERIODIC; /* as create: __lattice_build */
     if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
@@ -9222,6 +9378,7 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
     if (nsources < 0 || nsources > KIFMM_MAX_POINTS || nt < 0 || nt > KIFMM_MAX_POINTS)
         return KIFMM_ERR_COUNT;
     if ((rc = KIFMM__F(__validate)(opts, 0, NULL, 0, NULL, &o))) return rc;
+    if (KIFMM__TOL_UNROOTED(o)) return KIFMM_ERR_TOL;
     if (KIFMM__SI && !KIFMM__EWALD && o.period[0] > 0.0 && o.period[1] > 0.0 && o.period[2] > 0.0)
         return KIFMM_ERR_PERIODIC; /* as create: __lattice_build */
     if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
@@ -10413,6 +10570,16 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
         return KIFMM_ERR_MPI;
     rc = out ? KIFMM__F(__validate)(opts, nsources_local, src_xyz, ntargets_local, trg_xyz, &o) : KIFMM_ERR_NULL;
     if (!rc && (o.period[0] > 0.0 || o.period[1] > 0.0 || o.period[2] > 0.0)) rc = KIFMM_ERR_PERIODIC;
+    if (!rc && KIFMM__TOL_UNROOTED(o)) rc = KIFMM_ERR_TOL;
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+    if (!rc && o.tol != 0.0) {
+        /* opts.tol, on several ranks: a rank's evaluating tree may take
+         * expansions of boxes half the root wide (docs/kernels.md, MPI) */
+        int size = 1;
+        if (MPI_Comm_size(comm, &size) != MPI_SUCCESS) rc = KIFMM_ERR_MPI;
+        else if (size > 1) rc = KIFMM__F(__tol_root)(&o, opts->leaf_size, 4.0 * o.domain[3]);
+    }
+#endif
     if (!rc && !(KIFMM__MPI_KERNEL)) rc = KIFMM_ERR_MPI; /* not yet for this kernel */
     if (!rc) {
         h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h);
@@ -10467,6 +10634,8 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
 #undef KIFMM__NEAR_HOOK
 #undef KIFMM__MUTUAL
 #undef KIFMM__LEAF_MULTI
+#undef KIFMM__TOL_UNROOTED
+#undef KIFMM__TOL_POINTS
 #undef KIFMM__GEMM_COLS
 #undef KIFMM__FFT
 #undef KIFMM__CUTOFF

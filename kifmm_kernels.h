@@ -61,7 +61,11 @@ extern "C++" {
  * for opts.tol (kifmm_kernel_NAME_TOL_ERRORS, an initializer of
  * KIFMM_MAX_ORDER + 1 numbers: the largest relative L2 error of its worst
  * output measured at each order, 0 where not measured (orders 0 and 1
- * always), which tol never takes; without it, laplace's table); and WAVES,
+ * always), which tol never takes; without it, laplace's table; for a WAVES
+ * kernel a table per order and width, KIFMM_MAX_ORDER + 1 rows of
+ * KIFMM_TOL_WAVES_NW + 1: the errors with the widest expansions
+ * KIFMM_TOL_WAVES_WIDTHS wavelengths wide, those below the order's limit,
+ * and at the limit last); and WAVES,
  * an oscillating kernel (helmholtz): kifmm_kernel_NAME_wavenumber(param)
  * gives the real part of its wavenumber, from which create refuses boxes
  * too many wavelengths wide for the order (KIFMM_ERR_FREQUENCY) and moves
@@ -89,6 +93,11 @@ extern "C++" {
 #define KIFMM_HAS_WAVES 16384
 #define KIFMM_HAS_COMPLEX 32768
 #define KIFMM_HAS_ALL 65535
+
+/* The widths (wavelengths across the widest boxes that carry expansions)
+ * at which a WAVES kernel's opts.tol table is measured (HAS_TOL above) */
+#define KIFMM_TOL_WAVES_NW 7
+#define KIFMM_TOL_WAVES_WIDTHS {0.02, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5}
 
 /* Three periodic directions (docs/api.md) need two more hooks of a
  * scale-invariant kernel. EWALD, on the surface kernel (SD x SD, k[a SD +
@@ -619,6 +628,27 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
  * at 0.8: p = 8 gave an error of 4.8e3 at 0.8660254 wavelengths, 3.4e-8
  * since (docs/kernels.md, "Helmholtz"). */
 #define KIFMM_KERNEL__HELM_WAVES {0.0, 0.0, 0.5, 0.5, 0.87, 0.99, 1.08, 1.2, 1.34, 1.5, 1.6, 1.6, 1.6}
+/* opts.tol's table (KIFMM_HAS_TOL with WAVES): per order (rows) the
+ * largest relative L2 error of any output of helmholtz_grad and
+ * helmholtz_cd_grad at 300 targets against direct sums, on cube, sphere
+ * and clustered points (20,000 of them; helmholtz_grad two seeds,
+ * helmholtz_cd_grad one), sources = targets, Im k = 0, the root the points'
+ * bounding cube and the wavenumber making its level-2 boxes the column's
+ * width (KIFMM_TOL_WAVES_WIDTHS, then the order's limit); 0 where a width
+ * is at or past the limit; rounded up to two digits (bench/bench_tol.c,
+ * make bench-tol; docs/api.md, "Tolerance") */
+#define KIFMM_KERNEL__HELM_TOL {{0}, {0}, \
+        {5.2e-02, 7.1e-02, 0, 0, 0, 0, 0, 6.1e-01}, \
+        {3.7e-03, 3.7e-03, 0, 0, 0, 0, 0, 1.4e-02}, \
+        {3.7e-04, 3.7e-04, 5.7e-04, 4.5e-03, 0, 0, 0, 1.1e-02}, \
+        {4.6e-05, 4.6e-05, 4.6e-05, 2.1e-04, 0, 0, 0, 1.3e-03}, \
+        {8.5e-06, 8.5e-06, 8.5e-06, 1.1e-05, 7.3e-05, 0, 0, 1.5e-04}, \
+        {5.0e-07, 5.0e-07, 5.0e-07, 7.9e-07, 3.5e-06, 0, 0, 1.5e-05}, \
+        {6.7e-08, 6.7e-08, 6.7e-08, 8.5e-08, 2.6e-07, 1.4e-06, 0, 2.7e-06}, \
+        {1.3e-08, 1.3e-08, 1.3e-08, 1.3e-08, 1.9e-08, 6.8e-08, 0, 5.3e-07}, \
+        {1.5e-09, 1.5e-09, 1.5e-09, 1.5e-09, 2.1e-09, 5.6e-09, 2.1e-08, 5.6e-08}, \
+        {2.1e-10, 1.9e-10, 1.7e-10, 1.8e-10, 2.6e-10, 5.1e-10, 1.8e-09, 2.9e-09}, \
+        {7.3e-11, 6.6e-11, 5.4e-11, 5.0e-11, 5.0e-11, 7.5e-11, 1.8e-10, 2.6e-10}}
 
 /* helmholtz: charges -> potential (a complex pair each) */
 #define kifmm_kernel_helmholtz_SRC_DIM 2
@@ -626,11 +656,12 @@ static inline void kifmm_kernel__helm(const double *param, double dx, double dy,
 #define kifmm_kernel_helmholtz_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_DEGREE 0
 #define kifmm_kernel_helmholtz_HAS                                                            \
-    (KIFMM_KERNEL__HELM_HAS | KIFMM_HAS_COMPLEX | KIFMM_HAS_RADIAL | KIFMM_KERNEL__HELM_HOOKS |  \
-     KIFMM_KERNEL__HELM_MUTUAL) /* hooks below; the others' surface kernel */
+    (KIFMM_KERNEL__HELM_HAS | KIFMM_HAS_TOL | KIFMM_HAS_COMPLEX | KIFMM_HAS_RADIAL |             \
+     KIFMM_KERNEL__HELM_HOOKS | KIFMM_KERNEL__HELM_MUTUAL) /* hooks below; the others' surface kernel */
 #define kifmm_kernel_helmholtz_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+#define kifmm_kernel_helmholtz_TOL_ERRORS KIFMM_KERNEL__HELM_TOL
 static inline void kifmm_kernel_helmholtz_eval(const double *param, double dx, double dy,
                                                double dz, double *k)
 {
@@ -643,10 +674,12 @@ static inline void kifmm_kernel_helmholtz_eval(const double *param, double dx, d
 #define kifmm_kernel_helmholtz_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_grad_DEGREE 0
 #define kifmm_kernel_helmholtz_grad_EQUIV helmholtz
-#define kifmm_kernel_helmholtz_grad_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS | KIFMM_KERNEL__HELM_MUTUAL)
+#define kifmm_kernel_helmholtz_grad_HAS                                                       \
+    (KIFMM_KERNEL__HELM_HAS | KIFMM_HAS_TOL | KIFMM_KERNEL__HELM_HOOKS | KIFMM_KERNEL__HELM_MUTUAL)
 #define kifmm_kernel_helmholtz_grad_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_grad_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_grad_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+#define kifmm_kernel_helmholtz_grad_TOL_ERRORS KIFMM_KERNEL__HELM_TOL
 static inline void kifmm_kernel_helmholtz_grad_eval(const double *param, double dx, double dy,
                                                     double dz, double *k)
 {
@@ -660,10 +693,11 @@ static inline void kifmm_kernel_helmholtz_grad_eval(const double *param, double 
 #define kifmm_kernel_helmholtz_cd_grad_TRG_DIM 8
 #define kifmm_kernel_helmholtz_cd_grad_SCALE_INVARIANT 0
 #define kifmm_kernel_helmholtz_cd_grad_DEGREE 0
-#define kifmm_kernel_helmholtz_cd_grad_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_KERNEL__HELM_HOOKS)
+#define kifmm_kernel_helmholtz_cd_grad_HAS (KIFMM_KERNEL__HELM_HAS | KIFMM_HAS_TOL | KIFMM_KERNEL__HELM_HOOKS)
 #define kifmm_kernel_helmholtz_cd_grad_setup kifmm_kernel__wavenumber_setup
 #define kifmm_kernel_helmholtz_cd_grad_wavenumber kifmm_kernel__wavenumber
 #define kifmm_kernel_helmholtz_cd_grad_WAVES_MAX KIFMM_KERNEL__HELM_WAVES
+#define kifmm_kernel_helmholtz_cd_grad_TOL_ERRORS KIFMM_KERNEL__HELM_TOL
 #define kifmm_kernel_helmholtz_cd_grad_EQUIV helmholtz
 #define kifmm_kernel_helmholtz_cd_grad_USE_EQUIV 1
 #define kifmm_kernel_helmholtz_cd_grad_SURFACE helmholtz_grad

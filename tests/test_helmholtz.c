@@ -360,33 +360,40 @@ static const char *kind_name[3] = {"uniform", "sphere", "corner"};
  * helmholtz_cd_grad; N sources of a
  * kind, NT separate uniform targets (0: the sources), order p, a root of
  * `waves` wavelengths, Im k = ki: the relative L2 error of potential and
- * gradient at 150 targets against direct_ld, within bound */
-static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, double waves, double ki,
-                     double bound)
+ * gradient at 150 targets against direct_ld, within bound; p = 0: opts.tol
+ * = bound, at 300 targets as its tables were measured (the order create
+ * chose is returned) */
+static int fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, double waves, double ki,
+                    double bound)
 {
     const int sd = cd ? 8 : 2;
     double *x = points(kind, N, 7 + (uint64_t)kind), *y = NT ? points(0, NT, 9) : x;
     double *q = t_densities(11, N, sd, 1, 0), *out = t_doubles(8 * (NT ? NT : N) + 8);
-    const int64_t nt = NT ? NT : N, m = nt < 150 ? nt : 150;
+    const int64_t nt = NT ? NT : N, m = nt < (p ? 150 : 300) ? nt : p ? 150 : 300; /* (tol's tables: 300) */
     kifmm_opts o = t_opts(p, p >= 12 ? 128 : 64, 0); /* (the default leaves hold 8,000 points) */
     kifmm_stats st;
+    kifmm_opts used;
     double e2[2] = {0.0, 0.0}, r2[2] = {0.0, 0.0}, ref[8];
     memset(&st, 0, sizeof st);
+    memset(&used, 0, sizeof used);
     int64_t i, j;
     int rc, c;
     o.kernel_param[0] = 2.0 * T_PI * waves / extent(N, x);
     o.kernel_param[1] = ki;
+    if (!p) o.tol = bound;
     if (cd) {
         kifmm_helmholtz_cd_grad *h = NULL;
         rc = kifmm_helmholtz_cd_grad_create(&h, &o, N, x, nt, y);
         if (!rc) rc = kifmm_helmholtz_cd_grad_evaluate(h, q, out);
         if (!rc) rc = kifmm_helmholtz_cd_grad_stats(h, &st);
+        if (!rc) rc = kifmm_helmholtz_cd_grad_options(h, &used);
         kifmm_helmholtz_cd_grad_destroy(h);
     } else if (fl == 2) {
         kifmm_helmholtz_grad_nr *h = NULL;
         rc = kifmm_helmholtz_grad_nr_create(&h, &o, N, x, nt, y);
         if (!rc) rc = kifmm_helmholtz_grad_nr_evaluate(h, q, out);
         if (!rc) rc = kifmm_helmholtz_grad_nr_stats(h, &st);
+        if (!rc) rc = kifmm_helmholtz_grad_nr_options(h, &used);
         kifmm_helmholtz_grad_nr_destroy(h);
     } else if (fl) {
         float *xf = (float *)t_malloc_or_die((size_t)(3 * N + 1) * sizeof(float));
@@ -399,6 +406,7 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
         rc = kifmm_helmholtz_gradf_create(&h, &o, N, xf, N, xf);
         if (!rc) rc = kifmm_helmholtz_gradf_evaluate(h, qf, of);
         if (!rc) rc = kifmm_helmholtz_gradf_stats(h, &st);
+        if (!rc) rc = kifmm_helmholtz_gradf_options(h, &used);
         for (i = 0; i < 8 * N; i++) out[i] = of[i];
         for (i = 0; i < 2 * N; i++) q[i] = qf[i];
         kifmm_helmholtz_gradf_destroy(h);
@@ -408,10 +416,12 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
         rc = kifmm_helmholtz_grad_create(&h, &o, N, x, nt, y);
         if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, out);
         if (!rc) rc = kifmm_helmholtz_grad_stats(h, &st);
+        if (!rc) rc = kifmm_helmholtz_grad_options(h, &used);
         kifmm_helmholtz_grad_destroy(h);
     }
     CHECK(rc == KIFMM_SUCCESS, "create and evaluate: %s", kifmm_strerror(rc));
     CHECK(rc || st.levels >= 4, "a tree of %d levels (expansions from level 2 on)", rc ? 0 : st.levels);
+    if (!p && !rc) p = -used.order; /* (the order tol chose, printed as -p) */
     for (i = 0; i < m && !rc; i++) {
         j = t_sample_index(i, m, nt);
         direct_ld(cd, o.kernel_param[0], ki, N, x, q, y + 3 * j, ref);
@@ -421,13 +431,27 @@ static void fmm_case(int cd, int fl, int kind, int64_t N, int64_t NT, int p, dou
         }
     }
     if (!rc) {
-        CHECK_ERR(sqrt(e2[0] / r2[0]), bound, "%s%s %s %lld%s, p = %d, root %.1f wavelengths, Im k %.1f: potential",
+        CHECK_ERR(sqrt(e2[0] / r2[0]), bound, "%s%s %s %lld%s, p = %d%s, root %.1f wavelengths, Im k %.1f: potential",
                   cd ? "helmholtz_cd_grad" : "helmholtz_grad", fl == 2 ? "_nr" : fl ? "f" : "", kind_name[kind], (long long)N,
-                  NT ? " + separate targets" : "", p, waves, ki);
+                  NT ? " + separate targets" : "", p < 0 ? -p : p, p < 0 ? " (opts.tol's)" : "", waves, ki);
         CHECK_ERR(sqrt(e2[1] / r2[1]), bound, "  gradient");
     }
     free(x), free(q), free(out);
     if (NT) free(y);
+    return p < 0 ? -p : 0;
+}
+
+/* update_points of h (helmholtz_grad, n points, charges q, outputs keep)
+ * to the points xw, too many wavelengths wide: KIFMM_ERR_FREQUENCY, and h
+ * as it was (its outputs into out equal to keep) */
+static void refused_update(kifmm_helmholtz_grad *h, int64_t n, const double *xw, const double *q,
+                           const double *keep, double *out, const char *what)
+{
+    int rc = kifmm_helmholtz_grad_update_points(h, n, xw, n, xw);
+    CHECK(rc == KIFMM_ERR_FREQUENCY, "update_points to %s: %s", what, kifmm_strerror(rc));
+    rc = kifmm_helmholtz_grad_evaluate(h, q, out);
+    CHECK(rc == KIFMM_SUCCESS && !memcmp(keep, out, 8 * (size_t)n * sizeof(double)),
+          "  the handle kept its points: %s", kifmm_strerror(rc));
 }
 
 /* KIFMM_ERR_FREQUENCY, a tree of direct sums, periodic and Im k < 0 */
@@ -461,11 +485,7 @@ static void test_refusals(void)
     if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, o1);
     CHECK(rc == KIFMM_SUCCESS, "2 wavelengths at p = 8: %s", kifmm_strerror(rc));
     if (!rc) {
-        rc = kifmm_helmholtz_grad_update_points(h, N, x5, N, x5);
-        CHECK(rc == KIFMM_ERR_FREQUENCY, "update_points to 10 wavelengths: %s", kifmm_strerror(rc));
-        rc = kifmm_helmholtz_grad_evaluate(h, q, o2);
-        CHECK(rc == KIFMM_SUCCESS && !memcmp(o1, o2, 8 * (size_t)N * sizeof(double)),
-              "the handle kept its points: %s", kifmm_strerror(rc));
+        refused_update(h, N, x5, q, o1, o2, "10 wavelengths");
         kifmm_helmholtz_grad_destroy(h);
     }
     /* 60 points, one leaf: direct sums only, at 100 wavelengths */
@@ -509,10 +529,10 @@ static void test_refusals(void)
         kifmm_helmholtz_grad_destroy(h);
     }
     memset(o.domain, 0, sizeof o.domain);
-    o.order = 0, o.tol = 1e-5;
+    o.order = 8, o.tol = 1e-5;
     h = (kifmm_helmholtz_grad *)x;
     rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
-    CHECK(rc == KIFMM_ERR_TOL && h == NULL, "opts.tol: %s", kifmm_strerror(rc));
+    CHECK(rc == KIFMM_ERR_TOL && h == NULL, "opts.tol with opts.order: %s", kifmm_strerror(rc));
     o.order = 8, o.tol = 0.0;
     o.kernel_param[0] = 5.0;
     o.period[0] = o.period[1] = o.period[2] = 1.0;
@@ -526,6 +546,99 @@ static void test_refusals(void)
     free(x), free(x5), free(q), free(o1), free(o2);
 }
 
+/* the potential's and gradient's relative L2 error of out (helmholtz_grad
+ * at n points x, sources = targets, charges q, wavenumber k) at 300 of them
+ * against direct_ld, the larger */
+static double grad_err(int64_t n, const double *x, const double *q, double k, const double *out)
+{
+    double e2[2] = {0.0, 0.0}, r2[2] = {0.0, 0.0}, ref[8];
+    int64_t i, j;
+    int c;
+    for (i = 0; i < 300; i++) {
+        j = t_sample_index(i, 300, n);
+        direct_ld(0, k, 0.0, n, x, q, x + 3 * j, ref);
+        for (c = 0; c < 8; c++)
+            e2[c > 1] += (out[8 * j + c] - ref[c]) * (out[8 * j + c] - ref[c]), r2[c > 1] += ref[c] * ref[c];
+    }
+    return fmax(sqrt(e2[0] / r2[0]), sqrt(e2[1] / r2[1]));
+}
+
+/* opts.tol: the order from the root's width in wavelengths, chosen again
+ * by update_points; plans need opts.domain; the refusals */
+static void test_tol(void)
+{
+    const int64_t N = 3000;
+    double *x = points(0, N, 31), *x4 = t_doubles(3 * N), *q = t_densities(32, N, 2, 1, 0);
+    double *o1 = t_doubles(8 * N), *o2 = t_doubles(8 * N);
+    kifmm_opts o = t_opts(0, 0, 0), u;
+    kifmm_helmholtz_grad *h = NULL, *h2 = NULL;
+    kifmm_helmholtz_grad_plan *pl = NULL;
+    kifmm_helmholtz_gradf *hf = NULL;
+    double bytes = 0.0;
+    int64_t i;
+    int rc, p1 = 0;
+    t_group("opts.tol: the order from the width in wavelengths");
+    for (i = 0; i < 3 * N; i++) x4[i] = 4.0 * x[i];
+    o.tol = 1e-4; /* p = 5 at boxes of 0.25 wavelengths, 7 at 1 (kifmm_kernels.h) */
+    o.kernel_param[0] = 2.0 * T_PI * 1.0; /* 1 wavelength a unit */
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, o1);
+    if (!rc) rc = kifmm_helmholtz_grad_options(h, &u);
+    CHECK(rc == KIFMM_SUCCESS, "tol 1e-4, 1 wavelength: %s", kifmm_strerror(rc));
+    if (!rc) {
+        p1 = u.order;
+        CHECK_ERR(grad_err(N, x, q, o.kernel_param[0], o1), 1e-4, "  order %d, tol %.0e kept", p1, u.tol);
+        rc = kifmm_helmholtz_grad_update_points(h, N, x4, N, x4);
+        if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, o2);
+        if (!rc) rc = kifmm_helmholtz_grad_options(h, &u);
+        CHECK(rc == KIFMM_SUCCESS && u.order > p1, "update_points to 4 wavelengths: order %d -> %d: %s", p1,
+              rc ? 0 : u.order, kifmm_strerror(rc));
+        if (!rc) CHECK_ERR(grad_err(N, x4, q, o.kernel_param[0], o2), 1e-4, "  its error");
+        for (i = 0; i < 3 * N; i++) x4[i] = 40.0 * x[i];
+        refused_update(h, N, x4, q, o2, o1, "40 wavelengths (opts.tol)");
+    }
+    kifmm_helmholtz_grad_destroy(h);
+    /* plans: the root from opts.domain (the unit cube), or refused */
+    rc = kifmm_helmholtz_grad_plan_create(&pl, &o);
+    CHECK(rc == KIFMM_ERR_TOL && !pl, "plan_create, tol without opts.domain: %s", kifmm_strerror(rc));
+    rc = kifmm_helmholtz_grad_estimate_bytes(&o, N, N, &bytes);
+    CHECK(rc == KIFMM_ERR_TOL, "estimate_bytes, tol without opts.domain: %s", kifmm_strerror(rc));
+    o.domain[0] = o.domain[1] = o.domain[2] = o.domain[3] = 0.5;
+    rc = kifmm_helmholtz_grad_plan_create(&pl, &o);
+    if (!rc) rc = kifmm_helmholtz_grad_create_with_plan(&h2, pl, N, x, N, x);
+    if (!rc) rc = kifmm_helmholtz_grad_evaluate(h2, q, o1);
+    if (!rc) rc = kifmm_helmholtz_grad_options(h2, &u);
+    CHECK(rc == KIFMM_SUCCESS && u.order == p1, "plan with opts.domain: order %d: %s", rc ? 0 : u.order,
+          kifmm_strerror(rc));
+    if (!rc) CHECK_ERR(grad_err(N, x, q, o.kernel_param[0], o1), 1e-4, "  its error");
+    kifmm_helmholtz_grad_destroy(h2);
+    kifmm_helmholtz_grad_plan_destroy(pl);
+    memset(o.domain, 0, sizeof o.domain);
+    o.tol = 1e-13; /* below every order's floor */
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    CHECK(rc == KIFMM_ERR_TOL && !h, "tol 1e-13: %s", kifmm_strerror(rc));
+    o.tol = 1e-9, o.kernel_param[0] = 2.0 * T_PI * 8.0; /* 2 wavelengths a level-2 box */
+    o.leaf_size = 64; /* (with the default leaves: direct sums, at any width) */
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    CHECK(rc == KIFMM_ERR_FREQUENCY && !h, "tol 1e-9 at 8 wavelengths: %s", kifmm_strerror(rc));
+    o.leaf_size = 0;
+    rc = kifmm_helmholtz_grad_create(&h, &o, N, x, N, x);
+    if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, o1);
+    CHECK(rc == KIFMM_SUCCESS, "  with the default leaves (direct sums): %s", kifmm_strerror(rc));
+    if (!rc) CHECK_ERR(grad_err(N, x, q, o.kernel_param[0], o1), 1e-9, "  its error");
+    kifmm_helmholtz_grad_destroy(h);
+    h = NULL;
+    {
+        float *xf = (float *)t_malloc_or_die((size_t)(3 * N) * sizeof(float));
+        for (i = 0; i < 3 * N; i++) xf[i] = (float)x[i];
+        o.tol = 1e-5, o.kernel_param[0] = 2.0 * T_PI;
+        rc = kifmm_helmholtz_gradf_create(&hf, &o, N, xf, N, xf);
+        CHECK(rc == KIFMM_ERR_TOL && !hf, "float, tol 1e-5: %s", kifmm_strerror(rc));
+        free(xf);
+    }
+    free(x), free(x4), free(q), free(o1), free(o2);
+}
+
 int main(void)
 {
     test_entries();
@@ -533,6 +646,7 @@ int main(void)
     test_hooks();
 #endif
     test_refusals();
+    test_tol();
     t_group("FMM against direct sums in long double");
 #ifdef KIFMM_TEST_QUICK
     fmm_case(0, 0, 0, 4000, 0, 8, 2.0, 0.5, 1e-6);
@@ -556,6 +670,24 @@ int main(void)
     fmm_case(0, 0, 1, 12000, 0, 12, 2.0, 0.0, 1e-9);
 #endif
     fmm_case(0, 1, 0, 4000, 0, 4, 2.0, 0.0, 2e-3);
+    /* opts.tol (p = 0 below): the order from the root's width in
+     * wavelengths, higher for wider boxes at the same tol */
+    {
+#ifdef KIFMM_TEST_QUICK
+        const char *wider = "4";
+        const int pa = fmm_case(0, 0, 0, 3000, 0, 0, 0.2, 0.0, 1e-5);
+        const int pb = fmm_case(1, 0, 2, 3000, 1500, 0, 4.0, 0.3, 1e-5);
+#else
+        const char *wider = "5";
+        const int pa = fmm_case(0, 0, 0, 8000, 0, 0, 0.2, 0.0, 1e-6);
+        const int pb = fmm_case(0, 0, 0, 8000, 0, 0, 5.0, 0.0, 1e-6);
+        fmm_case(1, 0, 1, 6000, 3000, 0, 2.0, 0.3, 1e-5);
+        fmm_case(0, 0, 2, 8000, 4000, 0, 3.0, 1.0, 1e-7);
+        fmm_case(0, 0, 1, 8000, 0, 0, 2.0, 0.0, 1e-9);
+#endif
+        fmm_case(0, 1, 0, 4000, 0, 0, 1.0, 0.0, 1e-3);
+        CHECK(pa > 0 && pb > pa, "opts.tol's orders: %d at 0.2 wavelengths, %d at %s", pa, pb, wider);
+    }
     /* p <= 6: one-component square surfaces, the downward solve from the
      * upward SVD (1.1e-6 to 9.8e-6 at p = 6, 2.2e-5 at p = 5); a complex
      * surface kernel that is not radial (1.5e-6, 5.8e-6) */

@@ -439,10 +439,6 @@ def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size
     o.max_depth = _int(max_depth, "max_depth", 0, MAX_DEPTH, where, _ERR_DEPTH,
                        " (None or 0: 16)")
     o.verbose = _verbose(verbose, where)
-    if kernel in COMPLEX and tol is not None:
-        raise OptionError(_ERR_TOL, where, f"tol: {kernel!r}, an oscillating kernel, has no "
-                          "tolerance table (its error depends on the boxes' width in "
-                          "wavelengths): give order (docs/kernels.md, Helmholtz)")
     for i, x in enumerate(_kernel_param(kernel, kernel_param, where)):
         o.kernel_param[i] = x
     per = _period(period, where)
@@ -584,10 +580,12 @@ class FMM:
                   kernel without parameters. Helmholtz kernels: the
                   wavenumber k, a complex (or real) number with Im k >= 0
                   (damped waves), or up to 4 reals (Re k, Im k, 0, 0) as
-                  options gives them, needed; no tol (give order); the
-                  boxes that carry expansions
-                  may be at most 0.5 to 1.6 wavelengths wide, by order
-                  (else KifmmError, code -25; docs/kernels.md)
+                  options gives them, needed; the boxes that carry
+                  expansions may be at most 0.5 to 1.6 wavelengths wide,
+                  by order (else KifmmError, code -25; docs/kernels.md);
+                  tol picks the order from the root's width in
+                  wavelengths (update_points picks again; a Plan with tol
+                  needs domain)
     leaf_size     points per leaf, an integer >= 1 (None or 0: chosen per
                   order)
     max_depth     deepest tree level, 1 to 20 (None or 0: 16); boxes there

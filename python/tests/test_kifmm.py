@@ -87,7 +87,6 @@ def test_every_kernel_against_direct(kernel, dtype):
     assert rel(out[:100].astype(ref.dtype), ref) < bound
 
 
-@pytest.mark.parametrize("tol", [1e-3, 1e-6, 1e-9])
 def helmholtz_numpy(x, q, t, k):
     """potential and gradient of complex charges q at x, at targets t, from
     G = exp(i k r) / (4 pi r) (a target on a source leaves it out)"""
@@ -121,6 +120,39 @@ def test_helmholtz_against_numpy(dtype, order, bound):
     assert np.array_equal(fmm.evaluate(q.real), fmm.evaluate(q.real + 0j))
 
 
+@pytest.mark.parametrize("waves,tol", [(1.0, 1e-4), (2.0, 1e-6), (3.0, 1e-8)])
+def test_helmholtz_tol_against_numpy(waves, tol):
+    """tol for a complex kernel: the order from the root's width in
+    wavelengths (the points' cube, or domain's); update_points to a wider
+    cloud raises it, or refuses where no order meets tol"""
+    x = points(6000, 64)
+    rng = np.random.default_rng(65)
+    q = (rng.random(6000) - 0.5) + 1j * (rng.random(6000) - 0.5)
+    k = 2 * np.pi * waves  # the unit cube is about waves wavelengths wide
+
+    def err(f, y):
+        pot, grad = helmholtz_numpy(y, q, y[:200], k)
+        out = f.evaluate(q)
+        return max(rel(out[:200, 0], pot), rel(out[:200, 1:], grad))
+
+    fmm = kifmm.FMM("helmholtz_grad", x, kernel_param=k, tol=tol)
+    e, p = err(fmm, x), fmm.options["order"]
+    assert fmm.options["tol"] == tol and e <= tol, (p, e)
+    cube = [0.5, 0.5, 0.5, 0.5]
+    with kifmm.FMM("helmholtz_grad", x, kernel_param=k, tol=tol, domain=cube) as f:
+        assert err(f, x) <= tol
+    kifmm.Plan("helmholtz_grad", kernel_param=k, tol=tol, domain=cube).close()
+    if tol > 1e-8:
+        fmm.update_points(3 * x)  # three times as many wavelengths
+        e = err(fmm, 3 * x)
+        assert fmm.options["order"] > p and e <= tol, (fmm.options["order"], e)
+    else:
+        before = fmm.evaluate(q)
+        with pytest.raises(kifmm.KifmmError) as r:
+            fmm.update_points(3 * x)
+        assert r.value.code == -25 and np.array_equal(fmm.evaluate(q), before)
+
+
 def test_helmholtz_options_and_errors():
     x = points(2000, 63)
     q = np.ones(2000, dtype=complex)
@@ -138,9 +170,12 @@ def test_helmholtz_options_and_errors():
         kifmm.FMM("helmholtz", x, kernel_param=[[3.0]])
     with pytest.raises(TypeError):
         kifmm.FMM("laplace", x).evaluate(q)  # complex charges for a real kernel
-    with pytest.raises(kifmm.OptionError) as e:
-        kifmm.FMM("helmholtz", x, kernel_param=5.0, tol=1e-6)
-    assert e.value.code == -16 and "order" in str(e.value)
+    with pytest.raises(kifmm.KifmmError) as e:  # the order from the root: domain needed
+        kifmm.Plan("helmholtz", kernel_param=5.0, tol=1e-6)
+    assert e.value.code == -16 and "domain" in str(e.value)
+    with pytest.raises(kifmm.KifmmError) as e:  # no order reaches 1e-6 at 5 wavelengths a box
+        kifmm.FMM("helmholtz", x, kernel_param=2 * np.pi * 20, tol=1e-6, leaf_size=32)
+    assert e.value.code == -25
     fmm = kifmm.FMM("helmholtz", x, kernel_param=5.0, dtype=np.complex64)
     assert fmm.options["kernel_param"][:2] == [5.0, 0.0] and fmm.dtype == np.complex64
     assert kifmm.Plan("helmholtz", kernel_param=5.0).dtype == np.complex128
