@@ -263,8 +263,10 @@ bench-memory:
 # opts.tol's tables (bench/bench_tol.c): every output's error per order at
 # 20,000 points (two seeds) and 200,000 (one), cube, sphere and clustered,
 # and the Helmholtz kernels' per order and width; KERNELS="laplace_hess
-# stokes_grad" for some (about 90 minutes for all but the Helmholtz kernels,
-# which take about 2 hours more)
+# stokes_grad" for some (about 90 minutes for all but the Helmholtz kernels;
+# theirs at 20,000 points took 33 minutes for helmholtz_grad, two seeds, and
+# 10 for helmholtz_cd_grad, one seed; at 200,000 points helmholtz_grad's
+# orders 3 to 10 took over an hour)
 .PHONY: bench-tol
 bench-tol:
 	@mkdir -p $(BUILD)/bench
