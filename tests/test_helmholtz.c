@@ -307,25 +307,41 @@ static void as_one_f(const double *prm, const float *ax, const float *ay, const 
 
 static void test_hooks(void)
 {
-    static const double ks[3][2] = {{7.3, 0.0}, {20.0, 0.6}, {0.0, 0.0}};
+    /* the last: Re k r up to 2.1e6, past KIFMM_KERNEL__SINCOS_MAX (1.6e6), so
+     * the rows that check each lane run (kifmm_kernel__helm_wide), some
+     * lanes taking the C library's sin and cos; the bound there is the
+     * phase's rounding, Re k r 2^-53 a few times over */
+    static const double ks[4][2] = {{7.3, 0.0}, {20.0, 0.6}, {0.0, 0.0}, {1.2e6, 0.0}};
     int n;
     t_group("near-field hooks (vectorised sin, cos, exp) against long double");
-    for (n = 0; n < 3; n++) {
-        const double prm[4] = {ks[n][0], ks[n][1], 0.0, 0.0};
+    for (n = 0; n < 4; n++) {
+        const double prm[4] = {ks[n][0], ks[n][1], 0.0, 0.0}, bound = n < 3 ? 2e-14 : 2e-9;
         g_kr = ks[n][0], g_ki = ks[n][1];
-        t_check_hooks("helmholtz", 2, 2, prm, 2e-14, kifmm_kernel_helmholtz_p2p, kifmm_kernel_helmholtz_p2pf, hook_ref2);
-        t_check_hooks("helmholtz_grad", 2, 8, prm, 2e-14, kifmm_kernel_helmholtz_grad_p2p, kifmm_kernel_helmholtz_grad_p2pf,
+        t_check_hooks("helmholtz", 2, 2, prm, bound, kifmm_kernel_helmholtz_p2p, kifmm_kernel_helmholtz_p2pf, hook_ref2);
+        t_check_hooks("helmholtz_grad", 2, 8, prm, bound, kifmm_kernel_helmholtz_grad_p2p, kifmm_kernel_helmholtz_grad_p2pf,
                       hook_ref8);
-        t_check_hooks("helmholtz_cd_grad", 8, 8, prm, 2e-14, kifmm_kernel_helmholtz_cd_grad_p2p, kifmm_kernel_helmholtz_cd_grad_p2pf,
+        t_check_hooks("helmholtz_cd_grad", 8, 8, prm, bound, kifmm_kernel_helmholtz_cd_grad_p2p, kifmm_kernel_helmholtz_cd_grad_p2pf,
                       hook_ref_cd);
         for (g_side = 0; g_side < 2; g_side++) {
             g_md = kifmm_kernel_helmholtz_p2ps, g_mf = kifmm_kernel_helmholtz_p2psf;
             t_check_hooks(g_side ? "helmholtz mutual, B side" : "helmholtz mutual, A side", 2, 2, prm,
-                          2e-14, as_one_d, as_one_f, hook_ref2);
+                          bound, as_one_d, as_one_f, hook_ref2);
             g_md = kifmm_kernel_helmholtz_grad_p2ps, g_mf = kifmm_kernel_helmholtz_grad_p2psf;
             t_check_hooks(g_side ? "helmholtz_grad mutual, B side" : "helmholtz_grad mutual, A side", 2, 8,
-                          prm, 2e-14, as_one_d, as_one_f, hook_ref8);
+                          prm, bound, as_one_d, as_one_f, hook_ref8);
         }
+    }
+    { /* Re k r near 1e20: the phases are rounding (Re k ulp(r) >> 1), so the
+       * sums only stay within the sums of the magnitudes (error <= 2); the
+       * vectorised sin and cos alone, without the lanes' check, would give
+       * values far outside [-1, 1] there */
+        const double prm[4] = {1e20, 0.0, 0.0, 0.0};
+        g_kr = 1e20, g_ki = 0.0, g_side = 0;
+        t_check_hooks("helmholtz_grad at Re k = 1e20, |sums| within their magnitudes", 2, 8, prm, 2.0 + 1e-9,
+                      kifmm_kernel_helmholtz_grad_p2p, NULL, hook_ref8);
+        g_md = kifmm_kernel_helmholtz_grad_p2ps;
+        t_check_hooks("helmholtz_grad mutual at Re k = 1e20, |sums| within their magnitudes", 2, 8, prm,
+                      2.0 + 1e-9, as_one_d, NULL, hook_ref8);
     }
 }
 #endif
