@@ -466,6 +466,99 @@ static void test_tree(const char *name, int64_t n, const double *xyz, int leaf)
 GC_TEST(double, d, DBL_EPSILON)
 GC_TEST(float, f, FLT_EPSILON)
 
+/* A kernel matrix between the unit surfaces of orders pr (rows, radius ro)
+ * and pc (columns, radius 1.05) about one centre: 1 / (4 pi r) (sd 1), or
+ * exp(i k r) / (4 pi r) as real 2 x 2 blocks {re, -im; im, re} (sd 2) */
+static double *surf_matrix(int pr, int pc, double ro, int sd, double k)
+{
+    const int nr = kifmm__surf_count(pr), nc = kifmm__surf_count(pc), m = nr * sd;
+    double *ur = t_doubles(3 * nr), *uc = t_doubles(3 * nc), *a = t_doubles(m * nc * sd);
+    int i, j;
+    kifmm__surf_unit(pr, ur);
+    kifmm__surf_unit(pc, uc);
+    for (j = 0; j < nc; j++)
+        for (i = 0; i < nr; i++) {
+            const double dx = ro * ur[i] - 1.05 * uc[j], dy = ro * ur[nr + i] - 1.05 * uc[nc + j];
+            const double dz = ro * ur[2 * nr + i] - 1.05 * uc[2 * nc + j];
+            const double r = sqrt(dx * dx + dy * dy + dz * dz), g = 1.0 / (4.0 * T_PI * r);
+            if (sd == 1) {
+                a[i + (size_t)j * m] = g;
+            } else {
+                a[2 * i + (size_t)(2 * j) * m] = a[2 * i + 1 + (size_t)(2 * j + 1) * m] = g * cos(k * r);
+                a[2 * i + 1 + (size_t)(2 * j) * m] = g * sin(k * r);
+                a[2 * i + (size_t)(2 * j + 1) * m] = -g * sin(k * r);
+            }
+        }
+    free(ur), free(uc);
+    return a;
+}
+
+/* x = vs (ut y): the pseudo-inverse's factors (k of them) applied */
+static void apply_pinv(int m, int n, int k, const double *ut, const double *vs, const double *y, double *x)
+{
+    double *t = t_doubles(k + 1);
+    int i, j;
+    for (i = 0; i < k; i++) {
+        t[i] = 0.0;
+        for (j = 0; j < m; j++) t[i] += ut[i + (size_t)j * k] * y[j];
+    }
+    for (j = 0; j < n; j++) {
+        x[j] = 0.0;
+        for (i = 0; i < k; i++) x[j] += vs[j + (size_t)i * n] * t[i];
+    }
+    free(t);
+}
+
+/* kifmm__pinv_cube against kifmm__pinv (one SVD of the whole matrix) on the
+ * same matrix: the same rank, the same singular values (|vs e_j| = 1 / s_j,
+ * both descending), and fits A pinv(A) y of y = A x as close to y */
+static void test_pinv_cube(int pr, int pc, double ro, int sd, double k)
+{
+    const int m = kifmm__surf_count(pr) * sd, n = kifmm__surf_count(pc) * sd;
+    double *a = surf_matrix(pr, pc, ro, sd, k), *a2 = t_doubles(m * n), *x = t_doubles(n);
+    double *y = t_doubles(m), *z = t_doubles(n), *ut[2] = {NULL, NULL}, *vs[2] = {NULL, NULL};
+    double sv = 0.0, s0 = 0.0, res[2] = {0.0, 0.0}, yy = 0.0;
+    int rank[2] = {-1, -2}, rc[2], i, j, q;
+    t_rng g = t_rng_seed(41);
+    memcpy(a2, a, sizeof(double) * (size_t)m * n);
+    rc[0] = kifmm__pinv(a2, m, n, 1e-15, &ut[0], &vs[0], &rank[0]);
+    rc[1] = kifmm__pinv_cube(a, pr, pc, sd, 1e-15, &ut[1], &vs[1], &rank[1]);
+    CHECK(rc[0] == KIFMM_SUCCESS && rc[1] == KIFMM_SUCCESS && rank[0] == rank[1],
+          "orders %d <- %d, %d component(s): ranks %d (one SVD) and %d (by the cube's symmetries)", pr, pc, sd,
+          rank[0], rank[1]);
+    if (rc[0] || rc[1] || rank[0] != rank[1]) { /* (leaks what it has: the program stops at this failure) */
+        free(a), free(a2), free(x), free(y), free(z);
+        return;
+    }
+    for (j = 0; j < rank[0]; j++) {
+        double nv[2] = {0.0, 0.0};
+        for (q = 0; q < 2; q++)
+            for (i = 0; i < n; i++) nv[q] += vs[q][i + (size_t)j * n] * vs[q][i + (size_t)j * n];
+        if (j == 0) s0 = 1.0 / sqrt(nv[0]);
+        sv = fmax(sv, fabs(1.0 / sqrt(nv[0]) - 1.0 / sqrt(nv[1])) / s0);
+    }
+    CHECK_ERR(sv, 1e-13, "orders %d <- %d, %d component(s): singular values, largest difference over s_0", pr, pc, sd);
+    for (j = 0; j < n; j++) x[j] = t_uniform(&g, -1.0, 1.0);
+    for (i = 0; i < m; i++) {
+        y[i] = 0.0;
+        for (j = 0; j < n; j++) y[i] += a[i + (size_t)j * m] * x[j];
+        yy += y[i] * y[i];
+    }
+    for (q = 0; q < 2; q++) {
+        apply_pinv(m, n, rank[q], ut[q], vs[q], y, z);
+        for (i = 0; i < m; i++) {
+            double f = -y[i];
+            for (j = 0; j < n; j++) f += a[i + (size_t)j * m] * z[j];
+            res[q] += f * f;
+        }
+        res[q] = sqrt(res[q] / yy);
+    }
+    CHECK_ERR(res[1], fmax(2.0 * res[0], 1e-14), "orders %d <- %d, %d component(s): |A pinv(A) y - y| / |y| "
+              "(one SVD: %.1e)", pr, pc, sd, res[0]);
+    for (q = 0; q < 2; q++) kifmm__free(ut[q]), kifmm__free(vs[q]);
+    free(a), free(a2), free(x), free(y), free(z);
+}
+
 int main(void)
 {
     static const int orders[] = {4, 6, 8, 10};
@@ -477,6 +570,16 @@ int main(void)
     test_gemm_colsf(&g);
     t_group("transfer vectors");
     test_transfer_vectors();
+    t_group("pseudo-inverses by the cube's symmetries against one SVD");
+    test_pinv_cube(2, 2, 4.5, 1, 0.0);
+    test_pinv_cube(6, 6, 4.5, 1, 0.0);
+    test_pinv_cube(9, 8, 2.95, 1, 0.0);
+    test_pinv_cube(5, 5, 4.5, 2, 3.0);
+    test_pinv_cube(8, 7, 2.95, 2, 9.0);
+#ifndef KIFMM_TEST_QUICK
+    test_pinv_cube(12, 12, 4.5, 1, 0.0);
+    test_pinv_cube(10, 9, 2.95, 2, 3.0);
+#endif
     t_group("operators alone against direct sums");
     for (i = 0; i < 4; i++) {
         test_upward(orders[i]);
