@@ -5243,18 +5243,22 @@ KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, double ao, 
                                  (size_t)c->pl->surf.nc, NULL);
 }
 
-/* pinv(A) as kifmm__pinv's factors, A a kernel matrix (KIFMM__CUTOFF) of
- * the surface kernel between the unit surfaces of orders pr (rows) and pc
- * (columns) about one centre: a radial kernel's by the cube's symmetries
- * (kifmm__pinv_cube, A kept), else by one SVD (A destroyed). */
-KIFMM__FN int KIFMM__F(__pinv_surf)(double *a, int pr, int pc, double **ut, double **vs, int *k)
+/* pinv(A) as kifmm__pinv's factors, A (m x n) a kernel matrix
+ * (KIFMM__CUTOFF) of the surface kernel between the unit surfaces of orders
+ * pr (rows) and pc (columns) about one centre: a radial kernel's by the
+ * cube's symmetries (kifmm__pinv_cube, A kept) where m and n are those
+ * surfaces' sizes, else by one SVD (A destroyed). */
+KIFMM__FN int KIFMM__F(__pinv_surf)(double *a, int m, int n, int pr, int pc, double **ut, double **vs,
+                                    int *k)
 {
 #if KIFMM__FRADIAL
-    return kifmm__pinv_cube(a, pr, pc, KIFMM__SD, KIFMM__CUTOFF, ut, vs, k);
+    if (kifmm__surf_count(pr) * KIFMM__SD == m && kifmm__surf_count(pc) * KIFMM__SD == n)
+        return kifmm__pinv_cube(a, pr, pc, KIFMM__SD, KIFMM__CUTOFF, ut, vs, k);
 #else
-    return kifmm__pinv(a, kifmm__surf_count(pr) * KIFMM__SD, kifmm__surf_count(pc) * KIFMM__SD,
-                       KIFMM__CUTOFF, ut, vs, k);
+    (void)pr;
+    (void)pc;
 #endif
+    return kifmm__pinv(a, m, n, KIFMM__CUTOFF, ut, vs, k);
 }
 
 /* The sign of row or column i in KIFMM__F(__c2e_solve): -1 for the
@@ -5277,7 +5281,7 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
     for (j = 0; j < ne && tr; j++)
         for (i = 0; i < nc && tr; i++)
             tr = o->kdn[i + (size_t)j * nc] == KIFMM__C2E_SIGN(i) * KIFMM__C2E_SIGN(j) * o->kup[j + (size_t)i * nc];
-    rc = KIFMM__F(__pinv_surf)(o->kup, pc, c->opts.order, &o->ut_up, &o->vs_up, &o->ku);
+    rc = KIFMM__F(__pinv_surf)(o->kup, nc, ne, pc, c->opts.order, &o->ut_up, &o->vs_up, &o->ku);
     if (!rc && tr) {
         o->kd = o->ku;
         rc = kifmm__pinv_transposed(nc, nc, o->ku, o->ut_up, o->vs_up, &o->ut_dn, &o->vs_dn);
@@ -5287,7 +5291,7 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
                 o->ut_dn[j + (size_t)i * o->kd] = -o->ut_dn[j + (size_t)i * o->kd];
             }
     } else if (!rc) {
-        rc = KIFMM__F(__pinv_surf)(o->kdn, pc, c->opts.order, &o->ut_dn, &o->vs_dn, &o->kd);
+        rc = KIFMM__F(__pinv_surf)(o->kdn, nc, ne, pc, c->opts.order, &o->ut_dn, &o->vs_dn, &o->kd);
     }
     kifmm__free(o->kup);
     kifmm__free(o->kdn);
@@ -5386,7 +5390,7 @@ KIFMM__FN int KIFMM__F(__build_conv)(const KIFMM_NAME *c, double r, kifmm__ops *
     if (!rc)
         rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->pl->surf.ao * r, c->pl->surf.unit_c, c->pl->surf.nsc,
                                    zero, KIFMM__F(__rin)(c->pl, r), 1.0, a, (size_t)nf, NULL);
-    if (!rc) rc = KIFMM__F(__pinv_surf)(a, qf, c->opts.order + c->pl->surf.cdiff, &ut, &vs, &k);
+    if (!rc) rc = KIFMM__F(__pinv_surf)(a, nf, nc, qf, c->opts.order + c->pl->surf.cdiff, &ut, &vs, &k);
     if (rc) goto done;
     tmp = (double *)kifmm__alloc((size_t)k * ne, sizeof(double));
     o->conv = (double *)kifmm__alloc((size_t)nc * ne, sizeof(double));

@@ -55,9 +55,11 @@ extern "C++" {
  * mutual for several vectors (SN); and a map from the caller's densities to
  * the ones the kernel is linear in (DENSITY: kifmm_kernel_NAME_DENSITY_DIM
  * and kifmm_kernel_NAME_density(param, in, out), stokes_dl); and RADIAL, a
- * one-component kernel that depends on |d| alone (laplace, yukawa), whose
- * M2L spectra are then built for 16 transfer vectors and turned to the other
- * 300 by the cube's symmetries; and TOL, the kernel's own errors per order
+ * one-component or complex kernel that depends on |d| alone (laplace,
+ * yukawa, helmholtz), whose M2L spectra are then built for 16 transfer
+ * vectors and turned to the other 300, M2M and L2L mirrored from one
+ * octant, and pseudo-inverses taken block by block, by the cube's
+ * symmetries; and TOL, the kernel's own errors per order
  * for opts.tol (kifmm_kernel_NAME_TOL_ERRORS, an initializer of
  * KIFMM_MAX_ORDER + 1 numbers: the largest relative L2 error of its worst
  * output measured at each order, 0 where not measured (orders 0 and 1
@@ -3261,8 +3263,11 @@ static inline double kifmm_kernel__hsum4(__m256d v)
     } while (0)
 enum { KIFMM_KERNEL__HSB = 128 };
 /* a block of up to 128 sources (of nb from j0; double or float, the other
- * pointer NULL) into structure-of-arrays, zero past nb up to a whole
- * number of vectors: positions p[0..2], densities p[3] (re), p[4] (im)
+ * pointer NULL) into structure-of-arrays, padded past nb up to a whole
+ * number of vectors with zero densities at the block's first point (so no
+ * lane's r leaves the bound kifmm_kernel__helm_wide takes; at the origin a
+ * lane's Re k |x| could, and its sin and cos overflow to 0 times infinity):
+ * positions p[0..2], densities p[3] (re), p[4] (im)
  * and, in mode 2, p[5..10] (re, im of v_x, v_y, v_z); the count padded */
 static inline int64_t kifmm_kernel__helm_fill(const double *const *bd, const float *const *bf,
                                               const double *qd, const float *qf, int64_t nb,
@@ -3276,8 +3281,8 @@ static inline int64_t kifmm_kernel__helm_fill(const double *const *bd, const flo
     for (k = 0; k < jp; k++)
         for (c = 0; c < (mode == 2 ? 11 : 5); c++) {
             const int64_t at = sd * (j0 + k) + c - 3;
-            p[c][k] = k >= jb  ? 0.0
-                      : c < 3 ? (bd ? bd[c][j0 + k] : (double)bf[c][j0 + k])
+            p[c][k] = k >= jb ? (c < 3 ? p[c][0] : 0.0) /* at the block's first point: r within */
+                      : c < 3 ? (bd ? bd[c][j0 + k] : (double)bf[c][j0 + k])  /* kifmm_kernel__helm_wide's */
                               : (qd ? qd[at] : (double)qf[at]);
         }
     return jp;

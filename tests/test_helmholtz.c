@@ -343,6 +343,21 @@ static void test_hooks(void)
         t_check_hooks("helmholtz_grad mutual at Re k = 1e20, |sums| within their magnitudes", 2, 8, prm,
                       2.0 + 1e-9, as_one_d, NULL, hook_ref8);
     }
+    { /* every point at one place far from the origin, Re k 1e40: a direct
+       * sum at any frequency adds nothing, where a block's padding lanes (at
+       * the origin) once overflowed sin and cos, and 0 times that was NaN */
+        const double prm[4] = {1e40, 0.0, 0.0, 0.0}, x[3] = {0.7, 0.7, 0.7};
+        const double q[8] = {1, 2, 3, 4, 5, 6, 7, 8};
+        double oa[24], ob[24];
+        int i, bad = 0;
+        for (i = 0; i < 24; i++) oa[i] = ob[i] = 0.0;
+        kifmm_kernel_helmholtz_grad_p2p(prm, x, x + 1, x + 2, 1, x, x + 1, x + 2, q, 1, 1.0, oa);
+        kifmm_kernel_helmholtz_cd_grad_p2p(prm, x, x + 1, x + 2, 1, x, x + 1, x + 2, q, 1, 1.0, oa + 8);
+        kifmm_kernel_helmholtz_grad_p2ps(prm, x, x + 1, x + 2, q, 1, x, x + 1, x + 2, q + 2, 1, 1.0, ob, ob + 8);
+        kifmm_kernel_helmholtz_p2ps(prm, x, x + 1, x + 2, q, 1, x, x + 1, x + 2, q + 2, 1, 1.0, ob + 16, ob + 18);
+        for (i = 0; i < 24; i++) bad += oa[i] != 0.0 || ob[i] != 0.0;
+        CHECK(bad == 0, "coincident points at Re k = 1e40: the hooks add exactly 0 (%d outputs otherwise)", bad);
+    }
 }
 #endif
 
