@@ -2555,27 +2555,6 @@ KIFMM__FN void kifmm__surf_unit(int p, double *s)
             }
 }
 
-/* map[i]: the index of point i of the order-p unit surface mirrored in the
- * axes of mask m (4: x, 2: y, 1: z), in kifmm__surf_unit's order. */
-KIFMM__FN int kifmm__surf_mirror(int p, int m, int *map)
-{
-    int *at = (int *)kifmm__alloc((size_t)p * p * p, sizeof(int)), c, pass, i, j, k;
-    if (!at) return KIFMM_ERR_NOMEM;
-    for (pass = 0; pass < 2; pass++)
-        for (c = 0, i = 0; i < p; i++)
-            for (j = 0; j < p; j++)
-                for (k = 0; k < p; k++) {
-                    const int mi = m & 4 ? p - 1 - i : i, mj = m & 2 ? p - 1 - j : j;
-                    const int mk = m & 1 ? p - 1 - k : k;
-                    if (!kifmm__surf_on(p, i, j, k))
-                        continue;
-                    if (pass == 0) at[(i * p + j) * p + k] = c++;
-                    else map[c++] = at[(mi * p + mj) * p + mk];
-                }
-    kifmm__free(at);
-    return KIFMM_SUCCESS;
-}
-
 /* The cube's 48 symmetries, g(x)_d = s_d x_perm(d): perm kifmm__perm3[g >> 3]
  * (sign kifmm__perm3_sign), s_d = -1 where bit d of g is set. A kernel
  * matrix between two cube surfaces (kifmm__surf_unit, one centre) of a
@@ -2628,15 +2607,14 @@ KIFMM__FN void kifmm__symb_free(kifmm__symb *b)
     b->ost = b->pts = b->col = NULL, b->wo = NULL, b->w = NULL;
 }
 
-/* img[g n + i]: the index of g applied to point i of the order-p surface;
- * orb: the points orbit by orbit, orbit o from ost[o] to ost[o + 1]; the
- * number of orbits (-1: no memory) */
-KIFMM__FN int kifmm__cube_orbits(int p, int *img, int *orb, int *ost, int *seen)
+/* img[(g - g0) n + i]: the index of symmetry g (g0 <= g < g0 + ng) applied
+ * to point i of the order-p unit surface (n points, kifmm__surf_unit's
+ * order) */
+KIFMM__FN int kifmm__surf_images(int p, int g0, int ng, int *img)
 {
     const int n = kifmm__surf_count(p);
     int *at = (int *)kifmm__alloc((size_t)p * p * p + 3 * (size_t)n, sizeof(int)), *cr, c = 0, i, j, k, g;
-    int no = 0, len = 0;
-    if (!at) return -1;
+    if (!at) return KIFMM_ERR_NOMEM;
     cr = at + (size_t)p * p * p;
     for (i = 0; i < p; i++)
         for (j = 0; j < p; j++)
@@ -2646,13 +2624,31 @@ KIFMM__FN int kifmm__cube_orbits(int p, int *img, int *orb, int *ost, int *seen)
                     cr[3 * c] = 2 * i - (p - 1), cr[3 * c + 1] = 2 * j - (p - 1), cr[3 * c + 2] = 2 * k - (p - 1);
                     c++;
                 }
-    for (g = 0; g < 48; g++)
+    for (g = g0; g < g0 + ng; g++)
         for (i = 0; i < n; i++) {
             int q[3], d;
             for (d = 0; d < 3; d++)
                 q[d] = ((g >> d & 1 ? -1 : 1) * cr[3 * i + kifmm__perm3[g >> 3][d]] + p - 1) / 2;
-            img[(size_t)g * n + i] = at[(q[0] * p + q[1]) * p + q[2]];
+            img[(size_t)(g - g0) * n + i] = at[(q[0] * p + q[1]) * p + q[2]];
         }
+    kifmm__free(at);
+    return KIFMM_SUCCESS;
+}
+
+/* map[i]: the index of point i of the order-p unit surface mirrored in the
+ * axes of mask m (4: x, 2: y, 1: z), in kifmm__surf_unit's order. */
+KIFMM__FN int kifmm__surf_mirror(int p, int m, int *map)
+{
+    return kifmm__surf_images(p, (m >> 2 & 1) | (m & 2) | (m & 1) << 2, 1, map);
+}
+
+/* img: kifmm__surf_images of all 48; orb: the points orbit by orbit, orbit
+ * o from ost[o] to ost[o + 1]; the number of orbits (-1: no memory) */
+KIFMM__FN int kifmm__cube_orbits(int p, int *img, int *orb, int *ost, int *seen)
+{
+    const int n = kifmm__surf_count(p);
+    int no = 0, len = 0, i, g;
+    if (kifmm__surf_images(p, 0, 48, img)) return -1;
     for (i = 0; i < n; i++) seen[i] = 0;
     ost[0] = 0;
     for (i = 0; i < n; i++) {
@@ -2663,7 +2659,6 @@ KIFMM__FN int kifmm__cube_orbits(int p, int *img, int *orb, int *ost, int *seen)
         }
         ost[++no] = len;
     }
-    kifmm__free(at);
     return no;
 }
 
@@ -2825,7 +2820,7 @@ KIFMM__FN int kifmm__cube_blocks(const double *bf, int m, int sd, const int *r0,
 KIFMM__FN int kifmm__pinv_cube(const double *a, int pr, int pc, int sd, double cutoff, double **ut_out,
                                double **vs_out, int *rank)
 {
-    kifmm__symb br, bc;
+    kifmm__symb br, bc, *bp = &bc;
     const int m = kifmm__surf_count(pr) * sd, n = kifmm__surf_count(pc) * sd, mn = m < n ? m : n;
     const int big = m > n ? m : n;
     double *us[10] = {NULL}, *vts[10] = {NULL}, *ss[10] = {NULL}, *ut = NULL, *vs = NULL, s0;
@@ -2836,11 +2831,12 @@ KIFMM__FN int kifmm__pinv_cube(const double *a, int pr, int pc, int sd, double c
     int r0[11], c0[11], rho, i, j, k = 0, nk = 0, rc = r && bf && g && kept ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
     memset(&br, 0, sizeof br), memset(&bc, 0, sizeof bc);
     if (!rc) rc = kifmm__symb_build(pr, &br);
-    if (!rc) rc = kifmm__symb_build(pc, &bc);
+    if (!rc && pc != pr) rc = kifmm__symb_build(pc, &bc); /* (square: br twice) */
+    if (pc == pr) bp = &br;
     for (r0[0] = c0[0] = 0, rho = 0; !rc && rho < 10; rho++)
-        r0[rho + 1] = r0[rho] + br.cnt[rho], c0[rho + 1] = c0[rho] + bc.cnt[rho];
+        r0[rho + 1] = r0[rho] + br.cnt[rho], c0[rho + 1] = c0[rho] + bp->cnt[rho];
     if (!rc) {
-        kifmm__symb_cols(&bc, sd, a, m, r, g);
+        kifmm__symb_cols(bp, sd, a, m, r, g);
         kifmm__symb_rows(&br, sd, 1, r, n, bf, g);
         rc = kifmm__cube_blocks(bf, m, sd, r0, c0, us, ss, vts, kept, &nk, r);
     }
@@ -2861,7 +2857,7 @@ KIFMM__FN int kifmm__pinv_cube(const double *a, int pr, int pc, int sd, double c
             for (i = 0; i < nc; i++)
                 bf[(size_t)c0[rh] * sd + i + (size_t)j * n] = vts[rh][t + (size_t)i * kr] / kept[j].s;
         }
-        kifmm__symb_rows(&bc, sd, 0, bf, k, vs, g);
+        kifmm__symb_rows(bp, sd, 0, bf, k, vs, g);
         kifmm__symb_rows(&br, sd, 0, r, k, bf, g); /* Qr U, then its transpose */
         for (j = 0; j < k; j++)
             for (i = 0; i < m; i++) ut[j + (size_t)i * k] = bf[i + (size_t)j * m];
