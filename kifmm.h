@@ -176,13 +176,15 @@ extern "C++" {
  * KIFMM_ERR_COUNT instead of an overflow). */
 #define KIFMM_MAX_POINTS ((int64_t)(PTRDIFF_MAX / 1024))
 
-/* The range of coordinates and periods: squared distances (and the
- * kernels' powers of them) stay within the precision's range when every
- * coordinate and period is at most KIFMM_COORD_MAX in magnitude, and
- * periods and the extent of a set of distinct points are at least
- * KIFMM_EXTENT_MIN (KIFMM_ERR_RANGE otherwise). Points closer together than
- * about the square root of the smallest normal number (1e-154 in double,
- * 1e-19 in float) count as coincident. */
+/* The range of coordinates and periods: squared distances stay within the
+ * precision's range when every coordinate and period is at most
+ * KIFMM_COORD_MAX in magnitude, and periods and the extent of a set of
+ * distinct points are at least KIFMM_EXTENT_MIN (KIFMM_ERR_RANGE
+ * otherwise). A kernel whose powers of 1 / r fall below the normal numbers
+ * across the points' box (r^-5 beyond about 1e61 in double) gets
+ * KIFMM_ERR_RANGE too (__check_far). Points closer together than about the
+ * square root of the smallest normal number (1e-154 in double, 1e-19 in
+ * float) count as coincident. */
 #define KIFMM_COORD_MAX 1e150
 #define KIFMM_EXTENT_MIN 1e-150
 #define KIFMM_COORD_MAX_FLOAT 1e18
@@ -5117,6 +5119,12 @@ KIFMM__DEFINE_P2P_HOOK(KIFMM__F(__p2p_sc), KIFMM__HOOK(SC, p2p))
 KIFMM__DEFINE_P2P(KIFMM__F(__p2p_sc), KIFMM__R_(SC, _eval), KIFMM__SD, KIFMM__SD)
 #endif
 
+/* any of the four loops above */
+typedef void (*KIFMM__F(__p2p_fn))(const double *, const KIFMM__R *, const KIFMM__R *,
+                                    const KIFMM__R *, int64_t, const KIFMM__R *, const KIFMM__R *,
+                                    const KIFMM__R *, const KIFMM__R *, int64_t, int, size_t,
+                                    double, KIFMM__R *, size_t);
+
 #if defined(KIFMM_MPI)
 /* MPI mode's main handle may hold sources of two roles: the kernel's, and
  * proxies (points of other ranks' equivalent surfaces carrying densities of
@@ -5124,11 +5132,6 @@ KIFMM__DEFINE_P2P(KIFMM__F(__p2p_sc), KIFMM__R_(SC, _eval), KIFMM__SD, KIFMM__SD
  * [s0, s0 + n) (coordinates x, ld values a coordinate) to the ny points tx,
  * ty, tz: runs of the kernel's through fq (densities in qs), runs of
  * proxies through fs (densities in qp). */
-typedef void (*KIFMM__F(__p2p_fn))(const double *, const KIFMM__R *, const KIFMM__R *,
-                                    const KIFMM__R *, int64_t, const KIFMM__R *, const KIFMM__R *,
-                                    const KIFMM__R *, const KIFMM__R *, int64_t, int, size_t,
-                                    double, KIFMM__R *, size_t);
-
 KIFMM__FN void KIFMM__F(__p2p_roles)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
                                      KIFMM__F(__p2p_fn) fq, KIFMM__F(__p2p_fn) fs,
                                      const KIFMM__R *tx, const KIFMM__R *ty, const KIFMM__R *tz,
@@ -8289,6 +8292,72 @@ KIFMM__FN const double *KIFMM__F(__tol_errors)(void)
 #endif
 }
 
+/* Far pairs. A scale-invariant kernel's loops form a power of 1 / r before
+ * multiplying by the offsets (r^-3 for gradients, r^-5 for Hessians and
+ * stokes_dl): where that power falls below the precision's smallest normal
+ * number the pairs' terms come out zero, although the outputs, r^-2 or
+ * r^-3 times densities the passes scale to about 1, are in range (stokes_dl
+ * on points 1e70 apart gave zeros with success). 1 if the loop f (od
+ * outputs, qd densities) gives each entry's value at distance dist (on one
+ * pair, one unit density at a time) within 1e-3 of its value at distance 1
+ * times dist to the entry's degree (read off the kernel ev at 1 and 2),
+ * and that product at least e^10 times the smallest normal number; 0 if
+ * not. */
+#define KIFMM__FAR_K                                                                                 \
+    ((KIFMM__TD > KIFMM__SD ? KIFMM__TD : KIFMM__SD) * (KIFMM__QD > KIFMM__SD ? KIFMM__QD : KIFMM__SD))
+KIFMM__FN int KIFMM__F(__far_role)(const double *prm, double dist, KIFMM__F(__p2p_fn) f,
+                                   void (*ev)(const double *, double, double, double, double *),
+                                   int od, int qd)
+{
+    static const double u[3] = {0.61, -0.37, 0.23};
+    const double lo = log(KIFMM__FLOAT ? FLT_MIN : DBL_MIN) + 10.0;
+    const double hi = log(KIFMM__FLOAT ? FLT_MAX : DBL_MAX);
+    const KIFMM__R tx = (KIFMM__R)(dist * u[0]), ty = (KIFMM__R)(dist * u[1]), tz = (KIFMM__R)(dist * u[2]);
+    const KIFMM__R z = 0;
+    double k1[KIFMM__FAR_K], k2[KIFMM__FAR_K];
+    KIFMM__R q[KIFMM__FAR_K], out[KIFMM__FAR_K];
+    int a, s;
+    ev(prm, u[0], u[1], u[2], k1);
+    ev(prm, 2.0 * u[0], 2.0 * u[1], 2.0 * u[2], k2);
+    for (s = 0; s < qd; s++) {
+        for (a = 0; a < qd; a++) q[a] = (KIFMM__R)(a == s);
+        for (a = 0; a < od; a++) out[a] = 0;
+        f(prm, &tx, &ty, &tz, 1, &z, &z, &z, q, 1, 1, (size_t)qd, 1.0, out, (size_t)od);
+        for (a = 0; a < od; a++) {
+            const double v1 = k1[a * qd + s], v2 = k2[a * qd + s];
+            double lp;
+            if (!(v1 != 0.0 && v2 / v1 > 0.0 && isfinite(v2 / v1))) continue; /* no degree */
+            lp = log(fabs(v1)) + log2(v2 / v1) * log(dist);
+            if (lp > hi) continue; /* growing with distance: not this check's */
+            if (lp < lo) return 0; /* the term itself at the range's lower edge */
+            if (!(fabs((double)out[a] - v1 * exp(lp - log(fabs(v1)))) <= 1e-3 * exp(lp))) return 0;
+        }
+    }
+    return 1;
+}
+
+/* KIFMM_ERR_RANGE where the passes' loops on points (near field, P2M, L2P,
+ * L2L from a far ancestor) lose pairs dist apart (__far_role): dist is
+ * twice the diagonal of the points' box or of the cell. */
+KIFMM__FN int KIFMM__F(__check_far)(const double *prm, double dist)
+{
+#if KIFMM__SI
+    double p[4];
+    /* the powers grow: close pairs give KIFMM_ERR_OVERFLOW; parameters the
+     * kernel refuses, KIFMM_ERR_PARAM after this */
+    if (!(dist > 1.0) || KIFMM__F(__params)(prm, p) != KIFMM_SUCCESS) return KIFMM_SUCCESS;
+    prm = p;
+    if (!KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_qt), KIFMM__R_(QT, _eval), KIFMM__TD, KIFMM__QD) ||
+        !KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_qc), KIFMM__R_(QC, _eval), KIFMM__SD, KIFMM__QD) ||
+        !KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_st), KIFMM__R_(ST, _eval), KIFMM__TD, KIFMM__SD) ||
+        !KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_sc), KIFMM__R_(SC, _eval), KIFMM__SD, KIFMM__SD))
+        return KIFMM_ERR_RANGE;
+#else
+    (void)prm, (void)dist;
+#endif
+    return KIFMM_SUCCESS;
+}
+
 /* The checks of create and update_points on both point sets, for options
  * o (resolved): counts, pointers, finite coordinates in range, opts.domain
  * holding every point (KIFMM_ERR_DOMAIN), and in free space an extent the
@@ -8308,7 +8377,7 @@ KIFMM__FN int KIFMM__F(__check_sets)(const kifmm_opts *o, int64_t ns, const KIFM
         for (d = 0; d < 3; d++)
             if (lo[d] <= hi[d] && !(lo[d] >= o->domain[d] - o->domain[3] && hi[d] <= o->domain[d] + o->domain[3]))
                 return KIFMM_ERR_DOMAIN;
-        return KIFMM_SUCCESS;
+        return KIFMM__F(__check_far)(o->kernel_param, 4.0 * sqrt(3.0) * o->domain[3]);
     }
     /* squared distances must stay in range: periods of KIFMM__EMIN to
      * KIFMM__CMAX, and in free space a spread set's extent of at least
@@ -8316,12 +8385,15 @@ KIFMM__FN int KIFMM__F(__check_sets)(const kifmm_opts *o, int64_t ns, const KIFM
     for (d = 0; d < 3; d++)
         if (o->period[d] > 0.0 && !(o->period[d] >= KIFMM__EMIN && o->period[d] <= KIFMM__CMAX))
             return KIFMM_ERR_RANGE;
-    if (!(o->period[0] > 0.0 || o->period[1] > 0.0 || o->period[2] > 0.0)) {
-        double ext = 0.0; /* free space: the root's width */
-        for (d = 0; d < 3; d++) ext = hi[d] - lo[d] > ext ? hi[d] - lo[d] : ext;
-        if (ext > 0.0 && ext < KIFMM__EMIN) return KIFMM_ERR_RANGE;
+    {
+        double ext = 0.0, cell = 0.0; /* the free directions' extent, the largest period */
+        for (d = 0; d < 3; d++) {
+            if (o->period[d] > 0.0) cell = o->period[d] > cell ? o->period[d] : cell;
+            else if (hi[d] - lo[d] > ext) ext = hi[d] - lo[d];
+        }
+        if (cell == 0.0 && ext > 0.0 && ext < KIFMM__EMIN) return KIFMM_ERR_RANGE;
+        return KIFMM__F(__check_far)(o->kernel_param, 2.0 * sqrt(3.0) * (ext > cell ? ext : cell));
     }
-    return KIFMM_SUCCESS;
 }
 
 #if (KIFMM__HAS_QT & KIFMM_HAS_WAVES) && (KIFMM__HAS_QT & KIFMM_HAS_TOL)
@@ -9279,24 +9351,33 @@ KIFMM__FN void KIFMM__F(__density_of)(const double *prm, const KIFMM__R *in, dou
 #endif
 }
 
-/* e[r]: the power of two that brings vector r's largest density into [0.5,
- * 1). The passes run on densities scaled by 2^-e and the outputs are scaled
- * back: exact (powers of two), and no float M2L spectra or float instance
- * overflow or lose digits to subnormals on densities far from 1 (masses of
- * 1e40 kg, charges of 1e-19 C). */
+/* e[r]: the power of two that brings vector r's largest density (after
+ * the kernel's _density map, if it has one: stokes_dl's products) into
+ * [0.5, 1). The passes run on densities scaled by 2^-e and the outputs are
+ * scaled back: exact (powers of two), and no float M2L spectra or float
+ * instance overflow or lose digits to subnormals on densities far from 1
+ * (masses of 1e40 kg, charges of 1e-19 C). A map's products beyond the
+ * range leave e = 0: the outputs then come out infinite
+ * (KIFMM_ERR_OVERFLOW). */
 KIFMM__FN void KIFMM__F(__density_scale)(const KIFMM_NAME *h, int nr, const KIFMM__R *d, int *e)
 {
-    const size_t uper = (size_t)h->tree->ns * KIFMM__UD;
+    const int64_t ns = h->tree->ns;
+    const size_t uper = (size_t)ns * KIFMM__UD;
     int r;
     for (r = 0; r < nr; r++) {
         double m = 0.0;
         KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads) reduction(max : m) if (uper > 65536))
-        for (size_t i = 0; i < uper; i++) {
-            const double v = fabs((double)d[r * uper + i]);
-            m = v > m ? v : m;
+        for (int64_t i = 0; i < ns; i++) {
+            double lin[KIFMM__QD];
+            int k;
+            KIFMM__F(__density_of)(h->opts.kernel_param, d + r * uper + (size_t)i * KIFMM__UD, lin);
+            for (k = 0; k < KIFMM__QD; k++) {
+                const double v = fabs(lin[k]);
+                m = v > m ? v : m;
+            }
         }
         e[r] = 0;
-        if (m > 0.0) (void)frexp(m, &e[r]);
+        if (m > 0.0 && m <= DBL_MAX) (void)frexp(m, &e[r]);
         /* subnormal largest densities (from 2^-1074): 2^-e would overflow;
          * 2^1000 brings them to 2^-74 or more, normal in float too */
         if (e[r] < -1000) e[r] = -1000;
@@ -9864,7 +9945,8 @@ KIFMM__FN int KIFMM__F(__mpi_root)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM__
     }
     m->root[3] = half > 0.0 ? half * (1.0 + 1e-10) : 0.5;
     /* every rank's points were in range; all of them together must be too */
-    return half > 0.0 && 2.0 * half < KIFMM__EMIN ? KIFMM_ERR_RANGE : KIFMM_SUCCESS;
+    if (half > 0.0 && 2.0 * half < KIFMM__EMIN) return KIFMM_ERR_RANGE;
+    return KIFMM__F(__check_far)(m->o.kernel_param, 4.0 * sqrt(3.0) * half);
 }
 
 /* Level-KIFMM__D keys of n points in the global root. */
