@@ -205,20 +205,21 @@ static int out_index(const kern *K, int k)
     return k;
 }
 
-/* relative L2 error of outputs [k0, k1) over the sample */
+/* relative L2 error of outputs [k0, k1) over the sample (in long double:
+ * outputs of 1e-190 square to below the doubles) */
 static double group_err(const kern *K, int k0, int k1, const int64_t *idx, const double *out,
                         const double *ref)
 {
-    double num = 0.0, den = 0.0;
+    long double num = 0.0L, den = 0.0L;
     int64_t i;
     int k;
     for (i = 0; i < NSAMPLE; i++)
         for (k = k0; k < k1; k++) {
-            const double rv = ref[16 * i + out_index(K, k)], e = out[idx[i] * K->td + k] - rv;
+            const long double rv = ref[16 * i + out_index(K, k)], e = out[idx[i] * K->td + k] - rv;
             num += e * e;
             den += rv * rv;
         }
-    return sqrt(num / den);
+    return (double)sqrtl(num / den);
 }
 
 /* the densities of kernel K for n sources, from uniform numbers in [-1, 1];
@@ -535,6 +536,101 @@ static void check_small_cluster(double rad)
     free(out);
 }
 
+/* stokes_dl's densities at the ends of the number range: strengths of
+ * 1e200 with normals of 1e-200, products of about 1, which the passes must
+ * scale as products (scaled by the strengths' size, 2^-664, the far field's
+ * float M2L at p = 4 lost them: 4.2e-2 where unit densities give 2.7e-4).
+ * And points spread so far apart that the loops' r^-5 (stokes_dl) or r^-3
+ * (biot_savart) leaves the range: the pairs' terms vanished (zeros with
+ * success); create and direct refuse with KIFMM_ERR_RANGE, and just inside
+ * the limit (biot_savart 1e95, float stokes_dl 1e6) the error is a unit
+ * cube's. */
+static void check_far_range(void)
+{
+    static const struct {
+        int k, fl;
+        double spread;
+        int inside;
+    } cs[5] = {{4, 0, 1e70, 0}, {5, 0, 1e95, 1}, {5, 0, 1e110, 0}, {4, 1, 1e6, 1}, {4, 1, 1e9, 0}};
+    const int64_t n = 2000;
+    double *x = t_doubles(3 * n), *xs = t_doubles(3 * n), *w = t_doubles(6 * n);
+    double *out = t_doubles(3 * n), *ref = t_doubles(16 * NSAMPLE);
+    int64_t idx[NSAMPLE], i;
+    t_rng r = t_rng_seed(77);
+    int c;
+    const kifmm_opts o = t_opts(4, 0, 0);
+    t_gen_cube(&r, n, x, 0.0, 1.0);
+    densities(&kernels[4], n, &r, w);
+    for (i = 0; i < NSAMPLE; i++) idx[i] = (i * 7919) % n;
+    for (c = 0; c < 2; c++) { /* (1e200, 1e-200), then (1e-200, 1e200) */
+        for (i = 0; i < 6 * n; i++) w[i] *= (i % 6 < 3) == (c == 0) ? 1e200 : 1e-200;
+        for (i = 0; i < NSAMPLE; i++) direct(DL, 6, n, x, w, x + 3 * idx[i], ref + 16 * i);
+        CHECK(kernels[4].run(&o, n, x, n, x, w, 1, out, NULL) == KIFMM_SUCCESS,
+              "stokes_dl, densities 1e200 and 1e-200");
+        CHECK_ERR(group_err(&kernels[4], 0, 3, idx, out, ref), 1e-3,
+                  "stokes_dl p=4, strengths 1e%d, normals 1e%d", c ? -200 : 200, c ? 200 : -200);
+        for (i = 0; i < 6 * n; i++) w[i] *= (i % 6 < 3) == (c == 0) ? 1e-200 : 1e200;
+    }
+    for (c = 0; c < 5; c++) {
+        const kern *K = &kernels[cs[c].k];
+        const int fl = cs[c].fl;
+        int rc;
+        for (i = 0; i < 3 * n; i++)
+            xs[i] = fl ? (double)(float)(x[i] * cs[c].spread) : x[i] * cs[c].spread;
+        rc = (fl ? K->runf : K->run)(&o, n, xs, n, xs, w, 1, out, NULL);
+        CHECK(cs[c].inside ? rc == KIFMM_SUCCESS : rc == KIFMM_ERR_RANGE,
+              "%s%s, points spread over %g: %d", K->name, fl ? "f" : "", cs[c].spread, rc);
+        if (!rc) {
+            for (i = 0; i < NSAMPLE; i++) direct(K->family, K->sd, n, xs, w, xs + 3 * idx[i], ref + 16 * i);
+            CHECK_ERR(group_err(K, 0, K->td, idx, out, ref), 1e-3, "%s%s p=4, spread %g", K->name,
+                      fl ? "f" : "", cs[c].spread);
+        }
+        rc = directs[cs[c].k][fl](&o, n, xs, w, 1, xs, out);
+        CHECK(cs[c].inside ? rc == KIFMM_SUCCESS : rc == KIFMM_ERR_RANGE, "%s%s_direct, spread %g: %d",
+              K->name, fl ? "f" : "", cs[c].spread, rc);
+    }
+    free(x), free(xs), free(w), free(out), free(ref);
+}
+
+/* stokes_dl on cubes of side 1e-10 to 1e10 (2,000 uniform points, leaves
+ * of 40, double at p = 6, float at p = 4): the error of the unit cube,
+ * within 1.5 times. Its check potentials mix degrees (phi = (q . n) / (4 pi
+ * r), the velocity r^-2), so a box's equivalent densities (c, f) differ by
+ * a power of its size; one SVD of the surfaces' matrix mixed them at its
+ * rounding, which that power then grew (before: 38.6 at side 1e-10, 3.9e-4
+ * at 1e-5, 4.9e-5 at 1e10, 8.8e-6 at 1; the groups' own SVDs,
+ * kifmm__pinv_groups, keep c and f apart). */
+static void check_dl_scale(void)
+{
+    static const double side[8] = {1.0, 1e-10, 1e-5, 1e5, 1e10, 1.0, 1e-5, 1e5};
+    const kern *K = &kernels[4];
+    const int64_t n = 2000;
+    double *x = t_doubles(3 * n), *xs = t_doubles(3 * n), *w = t_doubles(6 * n);
+    double *out = t_doubles(3 * n), *ref = t_doubles(16 * NSAMPLE), unit[2] = {0.0, 0.0};
+    int64_t idx[NSAMPLE], i;
+    t_rng r = t_rng_seed(91);
+    int c;
+    t_gen_cube(&r, n, x, 0.0, 1.0);
+    densities(K, n, &r, w);
+    for (i = 0; i < NSAMPLE; i++) idx[i] = (i * 7919) % n;
+    for (c = 0; c < 8; c++) {
+        const int fl = c >= 5;
+        const kifmm_opts o = t_opts(fl ? 4 : 6, 40, 0); /* four levels, a far field */
+        double e;
+        int rc;
+        for (i = 0; i < 3 * n; i++) xs[i] = fl ? (double)(float)(x[i] * side[c]) : x[i] * side[c];
+        rc = (fl ? K->runf : K->run)(&o, n, xs, n, xs, w, 1, out, NULL);
+        CHECK(rc == KIFMM_SUCCESS, "stokes_dl%s on a cube of side %g: %d", fl ? "f" : "", side[c], rc);
+        if (rc) continue;
+        for (i = 0; i < NSAMPLE; i++) direct(DL, 6, n, xs, w, xs + 3 * idx[i], ref + 16 * i);
+        e = group_err(K, 0, 3, idx, out, ref);
+        if (side[c] == 1.0) unit[fl] = e;
+        CHECK_ERR(e, side[c] == 1.0 ? (fl ? 1e-3 : K->b0) : 1.5 * unit[fl], "stokes_dl%s p=%d, side %g%s",
+                  fl ? "f" : "", fl ? 4 : 6, side[c], side[c] == 1.0 ? "" : " (1.5 x side 1's)");
+    }
+    free(x), free(xs), free(w), free(out), free(ref);
+}
+
 int main(void)
 {
     static const char *dists[3] = {"cube", "sphere", "clustered"};
@@ -580,6 +676,10 @@ int main(void)
     check_small_cluster(1e-6);
     t_group("P_direct");
     check_direct();
+    t_group("stokes_dl on cubes of side 1e-10 to 1e10");
+    check_dl_scale();
+    t_group("densities 1e200 and 1e-200; points spread over 1e95 to 1e110 (float 1e6, 1e9)");
+    check_far_range();
     t_group("stokes_dl, three periodic directions, against Ewald and Hasimoto sums, p = 6");
     check_periodic_dl(0);
     check_periodic_dl(1);
