@@ -253,8 +253,10 @@ extern "C++" {
       "create_mpi) without opts.domain")                                                      \
     X(KIFMM_ERR_VERBOSE, -17, "opts.verbose is neither 0 nor 1")                              \
     X(KIFMM_ERR_RANGE, -18,                                                                   \
-      "a coordinate or period is beyond KIFMM_COORD_MAX (1e150; float 1e18), or a period or "  \
-      "the points' extent is below KIFMM_EXTENT_MIN (1e-150; float 1e-15)")                    \
+      "a coordinate or period is beyond KIFMM_COORD_MAX (1e150; float 1e18), a period or "    \
+      "the points' extent is below KIFMM_EXTENT_MIN (1e-150; float 1e-15), or the points are " \
+      "so far apart that the kernel's powers of 1/r leave the number range (docs/api.md, "    \
+      "\"Limits\")")                                                                          \
     X(KIFMM_ERR_DENSITY, -19, "a density is NaN or infinite")                                 \
     X(KIFMM_ERR_OVERLAP, -20, "direct: the output array overlaps the source or target points") \
     X(KIFMM_ERR_OVERFLOW, -21,                                                                \
@@ -8424,14 +8426,16 @@ KIFMM__FN const double *KIFMM__F(__tol_errors)(void)
  * pair, one unit density at a time) within 1e-3 of its value at distance 1
  * times dist to the entry's degree (read off the kernel ev at 1 and 2),
  * and that product at least e^10 times the smallest normal number; 0 if
- * not. */
+ * not. Entries whose degree there is not an integer (a role kernel that is
+ * not a power of r at that size: a blob's near field) are not checked. */
 #define KIFMM__FAR_K                                                                                 \
     ((KIFMM__TD > KIFMM__SD ? KIFMM__TD : KIFMM__SD) * (KIFMM__QD > KIFMM__SD ? KIFMM__QD : KIFMM__SD))
 KIFMM__FN int KIFMM__F(__far_role)(const double *prm, double dist, KIFMM__F(__p2p_fn) f,
                                    void (*ev)(const double *, double, double, double, double *),
                                    int od, int qd)
 {
-    static const double u[3] = {0.61, -0.37, 0.23};
+    static const double u[3] = {0.61 / 0.7495998932764065, -0.37 / 0.7495998932764065,
+                                0.23 / 0.7495998932764065}; /* |u| = 1 */
     const double lo = log(KIFMM__FLOAT ? FLT_MIN : DBL_MIN) + 10.0;
     const double hi = log(KIFMM__FLOAT ? FLT_MAX : DBL_MAX);
     const KIFMM__R tx = (KIFMM__R)(dist * u[0]), ty = (KIFMM__R)(dist * u[1]), tz = (KIFMM__R)(dist * u[2]);
@@ -8447,9 +8451,11 @@ KIFMM__FN int KIFMM__F(__far_role)(const double *prm, double dist, KIFMM__F(__p2
         f(prm, &tx, &ty, &tz, 1, &z, &z, &z, q, 1, 1, (size_t)qd, 1.0, out, (size_t)od);
         for (a = 0; a < od; a++) {
             const double v1 = k1[a * qd + s], v2 = k2[a * qd + s];
-            double lp;
+            double lp, deg;
             if (!(v1 != 0.0 && v2 / v1 > 0.0 && isfinite(v2 / v1))) continue; /* no degree */
-            lp = log(fabs(v1)) + log2(v2 / v1) * log(dist);
+            deg = log2(v2 / v1);
+            if (!(fabs(deg - floor(deg + 0.5)) < 1e-6)) continue; /* not a power of r here */
+            lp = log(fabs(v1)) + deg * log(dist);
             if (lp > hi) continue; /* growing with distance: not this check's */
             if (lp < lo) return 0; /* the term itself at the range's lower edge */
             if (!(fabs((double)out[a] - v1 * exp(lp - log(fabs(v1)))) <= 1e-3 * exp(lp))) return 0;
@@ -9127,7 +9133,8 @@ KIFMM__FN int KIFMM__F(__tree_fits)(const kifmm_tree *tr, const int *shape, int 
     if (!fits) return KIFMM_ERR_TREE;
     o->leaf_size = tr->leaf_size;
     o->max_depth = tr->max_depth;
-    return KIFMM_SUCCESS;
+    /* the tree's points were checked for its kernel, not this one's */
+    return KIFMM__F(__check_far)(o->kernel_param, 2.0 * sqrt(3.0) * tr->t.width);
 }
 
 #if KIFMM__HAS_QT & KIFMM_HAS_WAVES
@@ -9485,15 +9492,22 @@ KIFMM__FN void KIFMM__F(__density_scale)(const KIFMM_NAME *h, int nr, const KIFM
 {
     const int64_t ns = h->tree->ns;
     const size_t uper = (size_t)ns * KIFMM__UD;
+#if defined(KIFMM_MPI)
+    const int64_t p0 = h->px.cum ? ns - h->px.n : ns; /* proxies from p0 on: their own values */
+#else
+    const int64_t p0 = ns;
+#endif
     int r;
     for (r = 0; r < nr; r++) {
         double m = 0.0;
         KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads) reduction(max : m) if (uper > 65536))
         for (int64_t i = 0; i < ns; i++) {
-            double lin[KIFMM__QD];
-            int k;
-            KIFMM__F(__density_of)(h->opts.kernel_param, d + r * uper + (size_t)i * KIFMM__UD, lin);
-            for (k = 0; k < KIFMM__QD; k++) {
+            const KIFMM__R *u = d + r * uper + (size_t)i * KIFMM__UD;
+            double lin[KIFMM__QD > KIFMM__UD ? KIFMM__QD : KIFMM__UD];
+            int k, nk = i < p0 ? KIFMM__QD : KIFMM__UD;
+            if (i < p0) KIFMM__F(__density_of)(h->opts.kernel_param, u, lin);
+            else for (k = 0; k < KIFMM__UD; k++) lin[k] = (double)u[k];
+            for (k = 0; k < nk; k++) {
                 const double v = fabs(lin[k]);
                 m = v > m ? v : m;
             }

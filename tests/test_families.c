@@ -589,6 +589,29 @@ static void check_far_range(void)
         CHECK(cs[c].inside ? rc == KIFMM_SUCCESS : rc == KIFMM_ERR_RANGE, "%s%s_direct, spread %g: %d",
               K->name, fl ? "f" : "", cs[c].spread, rc);
     }
+    { /* a tree built for a kernel whose powers fit (biot_savart, r^-3) at
+       * 1e70 does not carry stokes_dl (r^-5) past the check */
+        kifmm_biot_savart *b = NULL;
+        kifmm_stokes_dl *h = NULL, *h2 = NULL;
+        int rc;
+        for (i = 0; i < 3 * n; i++) xs[i] = x[i] * 1e70;
+        rc = kifmm_biot_savart_create(&b, &o, n, xs, n, xs);
+        CHECK(rc == KIFMM_SUCCESS, "biot_savart at 1e70: %d", rc);
+        if (!rc) {
+            rc = kifmm_stokes_dl_create_on_tree(&h, &o, kifmm_biot_savart_tree(b));
+            CHECK(rc == KIFMM_ERR_RANGE && h == NULL,
+                  "stokes_dl_create_on_tree, biot_savart's tree at 1e70: %d", rc);
+            for (i = 0; i < 3 * n; i++) xs[i] = x[i];
+            rc = kifmm_stokes_dl_create(&h2, &o, n, xs, n, xs);
+            CHECK(rc == KIFMM_SUCCESS, "stokes_dl on the unit cube: %d", rc);
+            if (!rc) {
+                rc = kifmm_stokes_dl_update_on_tree(h2, kifmm_biot_savart_tree(b));
+                CHECK(rc == KIFMM_ERR_RANGE, "stokes_dl_update_on_tree, biot_savart's tree at 1e70: %d", rc);
+                kifmm_stokes_dl_destroy(h2);
+            }
+            kifmm_biot_savart_destroy(b);
+        }
+    }
     free(x), free(xs), free(w), free(out), free(ref);
 }
 
