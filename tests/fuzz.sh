@@ -27,7 +27,7 @@ EXTRA_CFLAGS=${EXTRA_CFLAGS:-}
 OUT=build/fuzz
 BIN=build/fuzz_create
 LIBS="-llapacke -lopenblas -lm"
-CFLAGS="-std=c11 -g -O1 -march=native -fopenmp -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all -Wall -Wextra"
+CFLAGS="-std=c11 -g1 -O1 -march=native -fopenmp -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all -Wall -Wextra"
 
 mkdir -p "$OUT" || exit 1
 

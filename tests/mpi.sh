@@ -3,8 +3,8 @@
 # built with mpicc (C11, -O2 -march=native, OpenMP, -Werror), with ASan and
 # UBSan, and with mpicxx (as C++, without OpenMP), run under mpirun with 1,
 # 2, 3 and 4 ranks (the C build; the sanitizer build with 2, the C++ one
-# with 3; those two and the 1-rank run with fewer cases, KIFMM_TEST_MPI_LIGHT,
-# unless CONFIGS=all, which also adds stokes_dl at p = 8 to the 2-rank run,
+# with 3; those two and the 1- and 4-rank runs with fewer cases,
+# KIFMM_TEST_MPI_LIGHT, unless CONFIGS=all, which also adds stokes_dl at p = 8 to the 2-rank run,
 # KIFMM_TEST_MPI_ALL), oversubscribed (--oversubscribe; as root also
 # --allow-run-as-root), one OpenMP thread a rank, two for the one rank; the
 # 3-rank run fails every allocation of create_mpi, evaluate and update_points
@@ -75,11 +75,11 @@ if build c11 mpicc -std=c11 -O2 -march=native -fopenmp; then
     KIFMM_TEST_MPI_LIGHT=$LIGHT run c11 1 2
     KIFMM_TEST_MPI_ALL=$([ -z "$LIGHT" ] && echo 1) run c11 2 1
     KIFMM_TEST_ALLOC_ALL=1 run c11 3 1
-    run c11 4 1
+    KIFMM_TEST_MPI_LIGHT=$LIGHT run c11 4 1
 fi
 # AddressSanitizer and UndefinedBehaviorSanitizer, 2 ranks (leaks: the
 # test counts the library's blocks itself; MPI's own are not its to check)
-if build asan mpicc -std=c11 -O1 -g -fsanitize=address,undefined -fno-omit-frame-pointer \
+if build asan mpicc -std=c11 -O1 -g1 -fsanitize=address,undefined -fno-omit-frame-pointer \
         -fno-sanitize-recover=undefined -march=native -fopenmp; then
     ASAN_OPTIONS=detect_leaks=0 KIFMM_TEST_MPI_LIGHT=${LIGHT:-1} run asan 2 1
 fi

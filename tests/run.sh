@@ -7,7 +7,8 @@
 #
 # Configurations: {gcc, clang} x {-std=c99, -std=c11} x {with, without -fopenmp},
 # all with -Wall -Wextra -Werror -pedantic -O2 -march=native; one
-# AddressSanitizer + UndefinedBehaviorSanitizer build (gcc, OpenMP, -O1 -g);
+# AddressSanitizer + UndefinedBehaviorSanitizer build (gcc, OpenMP, -O1 -g1:
+# line tables, for the reports' lines, at a third less compile time than -g);
 # one without -march (gcc, OpenMP: the portable C loops and the BLAS level
 # passes that a plain `cc -O2` build gets); the builds users make when they
 # debug or forget the flags: gcc -O0 with OpenMP and without -march (the
@@ -107,8 +108,8 @@ fi
 # Helmholtz paths; tsan, the passes on threads: every family's passes
 # (test_families, test_shipped), tree building, updates, periodic,
 # Helmholtz, handles on threads. The rest of each runs with CONFIGS=all
-# (together about 750 s of 2-core time on an Intel Xeon with AVX-512,
-# where make test took 75 minutes with them).
+# (together about 540 s on 2 cores of an Intel Xeon with AVX-512, where
+# make test took 75 minutes with them; CI took 4,495 s).
 GXX_LEFT="test_families test_laplace_family test_update test_periodic3 test_tree test_tol_outputs
  test_kernels test_edges test_slab test_tol test_estimate test_alloc test_yukawa_p2p test_roles
  test_offset test_stokes_p2p test_small test_p2p test_operators test_check_order test_sincos test_ewald"
@@ -130,13 +131,13 @@ clang-c99|clang|-std=c99 -O2 -march=native -DKIFMM_TEST_QUICK
 clang-c99-omp|clang|-std=c99 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 clang-c11|clang|-std=c11 -O2 -march=native -DKIFMM_TEST_QUICK
 clang-c11-omp|clang|-std=c11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
-asan|gcc|-std=c11 -O1 -g -march=native -fopenmp -fsanitize=address,undefined -fno-sanitize-recover=all -DKIFMM_TEST_QUICK
+asan|gcc|-std=c11 -O1 -g1 -march=native -fopenmp -fsanitize=address,undefined -fno-sanitize-recover=all -DKIFMM_TEST_QUICK
 gcc-c11-omp-portable|gcc|-std=c11 -O2 -fopenmp -DKIFMM_TEST_QUICK
 gcc-O0-omp|gcc|-std=c99 -O0 -fopenmp -DKIFMM_TEST_QUICK|test_alloc test_tol test_tol_outputs test_slab test_periodic3 test_laplace_family test_threads
 clang-O0-omp|clang|-std=c99 -O0 -march=native -fopenmp -DKIFMM_TEST_QUICK
 gxx-omp|g++|-x c++ -std=c++11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 gxx|g++|-x c++ -std=c++11 -O2 -march=native -DKIFMM_TEST_QUICK|$GXX_LEFT
-tsan|clang|-std=c11 -O1 -g -march=native -fopenmp -fsanitize=thread -DKIFMM_TEST_QUICK|$TSAN_LEFT
+tsan|clang|-std=c11 -O1 -g1 -march=native -fopenmp -fsanitize=thread -DKIFMM_TEST_QUICK|$TSAN_LEFT
 gcc-avx2|gcc|-std=c11 -O2 -march=native -mno-avx512f -fopenmp -DKIFMM_TEST_QUICK|only: test_p2p test_yukawa_p2p test_stokes_p2p test_sincos test_helmholtz
 "
 
@@ -262,13 +263,12 @@ $(grep -m 3 -E "error|undefined" "$dir/$prog.build.log" | sed 's/^/      /')"
         fi
     done
 
-    # run: in the quick configurations two programs at a time (RUN_JOBS,
-    # default $JOBS), their OpenMP threads waiting passively (OMP_WAIT_POLICY,
-    # unless set) so that the two programs' threads share the cores without
-    # spinning; the full tables' configuration one at a time (its programs
-    # keep both cores busy themselves)
+    # run: two programs at a time (RUN_JOBS, default $JOBS), their OpenMP
+    # threads waiting passively (OMP_WAIT_POLICY, unless set) so that the two
+    # programs' threads share the cores without spinning (the full tables'
+    # programs too: their references in long double and their serial steps
+    # left a core idle)
     local pj=${RUN_JOBS:-$JOBS}
-    case " $flags " in *" -DKIFMM_TEST_QUICK "*) ;; *) pj=1 ;; esac
     running=0
     for prog in ${progs% laplace}; do
         [ -x "$dir/$prog" ] || continue
