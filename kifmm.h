@@ -27,6 +27,7 @@
  *                    (its plan, the points and tree, the workspace)
  *        >>kernels   the direct-interaction loops of the four kernel roles
  *        >>operators one builder per operator, called in order by ops_build
+ *        >>anchors   the downward densities' far points: their fit, their places
  *        >>workspace expansions and per-thread buffers
  *        >>upward    P2M, M2M, the upward solve
  *        >>downward  L2L, P2L, M2L (FFT or dense), the downward solve
@@ -89,6 +90,9 @@
  *                               that keeps crowds off the boxes' faces)
  *   KIFMM_MONO_FIX              0: the upward densities keep their fitted
  *                               sums (1: set to their sources')
+ *   KIFMM_NO_ANCHORS            downward densities without their far points
+ *                               (for comparison: derivatives in deep trees
+ *                               lose accuracy; docs/algorithm.md, "Anchors")
  *
  *   LINKAGE MODES (per include, as in STC)
  *
@@ -2964,6 +2968,31 @@ KIFMM__FN void kifmm__surf_place(const double *unit, int n, const double *c, dou
         for (i = 0; i < n; i++) out[d * n + i] = c[d] + radius * unit[d * n + i];
 }
 
+/* Anchors (>>anchors): n far points about a box, KIFMM__ANCHOR_RADIUS
+ * half-widths from its centre, in the SoA layout of the unit surfaces: n =
+ * 4, the directions of a regular tetrahedron's corners; n = 14
+ * (KIFMM__ANCHOR_MAX), those of the cube's 6 faces and 8 corners. Their
+ * fit is truncated at KIFMM__ANCHOR_CUTOFF of its largest singular value;
+ * KIFMM__ANCHOR_FLOOR: see __anchor_pinv. */
+#define KIFMM__ANCHOR_MAX 14
+#ifndef KIFMM__ANCHOR_CUTOFF
+#define KIFMM__ANCHOR_CUTOFF 1e-6
+#endif
+#define KIFMM__ANCHOR_FLOOR 1e-12
+#ifndef KIFMM__ANCHOR_RADIUS
+#define KIFMM__ANCHOR_RADIUS 100.0
+#endif
+KIFMM__FN void kifmm__anchor_unit(int n, double *a)
+{
+    const double f = KIFMM__ANCHOR_RADIUS, g = KIFMM__ANCHOR_RADIUS / 1.7320508075688772;
+    int i, d;
+    for (i = 0; i < n; i++)
+        for (d = 0; d < 3; d++)
+            a[d * n + i] = n == 4 ? (i == 0 || i == d + 1 ? g : -g) /* a tetrahedron's corners */
+                           : i < 6 ? (i % 3 == d ? (i < 3 ? f : -f) : 0.0)
+                                   : (((i - 6) >> (2 - d)) & 1 ? g : -g);
+}
+
 /* Surface radii in units of the box half-width, for kernels with one
  * surface density component: */
 #define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
@@ -3109,7 +3138,7 @@ typedef struct kifmm__ops {
     double *ut_up, *vs_up;  /* pinv K(up check <- up equiv) = vs_up ut_up */
     double *ut_dn, *vs_dn;  /* pinv K(down check <- down equiv) */
     double *m2m;            /* nc x 8 ne: children's equiv -> parent's check */
-    double *l2l;            /* 8 nc x ne: parent's equiv -> children's check */
+    double *l2l;            /* 8 nc x nde: parent's equiv (anchors last) -> children's check */
     double *m2l;            /* kd x 316 ne: source equiv -> ut_dn (target check) */
     double *conv;           /* FFT M2L, nc x ne: upward equivalent density -> a density
                                on the check surface's lattice (ai r) with the same
@@ -4760,6 +4789,14 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
 KIFMM__STATIC_ASSERT(KIFMM__SD == 2 || (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) == 0,
                      KIFMM__CAT(KIFMM_NAME, _complex_kernel_must_have_two_components));
 #define KIFMM__FSD (KIFMM__CPLX ? 1 : KIFMM__SD)
+/* Anchors of the downward densities (>>anchors); none for a complex kernel
+ * nor in float, whose range the anchors' distance would cut (or with
+ * KIFMM_NO_ANCHORS). */
+#if defined(KIFMM_NO_ANCHORS)
+#define KIFMM__ANCHORS 0
+#else
+#define KIFMM__ANCHORS (KIFMM__CPLX || KIFMM__FLOAT ? 0 : KIFMM__ANCHOR_MAX)
+#endif
 #define KIFMM__FRADIAL (KIFMM__RADIAL || (KIFMM__CPLX && (KIFMM__HAS_SC & KIFMM_HAS_RADIAL) != 0))
 /* Three periodic directions of a scale-invariant kernel: its surface
  * kernel's Ewald split and the background of it and of the kernel. */
@@ -4893,9 +4930,9 @@ typedef struct {
 typedef struct {
     size_t held;             /* bytes of the arrays below */
     int nrhs;
-    KIFMM__R *ue, *de;       /* nbox x ne per vector */
+    KIFMM__R *ue, *de;       /* nbox x ne, nbox x nde (anchors: >>anchors) per vector */
     KIFMM__R *chk;           /* check vectors of one level: nc x (boxes of the level) */
-    KIFMM__R *tmp;           /* dense M2L: max(nc, ne) x (boxes of a level) */
+    KIFMM__R *tmp;           /* dense M2L: max(nc, nde) x (boxes of a level) */
     KIFMM__R *stack;         /* 316 ne x (M2L block columns) */
     KIFMM__R *m2l_out;       /* kd x (M2L block columns) */
     KIFMM__R *qs;            /* densities in sorted order */
@@ -4936,6 +4973,10 @@ struct KIFMM__F(_plan) {
         double ai, ao;         /* inner and outer surfaces' radii, in box half-widths */
         int ne, nc;            /* vector lengths: points x SD */
         double *unit_e, *unit_c; /* unit surfaces (SoA) */
+        int nsa;               /* anchors of the downward densities (>>anchors) */
+        int nde;               /* downward density length: (nse + nsa) x SD */
+        int nsm;               /* max(nsc, nse + nsa): points of a scratch surface */
+        double *unit_a;        /* the anchors, in box half-widths (SoA) */
     } surf;
     struct {                   /* the operator sets */
         KIFMM__F(__ops) **set; /* n of them (cap allocated) */
@@ -5456,10 +5497,10 @@ KIFMM__FN int KIFMM__F(__m2m_mirror)(const KIFMM_NAME *c, kifmm__ops *o)
 KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const size_t nc = (size_t)c->pl->surf.nc, ne = (size_t)c->pl->surf.ne;
+    const size_t nc = (size_t)c->pl->surf.nc, ne = (size_t)c->pl->surf.ne, nd = (size_t)c->pl->surf.nde;
     int oct, d, rc = KIFMM_SUCCESS;
     o->m2m = (double *)kifmm__alloc(nc * 8 * ne, sizeof(double));
-    o->l2l = (double *)kifmm__alloc(8 * nc * ne, sizeof(double));
+    o->l2l = (double *)kifmm__alloc(8 * nc * nd, sizeof(double));
     if (!o->m2m || !o->l2l) return KIFMM_ERR_NOMEM;
     for (oct = 0; oct < (KIFMM__FRADIAL ? 1 : 8) && !rc; oct++) {
         const double sgn[3] = {(oct >> 2 & 1) ? 1.0 : -1.0, (oct >> 1 & 1) ? 1.0 : -1.0,
@@ -5478,6 +5519,14 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
                                        o->l2l + (size_t)oct * nc, 8 * nc, NULL);
     }
     if (!rc && KIFMM__FRADIAL) rc = KIFMM__F(__m2m_mirror)(c, o);
+    /* the parent's anchors (>>anchors), every octant */
+    for (oct = 0; oct < 8 && !rc && nd > ne; oct++) {
+        double cl[3];
+        for (d = 0; d < 3; d++) cl[d] = -r * ((oct >> (2 - d) & 1) ? 1.0 : -1.0);
+        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
+                                   c->pl->surf.unit_a, c->pl->surf.nsa, cl, 2.0 * r, o->sigma,
+                                   o->l2l + 8 * nc * ne + (size_t)oct * nc, 8 * nc, NULL);
+    }
     return rc;
 }
 
@@ -5686,6 +5735,8 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
 }
 #endif
 
+KIFMM__FN int KIFMM__F(__anchor_fit)(const KIFMM_NAME *c, double r, kifmm__ops *o); /* >>anchors */
+
 /* The operators for target boxes of half-width r (see kifmm__ops), in
  * double, in two steps: first what takes kernel values only (the solves'
  * matrices, M2M and L2L, the M2L's spectra on nth threads), which levels
@@ -5710,6 +5761,7 @@ KIFMM__FN int KIFMM__F(__ops_kernels)(const KIFMM_NAME *c, double r, int m2l, in
 KIFMM__FN int KIFMM__F(__ops_solves)(const KIFMM_NAME *c, double r, int m2l, kifmm__ops *o)
 {
     int rc = KIFMM__F(__c2e_solve)(c, o);
+    if (!rc) rc = KIFMM__F(__anchor_fit)(c, r, o);
 #if KIFMM__FFT
     if (!rc && m2l) rc = KIFMM__F(__build_conv)(c, r, o);
 #else
@@ -5748,9 +5800,9 @@ KIFMM__FN int KIFMM__F(__ops_keep)(const KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(
     out->ut_up = KIFMM__F(__own)(held, &o->ut_up, (size_t)o->ku * nc);
     out->vs_up = KIFMM__F(__own)(held, &o->vs_up, ne * (size_t)o->ku);
     out->ut_dn = KIFMM__F(__own)(held, &o->ut_dn, (size_t)o->kd * nc);
-    out->vs_dn = KIFMM__F(__own)(held, &o->vs_dn, ne * (size_t)o->kd);
+    out->vs_dn = KIFMM__F(__own)(held, &o->vs_dn, (size_t)c->pl->surf.nde * (size_t)o->kd);
     out->m2m = KIFMM__F(__own)(held, &o->m2m, nc * 8 * ne);
-    out->l2l = KIFMM__F(__own)(held, &o->l2l, 8 * nc * ne);
+    out->l2l = KIFMM__F(__own)(held, &o->l2l, 8 * nc * (size_t)c->pl->surf.nde);
     if (o->conv && !(out->conv = KIFMM__F(__own)(held, &o->conv, nc * ne))) rc = KIFMM_ERR_NOMEM;
     if (o->m2l && !(out->m2l = KIFMM__F(__own)(held, &o->m2l, (size_t)o->kd * KIFMM__NT * ne)))
         rc = KIFMM_ERR_NOMEM;
@@ -6816,6 +6868,126 @@ KIFMM__FN double KIFMM__F(__level_scale)(const KIFMM_NAME *c, int l)
     return KIFMM__SI ? pow(half, -c->pl->ops.degree) * c->lv[l]->sigma : c->lv[l]->sigma;
 }
 
+// >>anchors
+
+/* Anchors. A downward density fitted on a box's check surface misses the
+ * field there by about the order's truncation error times the field's size.
+ * In a box far below the sources that make most of its field, that field
+ * is nearly constant across the box, while the miss varies on the box's
+ * scale: its gradient is the miss over the box's size, its Hessian over the
+ * size squared, and l levels below those sources the gradient's and the
+ * Hessian's errors are 2^l and 4^l times the potential's (laplace_hess, p =
+ * 6, 2,000 points of zero charge in a cube of side 1e-2 and 5 unit charges
+ * 1 away, leaves of 1 point, 16 levels: relative errors 3.5e-5 in the
+ * gradient and 0.83 in the Hessian, against 1.4e-7 and 1.4e-6 with
+ * max_depth 6). So a downward density has nsa more points, the anchors,
+ * about the box at KIFMM__ANCHOR_RADIUS half-widths (kifmm__anchor_unit;
+ * how many: __st_derivative), fitted first: their least-squares fit on the
+ * check surface takes the field's nearly constant and linear parts (4
+ * anchors) or its quadratic part too (14), and the surface density fits
+ * what is left, whose size is the field's variation across the box. Both in
+ * one pair of factors, with P_a = pinv(G_a), G_a = K(check <- anchors) times
+ * sigma (pinv(K_down) = vs ut):
+ *   ut' = [ut (I - G_a P_a); P_a],  vs' = [vs 0; 0 I],
+ * so that the passes use them as they used the plain ones (the dense M2L's
+ * matrices, which include ut_dn, too). L2L carries the parent's anchors to
+ * the children's check surfaces; L2P and L2L from a far ancestor evaluate
+ * them with the surface points. */
+/* G_a = K(check <- anchors) times sigma (nc x na, into g) and P_a =
+ * pinv(G_a) (na x nc, into pa, zeroed by the caller), truncated at
+ * KIFMM__ANCHOR_CUTOFF, by component groups where the surface kernel has
+ * them (as __pinv_surf); *ka its rank. Anchors whose fields are below
+ * KIFMM__ANCHOR_FLOOR of the kernel's size on the surfaces (sigma makes it
+ * 1) take nothing (rank 0): a Yukawa kernel at lambda r above about 0.25,
+ * whose far field such a box does not see. */
+KIFMM__FN int KIFMM__F(__anchor_pinv)(const KIFMM_NAME *c, double r, double sigma, double *g, double *pa,
+                                      int *ka)
+{
+    const int nc = c->pl->surf.nc, na = c->pl->surf.nsa * KIFMM__SD;
+    const double zero[3] = {0.0, 0.0, 0.0};
+    double *g2 = (double *)kifmm__alloc((size_t)nc * na, sizeof(double)), *uta = NULL, *vsa = NULL, gmax = 0.0;
+    int rc = g2 ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, i;
+    *ka = 0;
+    if (!rc)
+        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
+                                   c->pl->surf.unit_a, c->pl->surf.nsa, zero, r, sigma, g, (size_t)nc, NULL);
+    for (i = 0; !rc && i < nc * na; i++)
+        if (fabs(g[i]) > gmax) gmax = fabs(g[i]);
+    if (!rc && gmax >= KIFMM__ANCHOR_FLOOR) {
+#if !KIFMM__FRADIAL
+        int gr[KIFMM__SD], gc[KIFMM__SD], ng = KIFMM__F(__sc_groups)(c->opts.kernel_param, gr, gc);
+#else
+        const int ng = 1;
+        int *gr = NULL, *gc = NULL;
+#endif
+        memcpy(g2, g, (size_t)nc * na * sizeof(double));
+        rc = ng > 1 ? kifmm__pinv_groups(g2, nc, na, KIFMM__SD, gr, gc, ng, KIFMM__ANCHOR_CUTOFF, &uta, &vsa, ka)
+                    : kifmm__pinv(g2, nc, na, KIFMM__ANCHOR_CUTOFF, &uta, &vsa, ka);
+    }
+    if (!rc && *ka > 0) kifmm__gemm(0, 0, na, nc, *ka, 1.0, vsa, na, uta, *ka, 0.0, pa, na);
+    kifmm__free(g2);
+    kifmm__free(uta);
+    kifmm__free(vsa);
+    return rc;
+}
+
+KIFMM__FN int KIFMM__F(__anchor_fit)(const KIFMM_NAME *c, double r, kifmm__ops *o)
+{
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, na = c->pl->surf.nsa * KIFMM__SD;
+    const int kd = o->kd, nd = ne + na;
+    double *g = (double *)kifmm__alloc((size_t)nc * na, sizeof(double));
+    double *pa = (double *)kifmm__calloc((size_t)na * nc, sizeof(double)), *x = NULL, *ut = NULL, *vs = NULL;
+    int ka = 0, k2, i, j, rc = g && pa ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    if (na == 0) goto done;
+    if (!rc) rc = KIFMM__F(__anchor_pinv)(c, r, o->sigma, g, pa, &ka);
+    /* without anchors that take anything, the plain factors with zero rows
+     * for the anchors' values (the layout stays nde per box) */
+    k2 = kd + (ka > 0 ? na : 0);
+    x = (double *)kifmm__calloc((size_t)kd * na + 1, sizeof(double));
+    ut = (double *)kifmm__calloc((size_t)k2 * nc + 1, sizeof(double));
+    vs = (double *)kifmm__calloc((size_t)nd * k2 + 1, sizeof(double));
+    if (!rc && !(x && ut && vs)) rc = KIFMM_ERR_NOMEM;
+    if (rc) goto done;
+    for (i = 0; i < nc; i++) {
+        for (j = 0; j < kd; j++) ut[j + (size_t)i * k2] = o->ut_dn[j + (size_t)i * kd];
+        for (j = 0; j < k2 - kd; j++) ut[kd + j + (size_t)i * k2] = pa[j + (size_t)i * na];
+    }
+    if (kd > 0 && ka > 0) { /* ut (I - G_a P_a) */
+        kifmm__gemm(0, 0, kd, na, nc, 1.0, o->ut_dn, kd, g, nc, 0.0, x, kd);
+        kifmm__gemm(0, 0, kd, nc, na, -1.0, x, kd, pa, na, 1.0, ut, k2);
+    }
+    for (i = 0; i < kd; i++) memcpy(vs + (size_t)i * nd, o->vs_dn + (size_t)i * ne, (size_t)ne * sizeof(double));
+    for (j = 0; j < k2 - kd; j++) vs[ne + j + (size_t)(kd + j) * nd] = 1.0;
+    kifmm__free(o->ut_dn);
+    kifmm__free(o->vs_dn);
+    o->ut_dn = ut;
+    o->vs_dn = vs;
+    o->kd = k2;
+    ut = vs = NULL;
+done:
+    kifmm__free(g);
+    kifmm__free(pa);
+    kifmm__free(x);
+    kifmm__free(ut);
+    kifmm__free(vs);
+    return rc;
+}
+
+/* The points of a downward density of a box (centre ctr, half-width
+ * half) into pe, SoA over nse + nsa points: its outer surface (at radius),
+ * then its anchors. */
+KIFMM__FN void KIFMM__F(__place_down)(const KIFMM__F(_plan) *pl, const double *ctr, double radius, double half,
+                                      KIFMM__R *pe)
+{
+    const int n = pl->surf.nse, m = n + pl->surf.nsa;
+    int i, d;
+    for (d = 0; d < 3; d++) {
+        for (i = 0; i < n; i++) pe[d * m + i] = (KIFMM__R)(ctr[d] + radius * pl->surf.unit_e[d * n + i]);
+        for (i = 0; i < pl->surf.nsa; i++)
+            pe[d * m + n + i] = (KIFMM__R)(ctr[d] + half * pl->surf.unit_a[d * pl->surf.nsa + i]);
+    }
+}
+
 // >>workspace
 
 KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
@@ -6833,8 +7005,9 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
 /* Per-vector sizes of the workspace arrays, in elements. */
 KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 {
-    size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.ne ? c->pl->surf.nc : c->pl->surf.ne);
-    sz[0] = (size_t)c->tree->nbox * (size_t)c->pl->surf.ne;                  /* ue, de */
+    size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.nde ? c->pl->surf.nc : c->pl->surf.nde);
+    sz[0] = (size_t)c->tree->nbox * (size_t)c->pl->surf.ne;                  /* ue */
+    sz[5] = (size_t)c->tree->nbox * (size_t)c->pl->surf.nde;                 /* de */
     sz[1] = (size_t)c->work.mb * (size_t)c->pl->surf.nc;                         /* chk */
 #if KIFMM__FFT
     sz[2] = 0;
@@ -6900,17 +7073,16 @@ KIFMM__FN KIFMM__R *KIFMM__F(__lbuf)(const KIFMM__F(__work) *w, int nrhs, int64_
 
 /* The solves skip boxes without sources (ue) or targets (de): their
  * expansions are zero once and for all. */
-KIFMM__FN void KIFMM__F(__work_zero)(const KIFMM_NAME *c, KIFMM__F(__work) *w, size_t per)
+KIFMM__FN void KIFMM__F(__work_zero)(const KIFMM_NAME *c, KIFMM__F(__work) *w)
 {
     const kifmm__tree *t = c->tree;
-    const size_t ne = (size_t)c->pl->surf.ne;
+    const size_t ne = (size_t)c->pl->surf.ne, nd = (size_t)c->pl->surf.nde;
     int32_t b;
     int r;
     for (r = 0; r < w->nrhs; r++)
         for (b = 0; b < t->nbox; b++) {
-            const size_t at = (size_t)r * per + (size_t)b * ne;
-            if (t->s1[b] == t->s0[b]) memset(w->ue + at, 0, ne * sizeof(KIFMM__R));
-            if (t->t1[b] == t->t0[b]) memset(w->de + at, 0, ne * sizeof(KIFMM__R));
+            if (t->s1[b] == t->s0[b]) memset(w->ue + ((size_t)r * t->nbox + b) * ne, 0, ne * sizeof(KIFMM__R));
+            if (t->t1[b] == t->t0[b]) memset(w->de + ((size_t)r * t->nbox + b) * nd, 0, nd * sizeof(KIFMM__R));
         }
 }
 
@@ -6919,14 +7091,14 @@ KIFMM__FN void KIFMM__F(__work_zero)(const KIFMM_NAME *c, KIFMM__F(__work) *w, s
 KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
 {
     KIFMM__F(__work) *w = (KIFMM__F(__work) *)kifmm__calloc(1, sizeof *w);
-    size_t sz[5], n = (size_t)nrhs, *held;
-    const size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.ne ? c->pl->surf.nc : c->pl->surf.ne);
+    size_t sz[6], n = (size_t)nrhs, *held;
+    const size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.nde ? c->pl->surf.nc : c->pl->surf.nde);
     if (!w) return NULL;
     held = &w->held;
     KIFMM__F(__work_sizes)(c, sz);
     w->nrhs = nrhs;
     w->ue = (KIFMM__R *)kifmm__take(held, n * sz[0], sizeof(KIFMM__R));
-    w->de = (KIFMM__R *)kifmm__take(held, n * sz[0], sizeof(KIFMM__R));
+    w->de = (KIFMM__R *)kifmm__take(held, n * sz[5], sizeof(KIFMM__R));
     w->chk = (KIFMM__R *)kifmm__take(held, n * sz[1], sizeof(KIFMM__R));
     w->qs = (KIFMM__R *)kifmm__take(held, n * sz[3], sizeof(KIFMM__R));
 #if defined(KIFMM_MPI)
@@ -6953,7 +7125,7 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
         KIFMM__F(__work_free)(w);
         return NULL;
     }
-    KIFMM__F(__work_zero)(c, w, sz[0]);
+    KIFMM__F(__work_zero)(c, w);
     return w;
 }
 
@@ -6963,8 +7135,8 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
  * thread with AVX2 (the passes run in parallel), else one. */
 KIFMM__FN size_t KIFMM__F(__gbuf_per)(const KIFMM_NAME *c)
 {
-    const size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.ne ? c->pl->surf.nc : c->pl->surf.ne);
-    return ((size_t)c->pl->surf.ne + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
+    const size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.nde ? c->pl->surf.nc : c->pl->surf.nde);
+    return ((size_t)c->pl->surf.nde + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
 }
 
 /* The calling thread's buffer (thread 0 outside parallel regions). */
@@ -6982,8 +7154,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__gbuf)(const KIFMM_NAME *c)
  * (periodic trees) the image of a box's sources, c->work.ipts points. */
 KIFMM__FN size_t KIFMM__F(__scratch_per)(const KIFMM_NAME *c)
 {
-    return 9 * (size_t)(c->pl->surf.nsc > c->pl->surf.nse ? c->pl->surf.nsc : c->pl->surf.nse) +
-           3 * c->work.fpts + 3 * c->work.ipts;
+    return 9 * (size_t)c->pl->surf.nsm + 3 * c->work.fpts + 3 * c->work.ipts;
 }
 
 /* The calling thread's scratch (see __scratch_per). */
@@ -6995,7 +7166,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
 /* The calling thread's frame buffer: after its three surfaces. */
 KIFMM__FN KIFMM__R *KIFMM__F(__framebuf)(const KIFMM_NAME *c)
 {
-    return KIFMM__F(__scratch)(c) + 9 * (size_t)(c->pl->surf.nsc > c->pl->surf.nse ? c->pl->surf.nsc : c->pl->surf.nse);
+    return KIFMM__F(__scratch)(c) + 9 * (size_t)c->pl->surf.nsm;
 }
 
 /* The sources of box a moved by image s (a shift code) into the thread's
@@ -7066,7 +7237,8 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     const int32_t *ai = c->work.act + (up ? 0 : t->nbox) + t->loff[l];
     const int na = c->work.act[2 * t->nbox + 2 * l + !up];
     const int ppv = (na + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
-    const size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
+    const int ne = up ? c->pl->surf.ne : c->pl->surf.nde;
+    const size_t per = (size_t)t->nbox * (size_t)ne;
     KIFMM__R *eq = up ? w->ue : w->de;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
     for (int p = 0; p < np; p++) {
@@ -7077,7 +7249,7 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
         const KIFMM__R *bp[KIFMM__GC_NC], *tb[KIFMM__GC_NC];
         KIFMM__R *tp[KIFMM__GC_NC], *cp[KIFMM__GC_NC];
         KIFMM__R *buf = KIFMM__F(__gbuf)(c);
-        const size_t per_t = (size_t)c->pl->surf.ne * KIFMM__GC_NC;
+        const size_t per_t = (size_t)c->pl->surf.nde * KIFMM__GC_NC;
         const int r = p / ppv, j0 = (p % ppv) * KIFMM__GC_NC;
         int q, nq = na - j0;
         if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
@@ -7085,10 +7257,10 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
             const size_t b = (size_t)ai[j0 + q]; /* within the level */
             bp[q] = w->chk + ((size_t)r * n + b) * c->pl->surf.nc;
             tb[q] = tp[q] = buf + (size_t)q * k;
-            cp[q] = eq + (size_t)r * per + ((size_t)t->loff[l] + b) * c->pl->surf.ne;
+            cp[q] = eq + (size_t)r * per + ((size_t)t->loff[l] + b) * ne;
         }
         KIFMM__GEMM_COLS(k, c->pl->surf.nc, up ? o->ut_up : o->ut_dn, k, nq, bp, tp, 0, buf + per_t);
-        KIFMM__GEMM_COLS(c->pl->surf.ne, k, up ? o->vs_up : o->vs_dn, c->pl->surf.ne, nq, tb, cp, 0, buf + per_t);
+        KIFMM__GEMM_COLS(ne, k, up ? o->vs_up : o->vs_dn, ne, nq, tb, cp, 0, buf + per_t);
     }
 }
 
@@ -7104,8 +7276,8 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
     const kifmm__tree *t = c->tree;
     const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
     const int ppv = (ni + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
-    const int m = down ? 8 * c->pl->surf.nc : c->pl->surf.nc, k = down ? c->pl->surf.ne : 8 * c->pl->surf.ne;
-    const size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
+    const int m = down ? 8 * c->pl->surf.nc : c->pl->surf.nc, k = down ? c->pl->surf.nde : 8 * c->pl->surf.ne;
+    const size_t per = (size_t)t->nbox * (size_t)(down ? c->pl->surf.nde : c->pl->surf.ne);
     const KIFMM__R *op = down ? KIFMM__F(__ops_at)(c, lp + 1)->l2l : KIFMM__F(__ops_at)(c, lp)->m2m;
     if (ni == 0 || lp + 1 >= t->nlev) return;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
@@ -7119,7 +7291,7 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
             const int jb = j0 + q;
             const int32_t b = t->inner[t->ioff[lp] + jb];
             if (down) {
-                bp[q] = w->de + jr * per + (size_t)b * c->pl->surf.ne;
+                bp[q] = w->de + jr * per + (size_t)b * c->pl->surf.nde;
                 cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * c->pl->surf.nc;
             } else {
                 bp[q] = w->ue + jr * per + ((size_t)t->loff[lp + 1] + 8 * (size_t)jb) * c->pl->surf.ne;
@@ -7127,7 +7299,7 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
             }
         }
         KIFMM__GEMM_COLS(m, k, op, m, nq, bp, cp, !down,
-                         KIFMM__F(__gbuf)(c) + (size_t)c->pl->surf.ne * KIFMM__GC_NC);
+                         KIFMM__F(__gbuf)(c) + (size_t)c->pl->surf.nde * KIFMM__GC_NC);
     }
 }
 
@@ -7268,16 +7440,16 @@ KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work
     const kifmm__tree *t = c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd, r;
-    size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
+    const int ne = up ? c->pl->surf.ne : c->pl->surf.nde;
+    size_t per = (size_t)t->nbox * (size_t)ne;
     if (step == 0) {
         KIFMM__F(__gemm)(k, n * nrhs, c->pl->surf.nc, up ? o->ut_up : o->ut_dn, k, w->chk, c->pl->surf.nc, 0, w->tmp,
                          k);
         return;
     }
     for (r = 0; r < nrhs; r++)
-        KIFMM__F(__gemm)(c->pl->surf.ne, n, k, up ? o->vs_up : o->vs_dn, c->pl->surf.ne,
-                         w->tmp + (size_t)r * n * k, k, 0,
-                         (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * c->pl->surf.ne, c->pl->surf.ne);
+        KIFMM__F(__gemm)(ne, n, k, up ? o->vs_up : o->vs_dn, ne, w->tmp + (size_t)r * n * k, k, 0,
+                         (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * ne, ne);
 }
 
 KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
@@ -7718,7 +7890,8 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const double zero[3] = {0.0, 0.0, 0.0};
     const int32_t a = l >= 1 ? c->dsrc[t->parent[b]] : -1;
     const int nsc = c->pl->surf.nsc, nse = c->pl->surf.nse;
-    KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (nsc > nse ? nsc : nse);
+    KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (size_t)c->pl->surf.nsm;
+    const int nd = nse + c->pl->surf.nsa;
     double ctr[3], half;
     int32_t e;
     kifmm__box_center(t, b, ctr, &half);
@@ -7727,10 +7900,10 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
         double ac[3], ah;
         kifmm__box_center(t, a, ac, &ah);
         if (KIFMM__FLOAT) kifmm__sub3(ac, ctr, ac);
-        KIFMM__F(__place)(c->pl->surf.unit_e, nse, ac, c->pl->surf.ao * ah, pe);
-        KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, pe, pe + nse,
-                           pe + 2 * nse, w->de + (size_t)a * c->pl->surf.ne, nse, nrhs,
-                           (size_t)t->nbox * c->pl->surf.ne, scale, chk, cst);
+        KIFMM__F(__place_down)(c->pl, ac, c->pl->surf.ao * ah, ah, pe);
+        KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, pe, pe + nd,
+                           pe + 2 * nd, w->de + (size_t)a * c->pl->surf.nde, nd, nrhs,
+                           (size_t)t->nbox * c->pl->surf.nde, scale, chk, cst);
     }
     for (e = t->xo[b]; e < t->xo[b + 1] && t->t1[b] - t->t0[b] >= nsc; e++) {
         const int32_t xb = t->x[e];
@@ -7888,8 +8061,9 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
 // >>leaves
 
 /* out += the field, at nt targets (coordinates in the frame centred at fc,
- * see __frame), of densities (vector stride nbox ne) on the surface of
- * image s of box a (its inner surface, or its outer one where inner is 0);
+ * see __frame), of densities on the surface of image s of box a: its
+ * inner one, the upward density (vector stride nbox ne), or where inner is
+ * 0 its outer one and its anchors, the downward (vector stride nbox nde);
  * pe holds the placed surface;
  * vector r's outputs from out + r old on. */
 KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
@@ -7903,10 +8077,17 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
     kifmm__box_center(c->tree, a, ctr, &half);
     kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree->cell - fc[d]; /* in the targets' frame */
-    KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, ctr,
-                      inner ? KIFMM__F(__rin)(c->pl, half) : c->pl->surf.ao * half, pe);
-    KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + c->pl->surf.nse, pe + 2 * c->pl->surf.nse, dens, c->pl->surf.nse,
-                    nrhs, (size_t)c->tree->nbox * c->pl->surf.ne, 1.0, out, old);
+    if (inner) { /* upward: M2P */
+        const int n = c->pl->surf.nse;
+        KIFMM__F(__place)(c->pl->surf.unit_e, n, ctr, KIFMM__F(__rin)(c->pl, half), pe);
+        KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + n, pe + 2 * n, dens, n, nrhs,
+                           (size_t)c->tree->nbox * c->pl->surf.ne, 1.0, out, old);
+    } else { /* downward, with the anchors: L2P */
+        const int n = c->pl->surf.nse + c->pl->surf.nsa;
+        KIFMM__F(__place_down)(c->pl, ctr, c->pl->surf.ao * half, half, pe);
+        KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + n, pe + 2 * n, dens, n, nrhs,
+                           (size_t)c->tree->nbox * c->pl->surf.nde, 1.0, out, old);
+    }
     (void)w;
 }
 
@@ -8013,7 +8194,7 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     }
     if (c->dsrc[b] >= 0)
         KIFMM__F(__from_surface)(c, w, nrhs, c->dsrc[b], KIFMM__NOSHIFT, 0,
-                                 w->de + (size_t)c->dsrc[b] * c->pl->surf.ne, fc, xf, xf + ld,
+                                 w->de + (size_t)c->dsrc[b] * c->pl->surf.nde, fc, xf, xf + ld,
                                  xf + 2 * ld, ntb, pe, out, old);
     c1 = kifmm__now();
     for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
@@ -8269,6 +8450,7 @@ KIFMM__FN void KIFMM__F(__plan_free)(KIFMM__F(_plan) *pl)
     kifmm__free(pl->far.set);
     kifmm__free(pl->surf.unit_e);
     kifmm__free(pl->surf.unit_c);
+    kifmm__free(pl->surf.unit_a);
     kifmm__fft_free(&pl->fft);
     kifmm__lock_fini(&pl->lock);
     kifmm__free(pl);
@@ -8464,12 +8646,42 @@ KIFMM__FN int KIFMM__F(__far_role)(const double *prm, double dist, KIFMM__F(__p2
     return 1;
 }
 
+/* The anchors the downward densities need (>>anchors), from whether the
+ * targets get derivatives of the surface kernel's field: where some entry
+ * of ST (surface -> targets) falls off faster with distance than every
+ * entry of SC (the surface kernel), between the offsets u and 2 u (|u| =
+ * 1e-3), by about one power of r, 4 (a field's constant and linear parts),
+ * by two or more, KIFMM__ANCHOR_MAX (its quadratic part too); else 0: a
+ * potential's error does not grow with the depth, and anchors would only
+ * cost time (14 points on a surface of 56 at p = 4). */
+KIFMM__FN int KIFMM__F(__st_derivative)(const double *param)
+{
+    static const double u[3] = {0.6e-3, 0.48e-3, 0.64e-3};
+    double prm[4], ks[2][KIFMM__TD * KIFMM__SD], kc[2][KIFMM__SD * KIFMM__SD], dst = HUGE_VAL, dsc = HUGE_VAL;
+    int t, i;
+    if (KIFMM__F(__params)(param, prm) != KIFMM_SUCCESS) return 0;
+    for (t = 0; t < 2; t++) {
+        KIFMM__R_(ST, _eval)(prm, (1 + t) * u[0], (1 + t) * u[1], (1 + t) * u[2], ks[t]);
+        KIFMM__R_(SC, _eval)(prm, (1 + t) * u[0], (1 + t) * u[1], (1 + t) * u[2], kc[t]);
+    }
+    for (i = 0; i < KIFMM__TD * KIFMM__SD; i++)
+        if (ks[0][i] != 0.0 && ks[1][i] != 0.0 && log2(fabs(ks[1][i] / ks[0][i])) < dst)
+            dst = log2(fabs(ks[1][i] / ks[0][i]));
+    for (i = 0; i < KIFMM__SD * KIFMM__SD; i++)
+        if (kc[0][i] != 0.0 && kc[1][i] != 0.0 && log2(fabs(kc[1][i] / kc[0][i])) < dsc)
+            dsc = log2(fabs(kc[1][i] / kc[0][i]));
+    return dst < dsc - 1.5 ? KIFMM__ANCHOR_MAX : dst < dsc - 0.5 ? 4 : 0;
+}
+
 /* KIFMM_ERR_RANGE where the passes' loops on points (near field, P2M, L2P,
  * L2L from a far ancestor) lose pairs dist apart (__far_role): dist is
  * twice the diagonal of the points' box or of the cell. */
 KIFMM__FN int KIFMM__F(__check_far)(const double *prm, double dist)
 {
 #if KIFMM__SI
+    /* the surface loops also reach the anchors (>>anchors), up to about
+     * KIFMM__ANCHOR_RADIUS times the root's half-width away */
+    const double ds = KIFMM__ANCHORS && KIFMM__F(__st_derivative)(prm) ? dist * KIFMM__ANCHOR_RADIUS : dist;
     double p[4];
     /* the powers grow: close pairs give KIFMM_ERR_OVERFLOW; parameters the
      * kernel refuses, KIFMM_ERR_PARAM after this */
@@ -8477,8 +8689,8 @@ KIFMM__FN int KIFMM__F(__check_far)(const double *prm, double dist)
     prm = p;
     if (!KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_qt), KIFMM__R_(QT, _eval), KIFMM__TD, KIFMM__QD) ||
         !KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_qc), KIFMM__R_(QC, _eval), KIFMM__SD, KIFMM__QD) ||
-        !KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_st), KIFMM__R_(ST, _eval), KIFMM__TD, KIFMM__SD) ||
-        !KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_sc), KIFMM__R_(SC, _eval), KIFMM__SD, KIFMM__SD))
+        !KIFMM__F(__far_role)(prm, ds, KIFMM__F(__p2p_st), KIFMM__R_(ST, _eval), KIFMM__TD, KIFMM__SD) ||
+        !KIFMM__F(__far_role)(prm, ds, KIFMM__F(__p2p_sc), KIFMM__R_(SC, _eval), KIFMM__SD, KIFMM__SD))
         return KIFMM_ERR_RANGE;
 #else
     (void)prm, (void)dist;
@@ -8667,10 +8879,15 @@ KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
     pl->surf.nc = pl->surf.nsc * KIFMM__SD;
     pl->surf.unit_e = (double *)kifmm__take(&pl->held, (size_t)3 * pl->surf.nse, sizeof(double));
     pl->surf.unit_c = (double *)kifmm__take(&pl->held, (size_t)3 * pl->surf.nsc, sizeof(double));
-    if (!pl->surf.unit_e || !pl->surf.unit_c) rc = KIFMM_ERR_NOMEM;
+    pl->surf.nsa = KIFMM__ANCHORS ? KIFMM__F(__st_derivative)(o->kernel_param) : 0; /* >>anchors */
+    pl->surf.nde = (pl->surf.nse + pl->surf.nsa) * KIFMM__SD;
+    pl->surf.nsm = pl->surf.nsc > pl->surf.nse + pl->surf.nsa ? pl->surf.nsc : pl->surf.nse + pl->surf.nsa;
+    pl->surf.unit_a = (double *)kifmm__take(&pl->held, (size_t)3 * KIFMM__ANCHOR_MAX, sizeof(double));
+    if (!pl->surf.unit_e || !pl->surf.unit_c || !pl->surf.unit_a) rc = KIFMM_ERR_NOMEM;
     if (!rc) {
         kifmm__surf_unit(p, pl->surf.unit_e);
         kifmm__surf_unit(p + pl->surf.cdiff, pl->surf.unit_c);
+        kifmm__anchor_unit(pl->surf.nsa, pl->surf.unit_a);
     }
 #if KIFMM__FFT
     if (!rc) rc = kifmm__fft_init(&pl->fft, p + pl->surf.cdiff, KIFMM__CPLX, &pl->held);
@@ -9822,7 +10039,7 @@ KIFMM__FN double KIFMM__F(__bytes_tree)(const KIFMM_NAME *h, const kifmm__shape 
 
 /* The operators (__precompute), one set for a scale-invariant kernel, else
  * one per level from kifmm__lmin, none in a tree without M2L: the solves'
- * factors (ranks at most ne), M2M and L2L, the check-to-equivalent map when
+ * factors (ranks at most ne and nde), M2M and L2L, the check-to-equivalent map when
  * the check surface is larger, and at the levels with V lists (from 2, from
  * 1 in a periodic tree) the M2L's: the kernel's spectra (in double) with
  * the products' blocks where all of them fit in KIFMM__FFT_KB_MB
@@ -9831,12 +10048,12 @@ KIFMM__FN double KIFMM__F(__bytes_tree)(const KIFMM_NAME *h, const kifmm__shape 
  * products need a slab's output buffer (blocks not kept). */
 KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *s, double *fout)
 {
-    const double ne = h->pl->surf.ne, nc = h->pl->surf.nc, r = sizeof(KIFMM__R);
+    const double ne = h->pl->surf.ne, nc = h->pl->surf.nc, r = sizeof(KIFMM__R), nd = h->pl->surf.nde;
     const int lmin = kifmm__lmin(h->tree), n = KIFMM__SI ? 1 : h->tree->nlev > 1 ? h->tree->nlev : 1;
     const double sets = h->tree->nlev <= lmin ? 0.0 : KIFMM__SI ? 1.0 : (double)(n - lmin);
     const double m2ls = KIFMM__SI ? s->vany : s->vlev;
     const double c2e = h->pl->surf.cdiff ? nc * ne : 0.0; /* the check-to-equivalent map */
-    const double per = r * (2.0 * ne * (nc + ne) + 16.0 * nc * ne + c2e);
+    const double per = r * (ne * (nc + ne) + nd * (nc + nd) + 8.0 * nc * (ne + nd) + c2e);
     double m2l;
 #if KIFMM__FFT
     const kifmm__fft *pl = &h->pl->fft;
@@ -9849,7 +10066,7 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
         *fout = m2ls < 1.0 ? m2ls : 1.0; /* __work_fout */
     }
 #else
-    m2l = (double)KIFMM__NT * ne * ne * r;
+    m2l = (double)KIFMM__NT * nd * ne * r;
     *fout = 0.0;
 #endif
     return (double)n * (sizeof(KIFMM__F(__ops)) + sizeof(double)) + sets * per + m2ls * m2l;
@@ -9881,15 +10098,15 @@ KIFMM__FN double KIFMM__F(__bytes_work)(const KIFMM_NAME *h, const kifmm__shape 
 {
     const kifmm__tree *t = h->tree;
     const double r = sizeof(KIFMM__R), nth = h->opts.nthreads;
-    double sz[5], b, m = s->maxleaf > h->pl->surf.nsc ? s->maxleaf : h->pl->surf.nsc;
-    size_t z[5];
+    double sz[6], b, m = s->maxleaf > h->pl->surf.nsc ? s->maxleaf : h->pl->surf.nsc;
+    size_t z[6];
     int k;
     KIFMM__F(__work_sizes)(h, z);
-    for (k = 0; k < 5; k++) sz[k] = (double)z[k];
+    for (k = 0; k < 6; k++) sz[k] = (double)z[k];
     if (KIFMM__MUTUAL && t->same && nth > 1 && (double)t->nt / (KIFMM__PAIR_CHUNKS * nth) > m)
         m = (double)t->nt / (KIFMM__PAIR_CHUNKS * nth);
     m = ceil(m * KIFMM__TD / 16.0) * 16.0;
-    b = (2.0 * sz[0] + sz[1] + sz[2] + sz[3] + (2.0 * nth * m <= sz[4] ? nth * m : sz[4])) * r;
+    b = (sz[0] + sz[5] + sz[1] + sz[2] + sz[3] + (2.0 * nth * m <= sz[4] ? nth * m : sz[4])) * r;
     b += nth * (double)KIFMM__F(__scratch_per)(h) * r;
     if (t->nlev > kifmm__lmin(t))
         b += (KIFMM__GC_FAST ? nth : 1.0) * (double)KIFMM__F(__gbuf_per)(h) * r;
@@ -9901,7 +10118,7 @@ KIFMM__FN double KIFMM__F(__bytes_work)(const KIFMM_NAME *h, const kifmm__shape 
     }
 #else
     b += s->vany * h->work.m2l_cols * r *
-         (KIFMM__NT * h->pl->surf.ne + (h->pl->surf.nc > h->pl->surf.ne ? h->pl->surf.nc : h->pl->surf.ne));
+         (KIFMM__NT * h->pl->surf.ne + (h->pl->surf.nc > h->pl->surf.nde ? h->pl->surf.nc : h->pl->surf.nde));
     (void)fout;
 #endif
     return b;
@@ -11197,6 +11414,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
 #undef KIFMM__SI
 #undef KIFMM__RADIAL
 #undef KIFMM__CPLX
+#undef KIFMM__ANCHORS
 #undef KIFMM__C2E_SIGN
 #undef KIFMM__FSD
 #undef KIFMM__FRADIAL

@@ -46,7 +46,7 @@ static void test_orders(void)
 
     for (io = 0; io < sizeof orders / sizeof orders[0]; io++) {
         int p = orders[io];
-        double bound = bounds[io], tc = 0, te = 0;
+        double bound = bounds[io], tc = 0, te = 0, elap;
         kifmm_opts o = t_opts(p, 0, 0), used = t_opts(0, 0, 0);
         void *h = NULL;
         int rc;
@@ -65,6 +65,7 @@ static void test_orders(void)
         lap.destroy(h);
         CHECK(rc == KIFMM_SUCCESS, "laplace evaluate p=%d rc=%d", p, rc);
         e = t_error_laplace(n, x, q, n, x, pot, 1, NSAMPLE);
+        elap = e.pot;
         CHECK_ERR(e.pot, bound, "laplace      p=%-2d N=%ld potential (eval %.2fs)", p, (long)n,
                   te);
 
@@ -80,7 +81,14 @@ static void test_orders(void)
         CHECK_ERR(e.grad, 10 * bound, "laplace_grad p=%-2d N=%ld gradient", p, (long)n);
         /* and within 10 x the potential's own measured error */
         CHECK_ERR(e.grad, 10 * e.pot, "laplace_grad p=%-2d gradient vs 10 x potential error", p);
-        CHECK_ERR(t_rel_diff(n, pg, 4, pot, 1), 1e-12,
+        /* laplace_grad's potential as accurate as laplace's: the same tree
+         * and surfaces, but its downward densities have anchors (gradient
+         * outputs: docs/algorithm.md, "Anchors"), so the two agree to the
+         * truncation error, not to rounding: 0.004 to 0.03 of laplace's
+         * error apart (2.4e-6 at p = 4, 1.4e-12 at p = 10), with the same
+         * errors to three digits */
+        CHECK_ERR(e.pot, 1.1 * elap, "laplace_grad potential vs 1.1 x laplace's error, p=%d", p);
+        CHECK_ERR(t_rel_diff(n, pg, 4, pot, 1), 0.1 * elap,
                   "laplace_grad potential column vs laplace, p=%d", p);
     }
     free(x);

@@ -49,15 +49,23 @@ static void soa(int n, const double *xyz, double *s)
         for (d = 0; d < 3; d++) s[d * n + i] = xyz[3 * i + d];
 }
 
-/* Check vector -> equivalent density with the handle's two factors. */
+/* Check vector -> equivalent density with the handle's two factors (a
+ * downward density ends with its anchors' values: surf.nde of them). */
 static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 {
     const kifmm_laplace__ops *o = c->lv[0];
-    int k = up ? o->ku : o->kd;
+    const int k = up ? o->ku : o->kd, ne = up ? c->pl->surf.ne : c->pl->surf.nde;
     double *tmp = t_doubles(k);
     kifmm__gemm(0, 0, k, 1, c->pl->surf.nc, 1.0, up ? o->ut_up : o->ut_dn, k, chk, c->pl->surf.nc, 0.0, tmp, k);
-    kifmm__gemm(0, 0, c->pl->surf.ne, 1, k, 1.0, up ? o->vs_up : o->vs_dn, c->pl->surf.ne, tmp, k, 0.0, eq, c->pl->surf.ne);
+    kifmm__gemm(0, 0, ne, 1, k, 1.0, up ? o->vs_up : o->vs_dn, ne, tmp, k, 0.0, eq, ne);
     free(tmp);
+}
+
+/* the points of a downward density: the surface's, then the anchors' */
+static int down_points(const kifmm_laplace *c, const double *ctr, double r, double *pe)
+{
+    kifmm_laplace__place_down(c->pl, ctr, c->pl->surf.ao * r, r, pe);
+    return c->pl->surf.nse + c->pl->surf.nsa;
 }
 
 /* P2M: sources -> check potentials (scaled by the half-width, Laplace being
@@ -216,9 +224,8 @@ static double m2l_case(const kifmm_laplace *c, t_rng *g, const int *d, const dou
     t_gen_charges(g, ns, q, -1, 1);
     points_in_box(g, ny, ctr, r, y);
     p2m(c, cs, r, ns, x, q, ue);
-    kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, ctr, c->pl->surf.ao * r, pe);
     m2l_fft(c, kifmm__transfer_index(d[0], d[1], d[2]), ue, de);
-    eval_equiv(c, c->pl->surf.nse, pe, de, ny, y, pot);
+    eval_equiv(c, down_points(c, ctr, r, pe), pe, de, ny, y, pot);
     return rel_err_at(ny, y, pot, ns, x, q);
 }
 
@@ -233,8 +240,9 @@ static void test_downward(int p)
     int ns = 300, ny = 300, tv, o, k;
     static const int vecs[4][3] = {{2, 0, 0}, {3, -2, 1}, {-3, -3, -3}, {0, 2, -2}};
     x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
-    ue = t_doubles(c->pl->surf.ne); de = t_doubles(c->pl->surf.ne); dec = t_doubles(c->pl->surf.ne);
-    chk = t_doubles(8 * c->pl->surf.nc); pe = t_doubles(3 * c->pl->surf.nse); pc = t_doubles(3 * c->pl->surf.nsc);
+    ue = t_doubles(c->pl->surf.ne); de = t_doubles(c->pl->surf.nde); dec = t_doubles(c->pl->surf.nde);
+    chk = t_doubles(8 * c->pl->surf.nc); pc = t_doubles(3 * c->pl->surf.nsc);
+    pe = t_doubles(3 * (c->pl->surf.nse + c->pl->surf.nsa));
     xs = t_doubles(3 * ns);
     {
         int n;
@@ -258,11 +266,11 @@ static void test_downward(int p)
             const kifmm_laplace_dense__ops *od = hd->lv[0];
             kifmm__gemm(0, 0, od->kd, 1, c->pl->surf.ne, 1.0, od->m2l + (size_t)tv * c->pl->surf.ne * od->kd,
                         od->kd, ue, c->pl->surf.ne, 0.0, chk, od->kd);
-            kifmm__gemm(0, 0, c->pl->surf.ne, 1, od->kd, 1.0, od->vs_dn, c->pl->surf.ne, chk, od->kd, 0.0, de,
-                        c->pl->surf.ne);
+            kifmm__gemm(0, 0, hd->pl->surf.nde, 1, od->kd, 1.0, od->vs_dn, hd->pl->surf.nde, chk, od->kd, 0.0,
+                        de, hd->pl->surf.nde);
         }
-        kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, ctr, hd->pl->surf.ao * r, pe);
-        eval_equiv(c, c->pl->surf.nse, pe, de, ny, y, pot);
+        kifmm_laplace_dense__place_down(hd->pl, ctr, hd->pl->surf.ao * r, r, pe);
+        eval_equiv(c, hd->pl->surf.nse + hd->pl->surf.nsa, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
                   "M2L (dense) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
     }
@@ -300,19 +308,17 @@ static void test_downward(int p)
         kifmm_laplace__p2p_qc(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, xs + ns,
                                  xs + 2 * ns, q, ns, 1, 0, 2 * r * c->lv[0]->sigma, chk, 0);
         solve(c, 0, chk, de);
-        kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, cp, c->pl->surf.ao * 2 * r, pe);
         points_in_box(&g, ny, cp, 2 * r, y);
-        eval_equiv(c, c->pl->surf.nse, pe, de, ny, y, pot);
+        eval_equiv(c, down_points(c, cp, 2 * r, pe), pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2L p=%d, inside the box", p);
-        kifmm__gemm(0, 0, 8 * c->pl->surf.nc, 1, c->pl->surf.ne, 1.0, c->lv[0]->l2l, 8 * c->pl->surf.nc, de, c->pl->surf.ne, 0.0, chk,
-                    8 * c->pl->surf.nc);
+        kifmm__gemm(0, 0, 8 * c->pl->surf.nc, 1, c->pl->surf.nde, 1.0, c->lv[0]->l2l, 8 * c->pl->surf.nc, de,
+                    c->pl->surf.nde, 0.0, chk, 8 * c->pl->surf.nc);
         for (o = 0; o < 8; o++) {
             double cc[3] = {cp[0] + (o >> 2 & 1 ? r : -r), cp[1] + (o >> 1 & 1 ? r : -r),
                             cp[2] + (o & 1 ? r : -r)};
             solve(c, 0, chk + (size_t)o * c->pl->surf.nc, dec);
-            kifmm__surf_place(c->pl->surf.unit_e, c->pl->surf.nse, cc, c->pl->surf.ao * r, pe);
             points_in_box(&g, ny, cc, r, y);
-            eval_equiv(c, c->pl->surf.nse, pe, dec, ny, y, pot);
+            eval_equiv(c, down_points(c, cc, r, pe), pe, dec, ny, y, pot);
             CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "L2L p=%d, child %d", p, o);
         }
     }
