@@ -109,14 +109,20 @@ fi
 # (test_families, test_shipped), tree building, updates, periodic,
 # Helmholtz, handles on threads. The rest of each runs with CONFIGS=all
 # (together about 540 s on 2 cores of an Intel Xeon with AVX-512, where
-# make test took 75 minutes with them; CI took 4,495 s).
+# make test took 75 minutes with them; CI took 4,495 s). test_deep (the
+# anchors on deep trees) runs in gcc-c11-omp and asan; the anchors' passes
+# run on threads and in C++ through test_families and test_shipped (with
+# it everywhere, make test took about 62 minutes there). asan leaves
+# test_periodic3 (64 s) to gcc-c11-omp; test_periodic runs three periodic
+# directions under it.
 GXX_LEFT="test_families test_laplace_family test_update test_periodic3 test_tree test_tol_outputs
  test_kernels test_edges test_slab test_tol test_estimate test_alloc test_yukawa_p2p test_roles
- test_offset test_stokes_p2p test_small test_p2p test_operators test_check_order test_sincos test_ewald"
+ test_offset test_stokes_p2p test_small test_p2p test_operators test_check_order test_sincos test_ewald
+ test_deep"
 TSAN_LEFT="test_alloc test_tol test_slab test_periodic3 test_laplace_family test_tol_outputs
  test_kernels test_edges test_estimate test_yukawa_p2p test_roles test_offset test_stokes_p2p
  test_small test_p2p test_operators test_check_order test_sincos test_ewald test_multi_tu
- test_linkage test_errors"
+ test_linkage test_errors test_deep"
 GXX_LEFT=$(echo $GXX_LEFT)
 TSAN_LEFT=$(echo $TSAN_LEFT)
 
@@ -131,9 +137,9 @@ clang-c99|clang|-std=c99 -O2 -march=native -DKIFMM_TEST_QUICK
 clang-c99-omp|clang|-std=c99 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 clang-c11|clang|-std=c11 -O2 -march=native -DKIFMM_TEST_QUICK
 clang-c11-omp|clang|-std=c11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
-asan|gcc|-std=c11 -O1 -g1 -march=native -fopenmp -fsanitize=address,undefined -fno-sanitize-recover=all -DKIFMM_TEST_QUICK
+asan|gcc|-std=c11 -O1 -g1 -march=native -fopenmp -fsanitize=address,undefined -fno-sanitize-recover=all -DKIFMM_TEST_QUICK|test_periodic3
 gcc-c11-omp-portable|gcc|-std=c11 -O2 -fopenmp -DKIFMM_TEST_QUICK
-gcc-O0-omp|gcc|-std=c99 -O0 -fopenmp -DKIFMM_TEST_QUICK|test_alloc test_tol test_tol_outputs test_slab test_periodic3 test_laplace_family test_threads
+gcc-O0-omp|gcc|-std=c99 -O0 -fopenmp -DKIFMM_TEST_QUICK|test_alloc test_tol test_tol_outputs test_slab test_periodic3 test_laplace_family test_threads test_deep
 clang-O0-omp|clang|-std=c99 -O0 -march=native -fopenmp -DKIFMM_TEST_QUICK
 gxx-omp|g++|-x c++ -std=c++11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 gxx|g++|-x c++ -std=c++11 -O2 -march=native -DKIFMM_TEST_QUICK|$GXX_LEFT
