@@ -1,18 +1,18 @@
 /* test_deep.c - derivatives in deep trees: a cluster of points far below
  * the sources that make its field. The cluster's points (a cube of side
- * 1e-2, 1e-4 of a unit cloud's volume) carry no charge, or charges of
- * 1e-150; five unit charges sit about 1 away. With leaves of one point the
- * cluster's boxes reach level 16, and every one of them refits its
- * downward density although almost all its field comes from far above.
- * The outputs are compared with a direct sum in long double, over the
- * cluster's targets, for the tree of 16 levels and for the same points
- * with max_depth 6 (the cluster in one leaf): the deep tree's errors in the
- * gradient and the Hessian must stay within 8 times the shallow one's (1 to 3
- * times measured).
- * Without the downward densities' anchors (KIFMM_NO_ANCHORS) they grew
- * with the depth: laplace_hess at p = 6, gradient 3.5e-5 and Hessian 0.83
- * against 1.4e-7 and 1.4e-6 with max_depth 6; at p = 4 the Hessian's was
- * 252. */
+ * 1e-2) carry no charge, or charges of 1e-150; five unit charges sit about
+ * 1 away. With leaves of one point the cluster's boxes reach level 16, and
+ * every one of them refits its downward density although almost all its
+ * field comes from far above. The outputs of laplace_hess (14 anchors),
+ * yukawa_grad and laplace_grad (4) are compared with a direct sum in long
+ * double, over the cluster's targets, for the tree of 16 levels and for
+ * the same points with max_depth 6 (the cluster in one leaf): the deep
+ * tree's errors in the gradient and the Hessian must stay within 8 times
+ * the shallow one's (1 to 3 times measured). Without the downward
+ * densities' anchors (KIFMM_NO_ANCHORS) they grew with the depth:
+ * laplace_hess at p = 6, gradient 3.5e-5 and Hessian 0.83 against 1.4e-7
+ * and 1.4e-6 with max_depth 6; at p = 4 the Hessian's was 252, and
+ * laplace_grad's gradient at p = 8 1.3e-5 against 6.4e-9. */
 #define KIFMM_KERNEL laplace_hess
 #include "kifmm.h"
 #define KIFMM_KERNEL yukawa_grad
