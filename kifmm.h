@@ -2993,6 +2993,17 @@ KIFMM__FN void kifmm__anchor_unit(int n, double *a)
                                    : (((i - 6) >> (2 - d)) & 1 ? g : -g);
 }
 
+/* The smallest log2 |k2[i] / k1[i]| over the n entries nonzero in both (a
+ * kernel's values at u and 2 u: its fastest power of r); HUGE_VAL if none. */
+KIFMM__FN double kifmm__min_degree(const double *k1, const double *k2, int n)
+{
+    double m = HUGE_VAL;
+    int i;
+    for (i = 0; i < n; i++)
+        if (k1[i] != 0.0 && k2[i] != 0.0 && log2(fabs(k2[i] / k1[i])) < m) m = log2(fabs(k2[i] / k1[i]));
+    return m;
+}
+
 /* Surface radii in units of the box half-width, for kernels with one
  * surface density component: */
 #define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
@@ -8072,22 +8083,16 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
                                         const KIFMM__R *ty, const KIFMM__R *tz, int64_t nt,
                                         KIFMM__R *pe, KIFMM__R *out, size_t old)
 {
+    const int n = inner ? c->pl->surf.nse : c->pl->surf.nse + c->pl->surf.nsa;
     double ctr[3], half;
     int sh[3], d;
     kifmm__box_center(c->tree, a, ctr, &half);
     kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree->cell - fc[d]; /* in the targets' frame */
-    if (inner) { /* upward: M2P */
-        const int n = c->pl->surf.nse;
-        KIFMM__F(__place)(c->pl->surf.unit_e, n, ctr, KIFMM__F(__rin)(c->pl, half), pe);
-        KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + n, pe + 2 * n, dens, n, nrhs,
-                           (size_t)c->tree->nbox * c->pl->surf.ne, 1.0, out, old);
-    } else { /* downward, with the anchors: L2P */
-        const int n = c->pl->surf.nse + c->pl->surf.nsa;
-        KIFMM__F(__place_down)(c->pl, ctr, c->pl->surf.ao * half, half, pe);
-        KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + n, pe + 2 * n, dens, n, nrhs,
-                           (size_t)c->tree->nbox * c->pl->surf.nde, 1.0, out, old);
-    }
+    if (inner) KIFMM__F(__place)(c->pl->surf.unit_e, n, ctr, KIFMM__F(__rin)(c->pl, half), pe); /* M2P */
+    else KIFMM__F(__place_down)(c->pl, ctr, c->pl->surf.ao * half, half, pe); /* L2P, anchors last */
+    KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + n, pe + 2 * n, dens, n, nrhs,
+                       (size_t)c->tree->nbox * (inner ? c->pl->surf.ne : c->pl->surf.nde), 1.0, out, old);
     (void)w;
 }
 
@@ -8657,19 +8662,15 @@ KIFMM__FN int KIFMM__F(__far_role)(const double *prm, double dist, KIFMM__F(__p2
 KIFMM__FN int KIFMM__F(__st_derivative)(const double *param)
 {
     static const double u[3] = {0.6e-3, 0.48e-3, 0.64e-3};
-    double prm[4], ks[2][KIFMM__TD * KIFMM__SD], kc[2][KIFMM__SD * KIFMM__SD], dst = HUGE_VAL, dsc = HUGE_VAL;
-    int t, i;
+    double prm[4], ks[2][KIFMM__TD * KIFMM__SD], kc[2][KIFMM__SD * KIFMM__SD], dst, dsc;
+    int t;
     if (KIFMM__F(__params)(param, prm) != KIFMM_SUCCESS) return 0;
     for (t = 0; t < 2; t++) {
         KIFMM__R_(ST, _eval)(prm, (1 + t) * u[0], (1 + t) * u[1], (1 + t) * u[2], ks[t]);
         KIFMM__R_(SC, _eval)(prm, (1 + t) * u[0], (1 + t) * u[1], (1 + t) * u[2], kc[t]);
     }
-    for (i = 0; i < KIFMM__TD * KIFMM__SD; i++)
-        if (ks[0][i] != 0.0 && ks[1][i] != 0.0 && log2(fabs(ks[1][i] / ks[0][i])) < dst)
-            dst = log2(fabs(ks[1][i] / ks[0][i]));
-    for (i = 0; i < KIFMM__SD * KIFMM__SD; i++)
-        if (kc[0][i] != 0.0 && kc[1][i] != 0.0 && log2(fabs(kc[1][i] / kc[0][i])) < dsc)
-            dsc = log2(fabs(kc[1][i] / kc[0][i]));
+    dst = kifmm__min_degree(ks[0], ks[1], KIFMM__TD * KIFMM__SD);
+    dsc = kifmm__min_degree(kc[0], kc[1], KIFMM__SD * KIFMM__SD);
     return dst < dsc - 1.5 ? KIFMM__ANCHOR_MAX : dst < dsc - 0.5 ? 4 : 0;
 }
 
@@ -8679,14 +8680,14 @@ KIFMM__FN int KIFMM__F(__st_derivative)(const double *param)
 KIFMM__FN int KIFMM__F(__check_far)(const double *prm, double dist)
 {
 #if KIFMM__SI
-    /* the surface loops also reach the anchors (>>anchors), up to about
-     * KIFMM__ANCHOR_RADIUS times the root's half-width away */
-    const double ds = KIFMM__ANCHORS && KIFMM__F(__st_derivative)(prm) ? dist * KIFMM__ANCHOR_RADIUS : dist;
-    double p[4];
+    double p[4], ds;
     /* the powers grow: close pairs give KIFMM_ERR_OVERFLOW; parameters the
      * kernel refuses, KIFMM_ERR_PARAM after this */
     if (!(dist > 1.0) || KIFMM__F(__params)(prm, p) != KIFMM_SUCCESS) return KIFMM_SUCCESS;
     prm = p;
+    /* the surface loops also reach the anchors (>>anchors), up to about
+     * KIFMM__ANCHOR_RADIUS times the root's half-width away */
+    ds = KIFMM__ANCHORS && KIFMM__F(__st_derivative)(prm) ? dist * KIFMM__ANCHOR_RADIUS : dist;
     if (!KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_qt), KIFMM__R_(QT, _eval), KIFMM__TD, KIFMM__QD) ||
         !KIFMM__F(__far_role)(prm, dist, KIFMM__F(__p2p_qc), KIFMM__R_(QC, _eval), KIFMM__SD, KIFMM__QD) ||
         !KIFMM__F(__far_role)(prm, ds, KIFMM__F(__p2p_st), KIFMM__R_(ST, _eval), KIFMM__TD, KIFMM__SD) ||
