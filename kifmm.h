@@ -892,88 +892,6 @@ done:
     return rc;
 }
 
-/* the most groups of components kifmm__pinv_groups takes */
-#define KIFMM__GROUPS 8
-/* Group g's block of A (m x n, components gr of rows i sd + a, gc of
- * columns j sd + b): its rows and columns in order, *bm x *bn, or NULL
- * (out of memory). */
-KIFMM__FN double *kifmm__group_block(const double *a, int m, int n, int sd, const int *gr, const int *gc,
-                                     int g, int *bm, int *bn)
-{
-    double *blk;
-    int i, j, bi, bj;
-    for (*bm = 0, i = 0; i < m; i++) *bm += gr[i % sd] == g;
-    for (*bn = 0, j = 0; j < n; j++) *bn += gc[j % sd] == g;
-    if (!(blk = (double *)kifmm__alloc((size_t)*bm * *bn + 1, sizeof(double)))) return NULL;
-    for (bj = 0, j = 0; j < n; j++) {
-        if (gc[j % sd] != g) continue;
-        for (bi = 0, i = 0; i < m; i++)
-            if (gr[i % sd] == g) blk[bi++ + (size_t)bj * *bm] = a[i + (size_t)j * m];
-        bj++;
-    }
-    return blk;
-}
-
-/* kifmm__pinv's factors (the same truncation, s_i > cutoff * s_0 over all
- * blocks) of A (m x n, rows i sd + a, columns j sd + b, not destroyed)
- * whose components fall into groups: entries between row component a and
- * column component b with gr[a] != gc[b] are exactly zero (stokes_dl's
- * surfaces: (c, f) -> (c / (4 pi r), G f)). Each group's block has its own
- * SVD, so that each singular vector lives on one group and the factors,
- * and every operator built from them, keep the groups apart exactly: one
- * SVD mixes them at its rounding, and where the groups' values differ by
- * a power of the box's size that rounding grows with it (stokes_dl, 2,000
- * points on a cube of side 1e-10, leaves of 40, p = 6: relative error 38.6,
- * 8.8e-6 at side 1). A nonzero entry between groups: one SVD of a copy. */
-KIFMM__FN int kifmm__pinv_groups(const double *a, int m, int n, int sd, const int *gr, const int *gc,
-                                 int ng, double cutoff, double **ut_out, double **vs_out, int *rank)
-{
-    double *u[KIFMM__GROUPS] = {NULL}, *vt[KIFMM__GROUPS] = {NULL}, *s[KIFMM__GROUPS] = {NULL};
-    double *ut = NULL, *vs = NULL, *blk, s0 = 0.0;
-    int bm[KIFMM__GROUPS], bn[KIFMM__GROUPS], mk[KIFMM__GROUPS], bk[KIFMM__GROUPS];
-    int g, i, j, t, k = 0, off, rc = KIFMM_SUCCESS, apart = 1;
-    for (j = 0; j < n && apart; j++)
-        for (i = 0; i < m && apart; i++) apart = gr[i % sd] == gc[j % sd] || a[i + (size_t)j * m] == 0.0;
-    if (!apart) {
-        if (!(blk = (double *)kifmm__alloc((size_t)m * n, sizeof(double)))) return KIFMM_ERR_NOMEM;
-        memcpy(blk, a, (size_t)m * n * sizeof(double));
-        rc = kifmm__pinv(blk, m, n, cutoff, ut_out, vs_out, rank);
-        kifmm__free(blk);
-        return rc;
-    }
-    for (g = 0; g < ng && !rc; g++) {
-        blk = kifmm__group_block(a, m, n, sd, gr, gc, g, &bm[g], &bn[g]);
-        mk[g] = bm[g] < bn[g] ? bm[g] : bn[g];
-        u[g] = (double *)kifmm__alloc((size_t)bm[g] * mk[g] + 1, sizeof(double));
-        vt[g] = (double *)kifmm__alloc((size_t)mk[g] * bn[g] + 1, sizeof(double));
-        s[g] = (double *)kifmm__alloc((size_t)mk[g] + 1, sizeof(double));
-        if (!blk || !u[g] || !vt[g] || !s[g]) rc = KIFMM_ERR_NOMEM;
-        else if (mk[g] > 0) rc = kifmm__svd(blk, bm[g], bn[g], s[g], u[g], vt[g]);
-        if (!rc && mk[g] > 0 && s[g][0] > s0) s0 = s[g][0];
-        kifmm__free(blk);
-    }
-    for (g = 0; g < ng && !rc; k += bk[g], g++)
-        for (bk[g] = 0; bk[g] < mk[g] && s[g][bk[g]] > cutoff * s0; bk[g]++) {}
-    if (!rc) {
-        ut = (double *)kifmm__calloc((size_t)k * m + 1, sizeof(double));
-        vs = (double *)kifmm__calloc((size_t)n * k + 1, sizeof(double));
-        if (!ut || !vs) rc = KIFMM_ERR_NOMEM;
-    }
-    for (g = 0, off = 0; g < ng && !rc; off += bk[g], g++)
-        for (t = 0; t < bk[g]; t++) { /* U^T's rows and V S^-1's columns, scattered */
-            int b = 0;
-            for (i = 0; i < m; i++)
-                if (gr[i % sd] == g) ut[(size_t)(off + t) + (size_t)i * k] = u[g][b++ + (size_t)t * bm[g]];
-            for (b = 0, j = 0; j < n; j++)
-                if (gc[j % sd] == g)
-                    vs[(size_t)j + (size_t)(off + t) * n] = vt[g][t + (size_t)b++ * mk[g]] / s[g][t];
-        }
-    if (!rc) *ut_out = ut, *vs_out = vs, *rank = k, ut = vs = NULL;
-    kifmm__free(ut), kifmm__free(vs);
-    for (g = 0; g < ng; g++) kifmm__free(u[g]), kifmm__free(vt[g]), kifmm__free(s[g]);
-    return rc;
-}
-
 /* The factors of pinv(A^T) from those of pinv(A) (A m x n): A^T = V S U^T,
  * so ut' = V_k^T = S_k vs^T (k x n) and vs' = U_k S_k^-1 = ut^T S_k^-1
  * (m x k), with S_k from the norms of vs's columns (|V_k e_j| = 1). */
@@ -2725,6 +2643,36 @@ KIFMM__FN int kifmm__surf_images(int p, int g0, int ng, int *img)
     return KIFMM_SUCCESS;
 }
 
+/* The images of the order-p unit surface's n points' vectors (three
+ * components each, element 3 i + a: component a at point i) under the 48
+ * symmetries, from the points' images img (kifmm__surf_images): g maps
+ * x to R x, (R x)_d = s_d x_perm(d), so a kernel with K(R x) = R K(x) R^T
+ * (a Stokeslet) has K's entry (3 g(i) + d, 3 g(j) + e) equal to s_d s_e
+ * times entry (3 i + perm(d), 3 j + perm(e)): element 3 i + perm(d) goes to
+ * eimg[g 3n + 3 i + perm(d)] = 3 g(i) + d with sign esg[..] = s_d. */
+KIFMM__FN void kifmm__vec_images(const int *img, int n, int *eimg, signed char *esg)
+{
+    int g, i, d;
+    for (g = 0; g < 48; g++)
+        for (i = 0; i < n; i++)
+            for (d = 0; d < 3; d++) {
+                const size_t at = (size_t)g * 3 * n + 3 * (size_t)i + (size_t)kifmm__perm3[g >> 3][d];
+                eimg[at] = 3 * img[(size_t)g * n + i] + d;
+                esg[at] = (signed char)(g >> d & 1 ? -1 : 1);
+            }
+}
+
+/* Component a of a kernel with sd >= 3 components, the last three a
+ * vector and the others values, under the signed permutation R, (R x)_d =
+ * s[d] x_pm[d]: R's row for a has its one entry, *sgn, in column
+ * kifmm__comp_turn(...) (the identity for a value). */
+KIFMM__FN int kifmm__comp_turn(int sd, const int *pm, const int *s, int a, double *sgn)
+{
+    const int v = a - (sd - 3);
+    *sgn = v >= 0 ? (double)s[v] : 1.0;
+    return v < 0 ? a : sd - 3 + pm[v];
+}
+
 /* map[i]: the index of point i of the order-p unit surface mirrored in the
  * axes of mask m (4: x, 2: y, 1: z), in kifmm__surf_unit's order. */
 KIFMM__FN int kifmm__surf_mirror(int p, int m, int *map)
@@ -2732,13 +2680,12 @@ KIFMM__FN int kifmm__surf_mirror(int p, int m, int *map)
     return kifmm__surf_images(p, (m >> 2 & 1) | (m & 2) | (m & 1) << 2, 1, map);
 }
 
-/* img: kifmm__surf_images of all 48; orb: the points orbit by orbit, orbit
- * o from ost[o] to ost[o + 1]; the number of orbits (-1: no memory) */
-KIFMM__FN int kifmm__cube_orbits(int p, int *img, int *orb, int *ost, int *seen)
+/* img: the images of n elements under all 48 symmetries (img[g n + i]);
+ * orb: the elements orbit by orbit, orbit o from ost[o] to ost[o + 1]; the
+ * number of orbits */
+KIFMM__FN int kifmm__cube_orbits(const int *img, int n, int *orb, int *ost, int *seen)
 {
-    const int n = kifmm__surf_count(p);
     int no = 0, len = 0, i, g;
-    if (kifmm__surf_images(p, 0, 48, img)) return -1;
     for (i = 0; i < n; i++) seen[i] = 0;
     ost[0] = 0;
     for (i = 0; i < n; i++) {
@@ -2753,19 +2700,21 @@ KIFMM__FN int kifmm__cube_orbits(int p, int *img, int *orb, int *ost, int *seen)
 }
 
 /* Representation rho's orthonormal vectors inside one orbit (mem, s
- * points; pos[point]: its place there; chi: rho's characters): the
- * projections of the orbit's unit vectors, Gram-Schmidt twice, those not in
- * the span of the ones before kept, into the columns of w (s x s) from
- * column na on; the new number of columns */
-KIFMM__FN int kifmm__symb_orbit(const double *chi, const int *mem, int s, const int *img, int n,
-                                const int *pos, double *w, int na)
+ * elements; pos[element]: its place there; chi: rho's characters; sg: the
+ * images' signs, NULL for none): the projections of the orbit's unit
+ * vectors, Gram-Schmidt twice, those not in the span of the ones before
+ * kept, into the columns of w (s x s) from column na on; the new number of
+ * columns */
+KIFMM__FN int kifmm__symb_orbit(const double *chi, const int *mem, int s, const int *img,
+                                const signed char *sg, int n, const int *pos, double *w, int na)
 {
     const int na0 = na;
     int t, a, g, e, pass;
     for (t = 0; t < s && na < s; t++) {
         double *v = w + (size_t)s * na, n0 = 0.0, nv = 0.0;
         for (e = 0; e < s; e++) v[e] = 0.0;
-        for (g = 0; g < 48; g++) v[pos[img[(size_t)g * n + mem[t]]]] += chi[g];
+        for (g = 0; g < 48; g++)
+            v[pos[img[(size_t)g * n + mem[t]]]] += sg ? sg[(size_t)g * n + mem[t]] * chi[g] : chi[g];
         for (e = 0; e < s; e++) n0 += v[e] * v[e];
         for (pass = 0; pass < 2 && n0 > 0.0; pass++)
             for (a = na0; a < na; a++) {
@@ -2781,13 +2730,17 @@ KIFMM__FN int kifmm__symb_orbit(const double *chi, const int *mem, int s, const 
     return na;
 }
 
-/* The basis of the order-p surface (kifmm__symb) into b: KIFMM_SUCCESS,
+/* The basis of the order-p surface (kifmm__symb) into b, of its points'
+ * values (vec 0) or of their vectors (vec 1: three components a point,
+ * turned with the points, kifmm__vec_images): KIFMM_SUCCESS,
  * KIFMM_ERR_NOMEM, or KIFMM_ERR_LAPACK if an orbit's projections did not
- * give as many vectors as it has points (never seen) */
-KIFMM__FN int kifmm__symb_build(int p, kifmm__symb *b)
+ * give as many vectors as it has elements (never seen) */
+KIFMM__FN int kifmm__symb_build(int p, int vec, kifmm__symb *b)
 {
-    const int n = kifmm__surf_count(p);
-    int *img = (int *)kifmm__alloc((size_t)51 * n + 1, sizeof(int)), *pos, *rh, no, rho, o, t, g, off[11];
+    const int np = kifmm__surf_count(p), n = vec ? 3 * np : np;
+    int *img = (int *)kifmm__alloc((size_t)48 * np + (vec ? (size_t)48 * n : 0) + 3 * (size_t)n + 1, sizeof(int));
+    signed char *sg = vec ? (signed char *)kifmm__alloc((size_t)48 * n, 1) : NULL;
+    int *eimg = img, *pos, *rh, no, rho, o, t, g, off[11];
     double chi[10][48];
     size_t nw = 0;
     int rc = KIFMM_SUCCESS;
@@ -2798,11 +2751,11 @@ KIFMM__FN int kifmm__symb_build(int p, kifmm__symb *b)
     b->col = (int *)kifmm__alloc((size_t)n, sizeof(int));
     b->wo = (size_t *)kifmm__alloc((size_t)n + 1, sizeof(size_t));
     b->w = (double *)kifmm__alloc((size_t)48 * n, sizeof(double)); /* sum s^2 <= 48 n */
-    if (!img || !b->ost || !b->pts || !b->col || !b->wo || !b->w) rc = KIFMM_ERR_NOMEM;
-    pos = rh = NULL;
-    if (!rc) pos = img + (size_t)48 * n, rh = pos + n, no = kifmm__cube_orbits(p, img, b->pts, b->ost, pos);
-    else no = 0;
-    if (no < 0) rc = KIFMM_ERR_NOMEM;
+    if (!img || (vec && !sg) || !b->ost || !b->pts || !b->col || !b->wo || !b->w) rc = KIFMM_ERR_NOMEM;
+    pos = rh = NULL, no = 0;
+    if (!rc) rc = kifmm__surf_images(p, 0, 48, img);
+    if (!rc && vec) eimg = img + (size_t)48 * np, kifmm__vec_images(img, np, eimg, sg);
+    if (!rc) pos = eimg + (size_t)48 * n, rh = pos + n, no = kifmm__cube_orbits(eimg, n, b->pts, b->ost, pos);
     for (rho = 0; rho < 10; rho++)
         for (g = 0; g < 48; g++) chi[rho][g] = kifmm__cube_chi(rho, g);
     for (o = 0; o < no && !rc; o++) { /* rh: each vector's representation, col: its place in it */
@@ -2812,7 +2765,7 @@ KIFMM__FN int kifmm__symb_build(int p, kifmm__symb *b)
         for (t = 0; t < s; t++) pos[mem[t]] = t;
         for (rho = 0; rho < 10; rho++) {
             const int na0 = na;
-            na = kifmm__symb_orbit(chi[rho], mem, s, img, n, pos, b->w + nw, na);
+            na = kifmm__symb_orbit(chi[rho], mem, s, eimg, sg, n, pos, b->w + nw, na);
             for (t = na0; t < na; t++) rh[b->ost[o] + t] = rho, b->col[b->ost[o] + t] = b->cnt[rho]++;
         }
         if (na != s) rc = KIFMM_ERR_LAPACK;
@@ -2822,6 +2775,7 @@ KIFMM__FN int kifmm__symb_build(int p, kifmm__symb *b)
     for (t = 0; t < n && !rc; t++) b->col[t] += off[rh[t]];
     b->no = no;
     kifmm__free(img);
+    kifmm__free(sg);
     if (rc) kifmm__symb_free(b);
     return rc;
 }
@@ -2898,64 +2852,217 @@ KIFMM__FN int kifmm__cube_blocks(const double *bf, int m, int sd, const int *r0,
     return rc;
 }
 
-/* kifmm__pinv's factors (the same truncation, s_i > cutoff * s_0) of A (m x
- * n, not destroyed), a matrix that commutes with the cube's symmetries:
- * rows the points of the order-pr unit surface, columns those of order pc,
- * sd components each (point-major). B = Qr^T A Qc is block diagonal; each
- * block (about m / 5 x n / 5) has its own SVD, and the factors are Qc V
- * S^-1 and (Qr U)^T, the same singular values kept. 2 threads, best of 3:
- * 866 x 728 (laplace's upward solve at p = 12) 0.133 s for dgesdd on A,
- * 0.046 s here; 976 x 772 (helmholtz's lattice fit at p = 8) 0.166 and
- * 0.050 s; 386 x 296 0.017 and 0.007 s. */
-KIFMM__FN int kifmm__pinv_cube(const double *a, int pr, int pc, int sd, double cutoff, double **ut_out,
-                               double **vs_out, int *rank)
+/* The largest entry of B (m x n, rows and columns in the representations'
+ * order: r0, c0 in units of sd rows) outside its diagonal blocks over its
+ * largest entry inside them (1 if none is finite): rounding for a matrix
+ * with the cube's symmetries. */
+KIFMM__FN double kifmm__cube_offblock(const double *bf, int m, int n, int sd, const int *r0, const int *c0)
+{
+    double in = 0.0, out = 0.0;
+    int i, j, ri, cj = 0;
+    for (j = 0; j < n; j++) {
+        while (j / sd >= c0[cj + 1]) cj++;
+        for (ri = 0, i = 0; i < m; i++) {
+            const double v = fabs(bf[i + (size_t)j * m]);
+            while (i / sd >= r0[ri + 1]) ri++;
+            if (!(v <= DBL_MAX)) return 1.0;
+            if (ri == cj) in = v > in ? v : in;
+            else out = v > out ? v : out;
+        }
+    }
+    return in > 0.0 ? out / in : 1.0;
+}
+
+/* Where kifmm__pinv_cube finds that A does not have the symmetries it
+ * takes (an entry of B outside the blocks above KIFMM__SYM_TOL of the
+ * largest inside): the caller factors A as it would otherwise. */
+#define KIFMM__NOT_SYMMETRIC 1
+#define KIFMM__SYM_TOL 1e-12
+
+/* The SVD of A (m x n, not destroyed) as kifmm__svd gives it (s
+ * descending, u m x mn, vt mn x n, mn = min(m, n)), A a matrix that
+ * commutes with the cube's symmetries: rows the points of the order-pr
+ * unit surface, columns those of order pc, sd components each
+ * (point-major), turned with the points (vec = 0: each component a value,
+ * as a radial kernel's, or a complex one's (re, im) pairs) or as vectors
+ * (vec = 1, sd = 3: K(R x) = R K(x) R^T, a Stokeslet's). B = Qr^T A Qc is
+ * block diagonal; each block (about m / 5 x n / 5) has its own SVD, and U
+ * = Qr U_B, V = Qc V_B. Where the blocks hold fewer than mn triplets, the
+ * rest are s = 0 with zero columns. KIFMM__NOT_SYMMETRIC where B is not
+ * block diagonal. */
+KIFMM__FN int kifmm__svd_cube(const double *a, int pr, int pc, int sd, int vec, double *s, double *u,
+                              double *vt)
 {
     kifmm__symb br, bc, *bp = &bc;
     const int m = kifmm__surf_count(pr) * sd, n = kifmm__surf_count(pc) * sd, mn = m < n ? m : n;
     const int big = m > n ? m : n;
-    double *us[10] = {NULL}, *vts[10] = {NULL}, *ss[10] = {NULL}, *ut = NULL, *vs = NULL, s0;
+    double *us[10] = {NULL}, *vts[10] = {NULL}, *ss[10] = {NULL};
     double *r = (double *)kifmm__alloc((size_t)m * n, sizeof(double));
     double *bf = (double *)kifmm__alloc((size_t)m * n, sizeof(double));
     double *g = (double *)kifmm__alloc((size_t)96 * big, sizeof(double));
     kifmm__svi *kept = (kifmm__svi *)kifmm__alloc((size_t)mn + 1, sizeof(kifmm__svi));
-    int r0[11], c0[11], rho, i, j, k = 0, nk = 0, rc = r && bf && g && kept ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    int r0[11], c0[11], rho, i, j, nk = 0, rc = r && bf && g && kept ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
     memset(&br, 0, sizeof br), memset(&bc, 0, sizeof bc);
-    if (!rc) rc = kifmm__symb_build(pr, &br);
-    if (!rc && pc != pr) rc = kifmm__symb_build(pc, &bc); /* (square: br twice) */
+    if (vec && sd != 3) rc = KIFMM_ERR_INTERNAL;
+    if (vec) sd = 1; /* the bases' elements are the points' components */
+    if (!rc) rc = kifmm__symb_build(pr, vec, &br);
+    if (!rc && pc != pr) rc = kifmm__symb_build(pc, vec, &bc); /* (square: br twice) */
     if (pc == pr) bp = &br;
     for (r0[0] = c0[0] = 0, rho = 0; !rc && rho < 10; rho++)
         r0[rho + 1] = r0[rho] + br.cnt[rho], c0[rho + 1] = c0[rho] + bp->cnt[rho];
     if (!rc) {
         kifmm__symb_cols(bp, sd, a, m, r, g);
         kifmm__symb_rows(&br, sd, 1, r, n, bf, g);
-        rc = kifmm__cube_blocks(bf, m, sd, r0, c0, us, ss, vts, kept, &nk, r);
+        if (!(kifmm__cube_offblock(bf, m, n, sd, r0, c0) <= KIFMM__SYM_TOL)) rc = KIFMM__NOT_SYMMETRIC;
+        if (!rc) rc = kifmm__cube_blocks(bf, m, sd, r0, c0, us, ss, vts, kept, &nk, r);
     }
-    if (!rc) {
+    if (!rc) { /* blkdiag(U) and blkdiag(V)'s columns, by s, into r (m x mn) and bf (n x mn) */
         qsort(kept, (size_t)nk, sizeof *kept, kifmm__svi_cmp);
-        s0 = nk > 0 ? kept[0].s : 0.0;
-        for (k = 0; k < nk && kept[k].s > cutoff * s0; k++) {}
+        memset(r, 0, sizeof(double) * (size_t)m * mn), memset(bf, 0, sizeof(double) * (size_t)n * mn);
+        for (j = 0; j < mn; j++) s[j] = j < nk ? kept[j].s : 0.0;
+        for (j = 0; j < nk; j++) {
+            const int rh = kept[j].rho, t = kept[j].i, mr = (r0[rh + 1] - r0[rh]) * sd;
+            const int nc = (c0[rh + 1] - c0[rh]) * sd, kr = mr < nc ? mr : nc;
+            for (i = 0; i < mr; i++) r[(size_t)r0[rh] * sd + i + (size_t)j * m] = us[rh][i + (size_t)t * mr];
+            for (i = 0; i < nc; i++) bf[(size_t)c0[rh] * sd + i + (size_t)j * n] = vts[rh][t + (size_t)i * kr];
+        }
+        kifmm__symb_rows(&br, sd, 0, r, mn, u, g); /* Qr U */
+        kifmm__symb_rows(bp, sd, 0, bf, mn, r, g); /* Qc V, then its transpose */
+        for (j = 0; j < mn; j++)
+            for (i = 0; i < n; i++) vt[j + (size_t)i * mn] = r[i + (size_t)j * n];
+    }
+    for (rho = 0; rho < 10; rho++) kifmm__free(us[rho]), kifmm__free(vts[rho]), kifmm__free(ss[rho]);
+    kifmm__free(r), kifmm__free(bf), kifmm__free(g), kifmm__free(kept);
+    kifmm__symb_free(&br), kifmm__symb_free(&bc);
+    return rc;
+}
+
+/* kifmm__pinv's factors (the same truncation, s_i > cutoff * s_0) of A as
+ * kifmm__svd_cube takes it (not destroyed). 2 threads, best of 3: 866 x
+ * 728 (laplace's upward solve at p = 12) 0.133 s for dgesdd on A, 0.046 s
+ * by blocks; 976 x 772 (helmholtz's lattice fit at p = 8) 0.166 and 0.050
+ * s; 386 x 296 0.017 and 0.007 s. KIFMM__NOT_SYMMETRIC as there. */
+KIFMM__FN int kifmm__pinv_cube(const double *a, int pr, int pc, int sd, int vec, double cutoff,
+                               double **ut_out, double **vs_out, int *rank)
+{
+    const int m = kifmm__surf_count(pr) * sd, n = kifmm__surf_count(pc) * sd, mn = m < n ? m : n;
+    double *s = (double *)kifmm__alloc((size_t)mn + 1, sizeof(double));
+    double *u = (double *)kifmm__alloc((size_t)m * mn + 1, sizeof(double));
+    double *vt = (double *)kifmm__alloc((size_t)mn * n + 1, sizeof(double)), *ut = NULL, *vs = NULL;
+    int k = 0, rc = s && u && vt ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
+    if (!rc) rc = kifmm__svd_cube(a, pr, pc, sd, vec, s, u, vt);
+    if (!rc) {
+        for (k = 0; k < mn && s[k] > cutoff * s[0]; k++) {}
         ut = (double *)kifmm__alloc((size_t)k * m + 1, sizeof(double));
         vs = (double *)kifmm__alloc((size_t)n * k + 1, sizeof(double));
         if (!ut || !vs) rc = KIFMM_ERR_NOMEM;
     }
-    if (!rc) { /* blkdiag(U) and blkdiag(V S^-1)'s kept columns into r (m x k) and bf (n x k) */
-        memset(r, 0, sizeof(double) * (size_t)m * k), memset(bf, 0, sizeof(double) * (size_t)n * k);
-        for (j = 0; j < k; j++) {
-            const int rh = kept[j].rho, t = kept[j].i, mr = (r0[rh + 1] - r0[rh]) * sd;
-            const int nc = (c0[rh + 1] - c0[rh]) * sd, kr = mr < nc ? mr : nc;
-            for (i = 0; i < mr; i++) r[(size_t)r0[rh] * sd + i + (size_t)j * m] = us[rh][i + (size_t)t * mr];
-            for (i = 0; i < nc; i++)
-                bf[(size_t)c0[rh] * sd + i + (size_t)j * n] = vts[rh][t + (size_t)i * kr] / kept[j].s;
-        }
-        kifmm__symb_rows(bp, sd, 0, bf, k, vs, g);
-        kifmm__symb_rows(&br, sd, 0, r, k, bf, g); /* Qr U, then its transpose */
-        for (j = 0; j < k; j++)
-            for (i = 0; i < m; i++) ut[j + (size_t)i * k] = bf[i + (size_t)j * m];
+    if (!rc) {
+        kifmm__pinv_factors(m, n, k, u, s, vt, mn, ut, vs);
+        *ut_out = ut, *vs_out = vs, *rank = k, ut = vs = NULL;
     }
+    kifmm__free(s), kifmm__free(u), kifmm__free(vt), kifmm__free(ut), kifmm__free(vs);
+    return rc;
+}
+
+/* the most groups of components kifmm__pinv_groups takes */
+#define KIFMM__GROUPS 8
+/* Group g's block of A (m x n, components gr of rows i sd + a, gc of
+ * columns j sd + b): its rows and columns in order, *bm x *bn, or NULL
+ * (out of memory). */
+KIFMM__FN double *kifmm__group_block(const double *a, int m, int n, int sd, const int *gr, const int *gc,
+                                     int g, int *bm, int *bn)
+{
+    double *blk;
+    int i, j, bi, bj;
+    for (*bm = 0, i = 0; i < m; i++) *bm += gr[i % sd] == g;
+    for (*bn = 0, j = 0; j < n; j++) *bn += gc[j % sd] == g;
+    if (!(blk = (double *)kifmm__alloc((size_t)*bm * *bn + 1, sizeof(double)))) return NULL;
+    for (bj = 0, j = 0; j < n; j++) {
+        if (gc[j % sd] != g) continue;
+        for (bi = 0, i = 0; i < m; i++)
+            if (gr[i % sd] == g) blk[bi++ + (size_t)bj * *bm] = a[i + (size_t)j * m];
+        bj++;
+    }
+    return blk;
+}
+
+/* The SVD (kifmm__svd) of one group's block of kifmm__pinv_groups (bm x
+ * bn, destroyed) between the unit surfaces of orders pr and pc (pr = 0:
+ * none): by the cube's symmetries where the block has them. */
+KIFMM__FN int kifmm__svd_group(double *blk, int bm, int bn, int pr, int pc, double *s, double *u, double *vt)
+{
+    const int cr = pr > 0 ? kifmm__surf_count(pr) : 0, cc = pc > 0 ? kifmm__surf_count(pc) : 0;
+    const int gs = cr > 0 ? bm / cr : 0; /* the group's components */
+    int rc = KIFMM__NOT_SYMMETRIC;
+    if (gs > 0 && gs * cr == bm && cc > 0 && gs * cc == bn)
+        rc = kifmm__svd_cube(blk, pr, pc, gs, gs == 3, s, u, vt);
+    return rc == KIFMM__NOT_SYMMETRIC ? kifmm__svd(blk, bm, bn, s, u, vt) : rc;
+}
+
+/* kifmm__pinv's factors (the same truncation, s_i > cutoff * s_0 over all
+ * blocks) of A (m x n, rows i sd + a, columns j sd + b, not destroyed)
+ * whose components fall into groups: entries between row component a and
+ * column component b with gr[a] != gc[b] are exactly zero (stokes_dl's
+ * surfaces: (c, f) -> (c / (4 pi r), G f)). Each group's block has its own
+ * SVD, so that each singular vector lives on one group and the factors,
+ * and every operator built from them, keep the groups apart exactly: one
+ * SVD mixes them at its rounding, and where the groups' values differ by
+ * a power of the box's size that rounding grows with it (stokes_dl, 2,000
+ * points on a cube of side 1e-10, leaves of 40, p = 6: relative error 38.6,
+ * 8.8e-6 at side 1). A nonzero entry between groups: one SVD of a copy.
+ * A and its blocks between the unit surfaces of orders pr (rows) and pc
+ * (columns), or pr = 0: a group with as many components in its rows as in
+ * its columns has its SVD by the cube's symmetries where its block has
+ * them (kifmm__svd_cube; three components turned as a vector, others each
+ * as a value: stokes_dl's c and f, biot_savart's three charges). */
+KIFMM__FN int kifmm__pinv_groups(const double *a, int m, int n, int sd, int pr, int pc, const int *gr,
+                                 const int *gc, int ng, double cutoff, double **ut_out, double **vs_out,
+                                 int *rank)
+{
+    double *u[KIFMM__GROUPS] = {NULL}, *vt[KIFMM__GROUPS] = {NULL}, *s[KIFMM__GROUPS] = {NULL};
+    double *ut = NULL, *vs = NULL, *blk, s0 = 0.0;
+    int bm[KIFMM__GROUPS], bn[KIFMM__GROUPS], mk[KIFMM__GROUPS], bk[KIFMM__GROUPS];
+    int g, i, j, t, k = 0, off, rc = KIFMM_SUCCESS, apart = 1;
+    for (j = 0; j < n && apart; j++)
+        for (i = 0; i < m && apart; i++) apart = gr[i % sd] == gc[j % sd] || a[i + (size_t)j * m] == 0.0;
+    if (!apart) {
+        if (!(blk = (double *)kifmm__alloc((size_t)m * n, sizeof(double)))) return KIFMM_ERR_NOMEM;
+        memcpy(blk, a, (size_t)m * n * sizeof(double));
+        rc = kifmm__pinv(blk, m, n, cutoff, ut_out, vs_out, rank);
+        kifmm__free(blk);
+        return rc;
+    }
+    for (g = 0; g < ng && !rc; g++) {
+        blk = kifmm__group_block(a, m, n, sd, gr, gc, g, &bm[g], &bn[g]);
+        mk[g] = bm[g] < bn[g] ? bm[g] : bn[g];
+        u[g] = (double *)kifmm__alloc((size_t)bm[g] * mk[g] + 1, sizeof(double));
+        vt[g] = (double *)kifmm__alloc((size_t)mk[g] * bn[g] + 1, sizeof(double));
+        s[g] = (double *)kifmm__alloc((size_t)mk[g] + 1, sizeof(double));
+        if (!blk || !u[g] || !vt[g] || !s[g]) rc = KIFMM_ERR_NOMEM;
+        else if (mk[g] > 0) rc = kifmm__svd_group(blk, bm[g], bn[g], pr, pc, s[g], u[g], vt[g]);
+        if (!rc && mk[g] > 0 && s[g][0] > s0) s0 = s[g][0];
+        kifmm__free(blk);
+    }
+    for (g = 0; g < ng && !rc; k += bk[g], g++)
+        for (bk[g] = 0; bk[g] < mk[g] && s[g][bk[g]] > cutoff * s0; bk[g]++) {}
+    if (!rc) {
+        ut = (double *)kifmm__calloc((size_t)k * m + 1, sizeof(double));
+        vs = (double *)kifmm__calloc((size_t)n * k + 1, sizeof(double));
+        if (!ut || !vs) rc = KIFMM_ERR_NOMEM;
+    }
+    for (g = 0, off = 0; g < ng && !rc; off += bk[g], g++)
+        for (t = 0; t < bk[g]; t++) { /* U^T's rows and V S^-1's columns, scattered */
+            int b = 0;
+            for (i = 0; i < m; i++)
+                if (gr[i % sd] == g) ut[(size_t)(off + t) + (size_t)i * k] = u[g][b++ + (size_t)t * bm[g]];
+            for (b = 0, j = 0; j < n; j++)
+                if (gc[j % sd] == g)
+                    vs[(size_t)j + (size_t)(off + t) * n] = vt[g][t + (size_t)b++ * mk[g]] / s[g][t];
+        }
     if (!rc) *ut_out = ut, *vs_out = vs, *rank = k, ut = vs = NULL;
-    for (rho = 0; rho < 10; rho++) kifmm__free(us[rho]), kifmm__free(vts[rho]), kifmm__free(ss[rho]);
-    kifmm__free(r), kifmm__free(bf), kifmm__free(g), kifmm__free(ut), kifmm__free(vs), kifmm__free(kept);
-    kifmm__symb_free(&br), kifmm__symb_free(&bc);
+    kifmm__free(ut), kifmm__free(vs);
+    for (g = 0; g < ng; g++) kifmm__free(u[g]), kifmm__free(vt[g]), kifmm__free(s[g]);
     return rc;
 }
 
@@ -3465,12 +3572,12 @@ KIFMM__FN int kifmm__lat_sorted(int64_t e, int q)
     return (a * q + b) * q + c;
 }
 
-/* The spectrum of a grid turned by sigma (kifmm__tv_turn) from the grid's:
- * with G'[sigma x] = G[x], G'^[k] = G^[k'], k'_pi(a) = s_a k_a (mod n);
- * where k'_z is past the stored half, G^[k'] = conj G^[-k'] (a real grid;
- * a complex one stores every frequency).
+/* The spectrum of a grid turned by sigma (kifmm__tv_turn) from the grid's,
+ * times sgn: with G'[sigma x] = G[x], G'^[k] = G^[k'], k'_pi(a) = s_a k_a
+ * (mod n); where k'_z is past the stored half, G^[k'] = conj G^[-k'] (a
+ * real grid; a complex one stores every frequency).
  * Frequency f of the result (re, im) at out + f ostride. */
-KIFMM__FN void kifmm__fft_turn(const kifmm__fft *pl, const int *pi, const int *s, const double *in,
+KIFMM__FN void kifmm__fft_turn(const kifmm__fft *pl, const int *pi, const int *s, double sgn, const double *in,
                                double *out, size_t ostride)
 {
     const int n = pl->n, nh = pl->nh;
@@ -3487,8 +3594,8 @@ KIFMM__FN void kifmm__fft_turn(const kifmm__fft *pl, const int *pi, const int *s
                     im = -1.0;
                 }
                 g = ((size_t)kp[0] * n + kp[1]) * nh + kp[2];
-                out[f * ostride] = in[2 * g];
-                out[f * ostride + 1] = im * in[2 * g + 1];
+                out[f * ostride] = sgn * in[2 * g];
+                out[f * ostride + 1] = sgn * im * in[2 * g + 1];
             }
 }
 
@@ -5410,25 +5517,59 @@ KIFMM__FN int KIFMM__F(__sc_groups)(const double *prm, int *gr, int *gc)
     return ng <= KIFMM__GROUPS ? ng : 1;
 }
 
+/* 1 if the surface kernel (SD >= 3 components) has its last three turned
+ * as a vector and the others kept by the cube's symmetries, K(R x) = R'
+ * K(x) R'^T for R' = diag(1, .., 1, R) and the 48 signed permutations R (a
+ * Stokeslet; three Laplace charges; stokes_dl's (c, f)), to rounding (1e-12
+ * of its largest entry) at two points off every symmetry plane; else 0. */
+KIFMM__FN int KIFMM__F(__sc_vector)(const double *prm)
+{
+    enum { SD = KIFMM__SD };
+    static const double at[2][3] = {{0.61, -0.37, 0.23}, {-0.29, 0.71, 0.53}};
+    double kv[SD * SD], kg[SD * SD], x[3], big, sd_, se_;
+    int t, g, d, e, sg[3];
+    if (SD < 3) return 0;
+    for (t = 0; t < 2; t++) {
+        KIFMM__R_(SC, _eval)(prm, at[t][0], at[t][1], at[t][2], kv);
+        for (big = 0.0, d = 0; d < SD * SD; d++) big = fabs(kv[d]) > big ? fabs(kv[d]) : big;
+        if (!(big > 0.0 && big <= DBL_MAX)) return 0;
+        for (g = 0; g < 48; g++) {
+            const int *pm = kifmm__perm3[g >> 3];
+            for (d = 0; d < 3; d++) sg[d] = g >> d & 1 ? -1 : 1, x[d] = sg[d] * at[t][pm[d]];
+            KIFMM__R_(SC, _eval)(prm, x[0], x[1], x[2], kg);
+            for (d = 0; d < SD; d++)
+                for (e = 0; e < SD; e++) {
+                    const int pd = kifmm__comp_turn(SD, pm, sg, d, &sd_), pe = kifmm__comp_turn(SD, pm, sg, e, &se_);
+                    if (!(fabs(kg[d * SD + e] - sd_ * se_ * kv[pd * SD + pe]) <= 1e-12 * big)) return 0;
+                }
+        }
+    }
+    return 1;
+}
+
 /* pinv(A) as kifmm__pinv's factors, A (m x n) a kernel matrix
  * (KIFMM__CUTOFF) of the surface kernel between the unit surfaces of orders
  * pr (rows) and pc (columns) about one centre: a radial kernel's by the
  * cube's symmetries (kifmm__pinv_cube, A kept) where m and n are those
  * surfaces' sizes; one whose components fall into groups (__sc_groups) by
- * groups (kifmm__pinv_groups, A kept); else by one SVD (A destroyed). */
+ * groups (kifmm__pinv_groups, A kept); a three-component one by the
+ * symmetries turning its components as vectors (a Stokeslet's), where A
+ * has them; else by one SVD (A destroyed). */
 KIFMM__FN int KIFMM__F(__pinv_surf)(const double *prm, double *a, int m, int n, int pr, int pc, double **ut,
                                     double **vs, int *k)
 {
+    const int cube = kifmm__surf_count(pr) * KIFMM__SD == m && kifmm__surf_count(pc) * KIFMM__SD == n;
+    int rc = KIFMM__NOT_SYMMETRIC;
 #if KIFMM__FRADIAL
     (void)prm;
-    if (kifmm__surf_count(pr) * KIFMM__SD == m && kifmm__surf_count(pc) * KIFMM__SD == n)
-        return kifmm__pinv_cube(a, pr, pc, KIFMM__SD, KIFMM__CUTOFF, ut, vs, k);
+    if (cube) rc = kifmm__pinv_cube(a, pr, pc, KIFMM__SD, 0, KIFMM__CUTOFF, ut, vs, k);
 #else
     int gr[KIFMM__SD], gc[KIFMM__SD], ng = KIFMM__F(__sc_groups)(prm, gr, gc);
-    (void)pr;
-    (void)pc;
-    if (ng > 1) return kifmm__pinv_groups(a, m, n, KIFMM__SD, gr, gc, ng, KIFMM__CUTOFF, ut, vs, k);
+    if (ng > 1)
+        return kifmm__pinv_groups(a, m, n, KIFMM__SD, cube ? pr : 0, pc, gr, gc, ng, KIFMM__CUTOFF, ut, vs, k);
+    if (cube && KIFMM__SD == 3) rc = kifmm__pinv_cube(a, pr, pc, 3, 1, KIFMM__CUTOFF, ut, vs, k);
 #endif
+    if (rc != KIFMM__NOT_SYMMETRIC) return rc;
     return kifmm__pinv(a, m, n, KIFMM__CUTOFF, ut, vs, k);
 }
 
@@ -5608,6 +5749,7 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
     const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
     const double h = 2.0 * KIFMM__F(__rin)(c->pl, r) / (p - 1);
     double *gall = (double *)kifmm__alloc((size_t)nth * per, sizeof(double)), mx = 0.0;
+    const int turned = KIFMM__FRADIAL || KIFMM__F(__sc_vector)(c->opts.kernel_param); /* 16 vectors */
     int bad = 0;
     if (!gall) return KIFMM_ERR_NOMEM;
     /* each transfer vector writes its own spectra; g is the thread's grids */
@@ -5617,7 +5759,7 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
         double *g = gall + (size_t)kifmm__thread_num() * per, kv[SD2];
         int d[3] = {0, 0, 0}, pi[3], sg[3], i, j, k, ab;
         kifmm__transfer_vector(tv, d);
-        if (KIFMM__FRADIAL && kifmm__tv_turn(d, pi, sg) != tv) continue; /* turned below */
+        if (turned && kifmm__tv_turn(d, pi, sg) != tv) continue; /* turned below */
         memset(g, 0, sizeof(double) * SD2 * nnn);
         for (i = 1 - p; i < p; i++)
             for (j = 1 - p; j < p; j++)
@@ -5677,18 +5819,43 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, 
         int d[3] = {0, 0, 0}, pi[3], sg[3], cv;
         kifmm__transfer_vector(tv, d);
         cv = kifmm__tv_turn(d, pi, sg);
-        kifmm__fft_turn(pl, pi, sg, kt + (size_t)cv * 2 * pl->nfp, o->khat + 2 * tv, 2 * KIFMM__NT);
+        kifmm__fft_turn(pl, pi, sg, 1.0, kt + (size_t)cv * 2 * pl->nfp, o->khat + 2 * tv, 2 * KIFMM__NT);
     }
     memset(o->khat + (size_t)2 * KIFMM__NT * pl->nf, 0,
            sizeof(double) * 2 * KIFMM__NT * (size_t)(pl->nfp - pl->nf));
 #else
-    /* each frequency f writes its own row of khat */
-    KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
-    for (int32_t f = 0; f < pl->nfp; f++)
-        for (int tab = 0; tab < KIFMM__NT * SD2; tab++) {
-            o->khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2] = kt[(size_t)tab * 2 * pl->nfp + 2 * f];
-            o->khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2 + 1] = kt[(size_t)tab * 2 * pl->nfp + 2 * f + 1];
+    if (KIFMM__F(__sc_vector)(c->opts.kernel_param)) {
+        /* each transfer vector t writes its own columns of khat: component
+         * (d, e) is s_d s_e times component (pi d, pi e) of its vector's
+         * among the 16, turned (K(R x) = R K(x) R^T, R_{a, pi a} = s_a, on
+         * the last three components: kifmm__comp_turn) */
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
+        for (int tv = 0; tv < KIFMM__NT; tv++) {
+            int d[3] = {0, 0, 0}, pi[3], sg[3], cv, a, b;
+            double sa, sb;
+            kifmm__transfer_vector(tv, d);
+            cv = kifmm__tv_turn(d, pi, sg);
+            for (a = 0; a < KIFMM__SD; a++)
+                for (b = 0; b < KIFMM__SD; b++) {
+                    const int pa = kifmm__comp_turn(KIFMM__SD, pi, sg, a, &sa);
+                    const int pb = kifmm__comp_turn(KIFMM__SD, pi, sg, b, &sb);
+                    kifmm__fft_turn(pl, pi, sg, sa * sb,
+                                    kt + ((size_t)cv * SD2 + (size_t)pa * KIFMM__SD + (size_t)pb) * 2 * pl->nfp,
+                                    o->khat + 2 * ((size_t)tv * SD2 + (size_t)a * KIFMM__SD + (size_t)b),
+                                    2 * KIFMM__NT * (size_t)SD2);
+                }
         }
+        memset(o->khat + (size_t)2 * KIFMM__NT * SD2 * pl->nf, 0,
+               sizeof(double) * 2 * KIFMM__NT * SD2 * (size_t)(pl->nfp - pl->nf));
+    } else {
+        /* each frequency f writes its own row of khat */
+        KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
+        for (int32_t f = 0; f < pl->nfp; f++)
+            for (int tab = 0; tab < KIFMM__NT * SD2; tab++) {
+                o->khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2] = kt[(size_t)tab * 2 * pl->nfp + 2 * f];
+                o->khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2 + 1] = kt[(size_t)tab * 2 * pl->nfp + 2 * f + 1];
+            }
+    }
 #endif
     kifmm__free(kt);
     /* The M2L's kernel values reach those at the nearest lattice points of
@@ -6932,7 +7099,8 @@ KIFMM__FN int KIFMM__F(__anchor_pinv)(const KIFMM_NAME *c, double r, double sigm
         int *gr = NULL, *gc = NULL;
 #endif
         memcpy(g2, g, (size_t)nc * na * sizeof(double));
-        rc = ng > 1 ? kifmm__pinv_groups(g2, nc, na, KIFMM__SD, gr, gc, ng, KIFMM__ANCHOR_CUTOFF, &uta, &vsa, ka)
+        rc = ng > 1 ? kifmm__pinv_groups(g2, nc, na, KIFMM__SD, 0, 0, gr, gc, ng, KIFMM__ANCHOR_CUTOFF, &uta,
+                                         &vsa, ka)
                     : kifmm__pinv(g2, nc, na, KIFMM__ANCHOR_CUTOFF, &uta, &vsa, ka);
     }
     if (!rc && *ka > 0) kifmm__gemm(0, 0, na, nc, *ka, 1.0, vsa, na, uta, *ka, 0.0, pa, na);

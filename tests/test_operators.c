@@ -474,7 +474,10 @@ GC_TEST(float, f, FLT_EPSILON)
 
 /* A kernel matrix between the unit surfaces of orders pr (rows, radius ro)
  * and pc (columns, radius 1.05) about one centre: 1 / (4 pi r) (sd 1), or
- * exp(i k r) / (4 pi r) as real 2 x 2 blocks {re, -im; im, re} (sd 2) */
+ * exp(i k r) / (4 pi r) as real 2 x 2 blocks {re, -im; im, re} (sd 2), or
+ * 3 x 3 blocks (sd 3): the Stokeslet (delta_ab / r + d_a d_b / r^3) / (8
+ * pi) for k = 0, else that plus k d_a / r^2 in column b = 0 (no longer
+ * turned as a vector by the cube's symmetries) */
 static double *surf_matrix(int pr, int pc, double ro, int sd, double k)
 {
     const int nr = kifmm__surf_count(pr), nc = kifmm__surf_count(pc), m = nr * sd;
@@ -489,6 +492,14 @@ static double *surf_matrix(int pr, int pc, double ro, int sd, double k)
             const double r = sqrt(dx * dx + dy * dy + dz * dz), g = 1.0 / (4.0 * T_PI * r);
             if (sd == 1) {
                 a[i + (size_t)j * m] = g;
+            } else if (sd == 3) {
+                const double d[3] = {dx, dy, dz};
+                int p, q;
+                for (p = 0; p < 3; p++)
+                    for (q = 0; q < 3; q++)
+                        a[3 * i + p + (size_t)(3 * j + q) * m] =
+                            ((p == q) / r + d[p] * d[q] / (r * r * r) + (q == 0 ? k * d[p] / (r * r) : 0.0)) /
+                            (8.0 * T_PI);
             } else {
                 a[2 * i + (size_t)(2 * j) * m] = a[2 * i + 1 + (size_t)(2 * j + 1) * m] = g * cos(k * r);
                 a[2 * i + 1 + (size_t)(2 * j) * m] = g * sin(k * r);
@@ -517,7 +528,8 @@ static void apply_pinv(int m, int n, int k, const double *ut, const double *vs, 
 
 /* kifmm__pinv_cube against kifmm__pinv (one SVD of the whole matrix) on the
  * same matrix: the same rank, the same singular values (|vs e_j| = 1 / s_j,
- * both descending), and fits A pinv(A) y of y = A x as close to y */
+ * both descending), and fits A pinv(A) y of y = A x as close to y; three
+ * components (Stokeslets) turned as vectors */
 static void test_pinv_cube(int pr, int pc, double ro, int sd, double k)
 {
     const int m = kifmm__surf_count(pr) * sd, n = kifmm__surf_count(pc) * sd;
@@ -528,7 +540,7 @@ static void test_pinv_cube(int pr, int pc, double ro, int sd, double k)
     t_rng g = t_rng_seed(41);
     memcpy(a2, a, sizeof(double) * (size_t)m * n);
     rc[0] = kifmm__pinv(a2, m, n, 1e-15, &ut[0], &vs[0], &rank[0]);
-    rc[1] = kifmm__pinv_cube(a, pr, pc, sd, 1e-15, &ut[1], &vs[1], &rank[1]);
+    rc[1] = kifmm__pinv_cube(a, pr, pc, sd, sd == 3, 1e-15, &ut[1], &vs[1], &rank[1]);
     CHECK(rc[0] == KIFMM_SUCCESS && rc[1] == KIFMM_SUCCESS && rank[0] == rank[1],
           "orders %d <- %d, %d component(s): ranks %d (one SVD) and %d (by the cube's symmetries)", pr, pc, sd,
           rank[0], rank[1]);
@@ -565,6 +577,38 @@ static void test_pinv_cube(int pr, int pc, double ro, int sd, double k)
     free(a), free(a2), free(x), free(y), free(z);
 }
 
+/* A matrix without the symmetries kifmm__pinv_cube takes: refused
+ * (KIFMM__NOT_SYMMETRIC, so that the caller factors it whole), nothing
+ * returned; with them, taken both ways for three Laplace charges. */
+static void test_pinv_cube_refused(void)
+{
+    const int pr = 6, pc = 5, m = 3 * kifmm__surf_count(pr), n = 3 * kifmm__surf_count(pc);
+    double *a = surf_matrix(pr, pc, 2.95, 3, 0.7), *ut = NULL, *vs = NULL;
+    int rank = -1, rc, i, j, vec;
+    rc = kifmm__pinv_cube(a, pr, pc, 3, 1, 1e-15, &ut, &vs, &rank);
+    CHECK(rc == KIFMM__NOT_SYMMETRIC && ut == NULL && vs == NULL && rank == -1,
+          "a 3-component kernel not turned as a vector: pinv_cube refused (%d), nothing returned", rc);
+    rc = kifmm__pinv_cube(a, pr, pc, 3, 0, 1e-15, &ut, &vs, &rank);
+    CHECK(rc == KIFMM__NOT_SYMMETRIC && ut == NULL && vs == NULL,
+          "the same, each component as a value: refused (%d)", rc);
+    free(a);
+    a = surf_matrix(pr, pc, 2.95, 1, 0.0);
+    {
+        const int m1 = m / 3;
+        double *a3 = t_doubles(m * n);
+        for (j = 0; j < n; j++) /* three Laplace charges: block diagonal in the components */
+            for (i = 0; i < m; i++) a3[i + (size_t)j * m] = i % 3 == j % 3 ? a[i / 3 + (size_t)(j / 3) * m1] : 0.0;
+        for (vec = 0; vec < 2; vec++) {
+            rc = kifmm__pinv_cube(a3, pr, pc, 3, vec, 1e-15, &ut, &vs, &rank);
+            CHECK(rc == KIFMM_SUCCESS && rank > 0, "three Laplace charges, %s: pinv_cube %d, rank %d",
+                  vec ? "as a vector" : "as values", rc, rank);
+            kifmm__free(ut), kifmm__free(vs), ut = vs = NULL;
+        }
+        free(a3);
+    }
+    free(a);
+}
+
 int main(void)
 {
     static const int orders[] = {4, 6, 8, 10};
@@ -582,6 +626,9 @@ int main(void)
     test_pinv_cube(9, 8, 2.95, 1, 0.0);
     test_pinv_cube(5, 5, 4.5, 2, 3.0);
     test_pinv_cube(8, 7, 2.95, 2, 9.0);
+    test_pinv_cube(6, 6, 4.5, 3, 0.0);
+    test_pinv_cube(8, 7, 2.95, 3, 0.0);
+    test_pinv_cube_refused();
 #ifndef KIFMM_TEST_QUICK
     test_pinv_cube(12, 12, 4.5, 1, 0.0);
     test_pinv_cube(10, 9, 2.95, 2, 3.0);
