@@ -13,9 +13,10 @@
  * sample targets against direct sums computed here. A third row runs the
  * same helmholtz_grad as a real 2 x 2 kernel (helmholtz_2x2 below: the same
  * values and near-field hooks, its surface kernel without
- * KIFMM_HAS_COMPLEX), and the last lines compare the two: each pass's
- * seconds, and the M2L's seconds and the plan's (operators') memory side
- * by side. --dump FILE writes the
+ * KIFMM_HAS_COMPLEX), and the last lines give each pass's seconds and
+ * create's tree and operator seconds (laplace_grad, native, 2 x 2), and
+ * compare native and 2 x 2: the M2L's seconds and the plan's (operators')
+ * memory side by side. --dump FILE writes the
  * helmholtz_grad case for bench/fmm3d_kernels.py (kind 2: its format, then
  * the wavenumber's real and imaginary parts).
  */
@@ -193,11 +194,12 @@ int main(int argc, char **argv)
     printf("helmholtz 2x2  %5lld %2d %6.1f %7.3f %7.3f %7.3f %7.2f  %4.0f  %4.0f  %.2e   %.2e\n", (long long)n, p, waves,
            rc2, re2, rc2 + re2, (rc2 + re2) / (lc + le), 100.0 * s2.t_p2p / re2, 100.0 * s2.t_m2l / re2,
            rel(8, 0, 2, ns, idx, out, ref), rel(8, 2, 8, ns, idx, out, ref));
-    for (a = 0; a < 2; a++) { /* each pass's seconds, native and 2 x 2 */
-        const kifmm_stats *z = a ? &s2 : &sh;
-        printf("%s passes: p2m %.3f m2m %.3f m2l %.3f l2l %.3f p2l %.3f l2p %.3f m2p %.3f p2p %.3f\n",
-               a ? "2x2    " : "complex", z->t_p2m, z->t_m2m, z->t_m2l, z->t_l2l, z->t_p2l, z->t_l2p,
-               z->t_m2p, z->t_p2p);
+    for (a = 0; a < 3; a++) { /* each pass's seconds, laplace_grad, native and 2 x 2; create's parts */
+        const kifmm_stats *z = a == 2 ? &s2 : a ? &sh : &sl;
+        printf("%s passes: p2m %.3f m2m %.3f m2l %.3f l2l %.3f p2l %.3f l2p %.3f m2p %.3f p2p %.3f;"
+               " create: tree %.3f operators %.3f\n",
+               a == 2 ? "2x2    " : a ? "complex" : "laplace", z->t_p2m, z->t_m2m, z->t_m2l, z->t_l2l,
+               z->t_p2l, z->t_l2p, z->t_m2p, z->t_p2p, z->t_tree, z->t_operators);
     }
     printf("complex M2L %.3f s against 2x2 %.3f s (%.2fx), plan %.1f MiB against %.1f MiB (%.2fx)\n", sh.t_m2l,
            s2.t_m2l, s2.t_m2l / sh.t_m2l, sh.plan_bytes / 1048576.0, s2.plan_bytes / 1048576.0,
