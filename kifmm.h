@@ -5614,27 +5614,31 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
 }
 
 /* The M2M and L2L of octants 1 to 7 from octant 0's, for a radial kernel
- * (one component, or a complex kernel's pair): octant m is octant 0
- * mirrored in the axes of m, and so
- * are the surfaces' points, so entry (i, j) of octant m is entry (mirror i,
- * mirror j) of octant 0 (Yukawa, p = 6: 7/8 of the 2 x 8 x 152^2 kernel
- * values of a level not computed). */
-KIFMM__FN int KIFMM__F(__m2m_mirror)(const KIFMM_NAME *c, kifmm__ops *o)
+ * (one component, or a complex kernel's pair) or a vector one (vec,
+ * P__sc_vector): octant m is octant 0 mirrored in the axes of m (R, a
+ * diagonal of signs), and so are the surfaces' points, so entry (i, j) of
+ * octant m is entry (mirror i, mirror j) of octant 0, times the signs of
+ * R's rows for the components of i and j where they are a vector's (K(R x)
+ * = R K(x) R^T) (Yukawa, p = 6: 7/8 of the 2 x 8 x 152^2 kernel values of a
+ * level not computed). */
+KIFMM__FN int KIFMM__F(__m2m_mirror)(const KIFMM_NAME *c, int vec, kifmm__ops *o)
 {
-    enum { SD = KIFMM__SD }; /* 2: a complex kernel's (re, im) pairs, moved together */
+    enum { SD = KIFMM__SD }; /* a point's components, moved together */
     const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, p = c->opts.order;
     int *mc = (int *)kifmm__alloc((size_t)nc + ne, sizeof(int)), *me = mc + nc, m, i, j;
     int rc = KIFMM_SUCCESS;
     if (!mc) return KIFMM_ERR_NOMEM;
     for (m = 1; m < 8 && !rc; m++) {
-        double *a = o->m2m + (size_t)m * ne * nc, *b = o->l2l + (size_t)m * nc;
+        double *a = o->m2m + (size_t)m * ne * nc, *b = o->l2l + (size_t)m * nc, sg[SD];
+        const int ax[3] = {m >> 2 & 1, m >> 1 & 1, m & 1}; /* the axes mirrored */
+        for (i = 0; i < SD; i++) sg[i] = vec && i >= SD - 3 && ax[i - (SD - 3)] ? -1.0 : 1.0;
         rc = kifmm__surf_mirror(p + c->pl->surf.cdiff, m, mc);
         if (!rc) rc = kifmm__surf_mirror(p, m, me);
         for (j = 0; j < ne && !rc; j++)
             for (i = 0; i < nc; i++) {
                 const size_t fi = (size_t)mc[i / SD] * SD + i % SD, fj = (size_t)me[j / SD] * SD + j % SD;
-                a[i + (size_t)j * nc] = o->m2m[fi + fj * nc];
-                b[i + (size_t)j * 8 * nc] = o->l2l[fi + fj * 8 * nc];
+                a[i + (size_t)j * nc] = sg[i % SD] * sg[j % SD] * o->m2m[fi + fj * nc];
+                b[i + (size_t)j * 8 * nc] = sg[i % SD] * sg[j % SD] * o->l2l[fi + fj * 8 * nc];
             }
     }
     kifmm__free(mc);
@@ -5644,17 +5648,18 @@ KIFMM__FN int KIFMM__F(__m2m_mirror)(const KIFMM_NAME *c, kifmm__ops *o)
 /* M2M and L2L, per child octant: a child's upward equivalent density (half
  * r / 2, centre r / 2 sgn) -> the parent's upward check potential (half r);
  * the parent's downward equivalent density (half 2 r, centre -r sgn) -> a
- * child's downward check potential (half r). Times sigma. A radial kernel's
- * octants are the first one mirrored (kifmm__m2m_mirror). */
+ * child's downward check potential (half r). Times sigma. A radial or
+ * vector kernel's octants are the first one mirrored (P__m2m_mirror). */
 KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
     const size_t nc = (size_t)c->pl->surf.nc, ne = (size_t)c->pl->surf.ne, nd = (size_t)c->pl->surf.nde;
+    const int vec = !KIFMM__FRADIAL && KIFMM__F(__sc_vector)(c->opts.kernel_param);
     int oct, d, rc = KIFMM_SUCCESS;
     o->m2m = (double *)kifmm__alloc(nc * 8 * ne, sizeof(double));
     o->l2l = (double *)kifmm__alloc(8 * nc * nd, sizeof(double));
     if (!o->m2m || !o->l2l) return KIFMM_ERR_NOMEM;
-    for (oct = 0; oct < (KIFMM__FRADIAL ? 1 : 8) && !rc; oct++) {
+    for (oct = 0; oct < (KIFMM__FRADIAL || vec ? 1 : 8) && !rc; oct++) {
         const double sgn[3] = {(oct >> 2 & 1) ? 1.0 : -1.0, (oct >> 1 & 1) ? 1.0 : -1.0,
                                (oct & 1) ? 1.0 : -1.0};
         double cm[3], cl[3];
@@ -5670,7 +5675,7 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__op
                                        c->pl->surf.unit_e, c->pl->surf.nse, cl, c->pl->surf.ao * 2.0 * r, o->sigma,
                                        o->l2l + (size_t)oct * nc, 8 * nc, NULL);
     }
-    if (!rc && KIFMM__FRADIAL) rc = KIFMM__F(__m2m_mirror)(c, o);
+    if (!rc && (KIFMM__FRADIAL || vec)) rc = KIFMM__F(__m2m_mirror)(c, vec, o);
     /* the parent's anchors (>>anchors), every octant */
     for (oct = 0; oct < 8 && !rc && nd > ne; oct++) {
         double cl[3];
