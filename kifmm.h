@@ -5520,16 +5520,18 @@ KIFMM__FN int KIFMM__F(__sc_groups)(const double *prm, int *gr, int *gc)
 /* 1 if the surface kernel (SD >= 3 components) has its last three turned
  * as a vector and the others kept by the cube's symmetries, K(R x) = R'
  * K(x) R'^T for R' = diag(1, .., 1, R) and the 48 signed permutations R (a
- * Stokeslet; three Laplace charges; stokes_dl's (c, f)), to rounding (1e-12
- * of its largest entry) at two points off every symmetry plane; else 0. */
+ * Stokeslet; three Laplace charges; stokes_dl's (c, f)), each entry to
+ * rounding (1e-12 of its size) at four points off every symmetry plane,
+ * 0.16 to 4.2 from the origin; else 0. */
 KIFMM__FN int KIFMM__F(__sc_vector)(const double *prm)
 {
-    enum { SD = KIFMM__SD };
-    static const double at[2][3] = {{0.61, -0.37, 0.23}, {-0.29, 0.71, 0.53}};
+    enum { SD = KIFMM__SD, NP = 4 };
+    static const double at[NP][3] = {
+        {0.61, -0.37, 0.23}, {-0.29, 0.71, 0.53}, {0.131, -0.077, 0.052}, {-2.3, 3.1, 1.7}};
     double kv[SD * SD], kg[SD * SD], x[3], big, sd_, se_;
     int t, g, d, e, sg[3];
     if (SD < 3) return 0;
-    for (t = 0; t < 2; t++) {
+    for (t = 0; t < NP; t++) {
         KIFMM__R_(SC, _eval)(prm, at[t][0], at[t][1], at[t][2], kv);
         for (big = 0.0, d = 0; d < SD * SD; d++) big = fabs(kv[d]) > big ? fabs(kv[d]) : big;
         if (!(big > 0.0 && big <= DBL_MAX)) return 0;
@@ -5540,7 +5542,8 @@ KIFMM__FN int KIFMM__F(__sc_vector)(const double *prm)
             for (d = 0; d < SD; d++)
                 for (e = 0; e < SD; e++) {
                     const int pd = kifmm__comp_turn(SD, pm, sg, d, &sd_), pe = kifmm__comp_turn(SD, pm, sg, e, &se_);
-                    if (!(fabs(kg[d * SD + e] - sd_ * se_ * kv[pd * SD + pe]) <= 1e-12 * big)) return 0;
+                    const double a = kg[d * SD + e], b = sd_ * se_ * kv[pd * SD + pe];
+                    if (!(fabs(a - b) <= 1e-12 * (fabs(a) + fabs(b)))) return 0;
                 }
         }
     }
@@ -5567,7 +5570,8 @@ KIFMM__FN int KIFMM__F(__pinv_surf)(const double *prm, double *a, int m, int n, 
     int gr[KIFMM__SD], gc[KIFMM__SD], ng = KIFMM__F(__sc_groups)(prm, gr, gc);
     if (ng > 1)
         return kifmm__pinv_groups(a, m, n, KIFMM__SD, cube ? pr : 0, pc, gr, gc, ng, KIFMM__CUTOFF, ut, vs, k);
-    if (cube && KIFMM__SD == 3) rc = kifmm__pinv_cube(a, pr, pc, 3, 1, KIFMM__CUTOFF, ut, vs, k);
+    if (cube && KIFMM__SD == 3 && KIFMM__F(__sc_vector)(prm))
+        rc = kifmm__pinv_cube(a, pr, pc, 3, 1, KIFMM__CUTOFF, ut, vs, k);
 #endif
     if (rc != KIFMM__NOT_SYMMETRIC) return rc;
     return kifmm__pinv(a, m, n, KIFMM__CUTOFF, ut, vs, k);

@@ -9,7 +9,8 @@
  *   QC  dip_pot   (_CHECK)   dipoles -> potential      1 x 3
  *
  * against a direct sum written here from the formulas, not from the kernels'
- * eval functions. */
+ * eval functions; and three charges coupled by a matrix (3 x 3, no
+ * symmetry of the cube turns them as a vector), against its sum here. */
 #include <math.h>
 #include <stdint.h>
 #include "kifmm_kernels.h"
@@ -76,6 +77,27 @@ static inline void kifmm_kernel_blob_eval(const double *param, double dx, double
     k[0] = r > 0.0 ? erf(r / param[0]) * KIFMM_INV_4PI / r : 0.0;
 }
 #define KIFMM_KERNEL blob
+#include "kifmm.h"
+
+/* Three charges coupled by a fixed matrix, M q / (4 pi r): three components
+ * that the cube's symmetries do not turn as a vector (nor keep apart), so
+ * its pseudo-inverses, spectra and M2M take no symmetry (docs/algorithm.md,
+ * "Vector kernels": the probe must refuse it) */
+static const double mix3_m[3][3] = {{2.0, 1.0, 0.0}, {0.5, 1.0, 0.3}, {0.0, -0.2, 1.5}};
+#define kifmm_kernel_mix3_SRC_DIM 3
+#define kifmm_kernel_mix3_TRG_DIM 3
+#define kifmm_kernel_mix3_SCALE_INVARIANT 1
+#define kifmm_kernel_mix3_DEGREE (-1)
+static inline void kifmm_kernel_mix3_eval(const double *param, double dx, double dy, double dz,
+                                          double *k)
+{
+    const double r2 = dx * dx + dy * dy + dz * dz, g = r2 > 0.0 ? KIFMM_INV_4PI / sqrt(r2) : 0.0;
+    int a, b;
+    (void)param;
+    for (a = 0; a < 3; a++)
+        for (b = 0; b < 3; b++) k[3 * a + b] = mix3_m[a][b] * g;
+}
+#define KIFMM_KERNEL mix3
 #include "kifmm.h"
 
 #include "test.h"
@@ -218,6 +240,40 @@ static void blob_units(void)
     free(x), free(q), free(u);
 }
 
+/* mix3 on n uniform points, order 6, against the direct sum written here
+ * (M times the Laplace sums of the three charges) at 200 targets */
+static void mix3_run(int64_t n, const double *x)
+{
+    double *q = t_doubles(3 * n), *out = t_doubles(3 * n), num = 0.0, den = 0.0;
+    t_rng r = t_rng_seed(11);
+    kifmm_opts o = t_opts(6, 0, 0);
+    kifmm_mix3 *h = NULL;
+    int64_t a, i, j;
+    int rc, c, b;
+    t_gen_charges(&r, 3 * n, q, -1.0, 1.0);
+    rc = kifmm_mix3_create(&h, &o, n, x, n, x);
+    if (!rc) rc = kifmm_mix3_evaluate(h, q, out);
+    CHECK(rc == 0, "mix3: rc=%d (%s)", rc, kifmm_strerror(rc));
+    for (a = 0; !rc && a < 200; a++) {
+        double s[3] = {0.0, 0.0, 0.0};
+        j = t_sample_index(a, 200, n);
+        for (i = 0; i < n; i++) {
+            const double dx = x[3 * j] - x[3 * i], dy = x[3 * j + 1] - x[3 * i + 1], dz = x[3 * j + 2] - x[3 * i + 2];
+            const double r2 = dx * dx + dy * dy + dz * dz;
+            if (r2 == 0.0) continue;
+            for (c = 0; c < 3; c++) s[c] += q[3 * i + c] / (4.0 * T_PI * sqrt(r2));
+        }
+        for (c = 0; c < 3; c++) {
+            double v = 0.0;
+            for (b = 0; b < 3; b++) v += mix3_m[c][b] * s[b];
+            num += (out[3 * j + c] - v) * (out[3 * j + c] - v), den += v * v;
+        }
+    }
+    if (!rc) CHECK_ERR(sqrt(num / den), 1e-5, "mix3 (coupled charges, no symmetry), p = 6, %lld points", (long long)n);
+    kifmm_mix3_destroy(h);
+    free(q), free(out);
+}
+
 int main(void)
 {
 #ifdef KIFMM_TEST_QUICK
@@ -239,6 +295,9 @@ int main(void)
     run_float(n, x, 6, 1.5e-4, 3e-5);
     t_group("a smoothed charge with Laplace surfaces, in two units");
     blob_units();
+    t_group("three charges coupled by a matrix: no symmetry taken");
+    t_gen_cube(&r, n, x, 0.0, 1.0);
+    mix3_run(n, x);
     free(x);
     free(y);
     return t_finish();
