@@ -5796,6 +5796,55 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
     return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
 }
 
+/* khat (P__build_m2l_fft's layout) from the spectra kt of the 16 transfer
+ * vectors with t_x >= t_y >= t_z >= 0 (P__m2l_grids, at kt + (c FSD^2 +
+ * ab) 2 nfp): each of the 316 turned from its vector c among them (R c,
+ * R_{a, pi a} = s_a: kifmm__tv_turn), each component ab its own (a radial
+ * kernel, vec 0) or, for a vector kernel (vec 1, P__sc_vector), component
+ * (d, e) s_d s_e times c's component (pi d, pi e) on the last three
+ * (kifmm__comp_turn); the padding frequencies 0. */
+KIFMM__FN void KIFMM__F(__khat_turned)(const KIFMM_NAME *c, const double *kt, int vec, int nth,
+                                       double *khat)
+{
+    enum { SD = KIFMM__FSD, SD2 = KIFMM__FSD * KIFMM__FSD };
+    const kifmm__fft *pl = &c->pl->fft;
+    (void)nth; /* (without OpenMP) */
+    /* each transfer vector t writes its own columns of khat */
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
+    for (int tv = 0; tv < KIFMM__NT; tv++) {
+        int d[3] = {0, 0, 0}, pi[3], sg[3], cv, a, b;
+        kifmm__transfer_vector(tv, d);
+        cv = kifmm__tv_turn(d, pi, sg);
+        for (a = 0; a < SD; a++)
+            for (b = 0; b < SD; b++) {
+                double sa = 1.0, sb = 1.0;
+                const int pa = vec ? kifmm__comp_turn(SD, pi, sg, a, &sa) : a;
+                const int pb = vec ? kifmm__comp_turn(SD, pi, sg, b, &sb) : b;
+                const size_t from = ((size_t)cv * SD2 + (size_t)pa * SD + (size_t)pb) * 2 * pl->nfp;
+                kifmm__fft_turn(pl, pi, sg, sa * sb, kt + from, khat + 2 * ((size_t)tv * SD2 + (size_t)a * SD + b),
+                                2 * KIFMM__NT * (size_t)SD2);
+            }
+    }
+    memset(khat + (size_t)2 * KIFMM__NT * SD2 * pl->nf, 0,
+           sizeof(double) * 2 * KIFMM__NT * SD2 * (size_t)(pl->nfp - pl->nf));
+}
+
+/* khat (P__build_m2l_fft's layout) from the spectra kt of all 316 transfer
+ * vectors (P__m2l_grids), moved frequency-major */
+KIFMM__FN void KIFMM__F(__khat_moved)(const KIFMM_NAME *c, const double *kt, int nth, double *khat)
+{
+    enum { SD2 = KIFMM__FSD * KIFMM__FSD };
+    const kifmm__fft *pl = &c->pl->fft;
+    (void)nth; /* (without OpenMP) */
+    /* each frequency f writes its own row of khat */
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
+    for (int32_t f = 0; f < pl->nfp; f++)
+        for (int tab = 0; tab < KIFMM__NT * SD2; tab++) {
+            khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2] = kt[(size_t)tab * 2 * pl->nfp + 2 * f];
+            khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2 + 1] = kt[(size_t)tab * 2 * pl->nfp + 2 * f + 1];
+        }
+}
+
 /* The FFT M2L's kernel spectra for boxes of half-width r, times sigma
  * (kifmm__m2l_grids), stored frequency-major (khat[((f 316 + t) FSD^2 +
  * ab) 2], re and im) so that the blocks of a chunk of frequencies read one
@@ -5821,50 +5870,10 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, 
         return KIFMM_ERR_NOMEM;
     }
 #if KIFMM__FRADIAL
-    /* each transfer vector t writes its own column of khat, turned from the
-     * spectrum of its vector among the 16 (at kt + 2 nfp c) */
-    KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
-    for (int tv = 0; tv < KIFMM__NT; tv++) {
-        int d[3] = {0, 0, 0}, pi[3], sg[3], cv;
-        kifmm__transfer_vector(tv, d);
-        cv = kifmm__tv_turn(d, pi, sg);
-        kifmm__fft_turn(pl, pi, sg, 1.0, kt + (size_t)cv * 2 * pl->nfp, o->khat + 2 * tv, 2 * KIFMM__NT);
-    }
-    memset(o->khat + (size_t)2 * KIFMM__NT * pl->nf, 0,
-           sizeof(double) * 2 * KIFMM__NT * (size_t)(pl->nfp - pl->nf));
+    KIFMM__F(__khat_turned)(c, kt, 0, nth, o->khat);
 #else
-    if (KIFMM__F(__sc_vector)(c->opts.kernel_param)) {
-        /* each transfer vector t writes its own columns of khat: component
-         * (d, e) is s_d s_e times component (pi d, pi e) of its vector's
-         * among the 16, turned (K(R x) = R K(x) R^T, R_{a, pi a} = s_a, on
-         * the last three components: kifmm__comp_turn) */
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
-        for (int tv = 0; tv < KIFMM__NT; tv++) {
-            int d[3] = {0, 0, 0}, pi[3], sg[3], cv, a, b;
-            double sa, sb;
-            kifmm__transfer_vector(tv, d);
-            cv = kifmm__tv_turn(d, pi, sg);
-            for (a = 0; a < KIFMM__SD; a++)
-                for (b = 0; b < KIFMM__SD; b++) {
-                    const int pa = kifmm__comp_turn(KIFMM__SD, pi, sg, a, &sa);
-                    const int pb = kifmm__comp_turn(KIFMM__SD, pi, sg, b, &sb);
-                    kifmm__fft_turn(pl, pi, sg, sa * sb,
-                                    kt + ((size_t)cv * SD2 + (size_t)pa * KIFMM__SD + (size_t)pb) * 2 * pl->nfp,
-                                    o->khat + 2 * ((size_t)tv * SD2 + (size_t)a * KIFMM__SD + (size_t)b),
-                                    2 * KIFMM__NT * (size_t)SD2);
-                }
-        }
-        memset(o->khat + (size_t)2 * KIFMM__NT * SD2 * pl->nf, 0,
-               sizeof(double) * 2 * KIFMM__NT * SD2 * (size_t)(pl->nfp - pl->nf));
-    } else {
-        /* each frequency f writes its own row of khat */
-        KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
-        for (int32_t f = 0; f < pl->nfp; f++)
-            for (int tab = 0; tab < KIFMM__NT * SD2; tab++) {
-                o->khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2] = kt[(size_t)tab * 2 * pl->nfp + 2 * f];
-                o->khat[((size_t)f * KIFMM__NT * SD2 + tab) * 2 + 1] = kt[(size_t)tab * 2 * pl->nfp + 2 * f + 1];
-            }
-    }
+    if (KIFMM__F(__sc_vector)(c->opts.kernel_param)) KIFMM__F(__khat_turned)(c, kt, 1, nth, o->khat);
+    else KIFMM__F(__khat_moved)(c, kt, nth, o->khat);
 #endif
     kifmm__free(kt);
     /* The M2L's kernel values reach those at the nearest lattice points of
