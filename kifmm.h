@@ -5555,9 +5555,10 @@ KIFMM__FN int KIFMM__F(__sc_vector)(const double *prm)
  * pr (rows) and pc (columns) about one centre: a radial kernel's by the
  * cube's symmetries (kifmm__pinv_cube, A kept) where m and n are those
  * surfaces' sizes; one whose components fall into groups (__sc_groups) by
- * groups (kifmm__pinv_groups, A kept); a three-component one by the
- * symmetries turning its components as vectors (a Stokeslet's), where A
- * has them; else by one SVD (A destroyed). */
+ * groups (kifmm__pinv_groups, A kept; each group's block by the cube's
+ * symmetries where P__sc_vector finds the kernel turned by them); a
+ * three-component one that it finds so by the symmetries turning its
+ * components as vectors (a Stokeslet's); else by one SVD (A destroyed). */
 KIFMM__FN int KIFMM__F(__pinv_surf)(const double *prm, double *a, int m, int n, int pr, int pc, double **ut,
                                     double **vs, int *k)
 {
@@ -5568,10 +5569,10 @@ KIFMM__FN int KIFMM__F(__pinv_surf)(const double *prm, double *a, int m, int n, 
     if (cube) rc = kifmm__pinv_cube(a, pr, pc, KIFMM__SD, 0, KIFMM__CUTOFF, ut, vs, k);
 #else
     int gr[KIFMM__SD], gc[KIFMM__SD], ng = KIFMM__F(__sc_groups)(prm, gr, gc);
+    const int sym = cube && KIFMM__F(__sc_vector)(prm); /* the blocks only where the probe finds them */
     if (ng > 1)
-        return kifmm__pinv_groups(a, m, n, KIFMM__SD, cube ? pr : 0, pc, gr, gc, ng, KIFMM__CUTOFF, ut, vs, k);
-    if (cube && KIFMM__SD == 3 && KIFMM__F(__sc_vector)(prm))
-        rc = kifmm__pinv_cube(a, pr, pc, 3, 1, KIFMM__CUTOFF, ut, vs, k);
+        return kifmm__pinv_groups(a, m, n, KIFMM__SD, sym ? pr : 0, pc, gr, gc, ng, KIFMM__CUTOFF, ut, vs, k);
+    if (sym && KIFMM__SD == 3) rc = kifmm__pinv_cube(a, pr, pc, 3, 1, KIFMM__CUTOFF, ut, vs, k);
 #endif
     if (rc != KIFMM__NOT_SYMMETRIC) return rc;
     return kifmm__pinv(a, m, n, KIFMM__CUTOFF, ut, vs, k);
@@ -5744,12 +5745,12 @@ done:
  * times sigma, each component ab (target a, source b) transformed
  * (kifmm__fft_grid) into kt[(t FSD^2 + ab) 2 nfp]: the kernel at the
  * lattice offsets h (i - j) - 2 r t on the (2q - 1)^3 grid (a complex
- * kernel: one complex grid, k[0] + i k[2]); for a radial kernel only the
- * 16 transfer vectors with t_x >= t_y >= t_z >= 0 (the others are these
- * turned, kifmm__tv_turn). *big gets the largest |value| (the same over the
+ * kernel: one complex grid, k[0] + i k[2]); if turned (a radial or
+ * vector kernel) only the 16 transfer vectors with t_x >= t_y >= t_z >= 0
+ * (the others are these turned, P__khat_turned). *big gets the largest |value| (the same over the
  * 16). KIFMM_ERR_KERNEL if a value was not finite, or a complex kernel's
  * block not of the form {a, -b, b, a}. */
-KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma, int nth,
+KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma, int nth, int turned,
                                     double *kt, double *big)
 {
     enum { SD2 = KIFMM__SD * KIFMM__SD };
@@ -5758,7 +5759,6 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
     const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
     const double h = 2.0 * KIFMM__F(__rin)(c->pl, r) / (p - 1);
     double *gall = (double *)kifmm__alloc((size_t)nth * per, sizeof(double)), mx = 0.0;
-    const int turned = KIFMM__FRADIAL || KIFMM__F(__sc_vector)(c->opts.kernel_param); /* 16 vectors */
     int bad = 0;
     if (!gall) return KIFMM_ERR_NOMEM;
     /* each transfer vector writes its own spectra; g is the thread's grids */
@@ -5768,7 +5768,7 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
         double *g = gall + (size_t)kifmm__thread_num() * per, kv[SD2];
         int d[3] = {0, 0, 0}, pi[3], sg[3], i, j, k, ab;
         kifmm__transfer_vector(tv, d);
-        if (turned && kifmm__tv_turn(d, pi, sg) != tv) continue; /* turned below */
+        if (turned && kifmm__tv_turn(d, pi, sg) != tv) continue; /* turned from the 16 */
         memset(g, 0, sizeof(double) * SD2 * nnn);
         for (i = 1 - p; i < p; i++)
             for (j = 1 - p; j < p; j++)
@@ -5854,6 +5854,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, 
     enum { SD2 = KIFMM__FSD * KIFMM__FSD };
     const kifmm__fft *pl = &c->pl->fft;
     const size_t nk = (size_t)KIFMM__NT * SD2 * 2 * pl->nfp;
+    const int vec = !KIFMM__FRADIAL && KIFMM__F(__sc_vector)(c->opts.kernel_param);
     double *kt; /* spectra per transfer vector */
     double big = 0.0;
     int rc;
@@ -5864,7 +5865,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, 
         return KIFMM_ERR_NOMEM;
     }
     if (!KIFMM__FRADIAL) memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
-    rc = KIFMM__F(__m2l_grids)(c, r, o->sigma, nth, kt, &big);
+    rc = KIFMM__F(__m2l_grids)(c, r, o->sigma, nth, KIFMM__FRADIAL || vec, kt, &big);
     if (rc == KIFMM_ERR_NOMEM) {
         kifmm__free(kt);
         return KIFMM_ERR_NOMEM;
@@ -5872,7 +5873,7 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, 
 #if KIFMM__FRADIAL
     KIFMM__F(__khat_turned)(c, kt, 0, nth, o->khat);
 #else
-    if (KIFMM__F(__sc_vector)(c->opts.kernel_param)) KIFMM__F(__khat_turned)(c, kt, 1, nth, o->khat);
+    if (vec) KIFMM__F(__khat_turned)(c, kt, 1, nth, o->khat);
     else KIFMM__F(__khat_moved)(c, kt, nth, o->khat);
 #endif
     kifmm__free(kt);
