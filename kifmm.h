@@ -3111,6 +3111,59 @@ KIFMM__FN double kifmm__min_degree(const double *k1, const double *k2, int n)
     return m;
 }
 
+/* Each entry's degree of a kernel K (n entries from ev at parameters prm):
+ * log2 |K(2 x) / K(x)| at the point x, NaN where K(x) is zero. 1 if every
+ * entry not zero is a power of r there (its ratios between x, 2 x and 4 x
+ * equal to 1e-9, with one sign), 0 if not (or on allocation failure). */
+typedef void (*kifmm__ev_fn)(const double *, double, double, double, double *);
+KIFMM__FN int kifmm__entry_degrees(kifmm__ev_fn ev, const double *prm, int n, const double *x, double *deg)
+{
+    double *q = (double *)kifmm__alloc((size_t)3 * n, sizeof(double));
+    int k, i, ok = 1;
+    if (!q) return 0;
+    for (k = 0; k < 3; k++) {
+        const double f = (double)(1 << k);
+        ev(prm, x[0] * f, x[1] * f, x[2] * f, q + k * n);
+    }
+    for (i = 0; i < n; i++) {
+        const double a = q[i] != 0.0 && q[n + i] / q[i] > 0.0 ? log2(q[n + i] / q[i]) : NAN;
+        const double b = q[n + i] != 0.0 && q[2 * n + i] / q[n + i] > 0.0 ? log2(q[2 * n + i] / q[n + i]) : NAN;
+        deg[i] = q[i] != 0.0 ? a : NAN;
+        if (q[i] != 0.0) ok &= a == a && b == b && fabs(a - b) < 1e-9;
+    }
+    kifmm__free(q);
+    return ok;
+}
+
+/* A kernel's degrees by rows and columns: K(2 x) = 2^(r[a] + c[s]) K(x)
+ * entry by entry (K: nr x nc, row by row; kifmm__entry_degrees at one
+ * point), c from the first row without zeros, r[a] 0 in a row of zeros
+ * (the Laplace dipoles: r = 0, c = -2; stokes_pvel's pressure and velocity
+ * rows: r = -2 and -1, c = 0). 1 if every entry is so, else 0. */
+KIFMM__FN int kifmm__degrees(kifmm__ev_fn ev, const double *prm, int nr, int nc, double *r, double *c)
+{
+    static const double x[3] = {0.61, -0.37, 0.23};
+    double *e = (double *)kifmm__alloc((size_t)nr * nc, sizeof(double));
+    int a, s, ok = e && kifmm__entry_degrees(ev, prm, nr * nc, x, e), a0 = -1;
+    for (a = 0; a < nr && a0 < 0 && ok; a++) /* a row without zeros sets c */
+        for (s = 0, a0 = a; s < nc; s++)
+            if (e[(size_t)a * nc + s] != e[(size_t)a * nc + s]) a0 = -1;
+    ok &= a0 >= 0;
+    for (s = 0; s < nc && ok; s++) c[s] = e[(size_t)a0 * nc + s];
+    for (a = 0; a < nr && ok; a++) {
+        r[a] = NAN;
+        for (s = 0; s < nc; s++) {
+            const double d = e[(size_t)a * nc + s];
+            if (d != d) continue;
+            if (r[a] != r[a]) r[a] = d - c[s];
+            ok &= fabs(d - r[a] - c[s]) < 1e-9;
+        }
+        if (r[a] != r[a]) r[a] = 0.0;
+    }
+    kifmm__free(e);
+    return ok;
+}
+
 /* Surface radii in units of the box half-width, for kernels with one
  * surface density component: */
 #define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
@@ -5100,6 +5153,7 @@ struct KIFMM__F(_plan) {
         KIFMM__F(__ops) **set; /* n of them (cap allocated) */
         int n, cap;
         double degree;
+        double qlo[KIFMM__QD], qhi[KIFMM__QD]; /* __density_degrees */
         size_t kept;           /* bytes of the products' blocks kept (__keep_blocks) */
     } ops;
     struct {                   /* the periodic far images */
@@ -8861,6 +8915,37 @@ KIFMM__FN int KIFMM__F(__st_derivative)(const double *param)
     return dst < dsc - 1.5 ? KIFMM__ANCHOR_MAX : dst < dsc - 0.5 ? 4 : 0;
 }
 
+/* r, c: the degrees of QC's rows and columns (kifmm__degrees); 0 where QC
+ * is not so or SC not scale invariant. */
+KIFMM__FN int KIFMM__F(__qc_degrees)(const double *prm, double *r, double *c)
+{
+    return KIFMM__SI && kifmm__degrees(KIFMM__R_(QC, _eval), prm, KIFMM__SD, KIFMM__QD, r, c);
+}
+
+/* lo[s], hi[s]: the least and greatest power of the box half-width h that
+ * density component s's part of a box's equivalent densities grows with,
+ * in the passes' units (check potentials times h^-DEGREE, __level_scale):
+ * the degrees of QC's column s less SC's. A charge under the Laplace
+ * kernel 0, a dipole -1 (its check potentials fall as r^-2, SC's as
+ * r^-1); 0 where QC's entries are not powers of r, or SC is not scale
+ * invariant. */
+KIFMM__FN void KIFMM__F(__density_degrees)(const double *prm, double *lo, double *hi)
+{
+    static const double x[3] = {0.61, -0.37, 0.23};
+    double e[KIFMM__SD * KIFMM__QD] = {0.0};
+    int a, s, ok = KIFMM__SI && !KIFMM__CPLX &&
+                   kifmm__entry_degrees(KIFMM__R_(QC, _eval), prm, KIFMM__SD * KIFMM__QD, x, e);
+    for (s = 0; s < KIFMM__QD; s++) {
+        lo[s] = HUGE_VAL, hi[s] = -HUGE_VAL;
+        for (a = 0; a < KIFMM__SD && ok; a++) {
+            const double d = e[a * KIFMM__QD + s] - (double)(KIFMM__DEGREE);
+            if (d != d) continue; /* a zero entry */
+            lo[s] = d < lo[s] ? d : lo[s], hi[s] = d > hi[s] ? d : hi[s];
+        }
+        if (lo[s] > hi[s]) lo[s] = hi[s] = 0.0;
+    }
+}
+
 /* KIFMM_ERR_RANGE where the passes' loops on points (near field, P2M, L2P,
  * L2L from a far ancestor) lose pairs dist apart (__far_role): dist is
  * twice the diagonal of the points' box or of the cell. */
@@ -9051,6 +9136,7 @@ KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
     pl->refs = 1;
     pl->opts = *o;
     pl->ops.degree = (double)(KIFMM__DEGREE);
+    KIFMM__F(__density_degrees)(o->kernel_param, pl->ops.qlo, pl->ops.qhi);
     p = o->order;
     /* a complex kernel's surfaces up to order KIFMM__CPLX_SQUARE_MAX: a
      * one-component kernel's square systems (where the build's options
@@ -9885,14 +9971,37 @@ KIFMM__FN void KIFMM__F(__density_of)(const double *prm, const KIFMM__R *in, dou
 #endif
 }
 
-/* e[r]: the power of two that brings vector r's largest density (after
- * the kernel's _density map, if it has one: stokes_dl's products) into
- * [0.5, 1). The passes run on densities scaled by 2^-e and the outputs are
- * scaled back: exact (powers of two), and no float M2L spectra or float
- * instance overflow or lose digits to subnormals on densities far from 1
- * (masses of 1e40 kg, charges of 1e-19 C). A map's products beyond the
- * range leave e = 0: the outputs then come out infinite
- * (KIFMM_ERR_OVERFLOW). */
+/* w[k], *g: density component k's weight in __density_scale, 2^(gk - g),
+ * where 2^gk is the largest factor its equivalent densities gain in the
+ * tree's boxes (h^qlo or h^qhi at the root's half-width h or the deepest
+ * level's, __density_degrees: a dipole's d / h in the smallest boxes), and
+ * g the largest gk rounded up. All 1 for kernels whose components all
+ * scale as the surface kernel's (g = 0). */
+KIFMM__FN void KIFMM__F(__density_weights)(const KIFMM_NAME *h, double *w, int *g)
+{
+    const double l0 = log2(0.5 * h->tree->width), lf = l0 - (double)(h->tree->nlev - 1);
+    double gk[KIFMM__QD], gm = 0.0;
+    int k;
+    for (k = 0; k < KIFMM__QD; k++) {
+        const double lo = h->pl->ops.qlo[k], hi = h->pl->ops.qhi[k];
+        const double a = lo * l0 > lo * lf ? lo * l0 : lo * lf, b = hi * l0 > hi * lf ? hi * l0 : hi * lf;
+        gk[k] = a > b ? a : b;
+        gm = k == 0 || gk[k] > gm ? gk[k] : gm;
+    }
+    *g = (int)ceil(gm);
+    for (k = 0; k < KIFMM__QD; k++) w[k] = pow(2.0, gk[k] - (double)*g);
+}
+
+/* e[r]: the power of two that brings vector r's largest equivalent density
+ * into about [0.5, 1): its densities (after the kernel's _density map, if
+ * it has one: stokes_dl's products), each times its component's largest
+ * gain in the tree's boxes (__density_weights). The passes run on
+ * densities scaled by 2^-e and the outputs are scaled back: exact (powers
+ * of two), and no float M2L spectra or float instance overflow or lose
+ * digits to subnormals on densities far from 1 (masses of 1e40 kg,
+ * charges of 1e-19 C) or on dipoles in boxes far from unit size (d / h at
+ * h = 1e-36: the float spectra's range). A map's products beyond the range
+ * leave e = 0: the outputs then come out infinite (KIFMM_ERR_OVERFLOW). */
 KIFMM__FN void KIFMM__F(__density_scale)(const KIFMM_NAME *h, int nr, const KIFMM__R *d, int *e)
 {
     const int64_t ns = h->tree->ns;
@@ -9902,23 +10011,32 @@ KIFMM__FN void KIFMM__F(__density_scale)(const KIFMM_NAME *h, int nr, const KIFM
 #else
     const int64_t p0 = ns;
 #endif
-    int r;
+    double wk[KIFMM__QD];
+    int r, g;
+    KIFMM__F(__density_weights)(h, wk, &g);
     for (r = 0; r < nr; r++) {
         double m = 0.0;
         KIFMM__OMP(parallel for schedule(static) num_threads(h->opts.nthreads) reduction(max : m) if (uper > 65536))
         for (int64_t i = 0; i < ns; i++) {
             const KIFMM__R *u = d + r * uper + (size_t)i * KIFMM__UD;
             double lin[KIFMM__QD > KIFMM__UD ? KIFMM__QD : KIFMM__UD];
-            int k, nk = i < p0 ? KIFMM__QD : KIFMM__UD;
-            if (i < p0) KIFMM__F(__density_of)(h->opts.kernel_param, u, lin);
-            else for (k = 0; k < KIFMM__UD; k++) lin[k] = (double)u[k];
-            for (k = 0; k < nk; k++) {
-                const double v = fabs(lin[k]);
-                m = v > m ? v : m;
+            int k;
+            if (i < p0) {
+                KIFMM__F(__density_of)(h->opts.kernel_param, u, lin);
+                for (k = 0; k < KIFMM__QD; k++) {
+                    const double v = fabs(lin[k]) * wk[k];
+                    m = v > m ? v : m;
+                }
+            } else {
+                /* the proxies' surface densities: as the surface kernel's */
+                for (k = 0; k < KIFMM__UD; k++) {
+                    const double v = ldexp(fabs((double)u[k]), -g);
+                    m = v > m ? v : m;
+                }
             }
         }
         e[r] = 0;
-        if (m > 0.0 && m <= DBL_MAX) (void)frexp(m, &e[r]);
+        if (m > 0.0 && m <= DBL_MAX) (void)frexp(m, &e[r]), e[r] += g;
         /* subnormal largest densities (from 2^-1074): 2^-e would overflow;
          * 2^1000 brings them to 2^-74 or more, normal in float too */
         if (e[r] < -1000) e[r] = -1000;
@@ -10813,37 +10931,6 @@ KIFMM__FN int KIFMM__F(__mpi_qc)(const KIFMM_NAME *c, double w, double *a)
     return ok ? KIFMM_SUCCESS : KIFMM_ERR_KERNEL;
 }
 
-/* r, c: QC(2 x) = 2^(r[a] + c[s]) QC(x) entry by entry, at two scales (the
- * Laplace dipoles: r = 0, c = -2; stokes_pvel: pressure r = -2, velocity
- * -1, c = 0); 0 where QC is not so (or SC not scale invariant). */
-KIFMM__FN int KIFMM__F(__mpi_degrees)(const double *prm, double *r, double *c)
-{
-    double q[3][KIFMM__SD * KIFMM__QD], e[2][KIFMM__SD * KIFMM__QD];
-    int a, s, i, k, ok = KIFMM__SI, a0 = -1;
-    for (k = 0; k < 3; k++) {
-        const double f = (double)(1 << k);
-        KIFMM__R_(QC, _eval)(prm, 0.61 * f, -0.37 * f, 0.23 * f, q[k]);
-    }
-    for (k = 0; k < 2; k++)
-        for (i = 0; i < KIFMM__SD * KIFMM__QD; i++)
-            e[k][i] = q[k][i] != 0.0 && q[k + 1][i] / q[k][i] > 0.0 ? log2(q[k + 1][i] / q[k][i]) : NAN;
-    for (a = 0; a < KIFMM__SD && a0 < 0; a++) /* a row without zeros sets c */
-        for (s = 0, a0 = a; s < KIFMM__QD; s++)
-            if (q[0][a * KIFMM__QD + s] == 0.0) a0 = -1;
-    if (a0 < 0) return 0;
-    for (s = 0; s < KIFMM__QD; s++) c[s] = e[0][a0 * KIFMM__QD + s];
-    for (a = 0; a < KIFMM__SD; a++) {
-        r[a] = NAN;
-        for (s = 0; s < KIFMM__QD; s++) {
-            const double x = e[0][a * KIFMM__QD + s], y = e[1][a * KIFMM__QD + s];
-            if (q[0][a * KIFMM__QD + s] == 0.0) continue;
-            if (r[a] != r[a]) r[a] = x - c[s];
-            ok &= x == x && fabs(x - y) < 1e-9 && fabs(x - r[a] - c[s]) < 1e-9;
-        }
-        if (r[a] != r[a]) r[a] = 0.0;
-    }
-    return ok;
-}
 
 /* pinv(K_QC(check <- equivalent points)) at half-width w, as its factors
  * (kifmm__pinv), truncated at 1e-7 of the largest singular value up to
@@ -10913,7 +11000,7 @@ KIFMM__FN int KIFMM__F(__mpi_fit)(KIFMM__F(__mpi) *m, int l)
     }
     if (m->picked == 1 || m->fit[l]) return KIFMM_SUCCESS; /* __mpi_expand copies */
     if (!(f = m->fit[l] = (double *)kifmm__calloc((size_t)nq * ne, sizeof(double)))) return KIFMM_ERR_NOMEM;
-    if (KIFMM__F(__mpi_degrees)(c->opts.kernel_param, m->fr, m->fc)) {
+    if (KIFMM__F(__qc_degrees)(c->opts.kernel_param, m->fr, m->fc)) {
         if (!m->fut && (rc = KIFMM__F(__mpi_qc_pinv)(c, 1.0, &m->fut, &m->fvs, &m->fk)) != KIFMM_SUCCESS) {
             kifmm__free(m->fut), kifmm__free(m->fvs);
             m->fut = m->fvs = NULL;

@@ -19,6 +19,10 @@
  *   - densities of 1e40 and 1e-40 (and 1e+-300) against direct sums: the
  *     float M2L spectra of p <= 4 had overflowed (KIFMM_ERR_OVERFLOW) or
  *     lost every digit;
+ *   - charges and dipoles in clouds from 1e-60 to 1e60 across, against
+ *     direct sums: a dipole's equivalent densities grow as 1 / (box size),
+ *     and the float M2L spectra of p <= 4 had overflowed below 1e-36
+ *     (KIFMM_ERR_OVERFLOW) and lost dipoles alone to zero above 1e38;
  *   - coincident points at 2.5e-161: outputs 0 (the AVX-512 gradient loop
  *     had given NaN there). */
 #include "kifmm.h"
@@ -26,6 +30,8 @@
 #define KIFMM_REAL float
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace_grad
+#include "kifmm.h"
+#define KIFMM_KERNEL laplace_cd
 #include "kifmm.h"
 
 #include "ewald.h"
@@ -354,6 +360,65 @@ static void test_density_scale(void)
     free(ref);
 }
 
+/* q / (4 pi r) + v . d / (4 pi r^3), d = target - source, summed here in
+ * long double at the first nt sources (the cloud's own points) */
+static void cd_sums(int64_t ns, const double *x, const double *qv, int64_t nt, double *out)
+{
+    for (int64_t j = 0; j < nt; j++) {
+        long double p = 0.0L;
+        for (int64_t i = 0; i < ns; i++) {
+            const long double dx = (long double)x[3 * j] - x[3 * i], dy = (long double)x[3 * j + 1] - x[3 * i + 1];
+            const long double dz = (long double)x[3 * j + 2] - x[3 * i + 2], r2 = dx * dx + dy * dy + dz * dz;
+            const long double r = sqrtl(r2);
+            if (r2 > 0.0L)
+                p += qv[4 * i] / r + (qv[4 * i + 1] * dx + qv[4 * i + 2] * dy + qv[4 * i + 3] * dz) / (r2 * r);
+        }
+        out[j] = (double)(p / (4.0L * (long double)T_PI));
+    }
+}
+
+/* charges and dipoles (laplace_cd) in clouds of width L from 1e-60 to 1e60,
+ * with and without the charges: a dipole's equivalent densities grow as 1
+ * / L, and at p = 4 the M2L runs on float spectra, which had overflowed
+ * from L = 1e-36 down (KIFMM_ERR_OVERFLOW) and, dipoles alone, lost them
+ * to zero from 1e38 up; against direct sums */
+static void test_dipole_scale(void)
+{
+    enum { NS = 2000, NC = 100 };
+    static const double Ls[] = {1.0, 1e-60, 1e-36, 1e36, 1e60};
+    t_rng r = t_rng_seed(12);
+    double *x = t_doubles(3 * NS), *xs = t_doubles(3 * NS), *qv = t_doubles(4 * NS);
+    double *out = t_doubles(NS), *ref = t_doubles(NC);
+    int i, k, p, charges;
+    t_gen_cube(&r, NS, x, 0.0, 1.0);
+    t_gen_charges(&r, 4 * NS, qv, -0.5, 0.5);
+    for (charges = 1; charges >= 0; charges--)
+        for (p = 4; p <= 6; p += 2)
+            for (i = 0; i < (int)(sizeof Ls / sizeof Ls[0]); i++) {
+                kifmm_opts o = t_opts(p, 0, 0);
+                kifmm_laplace_cd *h = NULL;
+                int rc;
+                for (k = 0; k < 3 * NS; k++) xs[k] = x[k] * Ls[i];
+                for (k = 0; k < NS && !charges; k++) qv[4 * k] = 0.0;
+                rc = kifmm_laplace_cd_create(&h, &o, NS, xs, NS, xs);
+                if (!rc) rc = kifmm_laplace_cd_evaluate(h, qv, out);
+                kifmm_laplace_cd_destroy(h);
+                CHECK(rc == KIFMM_SUCCESS, "laplace_cd, %s, cloud of %g, p = %d: rc=%d (%s)",
+                      charges ? "charges and dipoles" : "dipoles", Ls[i], p, rc, kifmm_strerror(rc));
+                if (rc) continue;
+                cd_sums(NS, xs, qv, NC, ref);
+                /* measured 2.3e-4 (p = 4) and 3.8e-6 (p = 6) at every L */
+                CHECK_ERR(t_rel_diff(NC, out, 1, ref, 1), p == 4 ? 1e-3 : 2e-5,
+                          "laplace_cd, %s, cloud of %g, p = %d, against direct sums",
+                          charges ? "charges and dipoles" : "dipoles", Ls[i], p);
+            }
+    free(x);
+    free(xs);
+    free(qv);
+    free(out);
+    free(ref);
+}
+
 /* every point at one spot near 0 (2.5e-161): every output is 0; the
  * AVX-512 gradient loop's dead lanes had given NaN there */
 static void test_coincident_tiny(void)
@@ -423,6 +488,8 @@ int main(void)
     test_overflow();
     t_group("densities far from 1");
     test_density_scale();
+    t_group("charges and dipoles in clouds from 1e-60 to 1e60 across");
+    test_dipole_scale();
     t_group("coincident points near 0");
     test_coincident_tiny();
     t_group("densities near DBL_MAX");
