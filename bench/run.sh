@@ -246,32 +246,51 @@ done
 [ -n "$RATIOS" ] && printf '%s' "$RATIOS"
 
 # ---------------------------------------------------------------- kernels side by side
-# laplace_grad, yukawa_grad, stokes and laplace_cd_grad on the same points (bench/bench_kernels.c);
-# FMM3D's stfmm3d and lfmm3d (charges and dipoles) on the Stokes and laplace_cd_grad
-# cases of the cube at matching error (bench/fmm3d_kernels.py).
-if [ "$QUICK" = 1 ]; then KNS="1e5"; else KNS="1e6"; fi
-KNS=${BENCH_KNS:-$KNS}
+# laplace_grad, yukawa_grad, stokes, laplace_cd_grad and biot_savart on the same points
+# (bench/bench_kernels.c), built for the machine and, where it has AVX-512, also with
+# -mno-avx512f (the AVX2 + FMA hooks an AVX2-only machine runs); FMM3D's stfmm3d and
+# lfmm3d (charges and dipoles) on the Stokes and laplace_cd_grad cases of the cube at
+# matching error (bench/fmm3d_kernels.py).
+# KNS: the later sections' points (1e6; quick 1e5); the kernels' rows also at 2e5
+if [ "$QUICK" = 1 ]; then KNS="1e5"; KKNS="1e5"; else KNS="1e6"; KKNS="2e5 1e6"; fi
+KNS=${BENCH_KNS:-$KNS}; KKNS=${BENCH_KNS:-$KKNS}
 echo
 echo "== kernels side by side, p = 6, ${OMP_NUM_THREADS} threads (create + evaluate, x laplace_grad)"
-# shellcheck disable=SC2086
-if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. bench/bench_kernels.c \
-        -o "$OUT/bench_kernels" -llapacke -lopenblas -lm; then
-    echo "dist             N  p kernel           create    eval   total  x lapg     MiB  x lapg  err(pot/u)  err(grad)    bg%"
+KISAS="native"
+grep -qw avx512f /proc/cpuinfo 2>/dev/null && KISAS="native avx2"
+kbuilt=""
+for isa in $KISAS; do
+    kflags=""
+    [ "$isa" = avx2 ] && kflags="-mno-avx512f"
+    echo "build:       $CC -std=c99 -O3 -march=native $kflags -fopenmp bench/bench_kernels.c -> bench_kernels_$isa"
+    # shellcheck disable=SC2086
+    if $CC -std=c99 -O3 -march=native $kflags -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. \
+            bench/bench_kernels.c -o "$OUT/bench_kernels_$isa" -llapacke -lopenblas -lm; then
+        kbuilt="$kbuilt $isa"
+    else
+        echo "bench_kernels ($isa): build failed"
+        FAILED="$FAILED kernels/build-$isa"
+    fi
+done
+if [ -n "$kbuilt" ]; then
+    echo "dist             N  p isa     kernel           create    eval   total  x lapg     MiB  x lapg  err(pot/u)  err(grad)    bg%"
     for dist in $DISTS; do
-        for n in $KNS; do
-            kargs=("$dist" "$n" 6 --sample 300 --repeat 2)
-            [ -n "$PY" ] && [ "$dist" = cube ] && kargs+=(--dump "$OUT/stokes_${n}.bin")
-            wait_quiet
-            if run_measured "$OUT/bench_kernels" "${kargs[@]}" > "$OUT/.krows"; then
-                sed "/^ /!s/\$/    $BG/" "$OUT/.krows"
-            else
-                echo "kernels $dist $n: FAILED"
-                FAILED="$FAILED kernels/$dist/$n"
-            fi
+        for n in $KKNS; do
+            for isa in $kbuilt; do
+                kargs=("$dist" "$n" 6 --sample 300 --repeat 2)
+                [ -n "$PY" ] && [ "$dist" = cube ] && [ "$isa" = native ] && kargs+=(--dump "$OUT/stokes_${n}.bin")
+                wait_quiet
+                if run_measured "$OUT/bench_kernels_$isa" "${kargs[@]}" > "$OUT/.krows"; then
+                    sed "/^ /!s/\$/    $BG/" "$OUT/.krows"
+                else
+                    echo "kernels $dist $n $isa: FAILED"
+                    FAILED="$FAILED kernels/$dist/$n/$isa"
+                fi
+            done
         done
     done
     if [ -n "$PY" ]; then
-        for n in $KNS; do
+        for n in $KKNS; do
             [ -f "$OUT/stokes_${n}.bin" ] || continue
             wait_quiet
             if run_measured "$PY" bench/fmm3d_kernels.py "$OUT/stokes_${n}.bin" "$OUT/stokes_${n}.bin.cd" > "$OUT/.fst"; then
@@ -281,9 +300,6 @@ if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. b
             fi
         done
     fi
-else
-    echo "bench_kernels: build failed"
-    FAILED="$FAILED kernels/build"
 fi
 
 # ---------------------------------------------------------------- Helmholtz
