@@ -4960,13 +4960,17 @@ KIFMM__STATIC_ASSERT(((KIFMM__HAS_QT | KIFMM__HAS_ST | KIFMM__HAS_QC | KIFMM__HA
 KIFMM__STATIC_ASSERT(KIFMM__SD == 2 || (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) == 0,
                      KIFMM__CAT(KIFMM_NAME, _complex_kernel_must_have_two_components));
 #define KIFMM__FSD (KIFMM__CPLX ? 1 : KIFMM__SD)
-/* Anchors of the downward densities (>>anchors); none for a complex kernel
- * nor in float, whose range the anchors' distance would cut (or with
- * KIFMM_NO_ANCHORS). */
+/* Anchors of the downward densities (>>anchors), complex kernels' too
+ * (their operators are real matrices over the (re, im) pairs); none in
+ * float (or with KIFMM_NO_ANCHORS): there the anchors' own densities, each
+ * about the field times 100 half-widths, carry float's rounding into the
+ * gradient, about 6e-8 times the sources' distance over 100 half-widths,
+ * which the anchors do not cure (docs/algorithm.md, "Anchors"), and their
+ * distance would cut float's range. */
 #if defined(KIFMM_NO_ANCHORS)
 #define KIFMM__ANCHORS 0
 #else
-#define KIFMM__ANCHORS (KIFMM__CPLX || KIFMM__FLOAT ? 0 : KIFMM__ANCHOR_MAX)
+#define KIFMM__ANCHORS (KIFMM__FLOAT ? 0 : KIFMM__ANCHOR_MAX)
 #endif
 #define KIFMM__FRADIAL (KIFMM__RADIAL || (KIFMM__CPLX && (KIFMM__HAS_SC & KIFMM_HAS_RADIAL) != 0))
 /* Three periodic directions of a scale-invariant kernel: its surface
@@ -8895,24 +8899,32 @@ KIFMM__FN int KIFMM__F(__far_role)(const double *prm, double dist, KIFMM__F(__p2
 /* The anchors the downward densities need (>>anchors), from whether the
  * targets get derivatives of the surface kernel's field: where some entry
  * of ST (surface -> targets) falls off faster with distance than every
- * entry of SC (the surface kernel), between the offsets u and 2 u (|u| =
- * 1e-3), by about one power of r, 4 (a field's constant and linear parts),
- * by two or more, KIFMM__ANCHOR_MAX (its quadratic part too); else 0: a
- * potential's error does not grow with the depth, and anchors would only
- * cost time (14 points on a surface of 56 at p = 4). */
+ * entry of SC (the surface kernel), between the offsets u and 2 u, by
+ * about one power of r, 4 (a field's constant and linear parts), by two or
+ * more, KIFMM__ANCHOR_MAX (its quadratic part too); else 0: a potential's
+ * error does not grow with the depth, and anchors would only cost time (14
+ * points on a surface of 56 at p = 4). The most of |u| = 1e-3, 1e-6 and
+ * 1e-9: a kernel that is not scale invariant shows its powers of r where
+ * its other lengths do not reach (helmholtz_grad at k = 2e4 oscillates
+ * between 1e-3 and 2e-3, and had none). */
 KIFMM__FN int KIFMM__F(__st_derivative)(const double *param)
 {
-    static const double u[3] = {0.6e-3, 0.48e-3, 0.64e-3};
-    double prm[4], ks[2][KIFMM__TD * KIFMM__SD], kc[2][KIFMM__SD * KIFMM__SD], dst, dsc;
-    int t;
+    static const double u[3] = {0.6, 0.48, 0.64};
+    double prm[4], ks[2][KIFMM__TD * KIFMM__SD], kc[2][KIFMM__SD * KIFMM__SD], dst, dsc, f;
+    int t, n = 0;
     if (KIFMM__F(__params)(param, prm) != KIFMM_SUCCESS) return 0;
-    for (t = 0; t < 2; t++) {
-        KIFMM__R_(ST, _eval)(prm, (1 + t) * u[0], (1 + t) * u[1], (1 + t) * u[2], ks[t]);
-        KIFMM__R_(SC, _eval)(prm, (1 + t) * u[0], (1 + t) * u[1], (1 + t) * u[2], kc[t]);
+    for (f = 1e-3; f > 1e-10; f *= 1e-3) {
+        for (t = 0; t < 2; t++) {
+            const double g = (1 + t) * f;
+            KIFMM__R_(ST, _eval)(prm, g * u[0], g * u[1], g * u[2], ks[t]);
+            KIFMM__R_(SC, _eval)(prm, g * u[0], g * u[1], g * u[2], kc[t]);
+        }
+        dst = kifmm__min_degree(ks[0], ks[1], KIFMM__TD * KIFMM__SD);
+        dsc = kifmm__min_degree(kc[0], kc[1], KIFMM__SD * KIFMM__SD);
+        t = dst < dsc - 1.5 ? KIFMM__ANCHOR_MAX : dst < dsc - 0.5 ? 4 : 0;
+        n = t > n ? t : n;
     }
-    dst = kifmm__min_degree(ks[0], ks[1], KIFMM__TD * KIFMM__SD);
-    dsc = kifmm__min_degree(kc[0], kc[1], KIFMM__SD * KIFMM__SD);
-    return dst < dsc - 1.5 ? KIFMM__ANCHOR_MAX : dst < dsc - 0.5 ? 4 : 0;
+    return n;
 }
 
 /* r, c: the degrees of QC's rows and columns (kifmm__degrees); 0 where QC
