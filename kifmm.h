@@ -3116,6 +3116,8 @@ KIFMM__FN double kifmm__min_degree(const double *k1, const double *k2, int n)
  * entry not zero is a power of r there (its ratios between x, 2 x and 4 x
  * equal to 1e-9, with one sign), 0 if not (or on allocation failure). */
 typedef void (*kifmm__ev_fn)(const double *, double, double, double, double *);
+/* the point the kernels' degrees are read at (off the cube's symmetry planes) */
+static const double kifmm__degree_x[3] = {0.61, -0.37, 0.23};
 KIFMM__FN int kifmm__entry_degrees(kifmm__ev_fn ev, const double *prm, int n, const double *x, double *deg)
 {
     double *q = (double *)kifmm__alloc((size_t)3 * n, sizeof(double));
@@ -3142,9 +3144,8 @@ KIFMM__FN int kifmm__entry_degrees(kifmm__ev_fn ev, const double *prm, int n, co
  * rows: r = -2 and -1, c = 0). 1 if every entry is so, else 0. */
 KIFMM__FN int kifmm__degrees(kifmm__ev_fn ev, const double *prm, int nr, int nc, double *r, double *c)
 {
-    static const double x[3] = {0.61, -0.37, 0.23};
     double *e = (double *)kifmm__alloc((size_t)nr * nc, sizeof(double));
-    int a, s, ok = e && kifmm__entry_degrees(ev, prm, nr * nc, x, e), a0 = -1;
+    int a, s, ok = e && kifmm__entry_degrees(ev, prm, nr * nc, kifmm__degree_x, e), a0 = -1;
     for (a = 0; a < nr && a0 < 0 && ok; a++) /* a row without zeros sets c */
         for (s = 0, a0 = a; s < nc; s++)
             if (e[(size_t)a * nc + s] != e[(size_t)a * nc + s]) a0 = -1;
@@ -8911,7 +8912,7 @@ KIFMM__FN int KIFMM__F(__st_derivative)(const double *param)
 {
     static const double u[3] = {0.6, 0.48, 0.64};
     double prm[4], ks[2][KIFMM__TD * KIFMM__SD], kc[2][KIFMM__SD * KIFMM__SD], dst, dsc, f;
-    int t, n = 0;
+    int t, na, n = 0;
     if (KIFMM__F(__params)(param, prm) != KIFMM_SUCCESS) return 0;
     for (f = 1e-3; f > 1e-10; f *= 1e-3) {
         for (t = 0; t < 2; t++) {
@@ -8921,8 +8922,8 @@ KIFMM__FN int KIFMM__F(__st_derivative)(const double *param)
         }
         dst = kifmm__min_degree(ks[0], ks[1], KIFMM__TD * KIFMM__SD);
         dsc = kifmm__min_degree(kc[0], kc[1], KIFMM__SD * KIFMM__SD);
-        t = dst < dsc - 1.5 ? KIFMM__ANCHOR_MAX : dst < dsc - 0.5 ? 4 : 0;
-        n = t > n ? t : n;
+        na = dst < dsc - 1.5 ? KIFMM__ANCHOR_MAX : dst < dsc - 0.5 ? 4 : 0;
+        n = na > n ? na : n;
     }
     return n;
 }
@@ -8943,10 +8944,9 @@ KIFMM__FN int KIFMM__F(__qc_degrees)(const double *prm, double *r, double *c)
  * invariant. */
 KIFMM__FN void KIFMM__F(__density_degrees)(const double *prm, double *lo, double *hi)
 {
-    static const double x[3] = {0.61, -0.37, 0.23};
     double e[KIFMM__SD * KIFMM__QD] = {0.0};
     int a, s, ok = KIFMM__SI && !KIFMM__CPLX &&
-                   kifmm__entry_degrees(KIFMM__R_(QC, _eval), prm, KIFMM__SD * KIFMM__QD, x, e);
+                   kifmm__entry_degrees(KIFMM__R_(QC, _eval), prm, KIFMM__SD * KIFMM__QD, kifmm__degree_x, e);
     for (s = 0; s < KIFMM__QD; s++) {
         lo[s] = HUGE_VAL, hi[s] = -HUGE_VAL;
         for (a = 0; a < KIFMM__SD && ok; a++) {
@@ -10942,7 +10942,6 @@ KIFMM__FN int KIFMM__F(__mpi_qc)(const KIFMM_NAME *c, double w, double *a)
     kifmm__free(pc);
     return ok ? KIFMM_SUCCESS : KIFMM_ERR_KERNEL;
 }
-
 
 /* pinv(K_QC(check <- equivalent points)) at half-width w, as its factors
  * (kifmm__pinv), truncated at 1e-7 of the largest singular value up to

@@ -6,9 +6,10 @@
  * laplace_cd_grad (a charge and a dipole per point) on the same N
  * points of DIST (cube, sphere, clustered: bench/points.h), sources =
  * targets, one after the other in this process, and prints one row per
- * kernel: the build's instruction set, create and evaluate time (the fastest of R evaluates), their sum
- * and its ratio to laplace_grad's, the memory the handle holds and its ratio
- * to laplace_grad's, and the relative L2 error of the first output group
+ * kernel: the build's instruction set, create and evaluate time (the
+ * fastest of R evaluates), their sum and its ratio to laplace_grad's,
+ * the memory the handle holds and its ratio to laplace_grad's, and the
+ * relative L2 error of the first output group
  * (potential, velocity) and of the gradient at S sample targets against
  * direct sums computed here. --dump FILE writes the Stokes case to FILE and
  * the laplace_cd_grad case to FILE.cd, for bench/fmm3d_kernels.py (little
