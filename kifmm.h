@@ -3611,6 +3611,18 @@ KIFMM__FN int kifmm__tv_turn(const int *t, int *pi, int *s)
     return kifmm__transfer_index(c[0], c[1], c[2]);
 }
 
+/* slot[t]: the place of transfer vector t among the 16 with t_x >= t_y >=
+ * t_z >= 0 (those kifmm__tv_turn returns), in their order; -1 for the others */
+KIFMM__FN void kifmm__tv_slots(int *slot)
+{
+    int tv, n = 0;
+    for (tv = 0; tv < KIFMM__NT; tv++) {
+        int d[3] = {0, 0, 0}, pi[3], sg[3];
+        kifmm__transfer_vector(tv, d);
+        slot[tv] = kifmm__tv_turn(d, pi, sg) == tv ? n++ : -1;
+    }
+}
+
 /* The lattice offset e of a (2q - 1)^3 grid (components -(q - 1) .. q - 1)
  * as its absolute components sorted, a <= b <= c, into one index a q^2 + b
  * q + c: the same for the 48 images of e under the cube's symmetries (as
@@ -3626,31 +3638,22 @@ KIFMM__FN int kifmm__lat_sorted(int64_t e, int q)
     return (a * q + b) * q + c;
 }
 
-/* The spectrum of a grid turned by sigma (kifmm__tv_turn) from the grid's,
- * times sgn: with G'[sigma x] = G[x], G'^[k] = G^[k'], k'_pi(a) = s_a k_a
- * (mod n); where k'_z is past the stored half, G^[k'] = conj G^[-k'] (a
- * real grid; a complex one stores every frequency).
- * Frequency f of the result (re, im) at out + f ostride. */
-KIFMM__FN void kifmm__fft_turn(const kifmm__fft *pl, const int *pi, const int *s, double sgn, const double *in,
-                               double *out, size_t ostride)
+/* The frequency of a grid's spectrum that gives frequency k of the grid
+ * turned by sigma (kifmm__tv_turn): with G'[sigma x] = G[x], G'^[k] =
+ * G^[k'], k'_pi(a) = s_a k_a (mod n); where k'_z is past the stored half,
+ * G^[k'] = conj G^[-k'] (a real grid; a complex one stores every
+ * frequency), and *conj is -1 (else 1). */
+KIFMM__FN size_t kifmm__fft_turned(const kifmm__fft *pl, const int *pi, const int *s, const int *k, double *conj)
 {
     const int n = pl->n, nh = pl->nh;
-    int k[3], kp[3], a;
-    size_t f = 0;
-    for (k[0] = 0; k[0] < n; k[0]++)
-        for (k[1] = 0; k[1] < n; k[1]++)
-            for (k[2] = 0; k[2] < nh; k[2]++, f++) {
-                size_t g;
-                double im = 1.0;
-                for (a = 0; a < 3; a++) kp[pi[a]] = s[a] > 0 || k[a] == 0 ? k[a] : n - k[a];
-                if (kp[2] >= nh) {
-                    for (a = 0; a < 3; a++) kp[a] = kp[a] ? n - kp[a] : 0;
-                    im = -1.0;
-                }
-                g = ((size_t)kp[0] * n + kp[1]) * nh + kp[2];
-                out[f * ostride] = sgn * in[2 * g];
-                out[f * ostride + 1] = sgn * im * in[2 * g + 1];
-            }
+    int kp[3], a;
+    for (a = 0; a < 3; a++) kp[pi[a]] = s[a] > 0 || k[a] == 0 ? k[a] : n - k[a];
+    *conj = 1.0;
+    if (kp[2] >= nh) {
+        for (a = 0; a < 3; a++) kp[a] = kp[a] ? n - kp[a] : 0;
+        *conj = -1.0;
+    }
+    return ((size_t)kp[0] * n + kp[1]) * nh + kp[2];
 }
 
 /* Lanes of the batched transforms: the 8 children of one parent at once. */
@@ -5806,9 +5809,10 @@ done:
  * lattice offsets h (i - j) - 2 r t on the (2q - 1)^3 grid (a complex
  * kernel: one complex grid, k[0] + i k[2]); if turned (a radial or
  * vector kernel) only the 16 transfer vectors with t_x >= t_y >= t_z >= 0
- * (the others are these turned, P__khat_turned). *big gets the largest |value| (the same over the
- * 16). KIFMM_ERR_KERNEL if a value was not finite, or a complex kernel's
- * block not of the form {a, -b, b, a}. */
+ * (the others are these turned, P__khat_turned), vector t in place
+ * kifmm__tv_slots(t) of kt. *big gets the largest |value| (the same over
+ * the 16). KIFMM_ERR_KERNEL if a value was not finite, or a complex
+ * kernel's block not of the form {a, -b, b, a}. */
 KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma, int nth, int turned,
                                     double *kt, double *big)
 {
@@ -5818,16 +5822,18 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
     const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
     const double h = 2.0 * KIFMM__F(__rin)(c->pl, r) / (p - 1);
     double *gall = (double *)kifmm__alloc((size_t)nth * per, sizeof(double)), mx = 0.0;
-    int bad = 0;
+    int bad = 0, slot[KIFMM__NT];
     if (!gall) return KIFMM_ERR_NOMEM;
+    kifmm__tv_slots(slot);
     /* each transfer vector writes its own spectra; g is the thread's grids */
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) if(nth > 1) \
                reduction(| : bad) reduction(max : mx))
     for (int tv = 0; tv < KIFMM__NT; tv++) {
         double *g = gall + (size_t)kifmm__thread_num() * per, kv[SD2];
-        int d[3] = {0, 0, 0}, pi[3], sg[3], i, j, k, ab;
+        const int at_t = turned ? slot[tv] : tv;
+        int d[3] = {0, 0, 0}, i, j, k, ab;
+        if (at_t < 0) continue; /* turned from the 16 */
         kifmm__transfer_vector(tv, d);
-        if (turned && kifmm__tv_turn(d, pi, sg) != tv) continue; /* turned from the 16 */
         memset(g, 0, sizeof(double) * SD2 * nnn);
         for (i = 1 - p; i < p; i++)
             for (j = 1 - p; j < p; j++)
@@ -5845,9 +5851,9 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
 #endif
                 }
         if (KIFMM__CPLX)
-            kifmm__fft_grid(pl, g, g + 2 * nnn, kt + (size_t)tv * 2 * pl->nfp, g + SD2 * nnn);
+            kifmm__fft_grid(pl, g, g + 2 * nnn, kt + (size_t)at_t * 2 * pl->nfp, g + SD2 * nnn);
         for (ab = 0; !KIFMM__CPLX && ab < SD2; ab++)
-            kifmm__fft_grid(pl, g + ab * nnn, NULL, kt + ((size_t)tv * SD2 + ab) * 2 * pl->nfp,
+            kifmm__fft_grid(pl, g + ab * nnn, NULL, kt + ((size_t)at_t * SD2 + ab) * 2 * pl->nfp,
                             g + SD2 * nnn);
     }
     kifmm__free(gall);
@@ -5856,36 +5862,79 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
 }
 
 /* khat (P__build_m2l_fft's layout) from the spectra kt of the 16 transfer
- * vectors with t_x >= t_y >= t_z >= 0 (P__m2l_grids, at kt + (c FSD^2 +
+ * vectors with t_x >= t_y >= t_z >= 0 (P__m2l_grids, at kt + (slot FSD^2 +
  * ab) 2 nfp): each of the 316 turned from its vector c among them (R c,
  * R_{a, pi a} = s_a: kifmm__tv_turn), each component ab its own (a radial
  * kernel, vec 0) or, for a vector kernel (vec 1, P__sc_vector), component
  * (d, e) s_d s_e times c's component (pi d, pi e) on the last three
- * (kifmm__comp_turn); the padding frequencies 0. */
-KIFMM__FN void KIFMM__F(__khat_turned)(const KIFMM_NAME *c, const double *kt, int vec, int nth,
-                                       double *khat)
+ * (kifmm__comp_turn); the padding frequencies 0. The 16 are first moved
+ * frequency-major (kf), so that khat is written in order, frequency by
+ * frequency, each from its turned frequencies' blocks (stokes, p = 6: 33
+ * MB of khat; the turns one spectrum at a time wrote it in strides). */
+KIFMM__FN int KIFMM__F(__khat_turned)(const KIFMM_NAME *c, const double *kt, int vec, int nth,
+                                      double *khat)
 {
     enum { SD = KIFMM__FSD, SD2 = KIFMM__FSD * KIFMM__FSD };
     const kifmm__fft *pl = &c->pl->fft;
+    const int n = pl->n, nh = pl->nh, nfp = pl->nfp;
+    double *kf = (double *)kifmm__alloc((size_t)16 * nfp * SD2 * 2, sizeof(double));
+    double *sgn = (double *)kifmm__alloc((size_t)KIFMM__NT * SD2, sizeof(double));
+    int *from = (int *)kifmm__alloc((size_t)KIFMM__NT * (SD2 + 7), sizeof(int)), *turn = from + KIFMM__NT * SD2;
+    int slot[KIFMM__NT], tv, a, b;
     (void)nth; /* (without OpenMP) */
-    /* each transfer vector t writes its own columns of khat */
-    KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
-    for (int tv = 0; tv < KIFMM__NT; tv++) {
-        int d[3] = {0, 0, 0}, pi[3], sg[3], cv, a, b;
+    if (!kf || !sgn || !from) {
+        kifmm__free(kf);
+        kifmm__free(sgn);
+        kifmm__free(from);
+        return KIFMM_ERR_NOMEM;
+    }
+    kifmm__tv_slots(slot);
+    for (tv = 0; tv < KIFMM__NT; tv++) { /* turn + 7 t: the turn of t (pi, s) and its vector's slot */
+        int d[3] = {0, 0, 0}, *tt = turn + 7 * tv;
         kifmm__transfer_vector(tv, d);
-        cv = kifmm__tv_turn(d, pi, sg);
+        tt[6] = slot[kifmm__tv_turn(d, tt, tt + 3)];
         for (a = 0; a < SD; a++)
             for (b = 0; b < SD; b++) {
                 double sa = 1.0, sb = 1.0;
-                const int pa = vec ? kifmm__comp_turn(SD, pi, sg, a, &sa) : a;
-                const int pb = vec ? kifmm__comp_turn(SD, pi, sg, b, &sb) : b;
-                const size_t from = ((size_t)cv * SD2 + (size_t)pa * SD + (size_t)pb) * 2 * pl->nfp;
-                kifmm__fft_turn(pl, pi, sg, sa * sb, kt + from, khat + 2 * ((size_t)tv * SD2 + (size_t)a * SD + b),
-                                2 * KIFMM__NT * (size_t)SD2);
+                const int pa = vec ? kifmm__comp_turn(SD, tt, tt + 3, a, &sa) : a;
+                const int pb = vec ? kifmm__comp_turn(SD, tt, tt + 3, b, &sb) : b;
+                from[tv * SD2 + a * SD + b] = pa * SD + pb;
+                sgn[tv * SD2 + a * SD + b] = sa * sb;
             }
     }
-    memset(khat + (size_t)2 * KIFMM__NT * SD2 * pl->nf, 0,
-           sizeof(double) * 2 * KIFMM__NT * SD2 * (size_t)(pl->nfp - pl->nf));
+    /* each (slot, frequency) writes its own block of kf */
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
+    for (int64_t sf = 0; sf < (int64_t)16 * nfp; sf++)
+        for (int ab = 0; ab < SD2 && sf % nfp < pl->nf; ab++) {
+            const double *in = kt + ((size_t)(sf / nfp) * SD2 + ab) * 2 * nfp + 2 * (size_t)(sf % nfp);
+            kf[((size_t)sf * SD2 + ab) * 2] = in[0];
+            kf[((size_t)sf * SD2 + ab) * 2 + 1] = in[1];
+        }
+    /* each frequency f writes its own row of khat */
+    KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
+    for (int32_t f = 0; f < nfp; f++) {
+        double *o = khat + (size_t)f * KIFMM__NT * SD2 * 2;
+        const int k[3] = {f / (n * nh), f / nh % n, f % nh};
+        if (f >= pl->nf) {
+            memset(o, 0, sizeof(double) * 2 * KIFMM__NT * SD2);
+            continue;
+        }
+        for (int t = 0; t < KIFMM__NT; t++) {
+            const int *tt = turn + 7 * t;
+            double cj;
+            const size_t g = kifmm__fft_turned(pl, tt, tt + 3, k, &cj);
+            const double *in = kf + ((size_t)tt[6] * nfp + g) * SD2 * 2;
+            for (int ab = 0; ab < SD2; ab++, o += 2) {
+                const double sg = sgn[t * SD2 + ab];
+                o[0] = sg * in[2 * from[t * SD2 + ab]];
+                o[1] = sg * cj * in[2 * from[t * SD2 + ab] + 1];
+            }
+        }
+    }
+    kifmm__free(kf);
+    kifmm__free(sgn);
+    kifmm__free(from);
+    return KIFMM_SUCCESS;
 }
 
 /* khat (P__build_m2l_fft's layout) from the spectra kt of all 316 transfer
@@ -5914,28 +5963,27 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, 
     const kifmm__fft *pl = &c->pl->fft;
     const size_t nk = (size_t)KIFMM__NT * SD2 * 2 * pl->nfp;
     const int vec = !KIFMM__FRADIAL && KIFMM__F(__sc_vector)(c->opts.kernel_param);
+    const int turned = KIFMM__FRADIAL || vec;
+    const size_t nkt = turned ? nk / KIFMM__NT * 16 : nk; /* turned: the 16's spectra only */
     double *kt; /* spectra per transfer vector */
     double big = 0.0;
-    int rc;
+    int rc, rt = KIFMM_SUCCESS;
     o->khat = (double *)kifmm__alloc(nk, sizeof(double));
-    kt = (double *)kifmm__alloc(nk, sizeof(double));
+    kt = (double *)kifmm__alloc(nkt, sizeof(double));
     if (!o->khat || !kt) {
         kifmm__free(kt);
         return KIFMM_ERR_NOMEM;
     }
-    if (!KIFMM__FRADIAL) memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
-    rc = KIFMM__F(__m2l_grids)(c, r, o->sigma, nth, KIFMM__FRADIAL || vec, kt, &big);
+    if (!turned) memset(kt, 0, sizeof(double) * nkt); /* the padding frequencies stay 0 */
+    rc = KIFMM__F(__m2l_grids)(c, r, o->sigma, nth, turned, kt, &big);
     if (rc == KIFMM_ERR_NOMEM) {
         kifmm__free(kt);
         return KIFMM_ERR_NOMEM;
     }
-#if KIFMM__FRADIAL
-    KIFMM__F(__khat_turned)(c, kt, 0, nth, o->khat);
-#else
-    if (vec) KIFMM__F(__khat_turned)(c, kt, 1, nth, o->khat);
+    if (turned) rt = KIFMM__F(__khat_turned)(c, kt, vec, nth, o->khat);
     else KIFMM__F(__khat_moved)(c, kt, nth, o->khat);
-#endif
     kifmm__free(kt);
+    if (rt) return rt;
     /* The M2L's kernel values reach those at the nearest lattice points of
      * well separated boxes (1.9 r apart), sigma is scaled to those of the
      * solves' surfaces (3.45 r): for a Yukawa kernel their ratio is
