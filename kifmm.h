@@ -2781,22 +2781,31 @@ KIFMM__FN int kifmm__symb_build(int p, int vec, kifmm__symb *b)
 }
 
 /* Y = Q^T X (tr) or Q X: X and Y N x nc (N = n sd: rows point-major, sd
- * components each; column major), orbit by orbit: its rows of X gathered,
- * times W_o or W_o^T (one GEMM), scattered; g: 2 * 48 * nc scratch values */
+ * components each; column major), JB columns at a time (which stay in
+ * cache while every orbit reads and writes its rows: laplace's solves at
+ * p = 12, 728 columns all at once, spent 0.04 s of create here), orbit by
+ * orbit: its rows of X gathered, times W_o or W_o^T (one GEMM), scattered;
+ * g: 2 * 48 * nc scratch values */
 KIFMM__FN void kifmm__symb_rows(const kifmm__symb *b, int sd, int tr, const double *x, int nc, double *y,
                                 double *g)
 {
+    enum { JB = 16 };
     const size_t N = (size_t)b->n * sd;
-    int o, e, c, j;
-    for (o = 0; o < b->no; o++) {
-        const int s = b->ost[o + 1] - b->ost[o], *pt = b->pts + b->ost[o], *cl = b->col + b->ost[o];
-        double *h = g + (size_t)s * nc;
-        for (c = 0; c < sd; c++) {
-            for (j = 0; j < nc; j++)
-                for (e = 0; e < s; e++) g[e + (size_t)j * s] = x[(size_t)(tr ? pt[e] : cl[e]) * sd + c + j * N];
-            kifmm__gemm(tr, 0, s, nc, s, 1.0, b->w + b->wo[o], s, g, s, 0.0, h, s);
-            for (j = 0; j < nc; j++)
-                for (e = 0; e < s; e++) y[(size_t)(tr ? cl[e] : pt[e]) * sd + c + j * N] = h[e + (size_t)j * s];
+    int o, e, c, j, j0;
+    for (j0 = 0; j0 < nc; j0 += JB) {
+        const int nj = nc - j0 < JB ? nc - j0 : JB;
+        const double *xj = x + (size_t)j0 * N;
+        double *yj = y + (size_t)j0 * N;
+        for (o = 0; o < b->no; o++) {
+            const int s = b->ost[o + 1] - b->ost[o], *pt = b->pts + b->ost[o], *cl = b->col + b->ost[o];
+            double *h = g + (size_t)s * nj;
+            for (c = 0; c < sd; c++) {
+                for (j = 0; j < nj; j++)
+                    for (e = 0; e < s; e++) g[e + (size_t)j * s] = xj[(size_t)(tr ? pt[e] : cl[e]) * sd + c + j * N];
+                kifmm__gemm(tr, 0, s, nj, s, 1.0, b->w + b->wo[o], s, g, s, 0.0, h, s);
+                for (j = 0; j < nj; j++)
+                    for (e = 0; e < s; e++) yj[(size_t)(tr ? cl[e] : pt[e]) * sd + c + j * N] = h[e + (size_t)j * s];
+            }
         }
     }
 }
