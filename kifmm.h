@@ -2780,6 +2780,43 @@ KIFMM__FN int kifmm__symb_build(int p, int vec, kifmm__symb *b)
     return rc;
 }
 
+/* The bases one operator build factors its matrices on, each built once
+ * (laplace at p = 12 factors three matrices on the orders 12 and 13, six
+ * bases to build, two of them different): kept by (order, vec) */
+#define KIFMM__SYMBS 6
+typedef struct kifmm__symbs {
+    int n, key[KIFMM__SYMBS];
+    kifmm__symb b[KIFMM__SYMBS];
+} kifmm__symbs;
+
+KIFMM__FN void kifmm__symbs_free(kifmm__symbs *y)
+{
+    int i;
+    for (i = 0; i < y->n; i++) kifmm__symb_free(&y->b[i]);
+    y->n = 0;
+}
+
+/* *out: the basis of order p (vec) from y, built there if new; with y
+ * NULL (or full), built into own (the caller's to free). */
+KIFMM__FN int kifmm__symb_get(kifmm__symbs *y, int p, int vec, kifmm__symb *own, const kifmm__symb **out)
+{
+    const int key = 2 * p + (vec != 0);
+    int i, rc;
+    for (i = 0; y && i < y->n; i++)
+        if (y->key[i] == key) {
+            *out = &y->b[i];
+            return KIFMM_SUCCESS;
+        }
+    if (y && y->n < KIFMM__SYMBS) {
+        if ((rc = kifmm__symb_build(p, vec, &y->b[y->n])) != KIFMM_SUCCESS) return rc;
+        y->key[y->n] = key;
+        *out = &y->b[y->n++];
+        return KIFMM_SUCCESS;
+    }
+    *out = own;
+    return kifmm__symb_build(p, vec, own);
+}
+
 /* Y = Q^T X (tr) or Q X: X and Y N x nc (N = n sd: rows point-major, sd
  * components each; column major), JB columns at a time (which stay in
  * cache while every orbit reads and writes its rows: laplace's solves at
@@ -2899,10 +2936,11 @@ KIFMM__FN double kifmm__cube_offblock(const double *bf, int m, int n, int sd, co
  * = Qr U_B, V = Qc V_B. Where the blocks hold fewer than mn triplets, the
  * rest are s = 0 with zero columns. KIFMM__NOT_SYMMETRIC where B is not
  * block diagonal. */
-KIFMM__FN int kifmm__svd_cube(const double *a, int pr, int pc, int sd, int vec, double *s, double *u,
-                              double *vt)
+KIFMM__FN int kifmm__svd_cube(kifmm__symbs *y, const double *a, int pr, int pc, int sd, int vec, double *s,
+                              double *u, double *vt)
 {
-    kifmm__symb br, bc, *bp = &bc;
+    kifmm__symb own_r, own_c;
+    const kifmm__symb *br = &own_r, *bp = &own_c;
     const int m = kifmm__surf_count(pr) * sd, n = kifmm__surf_count(pc) * sd, mn = m < n ? m : n;
     const int big = m > n ? m : n;
     double *us[10] = {NULL}, *vts[10] = {NULL}, *ss[10] = {NULL};
@@ -2911,17 +2949,17 @@ KIFMM__FN int kifmm__svd_cube(const double *a, int pr, int pc, int sd, int vec, 
     double *g = (double *)kifmm__alloc((size_t)96 * big, sizeof(double));
     kifmm__svi *kept = (kifmm__svi *)kifmm__alloc((size_t)mn + 1, sizeof(kifmm__svi));
     int r0[11], c0[11], rho, i, j, nk = 0, rc = r && bf && g && kept ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
-    memset(&br, 0, sizeof br), memset(&bc, 0, sizeof bc);
+    memset(&own_r, 0, sizeof own_r), memset(&own_c, 0, sizeof own_c);
     if (vec && sd != 3) rc = KIFMM_ERR_INTERNAL;
     if (vec) sd = 1; /* the bases' elements are the points' components */
-    if (!rc) rc = kifmm__symb_build(pr, vec, &br);
-    if (!rc && pc != pr) rc = kifmm__symb_build(pc, vec, &bc); /* (square: br twice) */
-    if (pc == pr) bp = &br;
+    if (!rc) rc = kifmm__symb_get(y, pr, vec, &own_r, &br);
+    if (!rc && pc != pr) rc = kifmm__symb_get(y, pc, vec, &own_c, &bp);
+    if (pc == pr) bp = br; /* (square: br twice) */
     for (r0[0] = c0[0] = 0, rho = 0; !rc && rho < 10; rho++)
-        r0[rho + 1] = r0[rho] + br.cnt[rho], c0[rho + 1] = c0[rho] + bp->cnt[rho];
+        r0[rho + 1] = r0[rho] + br->cnt[rho], c0[rho + 1] = c0[rho] + bp->cnt[rho];
     if (!rc) {
         kifmm__symb_cols(bp, sd, a, m, r, g);
-        kifmm__symb_rows(&br, sd, 1, r, n, bf, g);
+        kifmm__symb_rows(br, sd, 1, r, n, bf, g);
         if (!(kifmm__cube_offblock(bf, m, n, sd, r0, c0) <= KIFMM__SYM_TOL)) rc = KIFMM__NOT_SYMMETRIC;
         if (!rc) rc = kifmm__cube_blocks(bf, m, sd, r0, c0, us, ss, vts, kept, &nk, r);
     }
@@ -2935,14 +2973,14 @@ KIFMM__FN int kifmm__svd_cube(const double *a, int pr, int pc, int sd, int vec, 
             for (i = 0; i < mr; i++) r[(size_t)r0[rh] * sd + i + (size_t)j * m] = us[rh][i + (size_t)t * mr];
             for (i = 0; i < nc; i++) bf[(size_t)c0[rh] * sd + i + (size_t)j * n] = vts[rh][t + (size_t)i * kr];
         }
-        kifmm__symb_rows(&br, sd, 0, r, mn, u, g); /* Qr U */
+        kifmm__symb_rows(br, sd, 0, r, mn, u, g); /* Qr U */
         kifmm__symb_rows(bp, sd, 0, bf, mn, r, g); /* Qc V, then its transpose */
         for (j = 0; j < mn; j++)
             for (i = 0; i < n; i++) vt[j + (size_t)i * mn] = r[i + (size_t)j * n];
     }
     for (rho = 0; rho < 10; rho++) kifmm__free(us[rho]), kifmm__free(vts[rho]), kifmm__free(ss[rho]);
     kifmm__free(r), kifmm__free(bf), kifmm__free(g), kifmm__free(kept);
-    kifmm__symb_free(&br), kifmm__symb_free(&bc);
+    kifmm__symb_free(&own_r), kifmm__symb_free(&own_c);
     return rc;
 }
 
@@ -2951,15 +2989,15 @@ KIFMM__FN int kifmm__svd_cube(const double *a, int pr, int pc, int sd, int vec, 
  * 728 (laplace's upward solve at p = 12) 0.133 s for dgesdd on A, 0.046 s
  * by blocks; 976 x 772 (helmholtz's lattice fit at p = 8) 0.166 and 0.050
  * s; 386 x 296 0.017 and 0.007 s. KIFMM__NOT_SYMMETRIC as there. */
-KIFMM__FN int kifmm__pinv_cube(const double *a, int pr, int pc, int sd, int vec, double cutoff,
-                               double **ut_out, double **vs_out, int *rank)
+KIFMM__FN int kifmm__pinv_cube(kifmm__symbs *y, const double *a, int pr, int pc, int sd, int vec,
+                               double cutoff, double **ut_out, double **vs_out, int *rank)
 {
     const int m = kifmm__surf_count(pr) * sd, n = kifmm__surf_count(pc) * sd, mn = m < n ? m : n;
     double *s = (double *)kifmm__alloc((size_t)mn + 1, sizeof(double));
     double *u = (double *)kifmm__alloc((size_t)m * mn + 1, sizeof(double));
     double *vt = (double *)kifmm__alloc((size_t)mn * n + 1, sizeof(double)), *ut = NULL, *vs = NULL;
     int k = 0, rc = s && u && vt ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
-    if (!rc) rc = kifmm__svd_cube(a, pr, pc, sd, vec, s, u, vt);
+    if (!rc) rc = kifmm__svd_cube(y, a, pr, pc, sd, vec, s, u, vt);
     if (!rc) {
         for (k = 0; k < mn && s[k] > cutoff * s[0]; k++) {}
         ut = (double *)kifmm__alloc((size_t)k * m + 1, sizeof(double));
@@ -2999,13 +3037,14 @@ KIFMM__FN double *kifmm__group_block(const double *a, int m, int n, int sd, cons
 /* The SVD (kifmm__svd) of one group's block of kifmm__pinv_groups (bm x
  * bn, destroyed) between the unit surfaces of orders pr and pc (pr = 0:
  * none): by the cube's symmetries where the block has them. */
-KIFMM__FN int kifmm__svd_group(double *blk, int bm, int bn, int pr, int pc, double *s, double *u, double *vt)
+KIFMM__FN int kifmm__svd_group(kifmm__symbs *y, double *blk, int bm, int bn, int pr, int pc, double *s,
+                               double *u, double *vt)
 {
     const int cr = pr > 0 ? kifmm__surf_count(pr) : 0, cc = pc > 0 ? kifmm__surf_count(pc) : 0;
     const int gs = cr > 0 ? bm / cr : 0; /* the group's components */
     int rc = KIFMM__NOT_SYMMETRIC;
     if (gs > 0 && gs * cr == bm && cc > 0 && gs * cc == bn)
-        rc = kifmm__svd_cube(blk, pr, pc, gs, gs == 3, s, u, vt);
+        rc = kifmm__svd_cube(y, blk, pr, pc, gs, gs == 3, s, u, vt);
     return rc == KIFMM__NOT_SYMMETRIC ? kifmm__svd(blk, bm, bn, s, u, vt) : rc;
 }
 
@@ -3025,9 +3064,9 @@ KIFMM__FN int kifmm__svd_group(double *blk, int bm, int bn, int pr, int pc, doub
  * its columns has its SVD by the cube's symmetries where its block has
  * them (kifmm__svd_cube; three components turned as a vector, others each
  * as a value: stokes_dl's c and f, biot_savart's three charges). */
-KIFMM__FN int kifmm__pinv_groups(const double *a, int m, int n, int sd, int pr, int pc, const int *gr,
-                                 const int *gc, int ng, double cutoff, double **ut_out, double **vs_out,
-                                 int *rank)
+KIFMM__FN int kifmm__pinv_groups(kifmm__symbs *y, const double *a, int m, int n, int sd, int pr, int pc,
+                                 const int *gr, const int *gc, int ng, double cutoff, double **ut_out,
+                                 double **vs_out, int *rank)
 {
     double *u[KIFMM__GROUPS] = {NULL}, *vt[KIFMM__GROUPS] = {NULL}, *s[KIFMM__GROUPS] = {NULL};
     double *ut = NULL, *vs = NULL, *blk, s0 = 0.0;
@@ -3049,7 +3088,7 @@ KIFMM__FN int kifmm__pinv_groups(const double *a, int m, int n, int sd, int pr, 
         vt[g] = (double *)kifmm__alloc((size_t)mk[g] * bn[g] + 1, sizeof(double));
         s[g] = (double *)kifmm__alloc((size_t)mk[g] + 1, sizeof(double));
         if (!blk || !u[g] || !vt[g] || !s[g]) rc = KIFMM_ERR_NOMEM;
-        else if (mk[g] > 0) rc = kifmm__svd_group(blk, bm[g], bn[g], pr, pc, s[g], u[g], vt[g]);
+        else if (mk[g] > 0) rc = kifmm__svd_group(y, blk, bm[g], bn[g], pr, pc, s[g], u[g], vt[g]);
         if (!rc && mk[g] > 0 && s[g][0] > s0) s0 = s[g][0];
         kifmm__free(blk);
     }
@@ -3328,6 +3367,7 @@ typedef struct kifmm__ops {
                                frequency-major: khat[(f 316 + t) 2] (re, im) */
     double *kup, *kdn;      /* the two check-to-equivalent matrices, times sigma,
                                from the kernel pass to the solves (then freed) */
+    kifmm__symbs *sy;       /* the build's symmetry bases (NULL: none kept), not owned */
 } kifmm__ops;
 
 KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
@@ -5630,20 +5670,20 @@ KIFMM__FN int KIFMM__F(__sc_vector)(const double *prm)
  * symmetries where P__sc_vector finds the kernel turned by them); a
  * three-component one that it finds so by the symmetries turning its
  * components as vectors (a Stokeslet's); else by one SVD (A destroyed). */
-KIFMM__FN int KIFMM__F(__pinv_surf)(const double *prm, double *a, int m, int n, int pr, int pc, double **ut,
-                                    double **vs, int *k)
+KIFMM__FN int KIFMM__F(__pinv_surf)(kifmm__symbs *y, const double *prm, double *a, int m, int n, int pr, int pc,
+                                    double **ut, double **vs, int *k)
 {
     const int cube = kifmm__surf_count(pr) * KIFMM__SD == m && kifmm__surf_count(pc) * KIFMM__SD == n;
     int rc = KIFMM__NOT_SYMMETRIC;
 #if KIFMM__FRADIAL
     (void)prm;
-    if (cube) rc = kifmm__pinv_cube(a, pr, pc, KIFMM__SD, 0, KIFMM__CUTOFF, ut, vs, k);
+    if (cube) rc = kifmm__pinv_cube(y, a, pr, pc, KIFMM__SD, 0, KIFMM__CUTOFF, ut, vs, k);
 #else
     int gr[KIFMM__SD], gc[KIFMM__SD], ng = KIFMM__F(__sc_groups)(prm, gr, gc);
     const int sym = cube && KIFMM__F(__sc_vector)(prm); /* the blocks only where the probe finds them */
     if (ng > 1)
-        return kifmm__pinv_groups(a, m, n, KIFMM__SD, sym ? pr : 0, pc, gr, gc, ng, KIFMM__CUTOFF, ut, vs, k);
-    if (sym && KIFMM__SD == 3) rc = kifmm__pinv_cube(a, pr, pc, 3, 1, KIFMM__CUTOFF, ut, vs, k);
+        return kifmm__pinv_groups(y, a, m, n, KIFMM__SD, sym ? pr : 0, pc, gr, gc, ng, KIFMM__CUTOFF, ut, vs, k);
+    if (sym && KIFMM__SD == 3) rc = kifmm__pinv_cube(y, a, pr, pc, 3, 1, KIFMM__CUTOFF, ut, vs, k);
 #endif
     if (rc != KIFMM__NOT_SYMMETRIC) return rc;
     return kifmm__pinv(a, m, n, KIFMM__CUTOFF, ut, vs, k);
@@ -5669,7 +5709,7 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
     for (j = 0; j < ne && tr; j++)
         for (i = 0; i < nc && tr; i++)
             tr = o->kdn[i + (size_t)j * nc] == KIFMM__C2E_SIGN(i) * KIFMM__C2E_SIGN(j) * o->kup[j + (size_t)i * nc];
-    rc = KIFMM__F(__pinv_surf)(c->opts.kernel_param, o->kup, nc, ne, pc, c->opts.order, &o->ut_up, &o->vs_up,
+    rc = KIFMM__F(__pinv_surf)(o->sy, c->opts.kernel_param, o->kup, nc, ne, pc, c->opts.order, &o->ut_up, &o->vs_up,
                                &o->ku);
     if (!rc && tr) {
         o->kd = o->ku;
@@ -5680,7 +5720,7 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
                 o->ut_dn[j + (size_t)i * o->kd] = -o->ut_dn[j + (size_t)i * o->kd];
             }
     } else if (!rc) {
-        rc = KIFMM__F(__pinv_surf)(c->opts.kernel_param, o->kdn, nc, ne, pc, c->opts.order, &o->ut_dn,
+        rc = KIFMM__F(__pinv_surf)(o->sy, c->opts.kernel_param, o->kdn, nc, ne, pc, c->opts.order, &o->ut_dn,
                                    &o->vs_dn, &o->kd);
     }
     kifmm__free(o->kup);
@@ -5800,7 +5840,7 @@ KIFMM__FN int KIFMM__F(__build_conv)(const KIFMM_NAME *c, double r, kifmm__ops *
         rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->pl->surf.ao * r, c->pl->surf.unit_c, c->pl->surf.nsc,
                                    zero, KIFMM__F(__rin)(c->pl, r), 1.0, a, (size_t)nf, NULL);
     if (!rc)
-        rc = KIFMM__F(__pinv_surf)(c->opts.kernel_param, a, nf, nc, qf, c->opts.order + c->pl->surf.cdiff, &ut,
+        rc = KIFMM__F(__pinv_surf)(o->sy, c->opts.kernel_param, a, nf, nc, qf, c->opts.order + c->pl->surf.cdiff, &ut,
                                    &vs, &k);
     if (rc) goto done;
     tmp = (double *)kifmm__alloc((size_t)k * ne, sizeof(double));
@@ -6333,10 +6373,13 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
     kifmm__ops *o = (kifmm__ops *)kifmm__calloc((size_t)nlev, sizeof(kifmm__ops));
     int *rcs = (int *)kifmm__calloc((size_t)nlev, sizeof(int));
     int l, rc = o && rcs ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, k = 0;
+    kifmm__symbs sy; /* the levels' factorisations share their bases */
+    sy.n = 0;
     if (!rc) KIFMM__F(__ops_levels)(c, 0, nlev, r, m2l, from, o, rcs);
     for (l = 0; l < nlev; l++) {
         KIFMM__F(__ops) *x;
         if (from[l] >= 0) continue;
+        o[l].sy = &sy;
         x = rc ? NULL : (KIFMM__F(__ops) *)kifmm__calloc(1, sizeof *x);
         if (!rc && !x) rc = KIFMM_ERR_NOMEM;
         if (!rc) rc = rcs[l];
@@ -6356,6 +6399,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
     for (l = 0; o && l < nlev; l++) kifmm__ops_free(&o[l]);
     kifmm__free(o);
     kifmm__free(rcs);
+    kifmm__symbs_free(&sy);
     return rc;
 }
 
@@ -7240,7 +7284,7 @@ KIFMM__FN int KIFMM__F(__anchor_pinv)(const KIFMM_NAME *c, double r, double sigm
         int *gr = NULL, *gc = NULL;
 #endif
         memcpy(g2, g, (size_t)nc * na * sizeof(double));
-        rc = ng > 1 ? kifmm__pinv_groups(g2, nc, na, KIFMM__SD, 0, 0, gr, gc, ng, KIFMM__ANCHOR_CUTOFF, &uta,
+        rc = ng > 1 ? kifmm__pinv_groups(NULL, g2, nc, na, KIFMM__SD, 0, 0, gr, gc, ng, KIFMM__ANCHOR_CUTOFF, &uta,
                                          &vsa, ka)
                     : kifmm__pinv(g2, nc, na, KIFMM__ANCHOR_CUTOFF, &uta, &vsa, ka);
     }

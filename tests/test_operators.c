@@ -540,7 +540,7 @@ static void test_pinv_cube(int pr, int pc, double ro, int sd, double k)
     t_rng g = t_rng_seed(41);
     memcpy(a2, a, sizeof(double) * (size_t)m * n);
     rc[0] = kifmm__pinv(a2, m, n, 1e-15, &ut[0], &vs[0], &rank[0]);
-    rc[1] = kifmm__pinv_cube(a, pr, pc, sd, sd == 3, 1e-15, &ut[1], &vs[1], &rank[1]);
+    rc[1] = kifmm__pinv_cube(NULL, a, pr, pc, sd, sd == 3, 1e-15, &ut[1], &vs[1], &rank[1]);
     CHECK(rc[0] == KIFMM_SUCCESS && rc[1] == KIFMM_SUCCESS && rank[0] == rank[1],
           "orders %d <- %d, %d component(s): ranks %d (one SVD) and %d (by the cube's symmetries)", pr, pc, sd,
           rank[0], rank[1]);
@@ -585,10 +585,10 @@ static void test_pinv_cube_refused(void)
     const int pr = 6, pc = 5, m = 3 * kifmm__surf_count(pr), n = 3 * kifmm__surf_count(pc);
     double *a = surf_matrix(pr, pc, 2.95, 3, 0.7), *ut = NULL, *vs = NULL;
     int rank = -1, rc, i, j, vec;
-    rc = kifmm__pinv_cube(a, pr, pc, 3, 1, 1e-15, &ut, &vs, &rank);
+    rc = kifmm__pinv_cube(NULL, a, pr, pc, 3, 1, 1e-15, &ut, &vs, &rank);
     CHECK(rc == KIFMM__NOT_SYMMETRIC && ut == NULL && vs == NULL && rank == -1,
           "a 3-component kernel not turned as a vector: pinv_cube refused (%d), nothing returned", rc);
-    rc = kifmm__pinv_cube(a, pr, pc, 3, 0, 1e-15, &ut, &vs, &rank);
+    rc = kifmm__pinv_cube(NULL, a, pr, pc, 3, 0, 1e-15, &ut, &vs, &rank);
     CHECK(rc == KIFMM__NOT_SYMMETRIC && ut == NULL && vs == NULL,
           "the same, each component as a value: refused (%d)", rc);
     free(a);
@@ -599,7 +599,7 @@ static void test_pinv_cube_refused(void)
         for (j = 0; j < n; j++) /* three Laplace charges: block diagonal in the components */
             for (i = 0; i < m; i++) a3[i + (size_t)j * m] = i % 3 == j % 3 ? a[i / 3 + (size_t)(j / 3) * m1] : 0.0;
         for (vec = 0; vec < 2; vec++) {
-            rc = kifmm__pinv_cube(a3, pr, pc, 3, vec, 1e-15, &ut, &vs, &rank);
+            rc = kifmm__pinv_cube(NULL, a3, pr, pc, 3, vec, 1e-15, &ut, &vs, &rank);
             CHECK(rc == KIFMM_SUCCESS && rank > 0, "three Laplace charges, %s: pinv_cube %d, rank %d",
                   vec ? "as a vector" : "as values", rc, rank);
             kifmm__free(ut), kifmm__free(vs), ut = vs = NULL;
