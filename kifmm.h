@@ -2781,7 +2781,7 @@ KIFMM__FN int kifmm__symb_build(int p, int vec, kifmm__symb *b)
 }
 
 /* The bases one operator build factors its matrices on, each built once
- * (laplace at p = 12 factors three matrices on the orders 12 and 13, six
+ * (laplace at p = 12 factors three matrices on the orders 12 and 13, five
  * bases to build, two of them different): kept by (order, vec) */
 #define KIFMM__SYMBS 6
 typedef struct kifmm__symbs {
@@ -5926,25 +5926,15 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
  * frequency-major (kf), so that khat is written in order, frequency by
  * frequency, each from its turned frequencies' blocks (stokes, p = 6: 33
  * MB of khat; the turns one spectrum at a time wrote it in strides). */
-KIFMM__FN int KIFMM__F(__khat_turned)(const KIFMM_NAME *c, const double *kt, int vec, int nth,
-                                      double *khat)
+/* The table of P__khat_turned: turn + 7 t, the turn of transfer vector t
+ * (pi, s: kifmm__tv_turn) and its vector's slot (kifmm__tv_slots); for
+ * component ab of t, c's component from[t FSD^2 + ab] times sgn[..]. */
+KIFMM__FN void KIFMM__F(__khat_turns)(int vec, int *turn, int *from, double *sgn)
 {
     enum { SD = KIFMM__FSD, SD2 = KIFMM__FSD * KIFMM__FSD };
-    const kifmm__fft *pl = &c->pl->fft;
-    const int n = pl->n, nh = pl->nh, nfp = pl->nfp;
-    double *kf = (double *)kifmm__alloc((size_t)16 * nfp * SD2 * 2, sizeof(double));
-    double *sgn = (double *)kifmm__alloc((size_t)KIFMM__NT * SD2, sizeof(double));
-    int *from = (int *)kifmm__alloc((size_t)KIFMM__NT * (SD2 + 7), sizeof(int)), *turn = from + KIFMM__NT * SD2;
     int slot[KIFMM__NT], tv, a, b;
-    (void)nth; /* (without OpenMP) */
-    if (!kf || !sgn || !from) {
-        kifmm__free(kf);
-        kifmm__free(sgn);
-        kifmm__free(from);
-        return KIFMM_ERR_NOMEM;
-    }
     kifmm__tv_slots(slot);
-    for (tv = 0; tv < KIFMM__NT; tv++) { /* turn + 7 t: the turn of t (pi, s) and its vector's slot */
+    for (tv = 0; tv < KIFMM__NT; tv++) {
         int d[3] = {0, 0, 0}, *tt = turn + 7 * tv;
         kifmm__transfer_vector(tv, d);
         tt[6] = slot[kifmm__tv_turn(d, tt, tt + 3)];
@@ -5957,14 +5947,36 @@ KIFMM__FN int KIFMM__F(__khat_turned)(const KIFMM_NAME *c, const double *kt, int
                 sgn[tv * SD2 + a * SD + b] = sa * sb;
             }
     }
-    /* each (slot, frequency) writes its own block of kf */
+}
+
+KIFMM__FN int KIFMM__F(__khat_turned)(const KIFMM_NAME *c, const double *kt, int vec, int nth,
+                                      double *khat)
+{
+    enum { SD2 = KIFMM__FSD * KIFMM__FSD };
+    const kifmm__fft *pl = &c->pl->fft;
+    const int n = pl->n, nh = pl->nh, nfp = pl->nfp;
+    double *kf = (double *)kifmm__alloc((size_t)16 * nfp * SD2 * 2, sizeof(double));
+    double *sgn = (double *)kifmm__alloc((size_t)KIFMM__NT * SD2, sizeof(double));
+    int *from = (int *)kifmm__alloc((size_t)KIFMM__NT * (SD2 + 7), sizeof(int)), *turn = from + KIFMM__NT * SD2;
+    (void)nth; /* (without OpenMP) */
+    if (!kf || !sgn || !from) {
+        kifmm__free(kf);
+        kifmm__free(sgn);
+        kifmm__free(from);
+        return KIFMM_ERR_NOMEM;
+    }
+    KIFMM__F(__khat_turns)(vec, turn, from, sgn);
+    /* each (slot, frequency) writes its own block of kf (the padding
+     * frequencies are never read) */
     KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
-    for (int64_t sf = 0; sf < (int64_t)16 * nfp; sf++)
-        for (int ab = 0; ab < SD2 && sf % nfp < pl->nf; ab++) {
+    for (int64_t sf = 0; sf < (int64_t)16 * nfp; sf++) {
+        if (sf % nfp >= pl->nf) continue;
+        for (int ab = 0; ab < SD2; ab++) {
             const double *in = kt + ((size_t)(sf / nfp) * SD2 + ab) * 2 * nfp + 2 * (size_t)(sf % nfp);
             kf[((size_t)sf * SD2 + ab) * 2] = in[0];
             kf[((size_t)sf * SD2 + ab) * 2 + 1] = in[1];
         }
+    }
     /* each frequency f writes its own row of khat */
     KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
     for (int32_t f = 0; f < nfp; f++) {
