@@ -3363,8 +3363,11 @@ typedef struct kifmm__ops {
     double *conv;           /* FFT M2L, nc x ne: upward equivalent density -> a density
                                on the check surface's lattice (ai r) with the same
                                field outside the upward check surface */
-    double *khat;           /* FFT M2L: the 316 kernel spectra on that lattice,
-                               frequency-major: khat[(f 316 + t) 2] (re, im) */
+    double *khat;           /* FFT M2L: the kernel spectra on that lattice,
+                               frequency-major: of the 316 transfer vectors,
+                               khat[(f 316 + t) 2] (re, im), or, with ktab, of the
+                               16 the others are turned from (P__build_m2l_fft) */
+    int *ktab;              /* the turns from the 16 (P__khat_turns), or NULL */
     double *kup, *kdn;      /* the two check-to-equivalent matrices, times sigma,
                                from the kernel pass to the solves (then freed) */
     kifmm__symbs *sy;       /* the build's symmetry bases (NULL: none kept), not owned */
@@ -3375,7 +3378,7 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
     kifmm__free(o->ut_up); kifmm__free(o->vs_up);
     kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
     kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
-    kifmm__free(o->conv); kifmm__free(o->khat);
+    kifmm__free(o->conv); kifmm__free(o->khat); kifmm__free(o->ktab);
     kifmm__free(o->kup); kifmm__free(o->kdn);
     memset(o, 0, sizeof *o);
 }
@@ -3660,6 +3663,12 @@ KIFMM__FN int kifmm__tv_turn(const int *t, int *pi, int *s)
     return kifmm__transfer_index(c[0], c[1], c[2]);
 }
 
+/* The number of a turn (pi, s) of kifmm__tv_turn, below 72 */
+KIFMM__FN int kifmm__turn_id(const int *pi, const int *s)
+{
+    return (pi[0] * 3 + pi[1]) * 8 + (s[0] < 0) * 4 + (s[1] < 0) * 2 + (s[2] < 0);
+}
+
 /* slot[t]: the place of transfer vector t among the 16 with t_x >= t_y >=
  * t_z >= 0 (those kifmm__tv_turn returns), in their order; -1 for the others */
 KIFMM__FN void kifmm__tv_slots(int *slot)
@@ -3703,6 +3712,39 @@ KIFMM__FN size_t kifmm__fft_turned(const kifmm__fft *pl, const int *pi, const in
         *conj = -1.0;
     }
     return ((size_t)kp[0] * n + kp[1]) * nh + kp[2];
+}
+
+/* Ints per transfer vector of the FFT M2L's table of turns (P__khat_turns) */
+#define KIFMM__KTAB_W(sd) (8 + 2 * (sd) * (sd))
+
+/* Frequency chunk ch of the spectra of the 16 transfer vectors (khat,
+ * P__khat_turned) and the table of turns ktab: for each turn (its number
+ * t in ktab) and frequency fi of the chunk, the source frequency g[t F +
+ * fi] and the conjugation cj[..] (kifmm__fft_turned; not for the padding
+ * frequencies); with one component (sd 1) also the 316 spectra at the
+ * chunk's frequencies, loc[(fi 316 + t) 2] (re, im; 0 at the padding). */
+KIFMM__FN void kifmm__fft_chunk_turns(const kifmm__fft *pl, const double *khat, const int *ktab,
+                                      int sd, int ch, size_t *g, double *cj, double *loc)
+{
+    const int w = KIFMM__KTAB_W(sd), nf = pl->nf - ch * KIFMM__FFT_F;
+    unsigned char set[72];
+    int t, fi;
+    memset(set, 0, sizeof set);
+    for (t = 0; t < KIFMM__NT; t++) {
+        const int *e = ktab + (size_t)w * t;
+        for (fi = 0; !set[e[7]] && fi < KIFMM__FFT_F && fi < nf; fi++) {
+            const int f = ch * KIFMM__FFT_F + fi, n = pl->n, nh = pl->nh;
+            const int k[3] = {f / (n * nh), f / nh % n, f % nh};
+            g[e[7] * KIFMM__FFT_F + fi] = kifmm__fft_turned(pl, e, e + 3, k, &cj[e[7] * KIFMM__FFT_F + fi]);
+        }
+        set[e[7]] = 1;
+        for (fi = 0; sd == 1 && fi < KIFMM__FFT_F; fi++) { /* turned once, here */
+            const int at = e[7] * KIFMM__FFT_F + fi;
+            const double *v = fi < nf ? khat + (g[at] * 16 + (size_t)e[6]) * 2 : NULL;
+            loc[2 * ((size_t)fi * KIFMM__NT + t)] = v ? e[9] * v[0] : 0.0;
+            loc[2 * ((size_t)fi * KIFMM__NT + t) + 1] = v ? e[9] * cj[at] * v[1] : 0.0;
+        }
+    }
 }
 
 /* Lanes of the batched transforms: the 8 children of one parent at once. */
@@ -4510,29 +4552,61 @@ KIFMM__FN void KIFMM__P(kifmm__fft_inverse8)(const kifmm__fft *pl, const KIFMM__
 
 /* The 8 x 8 blocks of frequency chunk ch for the 27 parent offsets and the
  * sd x sd kernel components (target a, source b), from the 316 spectra of
- * each component (khat[((f 316 + t) sd^2 + a sd + b) 2]): block (a, o, b)
- * at kb[(((a 27 + o) sd + b) F + fi) 128 + cs 16 + ct] (re), + 8 (im); zero
- * for adjacent child pairs (tv[...] < 0). */
-KIFMM__FN void KIFMM__P(kifmm__fft_blocks)(const double *khat, const int *tv, int sd, int ch,
-                                           KIFMM__T *kb)
+ * each component (khat[((f 316 + t) sd^2 + a sd + b) 2]) or, with ktab,
+ * from the 16 they are turned from (P__khat_turned): block (a, o, b) at
+ * kb[(((a 27 + o) sd + b) F + fi) 128 + cs 16 + ct] (re), + 8 (im); zero
+ * for adjacent child pairs (tv[...] < 0). The turned values are those the
+ * 316's would hold: a sign times the 16's, conjugated where the turned
+ * frequency's mirror is stored. */
+KIFMM__FN void KIFMM__P(kifmm__fft_blocks)(const kifmm__fft *pl, const double *khat, const int *ktab,
+                                           const int *tv, int sd, int ch, KIFMM__T *kb)
 {
-    const int sd2 = sd * sd;
-    int o, ab, fi, cs, ct;
-    for (ab = 0; ab < sd2; ab++)
-        for (o = 0; o < 27; o++)
-            for (cs = 0; cs < 8; cs++)
-                for (ct = 0; ct < 8; ct++) {
-                    const int t = tv[(o * 8 + cs) * 8 + ct];
-                    const size_t blk = ((size_t)(ab / sd) * 27 + o) * sd + ab % sd;
-                    for (fi = 0; fi < KIFMM__FFT_F; fi++) {
-                        const size_t a = (blk * KIFMM__FFT_F + fi) * 128 + cs * 16 + ct;
-                        const double *s =
-                            khat + ((((size_t)ch * KIFMM__FFT_F + fi) * KIFMM__NT + (t < 0 ? 0 : t)) *
-                                        sd2 + ab) * 2;
-                        kb[a] = (KIFMM__T)(t < 0 ? 0.0 : s[0]);
-                        kb[a + 8] = (KIFMM__T)(t < 0 ? 0.0 : s[1]);
+    const int sd2 = sd * sd, w = KIFMM__KTAB_W(sd), nf = pl->nf - ch * KIFMM__FFT_F;
+    const size_t bs = (size_t)27 * sd * KIFMM__FFT_F * 128; /* block (a, o, b) - (a - 1, o, b) */
+    size_t g[72 * KIFMM__FFT_F];  /* ktab: each turn's source frequency and */
+    double cj[72 * KIFMM__FFT_F]; /* conjugation (kifmm__fft_chunk_turns) */
+    double loc[KIFMM__NT * KIFMM__FFT_F * 2]; /* one component: the chunk's 316 spectra */
+    const double *kc = khat + (size_t)ch * KIFMM__FFT_F * KIFMM__NT * sd2 * 2; /* the chunk's */
+    int o, fi, cs, ct, a, b, t;
+    if (ktab) kifmm__fft_chunk_turns(pl, khat, ktab, sd, ch, g, cj, loc);
+    if (ktab && sd == 1) ktab = NULL, kc = loc; /* then as the 316's */
+    for (o = 0; o < 27; o++)
+        for (cs = 0; cs < 8; cs++)
+            for (ct = 0; ct < 8; ct++) {
+                const int *e;
+                KIFMM__T *k0 = kb + (size_t)o * sd * KIFMM__FFT_F * 128 + cs * 16 + ct; /* a = b = 0 */
+                t = tv[(o * 8 + cs) * 8 + ct];
+                e = ktab && t >= 0 ? ktab + (size_t)w * t : NULL;
+                for (fi = 0; fi < KIFMM__FFT_F; fi++) {
+                    const int at = e ? e[7] * KIFMM__FFT_F + fi : 0;
+                    const double *s = t < 0 || (e && fi >= nf) ? NULL
+                                      : e ? khat + (g[at] * 16 + (size_t)e[6]) * sd2 * 2
+                                          : kc + ((size_t)fi * KIFMM__NT + t) * sd2 * 2;
+                    KIFMM__T *kf = k0 + (size_t)fi * 128;
+                    if (!s) { /* adjacent, or padding */
+                        for (a = 0; a < sd; a++)
+                            for (b = 0; b < sd; b++) {
+                                KIFMM__T *z = kf + a * bs + (size_t)b * KIFMM__FFT_F * 128;
+                                z[0] = z[8] = 0;
+                            }
+                    } else if (e) { /* a sign times the 16's component, conjugated or not */
+                        const int *fr = e + 8, *sg = e + 8 + sd2;
+                        const double c = cj[at];
+                        for (a = 0; a < sd; a++)
+                            for (b = 0; b < sd; b++) {
+                                KIFMM__T *z = kf + a * bs + (size_t)b * KIFMM__FFT_F * 128;
+                                const double *v = s + 2 * fr[a * sd + b], sv = sg[a * sd + b];
+                                z[0] = (KIFMM__T)(sv * v[0]), z[8] = (KIFMM__T)(sv * c * v[1]);
+                            }
+                    } else {
+                        for (a = 0; a < sd; a++)
+                            for (b = 0; b < sd; b++) {
+                                KIFMM__T *z = kf + a * bs + (size_t)b * KIFMM__FFT_F * 128;
+                                z[0] = (KIFMM__T)s[2 * (a * sd + b)], z[8] = (KIFMM__T)s[2 * (a * sd + b) + 1];
+                            }
                     }
                 }
+            }
 }
 
 /* The products of kifmm__fft_products (below) in portable C. */
@@ -5121,7 +5195,8 @@ typedef struct {
     double sigma; /* scale of the level's check potentials (see build_c2e) */
     int ku, kd;
     KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l, *conv;
-    double *khat;
+    double *khat; /* and ktab: as kifmm__ops's */
+    int *ktab;
     float *kbf;   /* FFT M2L: the 8 x 8 blocks of every chunk (kifmm__fft_blocks), in */
     double *kbd;  /* the spectra's precision, or NULL when they would take too much
                      memory and are built per task */
@@ -5916,92 +5991,60 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
     return bad ? KIFMM_ERR_KERNEL : KIFMM_SUCCESS;
 }
 
-/* khat (P__build_m2l_fft's layout) from the spectra kt of the 16 transfer
- * vectors with t_x >= t_y >= t_z >= 0 (P__m2l_grids, at kt + (slot FSD^2 +
- * ab) 2 nfp): each of the 316 turned from its vector c among them (R c,
- * R_{a, pi a} = s_a: kifmm__tv_turn), each component ab its own (a radial
- * kernel, vec 0) or, for a vector kernel (vec 1, P__sc_vector), component
- * (d, e) s_d s_e times c's component (pi d, pi e) on the last three
- * (kifmm__comp_turn); the padding frequencies 0. The 16 are first moved
- * frequency-major (kf), so that khat is written in order, frequency by
- * frequency, each from its turned frequencies' blocks (stokes, p = 6: 33
- * MB of khat; the turns one spectrum at a time wrote it in strides). */
-/* The table of P__khat_turned: turn + 7 t, the turn of transfer vector t
- * (pi, s: kifmm__tv_turn) and its vector's slot (kifmm__tv_slots); for
- * component ab of t, c's component from[t FSD^2 + ab] times sgn[..]. */
-KIFMM__FN void KIFMM__F(__khat_turns)(int vec, int *turn, int *from, double *sgn)
+/* The turns of the FFT M2L's spectra: each of the 316 transfer vectors t is
+ * turned from its vector c among the 16 with t_x >= t_y >= t_z >= 0 (R c,
+ * R_{a, pi a} = s_a: kifmm__tv_turn), each kernel component ab its own (a
+ * radial kernel, vec 0) or, for a vector kernel (vec 1, P__sc_vector),
+ * component (d, e) s_d s_e times c's component (pi d, pi e) on the last
+ * three (kifmm__comp_turn). tab[t KIFMM__KTAB_W(FSD) ..]: pi[3], s[3], c's
+ * slot (kifmm__tv_slots), the turn's number (kifmm__turn_id), then for each
+ * ab c's component and its sign (+1 or -1). */
+KIFMM__FN void KIFMM__F(__khat_turns)(int vec, int *tab)
 {
-    enum { SD = KIFMM__FSD, SD2 = KIFMM__FSD * KIFMM__FSD };
+    enum { SD = KIFMM__FSD, SD2 = KIFMM__FSD * KIFMM__FSD, W = KIFMM__KTAB_W(KIFMM__FSD) };
     int slot[KIFMM__NT], tv, a, b;
     kifmm__tv_slots(slot);
     for (tv = 0; tv < KIFMM__NT; tv++) {
-        int d[3] = {0, 0, 0}, *tt = turn + 7 * tv;
+        int d[3] = {0, 0, 0}, *tt = tab + (size_t)W * tv;
         kifmm__transfer_vector(tv, d);
         tt[6] = slot[kifmm__tv_turn(d, tt, tt + 3)];
+        tt[7] = kifmm__turn_id(tt, tt + 3);
         for (a = 0; a < SD; a++)
             for (b = 0; b < SD; b++) {
                 double sa = 1.0, sb = 1.0;
                 const int pa = vec ? kifmm__comp_turn(SD, tt, tt + 3, a, &sa) : a;
                 const int pb = vec ? kifmm__comp_turn(SD, tt, tt + 3, b, &sb) : b;
-                from[tv * SD2 + a * SD + b] = pa * SD + pb;
-                sgn[tv * SD2 + a * SD + b] = sa * sb;
+                tt[8 + a * SD + b] = pa * SD + pb;
+                tt[8 + SD2 + a * SD + b] = sa * sb < 0.0 ? -1 : 1;
             }
     }
 }
 
-KIFMM__FN int KIFMM__F(__khat_turned)(const KIFMM_NAME *c, const double *kt, int vec, int nth,
-                                      double *khat)
+/* The spectra kt of the 16 transfer vectors (P__m2l_grids, at kt + (slot
+ * FSD^2 + ab) 2 nfp) frequency-major into khat[((f 16 + slot) FSD^2 + ab)
+ * 2] (the padding frequencies 0), and the table of turns into ktab: the
+ * others' spectra are read from them (kifmm__fft_blocks). Kept instead of
+ * the 316's, a twentieth of their memory (stokes, p = 6: 1.7 against 33
+ * MB), and none of their writes. */
+KIFMM__FN void KIFMM__F(__khat_turned)(const KIFMM_NAME *c, const double *kt, int vec, int nth,
+                                       double *khat, int *ktab)
 {
     enum { SD2 = KIFMM__FSD * KIFMM__FSD };
     const kifmm__fft *pl = &c->pl->fft;
-    const int n = pl->n, nh = pl->nh, nfp = pl->nfp;
-    double *kf = (double *)kifmm__alloc((size_t)16 * nfp * SD2 * 2, sizeof(double));
-    double *sgn = (double *)kifmm__alloc((size_t)KIFMM__NT * SD2, sizeof(double));
-    int *from = (int *)kifmm__alloc((size_t)KIFMM__NT * (SD2 + 7), sizeof(int)), *turn = from + KIFMM__NT * SD2;
+    const int nfp = pl->nfp;
     (void)nth; /* (without OpenMP) */
-    if (!kf || !sgn || !from) {
-        kifmm__free(kf);
-        kifmm__free(sgn);
-        kifmm__free(from);
-        return KIFMM_ERR_NOMEM;
-    }
-    KIFMM__F(__khat_turns)(vec, turn, from, sgn);
-    /* each (slot, frequency) writes its own block of kf (the padding
-     * frequencies are never read) */
+    KIFMM__F(__khat_turns)(vec, ktab);
+    /* each (frequency, slot) writes its own block of khat */
     KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
-    for (int64_t sf = 0; sf < (int64_t)16 * nfp; sf++) {
-        if (sf % nfp >= pl->nf) continue;
+    for (int64_t fs = 0; fs < (int64_t)16 * nfp; fs++) {
+        const int64_t f = fs / 16, sl = fs % 16;
         for (int ab = 0; ab < SD2; ab++) {
-            const double *in = kt + ((size_t)(sf / nfp) * SD2 + ab) * 2 * nfp + 2 * (size_t)(sf % nfp);
-            kf[((size_t)sf * SD2 + ab) * 2] = in[0];
-            kf[((size_t)sf * SD2 + ab) * 2 + 1] = in[1];
+            const double *in = kt + ((size_t)sl * SD2 + ab) * 2 * nfp + 2 * (size_t)f;
+            const int pad = f >= pl->nf;
+            khat[((size_t)fs * SD2 + ab) * 2] = pad ? 0.0 : in[0];
+            khat[((size_t)fs * SD2 + ab) * 2 + 1] = pad ? 0.0 : in[1];
         }
     }
-    /* each frequency f writes its own row of khat */
-    KIFMM__OMP(parallel for schedule(static) num_threads(nth) if(nth > 1))
-    for (int32_t f = 0; f < nfp; f++) {
-        double *o = khat + (size_t)f * KIFMM__NT * SD2 * 2;
-        const int k[3] = {f / (n * nh), f / nh % n, f % nh};
-        if (f >= pl->nf) {
-            memset(o, 0, sizeof(double) * 2 * KIFMM__NT * SD2);
-            continue;
-        }
-        for (int t = 0; t < KIFMM__NT; t++) {
-            const int *tt = turn + 7 * t;
-            double cj;
-            const size_t g = kifmm__fft_turned(pl, tt, tt + 3, k, &cj);
-            const double *in = kf + ((size_t)tt[6] * nfp + g) * SD2 * 2;
-            for (int ab = 0; ab < SD2; ab++, o += 2) {
-                const double sg = sgn[t * SD2 + ab];
-                o[0] = sg * in[2 * from[t * SD2 + ab]];
-                o[1] = sg * cj * in[2 * from[t * SD2 + ab] + 1];
-            }
-        }
-    }
-    kifmm__free(kf);
-    kifmm__free(sgn);
-    kifmm__free(from);
-    return KIFMM_SUCCESS;
 }
 
 /* khat (P__build_m2l_fft's layout) from the spectra kt of all 316 transfer
@@ -6028,29 +6071,28 @@ KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, 
 {
     enum { SD2 = KIFMM__FSD * KIFMM__FSD };
     const kifmm__fft *pl = &c->pl->fft;
-    const size_t nk = (size_t)KIFMM__NT * SD2 * 2 * pl->nfp;
     const int vec = !KIFMM__FRADIAL && KIFMM__F(__sc_vector)(c->opts.kernel_param);
     const int turned = KIFMM__FRADIAL || vec;
-    const size_t nkt = turned ? nk / KIFMM__NT * 16 : nk; /* turned: the 16's spectra only */
+    const size_t nk = (size_t)(turned ? 16 : KIFMM__NT) * SD2 * 2 * pl->nfp; /* turned: the 16's */
     double *kt; /* spectra per transfer vector */
     double big = 0.0;
-    int rc, rt = KIFMM_SUCCESS;
+    int rc;
     o->khat = (double *)kifmm__alloc(nk, sizeof(double));
-    kt = (double *)kifmm__alloc(nkt, sizeof(double));
-    if (!o->khat || !kt) {
+    kt = (double *)kifmm__alloc(nk, sizeof(double));
+    if (turned) o->ktab = (int *)kifmm__alloc((size_t)KIFMM__NT * KIFMM__KTAB_W(KIFMM__FSD), sizeof(int));
+    if (!o->khat || !kt || (turned && !o->ktab)) {
         kifmm__free(kt);
         return KIFMM_ERR_NOMEM;
     }
-    if (!turned) memset(kt, 0, sizeof(double) * nkt); /* the padding frequencies stay 0 */
+    if (!turned) memset(kt, 0, sizeof(double) * nk); /* the padding frequencies stay 0 */
     rc = KIFMM__F(__m2l_grids)(c, r, o->sigma, nth, turned, kt, &big);
     if (rc == KIFMM_ERR_NOMEM) {
         kifmm__free(kt);
         return KIFMM_ERR_NOMEM;
     }
-    if (turned) rt = KIFMM__F(__khat_turned)(c, kt, vec, nth, o->khat);
+    if (turned) KIFMM__F(__khat_turned)(c, kt, vec, nth, o->khat, o->ktab);
     else KIFMM__F(__khat_moved)(c, kt, nth, o->khat);
     kifmm__free(kt);
-    if (rt) return rt;
     /* The M2L's kernel values reach those at the nearest lattice points of
      * well separated boxes (1.9 r apart), sigma is scaled to those of the
      * solves' surfaces (3.45 r): for a Yukawa kernel their ratio is
@@ -6142,20 +6184,27 @@ KIFMM__FN int KIFMM__F(__ops_solves)(const KIFMM_NAME *c, double r, int m2l, kif
 }
 
 /* nz[ab] = 1 for the kernel components ab with a nonzero value in
- * the spectra khat (kifmm__build_m2l_fft's layout) */
-KIFMM__FN void KIFMM__F(__m2l_nonzero)(const KIFMM_NAME *c, const double *khat, unsigned char *nz)
+ * the spectra khat (kifmm__build_m2l_fft's layout; with ktab, in one of
+ * the 16's components that ab of a transfer vector is turned from) */
+KIFMM__FN void KIFMM__F(__m2l_nonzero)(const KIFMM_NAME *c, const double *khat, const int *ktab,
+                                       unsigned char *nz)
 {
     enum { SD2 = KIFMM__FSD * KIFMM__FSD };
-    const size_t n = (size_t)c->pl->fft.nfp * KIFMM__NT * SD2;
+    const size_t n = (size_t)c->pl->fft.nfp * (ktab ? 16 : KIFMM__NT) * SD2;
+    unsigned char any[16 * SD2];
     size_t f;
-    int ab, left = 0;
+    int ab, t;
     if (SD2 == 1) return; /* one block: always multiplied */
-    for (ab = 0; ab < SD2; ab++) left += !nz[ab];
-    for (f = 0; f < n && left > 0; f++) /* f = (frequency 316 + t) SD2 + ab */
-        if (!nz[f % SD2] && (khat[2 * f] != 0.0 || khat[2 * f + 1] != 0.0)) {
-            nz[f % SD2] = 1;
-            left--;
-        }
+    memset(any, 0, sizeof any);
+    for (f = 0; f < n; f++) /* f = (frequency 316 + t) SD2 + ab, or 16 + slot */
+        if (khat[2 * f] != 0.0 || khat[2 * f + 1] != 0.0) any[f % (ktab ? 16 * SD2 : SD2)] = 1;
+    for (ab = 0; ab < SD2; ab++)
+        if (!ktab) nz[ab] |= any[ab];
+        else
+            for (t = 0; t < KIFMM__NT; t++) {
+                const int *e = ktab + (size_t)KIFMM__KTAB_W(KIFMM__FSD) * t;
+                nz[ab] |= any[e[6] * SD2 + e[8 + ab]];
+            }
 }
 
 /* Keep one level's operators (built in double, freed here) in the
@@ -6179,10 +6228,11 @@ KIFMM__FN int KIFMM__F(__ops_keep)(const KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(
         rc = KIFMM_ERR_NOMEM;
     if (o->khat) {
         *held += kifmm__size(o->khat);
-        KIFMM__F(__m2l_nonzero)(c, o->khat, out->nz);
+        if (o->ktab) *held += kifmm__size(o->ktab);
+        KIFMM__F(__m2l_nonzero)(c, o->khat, o->ktab, out->nz);
     }
-    out->khat = o->khat;
-    o->khat = NULL;
+    out->khat = o->khat, out->ktab = o->ktab;
+    o->khat = NULL, o->ktab = NULL;
     if (!out->ut_up || !out->vs_up || !out->ut_dn || !out->vs_dn || !out->m2m || !out->l2l)
         rc = KIFMM_ERR_NOMEM;
     kifmm__ops_free(o);
@@ -6194,7 +6244,8 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
     kifmm__free(o->ut_up); kifmm__free(o->vs_up);
     kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
     kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
-    kifmm__free(o->conv); kifmm__free(o->khat); kifmm__free(o->kbf); kifmm__free(o->kbd);
+    kifmm__free(o->conv); kifmm__free(o->khat); kifmm__free(o->ktab);
+    kifmm__free(o->kbf); kifmm__free(o->kbd);
     memset(o, 0, sizeof *o);
 }
 
@@ -6231,8 +6282,8 @@ KIFMM__FN int KIFMM__F(__keep_blocks)(const KIFMM_NAME *c, KIFMM__F(__ops) **e, 
         /* each chunk writes its own blocks */
         KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
         for (int ch = 0; ch < pl->nchunk; ch++) {
-            if (o->kbf) kifmm__fft_blocksf(o->khat, tvm, KIFMM__FSD, ch, o->kbf + per * (size_t)ch);
-            else kifmm__fft_blocksd(o->khat, tvm, KIFMM__FSD, ch, o->kbd + per * (size_t)ch);
+            if (o->kbf) kifmm__fft_blocksf(pl, o->khat, o->ktab, tvm, KIFMM__FSD, ch, o->kbf + per * (size_t)ch);
+            else kifmm__fft_blocksd(pl, o->khat, o->ktab, tvm, KIFMM__FSD, ch, o->kbd + per * (size_t)ch);
         }
     }
     return KIFMM_SUCCESS;
@@ -8098,8 +8149,8 @@ KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM
     for (int ch = 0; ch < c->pl->fft.nchunk; ch++) {
         const KIFMM__F(__sp) kb = KIFMM__F(__fbuf)(c, 0);
         int32_t P;
-        if (kb.f) kifmm__fft_blocksf(o->khat, tv, KIFMM__FSD, ch, kb.f);
-        else kifmm__fft_blocksd(o->khat, tv, KIFMM__FSD, ch, kb.d);
+        if (kb.f) kifmm__fft_blocksf(&c->pl->fft, o->khat, o->ktab, tv, KIFMM__FSD, ch, kb.f);
+        else kifmm__fft_blocksd(&c->pl->fft, o->khat, o->ktab, tv, KIFMM__FSD, ch, kb.d);
         for (P = s0; P < s1; P++) {
             /* (slots are set only for wanted target parents) */
             const int32_t g = base + P;
@@ -10495,7 +10546,9 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
 #if KIFMM__FFT
     const kifmm__fft *pl = &h->pl->fft;
     const double kb = (double)KIFMM__FFT_KBN * pl->nchunk * (pl->single ? 4.0 : 8.0);
-    m2l = (double)KIFMM__NT * KIFMM__FSD * KIFMM__FSD * 2.0 * pl->nfp * sizeof(double);
+    const int turned = KIFMM__FRADIAL || KIFMM__F(__sc_vector)(h->opts.kernel_param);
+    m2l = (turned ? 16.0 : (double)KIFMM__NT) * KIFMM__FSD * KIFMM__FSD * 2.0 * pl->nfp * sizeof(double) +
+          (turned ? (double)KIFMM__NT * KIFMM__KTAB_W(KIFMM__FSD) * sizeof(int) : 0.0); /* __khat_turned */
     if (kb * (m2ls > 1.0 ? m2ls : 1.0) <= (double)((size_t)KIFMM__FFT_KB_MB << 20)) {
         m2l += kb;
         *fout = 0.0;

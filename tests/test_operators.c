@@ -178,6 +178,24 @@ static void test_upward(int p)
  * check-order lattice, its spectrum times the kernel spectrum of transfer
  * vector tv, inverse onto the downward check surface, then the downward
  * solve. */
+/* Transfer vector tv's kernel spectrum at frequency f: kept as such, or
+ * turned from one of the 16 (ktab: pi, s, the slot, the turn's number,
+ * then the component and its sign; laplace has one component) */
+static void spectrum(const kifmm_laplace__ops *o, const kifmm__fft *pl, int f, int tv, double *k)
+{
+    if (!o->ktab) {
+        k[0] = o->khat[((size_t)f * KIFMM__NT + tv) * 2];
+        k[1] = o->khat[((size_t)f * KIFMM__NT + tv) * 2 + 1];
+    } else {
+        const int *e = o->ktab + (size_t)KIFMM__KTAB_W(1) * tv;
+        const int kk[3] = {f / (pl->n * pl->nh), f / pl->nh % pl->n, f % pl->nh};
+        double cj;
+        const size_t g = kifmm__fft_turned(pl, e, e + 3, kk, &cj);
+        k[0] = e[9] * o->khat[(g * 16 + (size_t)e[6]) * 2];
+        k[1] = e[9] * cj * o->khat[(g * 16 + (size_t)e[6]) * 2 + 1];
+    }
+}
+
 static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de)
 {
     kifmm__fft plan = c->pl->fft; /* this helper works in double throughout */
@@ -199,7 +217,8 @@ static void m2l_fft(const kifmm_laplace *c, int tv, const double *ue, double *de
     kifmm__fft_forward8d(pl, m8, 1, 0, spec, cs, work);
     for (f = 0; f < pl->nf; f++) {
         size_t a = (size_t)(f / KIFMM__FFT_F) * cs + (size_t)(f % KIFMM__FFT_F) * 16 + 3;
-        const double *k = o->khat + ((size_t)f * KIFMM__NT + tv) * 2;
+        double k[2];
+        spectrum(o, pl, f, tv, k);
         prod[a] = spec[a] * k[0] - spec[a + 8] * k[1];
         prod[a + 8] = spec[a] * k[1] + spec[a + 8] * k[0];
     }
