@@ -3807,9 +3807,18 @@ KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2psf, float, KIFMM_KERNEL__STOKES
  * lambda 1: 1M uniform points, clustered points, deep levels); one core,
  * 64 x 512 pairs, lambda 1, yukawa_grad one-way: in a cube of side 0.01,
  * 1.56 -> 1.21 ns per pair with AVX-512, 3.19 -> 1.94 with AVX2; side 0.05,
- * 1.56 -> 1.35 and 3.19 -> 2.20; side 1, 1.56 (the full exp). */
+ * 1.56 -> 1.35 and 3.19 -> 2.20; side 1, 1.56 (the full exp). Below
+ * KIFMM_KERNEL__YLONG, to degree 13 (EXPL: y^14 / 14! < 5e-20 of the
+ * result; 13 operations): the near field of 200,000 uniform points at
+ * lambda 1, whose leaves are 1/16 wide and whose pairs are at most 0.22
+ * apart; one core, two such leaves of 49 points side by side, yukawa_grad
+ * mutual: AVX-512 2.47 -> 2.27 ns a pair and direction, AVX2 4.74 -> 2.96;
+ * the near field of 200,000 uniform points at p = 6, 2 threads, best of 5
+ * evaluates, two runs: AVX-512 0.156 and 0.133 s -> 0.146 and 0.121 s,
+ * AVX2 0.324 and 0.262 s -> 0.188 and 0.210 s. */
 #define KIFMM_KERNEL__YSHORT 0.03125
 #define KIFMM_KERNEL__YMID 0.125
+#define KIFMM_KERNEL__YLONG 0.25
 /* sum_k (-y)^k / k! by Horner's rule from degree 6 down, c7 the terms
  * from degree 7 up (over y^7) */
 #define KIFMM_KERNEL__EXP6(FNMADD, SET1, y, c7)                                                 \
@@ -3821,6 +3830,11 @@ KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2psf, float, KIFMM_KERNEL__STOKES
     KIFMM_KERNEL__EXP6(FNMADD, SET1, y,                                                         \
                        FNMADD(FNMADD(FNMADD(SET1(1.0 / 3628800.0), y, SET1(1.0 / 362880.0)), y, \
                                      SET1(1.0 / 40320.0)), y, SET1(1.0 / 5040.0)))
+#define KIFMM_KERNEL__EXPL(FNMADD, SET1, y)                                                     \
+    KIFMM_KERNEL__EXP6(FNMADD, SET1, y,                                                         \
+        FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(SET1(1.0 / 6227020800.0), y,                  \
+        SET1(1.0 / 479001600.0)), y, SET1(1.0 / 39916800.0)), y, SET1(1.0 / 3628800.0)), y,     \
+        SET1(1.0 / 362880.0)), y, SET1(1.0 / 40320.0)), y, SET1(1.0 / 5040.0)))
 /* The squared distance from (x, y, z) to the farthest corner of the box
  * [lo, hi] */
 static inline double kifmm_kernel__far2(const double *lo, const double *hi, double x, double y,
@@ -3860,11 +3874,11 @@ static inline double kifmm_kernel__far2(const double *lo, const double *hi, doub
         }                                                                                      \
     }
 #define KIFMM_KERNEL__YUKAWA_BODY(V, W, SET1, ZERO, LOAD, STORE, SUB, MUL, FMADD, FNMADD,        \
-                                  RINVM, EXPNV, EXPS, EXPM, HSUM, RED2, GRAD, MUTUAL)           \
+                                  RINVM, EXPNV, EXPS, EXPM, EXPL, HSUM, RED2, GRAD, MUTUAL)     \
     {                                                                                          \
         enum { SB_ = KIFMM_KERNEL__SSB, NB_ = KIFMM_KERNEL__SSB / (W), TD_ = (GRAD) ? 4 : 1 };  \
         const double s = scale * KIFMM_INV_4PI, ys = KIFMM_KERNEL__YSHORT / param[0];          \
-        const double ym = KIFMM_KERNEL__YMID / param[0];                                       \
+        const double ym = KIFMM_KERNEL__YMID / param[0], yl = KIFMM_KERNEL__YLONG / param[0];   \
         const V lam = SET1(param[0]);                                                          \
         V vx[NB_], vy[NB_], vz[NB_], vq[NB_], vo[TD_ * NB_];                                   \
         double *px = (double *)vx, *py = (double *)vy, *pz = (double *)vz;                     \
@@ -3908,6 +3922,9 @@ static inline double kifmm_kernel__far2(const double *lo, const double *hi, doub
                 } else if (fm <= ym * ym) {                                                    \
                     KIFMM_KERNEL__YUKAWA_PASS(V, W, LOAD, STORE, SUB, MUL, FMADD, FNMADD, RINVM, \
                                               EXPM, GRAD, MUTUAL)                              \
+                } else if (fm <= yl * yl) {                                                    \
+                    KIFMM_KERNEL__YUKAWA_PASS(V, W, LOAD, STORE, SUB, MUL, FMADD, FNMADD, RINVM, \
+                                              EXPL, GRAD, MUTUAL)                              \
                 } else {                                                                       \
                     KIFMM_KERNEL__YUKAWA_PASS(V, W, LOAD, STORE, SUB, MUL, FMADD, FNMADD, RINVM, \
                                               EXPNV, GRAD, MUTUAL)                             \
@@ -3923,19 +3940,21 @@ static inline double kifmm_kernel__far2(const double *lo, const double *hi, doub
     KIFMM_KERNEL__YUKAWA_BODY(__m512d, 8, _mm512_set1_pd, _mm512_setzero_pd(), _mm512_load_pd,  \
                               _mm512_store_pd, _mm512_sub_pd, _mm512_mul_pd, _mm512_fmadd_pd,  \
                               _mm512_fnmadd_pd, KIFMM_KERNEL__SRINV8, kifmm_kernel__expn8,     \
-                              KIFMM_KERNEL__EXPS8, KIFMM_KERNEL__EXPM8, kifmm_kernel__hsum8,   \
-                              kifmm_kernel__red8x8, G, M)
+                              KIFMM_KERNEL__EXPS8, KIFMM_KERNEL__EXPM8, KIFMM_KERNEL__EXPL8,   \
+                              kifmm_kernel__hsum8, kifmm_kernel__red8x8, G, M)
 #define KIFMM_KERNEL__EXPS8(y) KIFMM_KERNEL__EXPS(_mm512_fnmadd_pd, _mm512_set1_pd, y)
 #define KIFMM_KERNEL__EXPM8(y) KIFMM_KERNEL__EXPM(_mm512_fnmadd_pd, _mm512_set1_pd, y)
+#define KIFMM_KERNEL__EXPL8(y) KIFMM_KERNEL__EXPL(_mm512_fnmadd_pd, _mm512_set1_pd, y)
 #elif defined(__AVX2__) && defined(__FMA__)
 #define KIFMM_KERNEL__YUKAWA_D(G, M)                                                              \
     KIFMM_KERNEL__YUKAWA_BODY(__m256d, 4, _mm256_set1_pd, _mm256_setzero_pd(), _mm256_load_pd,  \
                               _mm256_store_pd, _mm256_sub_pd, _mm256_mul_pd, _mm256_fmadd_pd,  \
                               _mm256_fnmadd_pd, kifmm_kernel__srinv4, kifmm_kernel__expn4,     \
-                              KIFMM_KERNEL__EXPS4, KIFMM_KERNEL__EXPM4, kifmm_kernel__shsum4,  \
-                              kifmm_kernel__red2, G, M)
+                              KIFMM_KERNEL__EXPS4, KIFMM_KERNEL__EXPM4, KIFMM_KERNEL__EXPL4,   \
+                              kifmm_kernel__shsum4, kifmm_kernel__red2, G, M)
 #define KIFMM_KERNEL__EXPS4(y) KIFMM_KERNEL__EXPS(_mm256_fnmadd_pd, _mm256_set1_pd, y)
 #define KIFMM_KERNEL__EXPM4(y) KIFMM_KERNEL__EXPM(_mm256_fnmadd_pd, _mm256_set1_pd, y)
+#define KIFMM_KERNEL__EXPL4(y) KIFMM_KERNEL__EXPL(_mm256_fnmadd_pd, _mm256_set1_pd, y)
 #else
 #define KIFMM_KERNEL__S_FNMADD(a, b, c) ((c) - (a) * (b))
 static inline double kifmm_kernel__expn1(double y) { return exp(-y); }
@@ -3960,9 +3979,11 @@ static inline void kifmm_kernel__sred2(double a0, double a1, double a2, double a
                               KIFMM_KERNEL__S_STORE, KIFMM_KERNEL__S_SUB, KIFMM_KERNEL__S_MUL, \
                               KIFMM_KERNEL__S_FMADD, KIFMM_KERNEL__S_FNMADD,                   \
                               kifmm_kernel__srinv1, kifmm_kernel__expn1, KIFMM_KERNEL__EXPS1,  \
-                              KIFMM_KERNEL__EXPM1, KIFMM_KERNEL__S_SET1, kifmm_kernel__sred2, G, M)
+                              KIFMM_KERNEL__EXPM1, KIFMM_KERNEL__EXPL1, KIFMM_KERNEL__S_SET1,  \
+                              kifmm_kernel__sred2, G, M)
 #define KIFMM_KERNEL__EXPS1(y) KIFMM_KERNEL__EXPS(KIFMM_KERNEL__S_FNMADD, KIFMM_KERNEL__S_SET1, y)
 #define KIFMM_KERNEL__EXPM1(y) KIFMM_KERNEL__EXPM(KIFMM_KERNEL__S_FNMADD, KIFMM_KERNEL__S_SET1, y)
+#define KIFMM_KERNEL__EXPL1(y) KIFMM_KERNEL__EXPL(KIFMM_KERNEL__S_FNMADD, KIFMM_KERNEL__S_SET1, y)
 #endif
 #define KIFMM_KERNEL__YUKAWA_HAS (KIFMM_HAS_SETUP | KIFMM_HAS_P2P | KIFMM_HAS_P2PS)
 /* The one-way hooks run the mutual body without B's sums (targets as A). */

@@ -23,7 +23,7 @@ static void exp_vec(const double *x, double *y)
 static void exps_vec(const double *x, double *y, int mid) /* the short series, exp(-x) */
 {
     const __m512d v = _mm512_loadu_pd(x);
-    _mm512_storeu_pd(y, mid ? KIFMM_KERNEL__EXPM8(v) : KIFMM_KERNEL__EXPS8(v));
+    _mm512_storeu_pd(y, mid == 2 ? KIFMM_KERNEL__EXPL8(v) : mid ? KIFMM_KERNEL__EXPM8(v) : KIFMM_KERNEL__EXPS8(v));
 }
 #elif defined(__AVX2__) && defined(__FMA__)
 #define BODY "AVX2 + FMA"
@@ -35,7 +35,7 @@ static void exp_vec(const double *x, double *y)
 static void exps_vec(const double *x, double *y, int mid)
 {
     const __m256d v = _mm256_loadu_pd(x);
-    _mm256_storeu_pd(y, mid ? KIFMM_KERNEL__EXPM4(v) : KIFMM_KERNEL__EXPS4(v));
+    _mm256_storeu_pd(y, mid == 2 ? KIFMM_KERNEL__EXPL4(v) : mid ? KIFMM_KERNEL__EXPM4(v) : KIFMM_KERNEL__EXPS4(v));
 }
 #else
 #define BODY "portable C"
@@ -89,9 +89,9 @@ static void test_exp(void)
                         "(%d wrong)", bad);
     }
     /* the series of the hooks' small lambda r: degree 7 on [0, YSHORT],
-     * degree 10 on [0, YMID] */
-    for (e = 0; e < 2; e++) {
-        const double top = e ? KIFMM_KERNEL__YMID : KIFMM_KERNEL__YSHORT;
+     * degree 10 on [0, YMID], degree 13 on [0, YLONG] */
+    for (e = 0; e < 3; e++) {
+        const double top = e == 2 ? KIFMM_KERNEL__YLONG : e ? KIFMM_KERNEL__YMID : KIFMM_KERNEL__YSHORT;
         worst = 0.0;
         for (i = 0; i < n / 4; i += VW) {
             for (k = 0; k < VW; k++)
@@ -108,7 +108,7 @@ static void test_exp(void)
             }
         }
         CHECK_ERR(worst, 2.0, "series of degree %d on [0, %g], largest error in ulp (at y = %.17g)",
-                  e ? 10 : 7, top, at);
+                  e == 2 ? 13 : e ? 10 : 7, top, at);
     }
 }
 
@@ -171,8 +171,9 @@ static void test_hook(const char *name, hook_fn one, mutual_fn mut, int td)
     static const int64_t sizes[] = {0, 1, 3, 4, 5, 7, 8, 9, 15, 16, 17, 63, 64, 65, 129};
     /* 1e-3 and 0.015: every pass by the series of degree 7 (lambda times
      * the farthest distance, sqrt(3), below 1/32); 0.05: of degree 10 (below
-     * 1/8) or 7; 1 and up: the full exp */
-    static const double lams[] = {1e-3, 0.015, 0.05, 1.0, 30.0, 1e3};
+     * 1/8) or 7; 0.12: of degree 13 (below 1/4), 10 or 7; 1 and up: the
+     * full exp */
+    static const double lams[] = {1e-3, 0.015, 0.05, 0.12, 1.0, 30.0, 1e3};
     const int nsz = (int)(sizeof sizes / sizeof sizes[0]);
     t_rng r = t_rng_seed(mut ? 12 : 11);
     int a, b, l, k, guards = 1;
