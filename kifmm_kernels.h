@@ -3254,7 +3254,6 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
 #define KIFMM_KERNEL__HSINCOS kifmm_kernel__sincos8
 #define KIFMM_KERNEL__HSINCOS_RED kifmm_kernel__sincos8_red
 #define KIFMM_KERNEL__HQUARTER kifmm_kernel__quarter8
-#define KIFMM_KERNEL__HQ __m512i
 #define KIFMM_KERNEL__HFMS _mm512_fmsub_pd
 #define KIFMM_KERNEL__HSUM _mm512_reduce_add_pd
 #else
@@ -3275,7 +3274,6 @@ static inline void kifmm_kernel__sincos4(__m256d x, __m256d *sin_x, __m256d *cos
 #define KIFMM_KERNEL__HSINCOS kifmm_kernel__sincos4
 #define KIFMM_KERNEL__HSINCOS_RED kifmm_kernel__sincos4_red
 #define KIFMM_KERNEL__HQUARTER kifmm_kernel__quarter4
-#define KIFMM_KERNEL__HQ __m256i
 #define KIFMM_KERNEL__HFMS _mm256_fmsub_pd
 static inline double kifmm_kernel__hsum4(__m256d v)
 {
@@ -3544,7 +3542,6 @@ KIFMM_KERNEL__HINLINE void kifmm_kernel__helm_p2ps(const double *param, const do
 #undef KIFMM_KERNEL__HSINCOS
 #undef KIFMM_KERNEL__HSINCOS_RED
 #undef KIFMM_KERNEL__HQUARTER
-#undef KIFMM_KERNEL__HQ
 #undef KIFMM_KERNEL__HFMS
 #undef KIFMM_KERNEL__HACCF
 #undef KIFMM_KERNEL__HSUM
