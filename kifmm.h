@@ -6067,12 +6067,19 @@ KIFMM__FN void KIFMM__F(__khat_moved)(const KIFMM_NAME *c, const double *kt, int
  * (kifmm__m2l_grids), stored frequency-major (khat[((f 316 + t) FSD^2 +
  * ab) 2], re and im) so that the blocks of a chunk of frequencies read one
  * contiguous piece: 316 FSD^2 nfp complex values, independent of the tree. */
+/* Whether the FFT M2L's spectra are the 16's turned (a radial or vector
+ * kernel), with ktab, for build_m2l_fft and the memory estimate alike */
+KIFMM__FN int KIFMM__F(__m2l_turned)(const KIFMM_NAME *c)
+{
+    return KIFMM__FRADIAL || KIFMM__F(__sc_vector)(c->opts.kernel_param);
+}
+
 KIFMM__FN int KIFMM__F(__build_m2l_fft)(const KIFMM_NAME *c, double r, int nth, kifmm__ops *o)
 {
     enum { SD2 = KIFMM__FSD * KIFMM__FSD };
     const kifmm__fft *pl = &c->pl->fft;
     const int vec = !KIFMM__FRADIAL && KIFMM__F(__sc_vector)(c->opts.kernel_param);
-    const int turned = KIFMM__FRADIAL || vec;
+    const int turned = KIFMM__F(__m2l_turned)(c);
     const size_t nk = (size_t)(turned ? 16 : KIFMM__NT) * SD2 * 2 * pl->nfp; /* turned: the 16's */
     double *kt; /* spectra per transfer vector */
     double big = 0.0;
@@ -10546,7 +10553,7 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
 #if KIFMM__FFT
     const kifmm__fft *pl = &h->pl->fft;
     const double kb = (double)KIFMM__FFT_KBN * pl->nchunk * (pl->single ? 4.0 : 8.0);
-    const int turned = KIFMM__FRADIAL || KIFMM__F(__sc_vector)(h->opts.kernel_param);
+    const int turned = KIFMM__F(__m2l_turned)(h);
     m2l = (turned ? 16.0 : (double)KIFMM__NT) * KIFMM__FSD * KIFMM__FSD * 2.0 * pl->nfp * sizeof(double) +
           (turned ? (double)KIFMM__NT * KIFMM__KTAB_W(KIFMM__FSD) * sizeof(int) : 0.0); /* __khat_turned */
     if (kb * (m2ls > 1.0 ? m2ls : 1.0) <= (double)((size_t)KIFMM__FFT_KB_MB << 20)) {
