@@ -23,15 +23,18 @@
 #   make deps       check the compilers, OpenMP and BLAS/LAPACKE headers;
 #                   installs the Debian packages when run as root
 #   make lib        build/lib/libkifmm.a and libkifmm.so: every shipped kernel
-#                   in double and float (kifmm_lib.h, src/kifmm_lib.c)
+#                   in double and float (kifmm_lib.h, src/kifmm_lib.c), for
+#                   three instruction-set levels chosen at run time from the
+#                   CPU (src/kifmm_dispatch.c; KIFMM_ISA; LIB_LEVELS below)
 #   make lib-mpi    build/lib/libkifmm_mpi.so: the same with KIFMM_MPI (mpicc;
 #                   create_mpi for every kernel), linked to MPI; the Python
 #                   package's comm= loads it
 #   make install    PREFIX=/usr/local (DESTDIR for staging): kifmm.h,
 #                   kifmm_kernels.h, kifmm_lib.h, libkifmm, kifmm.pc and the
 #                   CMake package (find_package(kifmm): kifmm::kifmm,
-#                   kifmm::headers); LIB_CFLAGS="-O2 -fopenmp" for a library
-#                   without -march=native (one to copy to other machines)
+#                   kifmm::headers); the library runs on any x86-64 machine
+#                   (LIB_LEVELS=base LIB_CFLAGS="-O2 -march=native -fopenmp":
+#                   one level, for this machine only)
 #   make uninstall  the same PREFIX and DESTDIR: removes what install put there
 #   make fuzz       build tests/fuzz_create.c (clang libFuzzer, ASan, UBSan) and
 #                   fuzz the API for FUZZ_TIME seconds (default 300; make test
@@ -177,28 +180,67 @@ fuzz:
 # ---- the compiled library and its installation
 PREFIX ?= /usr/local
 DESTDIR ?=
-LIB_CFLAGS ?= -O2 -march=native -fopenmp
+LIB_CFLAGS ?= -fopenmp
+LIB_MPI_CFLAGS ?= -O2 -march=native -fopenmp
 VERSION := $(shell awk '/define KIFMM_VERSION_MAJOR/{a=$$3} /define KIFMM_VERSION_MINOR/{b=$$3} \
                         /define KIFMM_VERSION_PATCH/{c=$$3} END{print a "." b "." c}' kifmm.h)
 MAJOR := $(firstword $(subst ., ,$(VERSION)))
 LIBDIR := $(PREFIX)/lib
 INCDIR := $(PREFIX)/include
 SONAME := libkifmm.so.$(MAJOR)
+NM ?= nm
+OBJCOPY ?= objcopy
 
-# the double and the float halves of the library are two objects (make -j2
-# builds them at once: kifmm_lib.h, KIFMM_LIB_PART)
-LIB_OBJS := $(BUILD)/lib/kifmm_lib_1.o $(BUILD)/lib/kifmm_lib_2.o
-$(BUILD)/lib/kifmm_lib_%.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
+# The instruction-set levels libkifmm holds (src/kifmm_dispatch.c picks one
+# at the first call): avx512 (x86-64-v4), avx2 (x86-64-v3) and base (the
+# compiler's default target); LIB_LEVELS=base and -march=native in
+# LIB_CFLAGS for one level built for this machine only.
+ifeq ($(shell uname -m),x86_64)
+LIB_LEVELS ?= avx512 avx2 base
+else
+LIB_LEVELS ?= base
+endif
+# each level's own flags, before LIB_CFLAGS (which may override them): -O3
+# is 7-18 % faster than -O2 at 1M points (bench/bench_dispatch.c) and takes
+# 1.45x as long to compile; the base level, a fallback, keeps -O2
+LIB_OPT_avx512 := -O3 -march=x86-64-v4
+LIB_OPT_avx2 := -O3 -march=x86-64-v3
+LIB_OPT_base := -O2
+
+# Each level's double and float halves are two objects (make -j2 builds two
+# at once: kifmm_lib.h, KIFMM_LIB_PART) whose public symbols kifmm_<name>
+# are renamed kifmm__<level>_kifmm_<name>; kifmm_dispatch.o defines the
+# public ones.
+LIB_LV_OBJS := $(foreach l,$(LIB_LEVELS),$(BUILD)/lib/lv_$(l)_1.o $(BUILD)/lib/lv_$(l)_2.o)
+LIB_OBJS := $(LIB_LV_OBJS) $(BUILD)/lib/kifmm_dispatch.o
+$(BUILD)/lib/lv_%.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
 	mkdir -p $(BUILD)/lib
-	$(CC) -std=c99 $(LIB_CFLAGS) -fPIC -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. \
-	    -DKIFMM_LIB_PART=$* -c $< -o $@
+	$(CC) -std=c99 $(LIB_OPT_$(firstword $(subst _, ,$*))) $(LIB_CFLAGS) -fPIC -Wall -Wextra \
+	    -pedantic $(CBLAS_CFLAGS) -I. -DKIFMM_LIB_PART=$(lastword $(subst _, ,$*)) -c $< -o $@.tmp
+	$(NM) -g --defined-only $@.tmp | awk '$$3 ~ /^kifmm_/ {print $$3, "kifmm__$(firstword $(subst _, ,$*))_" $$3}' \
+	    > $@.syms
+	$(OBJCOPY) --redefine-syms=$@.syms $@.tmp $@
+	rm -f $@.tmp $@.syms
+
+$(BUILD)/lib/kifmm_dispatch.o: src/kifmm_dispatch.c kifmm_lib.h kifmm.h kifmm_kernels.h
+	mkdir -p $(BUILD)/lib
+	$(CC) -std=c99 -O2 $(LIB_CFLAGS) -fPIC -Wall -Wextra -pedantic -I. \
+	    $(foreach l,$(LIB_LEVELS),-DKIFMM_LIB_HAS_$(shell echo $(l) | tr a-z A-Z)) -c $< -o $@
 
 $(BUILD)/lib/libkifmm.a: $(LIB_OBJS)
 	rm -f $@
 	ar rcs $@ $^
 
-$(BUILD)/lib/libkifmm.so.$(VERSION): $(LIB_OBJS)
-	$(CC) -shared -Wl,-soname,$(SONAME) $(LIB_CFLAGS) -fopenmp $^ -o $@ $(LDLIBS)
+# the shared library exports kifmm_<name> only (src/kifmm.map), and each
+# level's every symbol must have its public wrapper (the check below)
+$(BUILD)/lib/libkifmm.so.$(VERSION): $(LIB_OBJS) src/kifmm.map
+	$(CC) -shared -Wl,-soname,$(SONAME) -Wl,--version-script=src/kifmm.map $(LIB_CFLAGS) \
+	    $(LIB_OBJS) -o $@ $(LDLIBS)
+	@$(NM) -g --defined-only $(LIB_LV_OBJS) | awk '$$3 ~ /^kifmm__/ {sub(/^kifmm__[a-z0-9]*_/, "", $$3); print $$3}' \
+	    | sort -u > $@.want; \
+	$(NM) -D --defined-only $@ | awk '$$3 ~ /^kifmm/ {print $$3}' | sort -u > $@.have; \
+	if ! cmp -s $@.want $@.have; then echo "libkifmm: the levels' symbols and the exported ones differ:"; \
+	    diff $@.want $@.have | head; rm -f $@ $@.want $@.have; exit 1; fi; rm -f $@.want $@.have
 
 lib: $(BUILD)/lib/libkifmm.a $(BUILD)/lib/libkifmm.so.$(VERSION)
 
@@ -206,11 +248,11 @@ MPICC ?= mpicc
 LIB_MPI_OBJS := $(BUILD)/lib/kifmm_mpi_1.o $(BUILD)/lib/kifmm_mpi_2.o
 $(BUILD)/lib/kifmm_mpi_%.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
 	mkdir -p $(BUILD)/lib
-	$(MPICC) -std=c99 -DKIFMM_MPI $(LIB_CFLAGS) -fPIC -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. \
+	$(MPICC) -std=c99 -DKIFMM_MPI $(LIB_MPI_CFLAGS) -fPIC -Wall -Wextra -pedantic $(CBLAS_CFLAGS) -I. \
 	    -DKIFMM_LIB_PART=$* -c $< -o $@
 
 $(BUILD)/lib/libkifmm_mpi.so: $(LIB_MPI_OBJS)
-	$(MPICC) -shared $(LIB_CFLAGS) -fopenmp $^ -o $@ $(LDLIBS)
+	$(MPICC) -shared $(LIB_MPI_CFLAGS) $^ -o $@ $(LDLIBS)
 
 .PHONY: lib-mpi
 lib-mpi: $(BUILD)/lib/libkifmm_mpi.so

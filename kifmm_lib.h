@@ -7,7 +7,9 @@
  * KIFMM_LIB_IMPLEMENT before including it and so compiles the instances
  * (KIFMM_IMPLEMENT); with KIFMM_LIB_PART 1 (or 2) as well it compiles the
  * double (or the float) half only, so that make builds the two halves at
- * once (two objects). Kernels of your own: include kifmm.h (header-only),
+ * once (two objects). make lib compiles them once per instruction-set
+ * level and src/kifmm_dispatch.c picks a level at run time (docs/api.md,
+ * "The compiled library's levels"). Kernels of your own: include kifmm.h (header-only),
  * beside this header if you like. MPI mode: make lib-mpi builds
  * libkifmm_mpi.so from the same file with KIFMM_MPI; a host that defines
  * KIFMM_MPI (and includes <mpi.h>) before this header sees its

@@ -4,7 +4,9 @@
  * make install installs them (Makefile). Compiled with -DKIFMM_LIB_PART=1
  * it holds the double instances and kifmm_lib_strerror, with
  * -DKIFMM_LIB_PART=2 the float instances: make builds the two objects at
- * once; without the macro, everything (one object). */
+ * once; without the macro, everything (one object). make lib compiles it
+ * once per instruction-set level, renames each level's symbols and links
+ * src/kifmm_dispatch.c, which defines the public ones. */
 #define KIFMM_LIB_IMPLEMENT
 #include "kifmm_lib.h"
 

@@ -8,7 +8,8 @@
 #      type, host.c linked to kifmm::kifmm and host_headers.c (a kernel of
 #      its own, header-only) to kifmm::headers, which must compile with -O2;
 #   4. make uninstall, which must leave no file behind.
-# Each host checks its results against sums written out in it and prints
+# The shared host runs once more per instruction-set level the CPU has
+# (KIFMM_ISA). Each host checks its results against sums written out in it and prints
 # "RESULT <passed> <failed>". The last line here is "install: N passed, N
 # failed"; the exit status is nonzero if anything failed.
 set -u
@@ -60,11 +61,22 @@ step "cc host.c \$(pkg-config --cflags --libs kifmm)" \
     $CC -std=c99 -O2 tests/install/host.c $(pkg-config --cflags kifmm) -o "$TMP/host_pc" \
     $(pkg-config --libs kifmm) -lm
 run "host, shared library" env LD_LIBRARY_PATH="$PREFIX/lib" "$TMP/host_pc"
+# every instruction-set level of the library this CPU runs (KIFMM_ISA,
+# src/kifmm_dispatch.c): results and stats.build's level
+flags=$(grep -m1 '^flags' /proc/cpuinfo 2>/dev/null)
+has() { local f; for f in "$@"; do case " $flags " in *" $f "*) ;; *) return 1 ;; esac; done; }
+levels=base
+has avx2 fma bmi1 bmi2 f16c movbe abm && levels="$levels avx2"
+has avx2 fma bmi1 bmi2 f16c movbe abm avx512f avx512bw avx512cd avx512dq avx512vl && levels="$levels avx512"
+for lv in $levels; do
+    run "host, shared library, KIFMM_ISA=$lv" env LD_LIBRARY_PATH="$PREFIX/lib" KIFMM_ISA=$lv "$TMP/host_pc"
+done
 # shellcheck disable=SC2046
 step "cc host.c libkifmm.a \$(pkg-config --static --libs kifmm)" \
     $CC -std=c99 -O2 tests/install/host.c $(pkg-config --cflags kifmm) -o "$TMP/host_static" \
     "$PREFIX/lib/libkifmm.a" $(pkg-config --static --libs-only-other --libs-only-l kifmm | sed 's/-lkifmm//')
 run "host, static library" "$TMP/host_static"
+run "host, static library, KIFMM_ISA=base" env KIFMM_ISA=base "$TMP/host_static"
 
 echo "== CMake hosts: find_package(kifmm), no build type"
 step "cmake configure" cmake -S tests/install -B "$TMP/cmake" -DCMAKE_PREFIX_PATH="$PREFIX"

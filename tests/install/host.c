@@ -2,11 +2,13 @@
  * includes kifmm_lib.h and links libkifmm (pkg-config kifmm, or CMake's
  * kifmm::kifmm), compiling nothing of kifmm.h. The Laplace potential in
  * double and the Stokeslet in float on 3,000 points, p = 6, against sums
- * written out here and against the library's kifmm_*_direct; prints
- * "RESULT <passed> <failed>" and exits nonzero on a failure. */
+ * written out here and against the library's kifmm_*_direct, and under
+ * KIFMM_ISA the library's level in stats.build; prints "RESULT <passed>
+ * <failed>" and exits nonzero on a failure. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "kifmm_lib.h"
 
@@ -26,6 +28,25 @@ static double rnd(unsigned long long *s)
     return (double)(*s >> 11) / 9007199254740992.0;
 }
 
+/* stats.build, and the instruction-set level of the compiled library
+ * (src/kifmm_dispatch.c): the one KIFMM_ISA names when it is set (the
+ * caller sets only levels this CPU runs) */
+static void check_level(const kifmm_laplace *h)
+{
+    kifmm_stats st;
+    const char *isa = getenv("KIFMM_ISA");
+    char want[64];
+    int rc = kifmm_laplace_stats(h, &st);
+    if (rc) {
+        check(0, "kifmm_laplace_stats", 1, 0);
+        return;
+    }
+    printf("  build: %s\n", st.build);
+    if (!isa) return;
+    snprintf(want, sizeof want, "library level %s (", isa);
+    check(strstr(st.build, want) != NULL, "stats.build names the level KIFMM_ISA asks for", 0, 0);
+}
+
 int main(void)
 {
     static double x[3 * N], q[3 * N], u[3 * N], ud[3 * NC];
@@ -42,6 +63,7 @@ int main(void)
     /* Laplace, double */
     rc = kifmm_laplace_create(&h, &o, N, x, N, x);
     if (!rc) rc = kifmm_laplace_evaluate(h, q, u);
+    if (!rc) check_level(h);
     kifmm_laplace_destroy(h);
     if (!rc) rc = kifmm_laplace_direct(&o, N, x, q, NC, x, ud);
     for (j = 0; j < NC; j++) {
