@@ -4,7 +4,8 @@
 #
 #   bash bench/run.sh            cube, sphere, clustered x N = 1e4, 1e5, 1e6 x p = 4, 6, 8, then
 #                                float and evaluate_many, kernels side by side, periodic
-#                                boundaries, time stepping (update_points), MPI mode
+#                                boundaries, time stepping (update_points), the compiled
+#                                library's levels (make lib), MPI mode
 #   bash bench/run.sh --quick    cube x N = 1e4, 1e5 x p = 6
 #
 # Environment (all optional; `make bench BIG=1 P=10` passes them through):
@@ -391,6 +392,38 @@ if $CC -std=c99 -O3 -march=native -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. b
 else
     echo "bench_update or timestep: build failed"
     FAILED="$FAILED update/build"
+fi
+
+# ---------------------------------------------------------------- the compiled library
+# libkifmm (make lib: every level, src/kifmm_dispatch.c) against the same kernels
+# compiled here from the headers, in one process on the same points
+# (bench/bench_dispatch.c): the level the CPU gets against -march=native and, on an
+# AVX-512 machine, KIFMM_ISA=avx2 against -mno-avx512f (what an AVX2 machine runs).
+echo
+echo "== the compiled library's levels against header builds, N = $KNS, p = 6, ${OMP_NUM_THREADS} threads"
+if make --no-print-directory -j2 lib > "$OUT/.lib.log" 2>&1; then
+    LIBSO=$(ls build/lib/libkifmm.so.* | head -1)
+    for isa in $KISAS; do
+        kflags=""; envs=()
+        [ "$isa" = avx2 ] && kflags="-mno-avx512f" && envs=(KIFMM_ISA=avx2)
+        echo "build:       $CC -std=c99 -O3 -march=native $kflags -fopenmp bench/bench_dispatch.c $LIBSO; run with ${envs[*]:-no KIFMM_ISA}"
+        # shellcheck disable=SC2086
+        if $CC -std=c99 -O3 -march=native $kflags -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. \
+                bench/bench_dispatch.c -o "$OUT/bench_dispatch_$isa" "$LIBSO" -llapacke -lopenblas -lm; then
+            wait_quiet
+            if run_measured env "${envs[@]}" "$OUT/bench_dispatch_$isa" "$KNS" 6; then
+                echo "(bg% $BG)"
+            else
+                FAILED="$FAILED dispatch/$isa"
+            fi
+        else
+            echo "bench_dispatch ($isa): build failed"
+            FAILED="$FAILED dispatch/build-$isa"
+        fi
+    done
+else
+    echo "make lib failed:"; tail -5 "$OUT/.lib.log"
+    FAILED="$FAILED dispatch/lib"
 fi
 
 # ---------------------------------------------------------------- MPI
