@@ -26,6 +26,10 @@
 #                   in double and float (kifmm_lib.h, src/kifmm_lib.c), for
 #                   three instruction-set levels chosen at run time from the
 #                   CPU (src/kifmm_dispatch.c; KIFMM_ISA; LIB_LEVELS below)
+#   make wheel      build/wheelhouse/kifmm-*.whl: the Python package with that
+#                   library and OpenBLAS, LAPACKE and OpenMP inside, for any
+#                   x86-64 machine with the glibc its tag names
+#                   (python/build_wheel.sh; tools from PyPI)
 #   make lib-mpi    build/lib/libkifmm_mpi.so: the same with KIFMM_MPI (mpicc;
 #                   create_mpi for every kernel), linked to MPI; the Python
 #                   package's comm= loads it
@@ -256,6 +260,10 @@ $(BUILD)/lib/libkifmm_mpi.so: $(LIB_MPI_OBJS)
 
 .PHONY: lib-mpi
 lib-mpi: $(BUILD)/lib/libkifmm_mpi.so
+
+.PHONY: wheel
+wheel:
+	bash python/build_wheel.sh
 
 install: lib
 	install -d $(DESTDIR)$(INCDIR) $(DESTDIR)$(LIBDIR)/pkgconfig $(DESTDIR)$(LIBDIR)/cmake/kifmm

@@ -97,6 +97,18 @@ if __name__ == "__main__":
             elif mpi_compiler():
                 compile_library(library_command(out_mpi, mpi_compiler()), name="libkifmm_mpi.so")
 
+    try:
+        from setuptools.command.bdist_wheel import bdist_wheel
+    except ImportError:  # setuptools before 70.1
+        from wheel.bdist_wheel import bdist_wheel
+
+    class PlatformWheel(bdist_wheel):
+        """py3-none-<platform>: the package loads its library with ctypes, so
+        one wheel serves every Python 3 on the platform."""
+
+        def get_tag(self):
+            return ("py3", "none", super().get_tag()[2])
+
     class BinaryDistribution(Distribution):
         """A wheel for this platform: it carries a compiled library."""
 
@@ -108,6 +120,7 @@ if __name__ == "__main__":
     # build step in a process of its own, so each gets its own directory.
     scratch = tempfile.mkdtemp(prefix="kifmm-build-")
     atexit.register(shutil.rmtree, scratch, ignore_errors=True)
-    setup(cmdclass={"build_py": BuildWithLibrary}, distclass=BinaryDistribution,
+    setup(cmdclass={"build_py": BuildWithLibrary, "bdist_wheel": PlatformWheel},
+          distclass=BinaryDistribution,
           options={"build": {"build_base": os.path.join(scratch, "build")},
                    "egg_info": {"egg_base": scratch}})
