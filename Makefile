@@ -30,7 +30,8 @@
 #                   library and OpenBLAS, LAPACKE and OpenMP inside, for any
 #                   x86-64 machine with the glibc its tag names
 #                   (python/build_wheel.sh; tools from PyPI)
-#   make lib-mpi    build/lib/libkifmm_mpi.so: the same with KIFMM_MPI (mpicc;
+#   make lib-mpi    build/lib/libkifmm_mpi.so: the same instances with KIFMM_MPI,
+#                   one level for this machine (LIB_MPI_CFLAGS; mpicc;
 #                   create_mpi for every kernel), linked to MPI; the Python
 #                   package's comm= loads it
 #   make install    PREFIX=/usr/local (DESTDIR for staging): kifmm.h,
@@ -197,12 +198,16 @@ OBJCOPY ?= objcopy
 
 # The instruction-set levels libkifmm holds (src/kifmm_dispatch.c picks one
 # at the first call): avx512 (x86-64-v4), avx2 (x86-64-v3) and base (the
-# compiler's default target); LIB_LEVELS=base and -march=native in
+# compiler's default target: SSE2 with Debian's gcc, more where a
+# distribution sets a newer default); LIB_LEVELS=base and -march=native in
 # LIB_CFLAGS for one level built for this machine only.
-ifeq ($(shell uname -m),x86_64)
+ifneq ($(filter x86_64-%,$(shell $(CC) -dumpmachine 2>/dev/null)),)
 LIB_LEVELS ?= avx512 avx2 base
 else
 LIB_LEVELS ?= base
+endif
+ifneq ($(filter-out avx512 avx2 base,$(LIB_LEVELS)),)
+$(error LIB_LEVELS: $(filter-out avx512 avx2 base,$(LIB_LEVELS)) is not a level (avx512, avx2, base))
 endif
 # each level's own flags, before LIB_CFLAGS (which may override them): -O3
 # is 7-18 % faster than -O2 at 1M points (bench/bench_dispatch.c) and takes
@@ -217,18 +222,25 @@ LIB_OPT_base := -O2
 # public ones.
 LIB_LV_OBJS := $(foreach l,$(LIB_LEVELS),$(BUILD)/lib/lv_$(l)_1.o $(BUILD)/lib/lv_$(l)_2.o)
 LIB_OBJS := $(LIB_LV_OBJS) $(BUILD)/lib/kifmm_dispatch.o
-$(BUILD)/lib/lv_%.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h
-	mkdir -p $(BUILD)/lib
+# build/lib/flags holds the compiler, levels and flags of the objects there
+# and changes (so that they are compiled again) only when these do
+LIB_FLAGS_NOW := $(CC) | $(LIB_LEVELS) | $(foreach l,$(LIB_LEVELS),$(LIB_OPT_$(l)) |) $(LIB_CFLAGS) | $(CBLAS_CFLAGS)
+$(BUILD)/lib/flags: FORCE
+	@mkdir -p $(@D)
+	@if [ "$$(cat $@ 2>/dev/null)" != '$(LIB_FLAGS_NOW)' ]; then echo '$(LIB_FLAGS_NOW)' > $@; fi
+.PHONY: FORCE
+FORCE:
+
+$(BUILD)/lib/lv_%.o: src/kifmm_lib.c kifmm_lib.h kifmm.h kifmm_kernels.h $(BUILD)/lib/flags
 	$(CC) -std=c99 $(LIB_OPT_$(firstword $(subst _, ,$*))) $(LIB_CFLAGS) -fPIC -Wall -Wextra \
 	    -pedantic $(CBLAS_CFLAGS) -I. -DKIFMM_LIB_PART=$(lastword $(subst _, ,$*)) -c $< -o $@.tmp
-	$(NM) -g --defined-only $@.tmp | awk '$$3 ~ /^kifmm_/ {print $$3, "kifmm__$(firstword $(subst _, ,$*))_" $$3}' \
-	    > $@.syms
+	$(NM) -g --defined-only $@.tmp > $@.nm
+	awk '$$3 ~ /^kifmm_/ {print $$3, "kifmm__$(firstword $(subst _, ,$*))_" $$3}' $@.nm > $@.syms
 	$(OBJCOPY) --redefine-syms=$@.syms $@.tmp $@
-	rm -f $@.tmp $@.syms
+	rm -f $@.tmp $@.nm $@.syms
 
-$(BUILD)/lib/kifmm_dispatch.o: src/kifmm_dispatch.c kifmm_lib.h kifmm.h kifmm_kernels.h
-	mkdir -p $(BUILD)/lib
-	$(CC) -std=c99 -O2 $(LIB_CFLAGS) -fPIC -Wall -Wextra -pedantic -I. \
+$(BUILD)/lib/kifmm_dispatch.o: src/kifmm_dispatch.c kifmm_lib.h kifmm.h kifmm_kernels.h $(BUILD)/lib/flags
+	$(CC) -std=c99 -O2 $(LIB_CFLAGS) -pthread -fPIC -Wall -Wextra -pedantic -I. \
 	    $(foreach l,$(LIB_LEVELS),-DKIFMM_LIB_HAS_$(shell echo $(l) | tr a-z A-Z)) -c $< -o $@
 
 $(BUILD)/lib/libkifmm.a: $(LIB_OBJS)
@@ -238,7 +250,7 @@ $(BUILD)/lib/libkifmm.a: $(LIB_OBJS)
 # the shared library exports kifmm_<name> only (src/kifmm.map), and each
 # level's every symbol must have its public wrapper (the check below)
 $(BUILD)/lib/libkifmm.so.$(VERSION): $(LIB_OBJS) src/kifmm.map
-	$(CC) -shared -Wl,-soname,$(SONAME) -Wl,--version-script=src/kifmm.map $(LIB_CFLAGS) \
+	$(CC) -shared -Wl,-soname,$(SONAME) -Wl,--version-script=src/kifmm.map $(LIB_CFLAGS) -pthread \
 	    $(LIB_OBJS) -o $@ $(LDLIBS)
 	@$(NM) -g --defined-only $(LIB_LV_OBJS) | awk '$$3 ~ /^kifmm__/ {sub(/^kifmm__[a-z0-9]*_/, "", $$3); print $$3}' \
 	    | sort -u > $@.want; \
@@ -246,7 +258,10 @@ $(BUILD)/lib/libkifmm.so.$(VERSION): $(LIB_OBJS) src/kifmm.map
 	if ! cmp -s $@.want $@.have; then echo "libkifmm: the levels' symbols and the exported ones differ:"; \
 	    diff $@.want $@.have | head; rm -f $@ $@.want $@.have; exit 1; fi; rm -f $@.want $@.have
 
+# (and the soname's link, for programs linked to build/lib/libkifmm.so.* that
+# run from there: bench/run.sh)
 lib: $(BUILD)/lib/libkifmm.a $(BUILD)/lib/libkifmm.so.$(VERSION)
+	@ln -sf libkifmm.so.$(VERSION) $(BUILD)/lib/$(SONAME)
 
 MPICC ?= mpicc
 LIB_MPI_OBJS := $(BUILD)/lib/kifmm_mpi_1.o $(BUILD)/lib/kifmm_mpi_2.o

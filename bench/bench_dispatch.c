@@ -74,7 +74,7 @@ static int bench_one(const char *name, const api *lib, const api *hdr, int sd, i
                      const kifmm_opts *o, int64_t n, int reps, double *x)
 {
     void *hl = NULL, *hh = NULL;
-    double tl = 1e30, th = 1e30, t0, diff = 0, big = 0;
+    double tl = 1e30, th = 1e30, t0, t, diff = 0, big = 0;
     double *q = malloc(sizeof(double) * (size_t)sd * (size_t)n);
     double *ul = malloc(sizeof(double) * (size_t)td * (size_t)n);
     double *uh = malloc(sizeof(double) * (size_t)td * (size_t)n);
@@ -86,10 +86,12 @@ static int bench_one(const char *name, const api *lib, const api *hdr, int sd, i
     for (r = 0; r < reps && !rc; r++) {
         t0 = omp_get_wtime();
         rc = lib->evaluate(hl, q, ul);
-        if (omp_get_wtime() - t0 < tl) tl = omp_get_wtime() - t0;
+        t = omp_get_wtime() - t0;
+        if (t < tl) tl = t;
         t0 = omp_get_wtime();
         if (!rc) rc = hdr->evaluate(hh, q, uh);
-        if (omp_get_wtime() - t0 < th) th = omp_get_wtime() - t0;
+        t = omp_get_wtime() - t0;
+        if (t < th) th = t;
     }
     for (i = 0; !rc && i < (int64_t)td * n; i++) {
         if (fabs(ul[i] - uh[i]) > diff) diff = fabs(ul[i] - uh[i]);

@@ -402,16 +402,17 @@ fi
 echo
 echo "== the compiled library's levels against header builds, N = $KNS, p = 6, ${OMP_NUM_THREADS} threads"
 if make --no-print-directory -j2 lib > "$OUT/.lib.log" 2>&1; then
-    LIBSO=$(ls build/lib/libkifmm.so.* | head -1)
+    LIBSO=$(ls -t build/lib/libkifmm.so.*.*.* | head -1)
     for isa in $KISAS; do
         kflags=""; envs=()
         [ "$isa" = avx2 ] && kflags="-mno-avx512f" && envs=(KIFMM_ISA=avx2)
         echo "build:       $CC -std=c99 -O3 -march=native $kflags -fopenmp bench/bench_dispatch.c $LIBSO; run with ${envs[*]:-no KIFMM_ISA}"
         # shellcheck disable=SC2086
         if $CC -std=c99 -O3 -march=native $kflags -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. \
-                bench/bench_dispatch.c -o "$OUT/bench_dispatch_$isa" "$LIBSO" -llapacke -lopenblas -lm; then
+                bench/bench_dispatch.c -o "$OUT/bench_dispatch_$isa" "$LIBSO" -Wl,-rpath,"$(pwd)/build/lib" \
+                -llapacke -lopenblas -lm; then
             wait_quiet
-            if run_measured env "${envs[@]}" "$OUT/bench_dispatch_$isa" "$KNS" 6; then
+            if run_measured env ${envs[@]+"${envs[@]}"} "$OUT/bench_dispatch_$isa" "$KNS" 6; then
                 echo "(bg% $BG)"
             else
                 FAILED="$FAILED dispatch/$isa"

