@@ -39,17 +39,20 @@ static const char *const kifmm__lv_name[3] = {"base", "avx2", "avx512"};
 
 /* The highest level this CPU (and its operating system, which must save the
  * wide registers) runs: avx512 is x86-64-v4 (AVX-512 F, BW, CD, DQ, VL) and
- * avx2 is x86-64-v3 (AVX2, FMA, BMI1, BMI2, F16C, LZCNT, MOVBE), as the
- * levels' -march flags assume. */
+ * avx2 is x86-64-v3 (AVX2, FMA, BMI1, BMI2, F16C, LZCNT, MOVBE, and
+ * x86-64-v2's POPCNT, SSE4.2, CMPXCHG16B and LAHF), as the levels' -march
+ * flags assume. */
 static int kifmm__lv_cpu(void)
 {
 #if defined(__x86_64__) || defined(__i386__)
-    unsigned a, b, c, d, f16c_movbe = 0, lzcnt = 0;
+    unsigned a, b, c, d, leaf1 = 0, ext = 0;
     __builtin_cpu_init();
-    if (__get_cpuid(1, &a, &b, &c, &d)) f16c_movbe = (c >> 29 & 1) && (c >> 22 & 1);
-    if (__get_cpuid(0x80000001u, &a, &b, &c, &d)) lzcnt = c >> 5 & 1;
+    /* CPUID 1, ECX: F16C 29, MOVBE 22, CMPXCHG16B 13; 0x80000001, ECX: LZCNT 5, LAHF 0 */
+    if (__get_cpuid(1, &a, &b, &c, &d)) leaf1 = (c >> 29 & 1) && (c >> 22 & 1) && (c >> 13 & 1);
+    if (__get_cpuid(0x80000001u, &a, &b, &c, &d)) ext = (c >> 5 & 1) && (c & 1);
     if (!(__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
-          __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") && f16c_movbe && lzcnt))
+          __builtin_cpu_supports("bmi") && __builtin_cpu_supports("bmi2") &&
+          __builtin_cpu_supports("popcnt") && __builtin_cpu_supports("sse4.2") && leaf1 && ext))
         return KIFMM__LV_BASE;
     if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
         __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") &&
