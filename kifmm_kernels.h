@@ -1200,6 +1200,17 @@ static inline void kifmm_kernel_biot_savart_grad_background(const double *param,
 #if defined(__AVX2__) && defined(__FMA__)
 /* Shared by the AVX2 loops below (also on AVX-512 builds, whose float and
  * many-vector loops are the AVX2 ones). */
+/* All ones in the lanes [0, n) of 4 (double) or 8 (float): none for n <= 0,
+ * all for n >= 4 (8). */
+static inline __m256i kifmm_kernel__first4i(int64_t n)
+{
+    return _mm256_cmpgt_epi64(_mm256_set1_epi64x((long long)n), _mm256_setr_epi64x(0, 1, 2, 3));
+}
+static inline __m256i kifmm_kernel__first8i(int64_t n)
+{
+    return _mm256_cmpgt_epi32(_mm256_set1_epi32((int)(n < 8 ? n : 8)),
+                              _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+}
 /* o[0] += s (sum of the lanes of a0), o[k] += t (sum of ak) for k = 1..3. */
 static inline void kifmm_kernel__red4(__m256d a0, __m256d a1, __m256d a2, __m256d a3, double s,
                                       double t, double *o)
@@ -1254,12 +1265,6 @@ static inline __m512 kifmm_kernel__rinv16(__m512 r2)
     const __m512 y = _mm512_maskz_rsqrt14_ps(live, r2);
     const __m512 e = _mm512_fnmadd_ps(_mm512_mul_ps(r2, y), y, _mm512_set1_ps(1.0f));
     return _mm512_maskz_fmadd_ps(live, _mm512_mul_ps(_mm512_set1_ps(0.5f), y), e, y);
-}
-
-/* The first n lanes, 0 <= n <= 8. */
-static inline __mmask8 kifmm_kernel__avx512_first(int64_t n)
-{
-    return (__mmask8)((1u << n) - 1u);
 }
 
 /* o[k] += s * (sum of the lanes of ak), o[4 + k] += s * (sum of ck), k = 0..3,
@@ -1345,7 +1350,7 @@ static inline void kifmm_kernel_laplace_p2p(const double *param, const double *t
                                             double scale, double *out)
 {
     const double s = scale * KIFMM_INV_4PI;
-    const __mmask8 tail = kifmm_kernel__avx512_first(ns & 7);
+    const __mmask8 tail = kifmm_kernel__first8(ns & 7);
     const int64_t nv = ns & ~(int64_t)7;
     int64_t i, j;
     (void)param;
@@ -1407,11 +1412,6 @@ static inline __m256d kifmm_kernel__avx2_rinv(__m256d r2)
     return _mm256_and_pd(_mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(r2)), live);
 }
 
-/* All ones in the first n lanes, 0 <= n <= 4. */
-static inline __m256i kifmm_kernel__avx2_first(int64_t n)
-{
-    return _mm256_cmpgt_epi64(_mm256_set1_epi64x((long long)n), _mm256_setr_epi64x(0, 1, 2, 3));
-}
 
 static inline __m256d kifmm_kernel__avx2_r2(__m256d dx, __m256d dy, __m256d dz)
 {
@@ -1444,7 +1444,7 @@ static inline void kifmm_kernel_laplace_p2p(const double *param, const double *t
                                             double scale, double *out)
 {
     const double s = scale * KIFMM_INV_4PI;
-    const __m256i tail = kifmm_kernel__avx2_first(ns & 3);
+    const __m256i tail = kifmm_kernel__first4i(ns & 3);
     const int64_t nv = ns & ~(int64_t)3;
     int64_t i, j;
     (void)param;
@@ -1479,7 +1479,7 @@ static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const doub
                                                  double *out)
 {
     const double s = scale * KIFMM_INV_4PI;
-    const __m256i tail = kifmm_kernel__avx2_first(ns & 3);
+    const __m256i tail = kifmm_kernel__first4i(ns & 3);
     const int64_t nv = ns & ~(int64_t)3;
     int64_t i, j;
     (void)param;
@@ -1698,11 +1698,6 @@ static inline __m256 kifmm_kernel__avx2_rinvf(__m256 r2)
     return _mm256_and_ps(y, live);
 }
 
-/* All ones in the first n lanes, 0 <= n <= 8. */
-static inline __m256i kifmm_kernel__avx2_firstf(int64_t n)
-{
-    return _mm256_cmpgt_epi32(_mm256_set1_epi32((int)n), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
-}
 
 static inline float kifmm_kernel__avx2_sumf(__m256 v)
 {
@@ -1813,7 +1808,7 @@ static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *t
                                              const float *q, int64_t ns, float scale, float *out)
 {
     const float s = scale * (float)KIFMM_INV_4PI;
-    const __m256i tail = kifmm_kernel__avx2_firstf(ns & 7);
+    const __m256i tail = kifmm_kernel__first8i(ns & 7);
     const int64_t nv = ns & ~(int64_t)7;
     int64_t i, j;
     (void)param;
@@ -1841,7 +1836,7 @@ static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const flo
                                                   float scale, float *out)
 {
     const float s = scale * (float)KIFMM_INV_4PI;
-    const __m256i tail = kifmm_kernel__avx2_firstf(ns & 7);
+    const __m256i tail = kifmm_kernel__first8i(ns & 7);
     const int64_t nv = ns & ~(int64_t)7;
     int64_t i, j;
     (void)param;
@@ -1913,16 +1908,8 @@ static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const flo
 #define KIFMM_KERNEL__NV 8 /* density vectors per pass of the many-vector loops */
 
 /* Lanes [0, n) set, 0 <= n <= 4 (double) / 8 (float). */
-static inline __m256d kifmm_kernel__nmask(int64_t n)
-{
-    return _mm256_castsi256_pd(
-        _mm256_cmpgt_epi64(_mm256_set1_epi64x((long long)n), _mm256_setr_epi64x(0, 1, 2, 3)));
-}
-static inline __m256 kifmm_kernel__nmaskf(int64_t n)
-{
-    return _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32((int)n),
-                                                  _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
-}
+static inline __m256d kifmm_kernel__nmask(int64_t n) { return _mm256_castsi256_pd(kifmm_kernel__first4i(n)); }
+static inline __m256 kifmm_kernel__nmaskf(int64_t n) { return _mm256_castsi256_ps(kifmm_kernel__first8i(n)); }
 
 /* 4 sources from j on (the lanes of m, the rest 0): differences to (X, Y, Z)
  * and 1 / r (0 where r = 0 or the lane is off). */
@@ -3688,10 +3675,8 @@ KIFMM_KERNEL__HELM_MUTUAL_FNS(kifmm_kernel_helmholtz_grad, 1)
  * FLT_MAX, rsqrt and one Newton step), 0 elsewhere */
 static inline __m256d kifmm_kernel__srinv4(__m256d r2, int64_t n)
 {
-    const __m256d live = _mm256_and_pd(
-        _mm256_cmp_pd(r2, _mm256_setzero_pd(), _CMP_GT_OQ),
-        _mm256_castsi256_pd(_mm256_cmpgt_epi64(_mm256_set1_epi64x((long long)n),
-                                               _mm256_setr_epi64x(0, 1, 2, 3))));
+    const __m256d live = _mm256_and_pd(_mm256_cmp_pd(r2, _mm256_setzero_pd(), _CMP_GT_OQ),
+                                       _mm256_castsi256_pd(kifmm_kernel__first4i(n)));
     return _mm256_and_pd(_mm256_div_pd(_mm256_set1_pd(1.0), _mm256_sqrt_pd(r2)), live);
 }
 static inline __m256 kifmm_kernel__srinv8f(__m256 r2, int64_t n)
@@ -3699,8 +3684,7 @@ static inline __m256 kifmm_kernel__srinv8f(__m256 r2, int64_t n)
     const __m256 live = _mm256_and_ps(
         _mm256_and_ps(_mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MIN), _CMP_GE_OQ),
                       _mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ)),
-        _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32((int)(n < 8 ? n : 8)),
-                                               _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))));
+        _mm256_castsi256_ps(kifmm_kernel__first8i(n)));
     const __m256 y = _mm256_rsqrt_ps(r2);
     const __m256 e = _mm256_fnmadd_ps(_mm256_mul_ps(r2, y), y, _mm256_set1_ps(1.0f));
     return _mm256_and_ps(_mm256_fmadd_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), y), e, y), live);
