@@ -219,7 +219,7 @@ static int kifmm__level(void)
     KIFMM__DK_DECL(int, N, _stats, (const N *h, kifmm_stats *st))                                   \
     int KIFMM__DK_CAT(N, _stats)(const N *h, kifmm_stats *st)                                       \
     {                                                                                               \
-        int r_ = KIFMM_ERR_INTERNAL;                                                                     \
+        int r_ = KIFMM_ERR_INTERNAL;                                                                \
         KIFMM__DK_SWITCH(r_ =, N, _stats, (h, st))                                                  \
         if (r_ == KIFMM_SUCCESS) kifmm__dk_build(st);                                               \
         return r_;                                                                                  \

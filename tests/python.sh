@@ -38,6 +38,9 @@ sed 's/^/    /' build/.ldd
 grep -Eq 'not found' build/.ldd && fail "the installed library misses a dependency"
 grep -E 'openblas|lapack|blas|gfortran|gomp|quadmath' build/.ldd | grep -vq 'kifmm.libs/' \
     && fail "the installed library takes a dependency from outside the wheel"
+for dep in openblas lapacke gfortran gomp; do
+    grep -q "lib$dep[^ ]* => .*/kifmm.libs/" build/.ldd || fail "lib$dep is not taken from the wheel"
+done
 LIB=$(ls -t "$(pwd)"/build/lib/libkifmm.so.*.*.* | head -1)
 # MPI mode (FMM(comm=...), python/tests/test_mpi.py) where mpicc exists:
 # libkifmm_mpi.so from make lib-mpi, mpi4py from PyPI (its wheel runs on the
