@@ -30,6 +30,11 @@ extern "C++" {
 #include <stdint.h>
 #if defined(__AVX2__) && defined(__FMA__)
 #include <immintrin.h>
+#elif defined(__aarch64__) && defined(__ARM_NEON)
+#include <arm_neon.h>
+/* aarch64: the hooks written on the vector layer (>>vector) use Advanced
+ * SIMD; the others are the portable loops. */
+#define KIFMM_KERNEL__NEON 1
 #endif
 #ifdef __cplusplus
 }
@@ -1343,61 +1348,6 @@ static inline void kifmm_kernel__avx512_laplace_grad(__m512d *acc, __mmask8 vali
     acc[3] = _mm512_fnmadd_pd(qi3, dz, acc[3]);
 }
 
-static inline void kifmm_kernel_laplace_p2p(const double *param, const double *tx,
-                                            const double *ty, const double *tz, int64_t nt,
-                                            const double *sx, const double *sy,
-                                            const double *sz, const double *q, int64_t ns,
-                                            double scale, double *out)
-{
-    const double s = scale * KIFMM_INV_4PI;
-    const __mmask8 tail = kifmm_kernel__first8(ns & 7);
-    const int64_t nv = ns & ~(int64_t)7;
-    int64_t i, j;
-    (void)param;
-    for (i = 0; i < nt; i++) {
-        const __m512d X = _mm512_set1_pd(tx[i]), Y = _mm512_set1_pd(ty[i]),
-                      Z = _mm512_set1_pd(tz[i]);
-        __m512d acc = _mm512_setzero_pd();
-        for (j = 0; j < nv; j += 8)
-            acc = kifmm_kernel__avx512_laplace(acc, (__mmask8)0xFF, X, Y, Z, sx + j, sy + j,
-                                               sz + j, q + j);
-        if (nv < ns)
-            acc = kifmm_kernel__avx512_laplace(acc, tail, X, Y, Z, sx + nv, sy + nv, sz + nv,
-                                               q + nv);
-        out[i] += s * _mm512_reduce_add_pd(acc);
-    }
-}
-
-static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const double *tx,
-                                                 const double *ty, const double *tz,
-                                                 int64_t nt, const double *sx,
-                                                 const double *sy, const double *sz,
-                                                 const double *q, int64_t ns, double scale,
-                                                 double *out)
-{
-    const double s = scale * KIFMM_INV_4PI;
-    int64_t i, j;
-    (void)param;
-    /* two targets per pass (i1 = i for the last of an odd count, not stored),
-     * their 8 sums reduced together */
-    for (i = 0; i < nt; i += 2) {
-        const int64_t i1 = i + 1 < nt ? i + 1 : i;
-        const __m512d X0 = _mm512_set1_pd(tx[i]), Y0 = _mm512_set1_pd(ty[i]),
-                      Z0 = _mm512_set1_pd(tz[i]), X1 = _mm512_set1_pd(tx[i1]),
-                      Y1 = _mm512_set1_pd(ty[i1]), Z1 = _mm512_set1_pd(tz[i1]);
-        __m512d a[4], c[4];
-        int k;
-        for (k = 0; k < 4; k++) a[k] = c[k] = _mm512_setzero_pd();
-        for (j = 0; j < ns; j += 8) {
-            const __mmask8 m = kifmm_kernel__first8(ns - j);
-            kifmm_kernel__avx512_laplace_grad(a, m, X0, Y0, Z0, sx + j, sy + j, sz + j, q + j);
-            kifmm_kernel__avx512_laplace_grad(c, m, X1, Y1, Z1, sx + j, sy + j, sz + j, q + j);
-        }
-        kifmm_kernel__red8x8(a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3], s, out + 4 * i,
-                             i1 > i);
-    }
-}
-
 #elif defined(__AVX2__) && defined(__FMA__)
 #include <immintrin.h>
 
@@ -1435,76 +1385,6 @@ static inline void kifmm_kernel__avx2_grad_add(__m256d *acc, __m256d dx, __m256d
     acc[1] = _mm256_fnmadd_pd(qi3, dx, acc[1]);
     acc[2] = _mm256_fnmadd_pd(qi3, dy, acc[2]);
     acc[3] = _mm256_fnmadd_pd(qi3, dz, acc[3]);
-}
-
-static inline void kifmm_kernel_laplace_p2p(const double *param, const double *tx,
-                                            const double *ty, const double *tz, int64_t nt,
-                                            const double *sx, const double *sy,
-                                            const double *sz, const double *q, int64_t ns,
-                                            double scale, double *out)
-{
-    const double s = scale * KIFMM_INV_4PI;
-    const __m256i tail = kifmm_kernel__first4i(ns & 3);
-    const int64_t nv = ns & ~(int64_t)3;
-    int64_t i, j;
-    (void)param;
-    for (i = 0; i < nt; i++) {
-        const __m256d X = _mm256_set1_pd(tx[i]), Y = _mm256_set1_pd(ty[i]),
-                      Z = _mm256_set1_pd(tz[i]);
-        __m256d acc = _mm256_setzero_pd(), dx, dy, dz, inv;
-        for (j = 0; j < nv; j += 4) {
-            dx = _mm256_sub_pd(X, _mm256_loadu_pd(sx + j));
-            dy = _mm256_sub_pd(Y, _mm256_loadu_pd(sy + j));
-            dz = _mm256_sub_pd(Z, _mm256_loadu_pd(sz + j));
-            inv = kifmm_kernel__avx2_rinv(kifmm_kernel__avx2_r2(dx, dy, dz));
-            acc = _mm256_fmadd_pd(inv, _mm256_loadu_pd(q + j), acc);
-        }
-        if (nv < ns) { /* masked tail: lanes past ns read as 0 and count 0 */
-            dx = _mm256_sub_pd(X, _mm256_maskload_pd(sx + nv, tail));
-            dy = _mm256_sub_pd(Y, _mm256_maskload_pd(sy + nv, tail));
-            dz = _mm256_sub_pd(Z, _mm256_maskload_pd(sz + nv, tail));
-            inv = _mm256_and_pd(_mm256_castsi256_pd(tail),
-                                kifmm_kernel__avx2_rinv(kifmm_kernel__avx2_r2(dx, dy, dz)));
-            acc = _mm256_fmadd_pd(inv, _mm256_maskload_pd(q + nv, tail), acc);
-        }
-        out[i] += s * kifmm_kernel__avx2_sum(acc);
-    }
-}
-
-static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const double *tx,
-                                                 const double *ty, const double *tz,
-                                                 int64_t nt, const double *sx,
-                                                 const double *sy, const double *sz,
-                                                 const double *q, int64_t ns, double scale,
-                                                 double *out)
-{
-    const double s = scale * KIFMM_INV_4PI;
-    const __m256i tail = kifmm_kernel__first4i(ns & 3);
-    const int64_t nv = ns & ~(int64_t)3;
-    int64_t i, j;
-    (void)param;
-    for (i = 0; i < nt; i++) {
-        const __m256d X = _mm256_set1_pd(tx[i]), Y = _mm256_set1_pd(ty[i]),
-                      Z = _mm256_set1_pd(tz[i]);
-        __m256d acc[4], dx, dy, dz, inv;
-        acc[0] = acc[1] = acc[2] = acc[3] = _mm256_setzero_pd();
-        for (j = 0; j < nv; j += 4) {
-            dx = _mm256_sub_pd(X, _mm256_loadu_pd(sx + j));
-            dy = _mm256_sub_pd(Y, _mm256_loadu_pd(sy + j));
-            dz = _mm256_sub_pd(Z, _mm256_loadu_pd(sz + j));
-            inv = kifmm_kernel__avx2_rinv(kifmm_kernel__avx2_r2(dx, dy, dz));
-            kifmm_kernel__avx2_grad_add(acc, dx, dy, dz, _mm256_loadu_pd(q + j), inv);
-        }
-        if (nv < ns) { /* masked tail: lanes past ns read as 0 and count 0 */
-            dx = _mm256_sub_pd(X, _mm256_maskload_pd(sx + nv, tail));
-            dy = _mm256_sub_pd(Y, _mm256_maskload_pd(sy + nv, tail));
-            dz = _mm256_sub_pd(Z, _mm256_maskload_pd(sz + nv, tail));
-            inv = _mm256_and_pd(_mm256_castsi256_pd(tail),
-                                kifmm_kernel__avx2_rinv(kifmm_kernel__avx2_r2(dx, dy, dz)));
-            kifmm_kernel__avx2_grad_add(acc, dx, dy, dz, _mm256_maskload_pd(q + nv, tail), inv);
-        }
-        kifmm_kernel__red4(acc[0], acc[1], acc[2], acc[3], s, s, out + 4 * i);
-    }
 }
 
 #else
@@ -1572,6 +1452,8 @@ static inline void kifmm_kernel__block(const double *tx, const double *ty, const
     }
 }
 
+#if !defined(KIFMM_KERNEL__NEON)
+/* (aarch64: the vector layer's hooks, below) */
 static inline void kifmm_kernel_laplace_p2p(const double *param, const double *tx,
                                             const double *ty, const double *tz, int64_t nt,
                                             const double *sx, const double *sy,
@@ -1673,7 +1555,259 @@ static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const doub
     }
 }
 
+#endif /* !KIFMM_KERNEL__NEON */
 #endif
+
+/* ------------------------------------------------------------------------ */
+/* The vector layer: a double vector and its operations per instruction set */
+/* ------------------------------------------------------------------------ */
+// >>vector
+/* kifmm_kernel__vd holds kifmm_kernel__VDN doubles: 8 with AVX-512F, 4 with
+ * AVX2 + FMA, 2 with aarch64's Advanced SIMD (NEON); elsewhere the layer is
+ * absent (kifmm_kernel__VDN undefined) and the hooks are the portable loops
+ * above. Hooks written on it have one body for every instruction set.
+ *   vd_set1(a), vd_zero()       every lane a, or 0
+ *   vd_load(p)                  p[0 .. VDN - 1], unaligned
+ *   vd_loadn(p, n)              p[0 .. n - 1] and 0 above, 0 < n < VDN, nothing
+ *                               read past p + n - 1
+ *   vd_keep(v, n)               v with the lanes from n up set to 0
+ *   vd_add, vd_sub, vd_mul      a + b, a - b, a b
+ *   vd_fma(a, b, c), vd_fnma    a b + c and c - a b, one rounding
+ *   vd_rinv(r2)                 1 / sqrt(r2) for 0 < r2 < inf (AVX-512:
+ *                               rsqrt14 and a fourth-order correction, a few
+ *                               ulp; else sqrt and division, 1 ulp), 0 for
+ *                               r2 = 0, inf or NaN
+ *   vd_hsum(v)                  the sum of the lanes
+ *   vd_red4x2(a, c, s, o, both) o[k] += s sum(a[k]), and o[4 + k] += s
+ *                               sum(c[k]) if both, k = 0 .. 3 */
+#if defined(__AVX512F__)
+#define kifmm_kernel__VDN 8
+typedef __m512d kifmm_kernel__vd;
+static inline __m512d kifmm_kernel__vd_set1(double a) { return _mm512_set1_pd(a); }
+static inline __m512d kifmm_kernel__vd_zero(void) { return _mm512_setzero_pd(); }
+static inline __m512d kifmm_kernel__vd_load(const double *p) { return _mm512_loadu_pd(p); }
+static inline __m512d kifmm_kernel__vd_loadn(const double *p, int64_t n)
+{
+    return _mm512_maskz_loadu_pd(kifmm_kernel__first8(n), p);
+}
+static inline __m512d kifmm_kernel__vd_keep(__m512d v, int64_t n)
+{
+    return _mm512_maskz_mov_pd(kifmm_kernel__first8(n), v);
+}
+static inline __m512d kifmm_kernel__vd_add(__m512d a, __m512d b) { return _mm512_add_pd(a, b); }
+static inline __m512d kifmm_kernel__vd_sub(__m512d a, __m512d b) { return _mm512_sub_pd(a, b); }
+static inline __m512d kifmm_kernel__vd_mul(__m512d a, __m512d b) { return _mm512_mul_pd(a, b); }
+static inline __m512d kifmm_kernel__vd_fma(__m512d a, __m512d b, __m512d c)
+{
+    return _mm512_fmadd_pd(a, b, c);
+}
+static inline __m512d kifmm_kernel__vd_fnma(__m512d a, __m512d b, __m512d c)
+{
+    return _mm512_fnmadd_pd(a, b, c);
+}
+static inline __m512d kifmm_kernel__vd_rinv(__m512d r2) { return kifmm_kernel__rinv8(r2); }
+static inline double kifmm_kernel__vd_hsum(__m512d v) { return _mm512_reduce_add_pd(v); }
+static inline void kifmm_kernel__vd_red4x2(const __m512d *a, const __m512d *c, double s,
+                                           double *o, int both)
+{
+    kifmm_kernel__red8x8(a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3], s, o, both);
+}
+#elif defined(__AVX2__) && defined(__FMA__)
+#define kifmm_kernel__VDN 4
+typedef __m256d kifmm_kernel__vd;
+static inline __m256d kifmm_kernel__vd_set1(double a) { return _mm256_set1_pd(a); }
+static inline __m256d kifmm_kernel__vd_zero(void) { return _mm256_setzero_pd(); }
+static inline __m256d kifmm_kernel__vd_load(const double *p) { return _mm256_loadu_pd(p); }
+static inline __m256d kifmm_kernel__vd_loadn(const double *p, int64_t n)
+{
+    return _mm256_maskload_pd(p, kifmm_kernel__first4i(n));
+}
+static inline __m256d kifmm_kernel__vd_keep(__m256d v, int64_t n)
+{
+    return _mm256_and_pd(_mm256_castsi256_pd(kifmm_kernel__first4i(n)), v);
+}
+static inline __m256d kifmm_kernel__vd_add(__m256d a, __m256d b) { return _mm256_add_pd(a, b); }
+static inline __m256d kifmm_kernel__vd_sub(__m256d a, __m256d b) { return _mm256_sub_pd(a, b); }
+static inline __m256d kifmm_kernel__vd_mul(__m256d a, __m256d b) { return _mm256_mul_pd(a, b); }
+static inline __m256d kifmm_kernel__vd_fma(__m256d a, __m256d b, __m256d c)
+{
+    return _mm256_fmadd_pd(a, b, c);
+}
+static inline __m256d kifmm_kernel__vd_fnma(__m256d a, __m256d b, __m256d c)
+{
+    return _mm256_fnmadd_pd(a, b, c);
+}
+static inline __m256d kifmm_kernel__vd_rinv(__m256d r2) { return kifmm_kernel__avx2_rinv(r2); }
+static inline double kifmm_kernel__vd_hsum(__m256d v) { return kifmm_kernel__avx2_sum(v); }
+static inline void kifmm_kernel__vd_red4x2(const __m256d *a, const __m256d *c, double s,
+                                           double *o, int both)
+{
+    kifmm_kernel__red4(a[0], a[1], a[2], a[3], s, s, o);
+    if (both) kifmm_kernel__red4(c[0], c[1], c[2], c[3], s, s, o + 4);
+}
+#elif defined(KIFMM_KERNEL__NEON)
+#define kifmm_kernel__VDN 2
+typedef float64x2_t kifmm_kernel__vd;
+static inline float64x2_t kifmm_kernel__vd_set1(double a) { return vdupq_n_f64(a); }
+static inline float64x2_t kifmm_kernel__vd_zero(void) { return vdupq_n_f64(0.0); }
+static inline float64x2_t kifmm_kernel__vd_load(const double *p) { return vld1q_f64(p); }
+static inline float64x2_t kifmm_kernel__vd_loadn(const double *p, int64_t n)
+{
+    (void)n; /* 0 < n < 2 */
+    return vsetq_lane_f64(p[0], vdupq_n_f64(0.0), 0);
+}
+static inline float64x2_t kifmm_kernel__vd_keep(float64x2_t v, int64_t n)
+{
+    return n >= 2 ? v : n == 1 ? vsetq_lane_f64(0.0, v, 1) : vdupq_n_f64(0.0);
+}
+static inline float64x2_t kifmm_kernel__vd_add(float64x2_t a, float64x2_t b) { return vaddq_f64(a, b); }
+static inline float64x2_t kifmm_kernel__vd_sub(float64x2_t a, float64x2_t b) { return vsubq_f64(a, b); }
+static inline float64x2_t kifmm_kernel__vd_mul(float64x2_t a, float64x2_t b) { return vmulq_f64(a, b); }
+static inline float64x2_t kifmm_kernel__vd_fma(float64x2_t a, float64x2_t b, float64x2_t c)
+{
+    return vfmaq_f64(c, a, b);
+}
+static inline float64x2_t kifmm_kernel__vd_fnma(float64x2_t a, float64x2_t b, float64x2_t c)
+{
+    return vfmsq_f64(c, a, b);
+}
+static inline float64x2_t kifmm_kernel__vd_rinv(float64x2_t r2)
+{
+    const uint64x2_t live = vcgtq_f64(r2, vdupq_n_f64(0.0));
+    const float64x2_t y = vdivq_f64(vdupq_n_f64(1.0), vsqrtq_f64(r2));
+    return vreinterpretq_f64_u64(vandq_u64(vreinterpretq_u64_f64(y), live));
+}
+static inline double kifmm_kernel__vd_hsum(float64x2_t v) { return vaddvq_f64(v); }
+static inline void kifmm_kernel__vd_red4x2(const float64x2_t *a, const float64x2_t *c, double s,
+                                           double *o, int both)
+{
+    int k;
+    for (k = 0; k < 4; k++) o[k] += s * vaddvq_f64(a[k]);
+    if (both)
+        for (k = 0; k < 4; k++) o[4 + k] += s * vaddvq_f64(c[k]);
+}
+#endif
+
+#if defined(kifmm_kernel__VDN)
+/* The hooks of laplace and laplace_grad on the layer (the portable loops
+ * above without it).  The last sources, fewer than a vector, are loaded
+ * with vd_loadn and their lanes of 1 / r kept with vd_keep: the dead lanes'
+ * sources read as 0, and for a target within 1e-154 of 0 their 1 / r^2
+ * would overflow, which a zero density would turn into NaN. */
+
+/* The sums of one target (X, Y, Z) over one vector of sources: n live
+ * lanes (kifmm_kernel__VDN for a whole vector). */
+static inline kifmm_kernel__vd kifmm_kernel__vd_laplace(kifmm_kernel__vd acc, kifmm_kernel__vd X,
+                                                        kifmm_kernel__vd Y, kifmm_kernel__vd Z,
+                                                        const kifmm_kernel__vd *s, int64_t n)
+{
+    const kifmm_kernel__vd dx = kifmm_kernel__vd_sub(X, s[0]), dy = kifmm_kernel__vd_sub(Y, s[1]),
+                           dz = kifmm_kernel__vd_sub(Z, s[2]);
+    kifmm_kernel__vd inv = kifmm_kernel__vd_rinv(kifmm_kernel__vd_fma(
+        dz, dz, kifmm_kernel__vd_fma(dy, dy, kifmm_kernel__vd_mul(dx, dx))));
+    if (n < kifmm_kernel__VDN) inv = kifmm_kernel__vd_keep(inv, n);
+    return kifmm_kernel__vd_fma(inv, s[3], acc);
+}
+static inline void kifmm_kernel__vd_laplace_grad(kifmm_kernel__vd *acc, kifmm_kernel__vd X,
+                                                 kifmm_kernel__vd Y, kifmm_kernel__vd Z,
+                                                 const kifmm_kernel__vd *s, int64_t n)
+{
+    const kifmm_kernel__vd dx = kifmm_kernel__vd_sub(X, s[0]), dy = kifmm_kernel__vd_sub(Y, s[1]),
+                           dz = kifmm_kernel__vd_sub(Z, s[2]);
+    kifmm_kernel__vd inv = kifmm_kernel__vd_rinv(kifmm_kernel__vd_fma(
+        dz, dz, kifmm_kernel__vd_fma(dy, dy, kifmm_kernel__vd_mul(dx, dx))));
+    kifmm_kernel__vd qi, qi3;
+    if (n < kifmm_kernel__VDN) inv = kifmm_kernel__vd_keep(inv, n);
+    /* q / r added on the adder pipes, then reused for q / r^3 */
+    qi = kifmm_kernel__vd_mul(s[3], inv);
+    qi3 = kifmm_kernel__vd_mul(qi, kifmm_kernel__vd_mul(inv, inv));
+    acc[0] = kifmm_kernel__vd_add(acc[0], qi);
+    acc[1] = kifmm_kernel__vd_fnma(qi3, dx, acc[1]);
+    acc[2] = kifmm_kernel__vd_fnma(qi3, dy, acc[2]);
+    acc[3] = kifmm_kernel__vd_fnma(qi3, dz, acc[3]);
+}
+/* Sources j .. j + n - 1 (x, y, z, q) into s[0 .. 3]: a whole vector, or
+ * the last n < VDN. */
+static inline void kifmm_kernel__vd_src(const double *sx, const double *sy, const double *sz,
+                                        const double *q, int64_t j, int64_t n,
+                                        kifmm_kernel__vd *s)
+{
+    if (n >= kifmm_kernel__VDN) {
+        s[0] = kifmm_kernel__vd_load(sx + j);
+        s[1] = kifmm_kernel__vd_load(sy + j);
+        s[2] = kifmm_kernel__vd_load(sz + j);
+        s[3] = kifmm_kernel__vd_load(q + j);
+    } else {
+        s[0] = kifmm_kernel__vd_loadn(sx + j, n);
+        s[1] = kifmm_kernel__vd_loadn(sy + j, n);
+        s[2] = kifmm_kernel__vd_loadn(sz + j, n);
+        s[3] = kifmm_kernel__vd_loadn(q + j, n);
+    }
+}
+
+static inline void kifmm_kernel_laplace_p2p(const double *param, const double *tx,
+                                            const double *ty, const double *tz, int64_t nt,
+                                            const double *sx, const double *sy,
+                                            const double *sz, const double *q, int64_t ns,
+                                            double scale, double *out)
+{
+    const double s = scale * KIFMM_INV_4PI;
+    const int64_t nv = ns - ns % kifmm_kernel__VDN;
+    kifmm_kernel__vd v[4];
+    int64_t i, j;
+    (void)param;
+    for (i = 0; i < nt; i++) {
+        const kifmm_kernel__vd X = kifmm_kernel__vd_set1(tx[i]), Y = kifmm_kernel__vd_set1(ty[i]),
+                               Z = kifmm_kernel__vd_set1(tz[i]);
+        kifmm_kernel__vd acc = kifmm_kernel__vd_zero();
+        for (j = 0; j < nv; j += kifmm_kernel__VDN) {
+            kifmm_kernel__vd_src(sx, sy, sz, q, j, kifmm_kernel__VDN, v);
+            acc = kifmm_kernel__vd_laplace(acc, X, Y, Z, v, kifmm_kernel__VDN);
+        }
+        if (nv < ns) {
+            kifmm_kernel__vd_src(sx, sy, sz, q, nv, ns - nv, v);
+            acc = kifmm_kernel__vd_laplace(acc, X, Y, Z, v, ns - nv);
+        }
+        out[i] += s * kifmm_kernel__vd_hsum(acc);
+    }
+}
+
+static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const double *tx,
+                                                 const double *ty, const double *tz,
+                                                 int64_t nt, const double *sx,
+                                                 const double *sy, const double *sz,
+                                                 const double *q, int64_t ns, double scale,
+                                                 double *out)
+{
+    const double s = scale * KIFMM_INV_4PI;
+    const int64_t nv = ns - ns % kifmm_kernel__VDN;
+    kifmm_kernel__vd v[4];
+    int64_t i, j;
+    (void)param;
+    /* two targets per pass (i1 = i for the last of an odd count, not
+     * stored): each vector of sources loaded once for both */
+    for (i = 0; i < nt; i += 2) {
+        const int64_t i1 = i + 1 < nt ? i + 1 : i;
+        const kifmm_kernel__vd X0 = kifmm_kernel__vd_set1(tx[i]), Y0 = kifmm_kernel__vd_set1(ty[i]),
+                               Z0 = kifmm_kernel__vd_set1(tz[i]), X1 = kifmm_kernel__vd_set1(tx[i1]),
+                               Y1 = kifmm_kernel__vd_set1(ty[i1]), Z1 = kifmm_kernel__vd_set1(tz[i1]);
+        kifmm_kernel__vd a[4], c[4];
+        int k;
+        for (k = 0; k < 4; k++) a[k] = c[k] = kifmm_kernel__vd_zero();
+        for (j = 0; j < nv; j += kifmm_kernel__VDN) {
+            kifmm_kernel__vd_src(sx, sy, sz, q, j, kifmm_kernel__VDN, v);
+            kifmm_kernel__vd_laplace_grad(a, X0, Y0, Z0, v, kifmm_kernel__VDN);
+            kifmm_kernel__vd_laplace_grad(c, X1, Y1, Z1, v, kifmm_kernel__VDN);
+        }
+        if (nv < ns) {
+            kifmm_kernel__vd_src(sx, sy, sz, q, nv, ns - nv, v);
+            kifmm_kernel__vd_laplace_grad(a, X0, Y0, Z0, v, ns - nv);
+            kifmm_kernel__vd_laplace_grad(c, X1, Y1, Z1, v, ns - nv);
+        }
+        kifmm_kernel__vd_red4x2(a, c, s, out + 4 * i, i1 > i);
+    }
+}
+#endif /* kifmm_kernel__VDN */
 
 /* ------------------------------------------------------------------------ */
 /* Single-precision near-field hooks (kifmm_kernel_NAME_P2PF, _p2pf)         */

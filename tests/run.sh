@@ -3,7 +3,7 @@
 #
 #   bash tests/run.sh                 the default configurations (below)
 #   CONFIGS="gcc-c11-omp asan" bash tests/run.sh   a subset, by name
-#   CONFIGS=all bash tests/run.sh     all sixteen
+#   CONFIGS=all bash tests/run.sh     all seventeen
 #
 # Configurations: {gcc, clang} x {-std=c99, -std=c11} x {with, without -fopenmp},
 # all with -Wall -Wextra -Werror -pedantic -O2 -march=native; one
@@ -25,7 +25,10 @@
 # the fuzz target); on a CPU with AVX-512 a sixth, gcc-avx2 (-mno-avx512f),
 # builds the near-field hooks' tests only (test_p2p, test_yukawa_p2p,
 # test_stokes_p2p, test_sincos, test_helmholtz: 50 s), whose AVX2 + FMA
-# code no other configuration compiles there. The others run with CONFIGS=all or by name: gcc-c99 (C
+# code no other configuration compiles there; where Debian's aarch64 cross
+# compiler, qemu-user and arm64 OpenBLAS are installed, aarch64 builds
+# test_p2p for aarch64 and runs it under qemu (the vector layer's NEON hooks
+# and a whole FMM on the portable loops; about 35 s). The others run with CONFIGS=all or by name: gcc-c99 (C
 # without OpenMP) and gxx-omp were defaults until on 2 cores of an AMD EPYC
 # (AVX2) the seven defaults' tests took about 40 minutes; clang-O0-omp until
 # the six took 37 minutes on an AMD EPYC with AVX-512 (Zen 4), 2 cores, with
@@ -155,6 +158,7 @@ gxx-omp|g++|-x c++ -std=c++11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 gxx|g++|-x c++ -std=c++11 -O2 -march=native -DKIFMM_TEST_QUICK|$GXX_LEFT
 tsan|clang|-std=c11 -O1 -g1 -march=native -fopenmp -fsanitize=thread -DKIFMM_TEST_QUICK|$TSAN_LEFT
 gcc-avx2|gcc|-std=c11 -O2 -march=native -mno-avx512f -fopenmp -DKIFMM_TEST_QUICK|only: test_p2p test_yukawa_p2p test_stokes_p2p test_sincos test_helmholtz
+aarch64|aarch64-linux-gnu-gcc|-std=c11 -O2 -DKIFMM_TEST_QUICK|only: test_p2p
 "
 
 DEFAULT_CONFIGS="gcc-c11-omp asan gcc-O0-omp gxx tsan"
@@ -162,6 +166,19 @@ DEFAULT_CONFIGS="gcc-c11-omp asan gcc-O0-omp gxx tsan"
 # sin, cos and exp under them) are compiled by no other configuration:
 # gcc-avx2 builds the tests of the hooks without AVX-512 (about a minute)
 if grep -qw avx512f /proc/cpuinfo 2>/dev/null; then DEFAULT_CONFIGS="$DEFAULT_CONFIGS gcc-avx2"; fi
+# aarch64: Debian's cross compiler and arm64 OpenBLAS and LAPACKE, run
+# under qemu-user (.ci/run installs them): the near-field hooks of the
+# vector layer in NEON, against long double sums, and a whole FMM
+# (test_p2p, about 20 s under qemu). Without OpenMP and with one OpenBLAS
+# thread: qemu-aarch64 7.2 hung here at the first thread a program started.
+QEMU_ARM="qemu-aarch64 -L /usr/aarch64-linux-gnu"
+if command -v aarch64-linux-gnu-gcc >/dev/null 2>&1 && command -v qemu-aarch64 >/dev/null 2>&1 &&
+    [ -e /usr/lib/aarch64-linux-gnu/libopenblas.so ] && [ -e /usr/lib/aarch64-linux-gnu/liblapacke.so ]; then
+    DEFAULT_CONFIGS="$DEFAULT_CONFIGS aarch64"
+    ARM_OK=1
+else
+    ARM_OK=0
+fi
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1}
@@ -225,6 +242,7 @@ run_prog() {
         *" -fsanitize=thread "*)
             if command -v setarch >/dev/null 2>&1; then runner="setarch $(uname -m) -R"; fi ;;
     esac
+    case "$dir" in */aarch64) runner="env OPENBLAS_NUM_THREADS=1 $QEMU_ARM" ;; esac
     if [ "$pj" -gt 1 ]; then
         # shellcheck disable=SC2086
         OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-passive} timeout "$TEST_TIMEOUT" $runner "$dir/$prog" \
@@ -342,6 +360,11 @@ selected=0
 while IFS='|' read -r name cc flags skip; do
     [ -n "$name" ] || continue
     case " ${CONFIGS:-$DEFAULT_CONFIGS} " in *" $name "* | *" all "*) ;; *) continue ;; esac
+    if [ "$name" = aarch64 ] && [ "$ARM_OK" = 0 ]; then
+        echo "aarch64        skipped: needs aarch64-linux-gnu-gcc, qemu-aarch64 and arm64 libopenblas-dev and liblapacke-dev (.ci/run installs them)"
+        case " ${CONFIGS:-} " in *" aarch64 "*) total_fail=$((total_fail + 1)) ;; esac
+        continue
+    fi
     selected=$((selected + 1))
     run_config "$name" "$cc" "$flags" "${skip:-}"
 done <<EOF

@@ -19,6 +19,8 @@
 #define BODY "AVX-512F"
 #elif defined(__AVX2__) && defined(__FMA__)
 #define BODY "AVX2 + FMA"
+#elif defined(KIFMM_KERNEL__NEON)
+#define BODY "NEON (laplace, laplace_grad; portable C for the rest)"
 #else
 #define BODY "portable C"
 #endif
