@@ -1,7 +1,9 @@
 /* bench_p2p.c - pairs per second of the near-field loop, single thread: the
  * generic loop kifmm.h compiles for a kernel without a hook (a copy of
  * KIFMM__DEFINE_P2P below) against the kernels' hooks kifmm_kernel_*_p2p, for
- * laplace and laplace_grad, on square blocks of nt = ns targets and sources.
+ * laplace and laplace_grad (with their many-vector, mutual and float hooks),
+ * then every shipped kernel's one-way double hook, on square blocks of nt = ns
+ * targets and sources.
  *
  *   gcc -std=c99 -O2 -march=native -Wall -Wextra -Werror -pedantic -I. bench_p2p.c -o bench_p2p -lm
  *   ./bench_p2p [seconds per measurement, default 0.2]
@@ -49,6 +51,30 @@
 GENERIC_P2P(generic_laplace, kifmm_kernel_laplace_eval, 1)
 GENERIC_P2P(generic_laplace_grad, kifmm_kernel_laplace_grad_eval, 4)
 
+/* The generic loop for any SRC_DIM (densities q[j * SD + s], kernel
+ * k[t * SD + s]). */
+#define GENERIC_SD(kname)                                                                     \
+    static void gen_##kname(const double *p, const double *tx_, const double *ty_,            \
+                            const double *tz_, int64_t nt, const double *sx_,                 \
+                            const double *sy_, const double *sz_, const double *q_,           \
+                            int64_t ns, double scale, double *out_)                           \
+    {                                                                                         \
+        enum { SD = kifmm_kernel_##kname##_SRC_DIM, TD = kifmm_kernel_##kname##_TRG_DIM };    \
+        int64_t i, j;                                                                         \
+        int a, b;                                                                             \
+        for (i = 0; i < nt; i++) {                                                            \
+            double acc[TD], k[TD * SD];                                                       \
+            for (a = 0; a < TD; a++) acc[a] = 0.0;                                            \
+            for (j = 0; j < ns; j++) {                                                        \
+                kifmm_kernel_##kname##_eval(p, tx_[i] - sx_[j], ty_[i] - sy_[j],              \
+                                            tz_[i] - sz_[j], k);                              \
+                for (a = 0; a < TD; a++)                                                      \
+                    for (b = 0; b < SD; b++) acc[a] += k[a * SD + b] * q_[j * SD + b];       \
+            }                                                                                 \
+            for (a = 0; a < TD; a++) out_[i * TD + a] += scale * acc[a];                      \
+        }                                                                                     \
+    }
+
 typedef void (*p2p_fn)(const double *, const double *, const double *, const double *, int64_t,
                        const double *, const double *, const double *, const double *, int64_t,
                        double, double *);
@@ -74,6 +100,8 @@ static double rand01(uint64_t *s)
 static double tx[NMAX], ty[NMAX], tz[NMAX], sx[NMAX], sy[NMAX], sz[NMAX], q[NV * NMAX];
 static double out[NV * 4 * NMAX];
 static double checksum;
+/* the kernels' parameters (lambda, k, viscosity: 1), as create resolves 0 */
+static const double prm[4] = {1.0, 0.0, 0.0, 0.0};
 
 #if kifmm_kernel_laplace_P2PN && kifmm_kernel_laplace_grad_P2PN
 typedef void (*p2pn_fn)(const double *, const double *, const double *, const double *, int64_t,
@@ -107,6 +135,137 @@ static void mutual(const double *prm, const double *tx_, const double *ty_, cons
 }
 #endif
 
+/* Every shipped kernel with a one-way double hook: the hook against the
+ * generic loop over its eval (stokes_dl left out: its densities pass through
+ * a map, so its eval is not the sum its hook computes). */
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(laplace)
+#endif
+#if (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(laplace_grad)
+#endif
+#if (kifmm_kernel_laplace_hess_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(laplace_hess)
+#endif
+#if (kifmm_kernel_laplace_dipole_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(laplace_dipole)
+#endif
+#if (kifmm_kernel_laplace_dipole_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(laplace_dipole_grad)
+#endif
+#if (kifmm_kernel_laplace_cd_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(laplace_cd)
+#endif
+#if (kifmm_kernel_laplace_cd_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(laplace_cd_grad)
+#endif
+#if (kifmm_kernel_laplace_cd_hess_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(laplace_cd_hess)
+#endif
+#if (kifmm_kernel_yukawa_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(yukawa)
+#endif
+#if (kifmm_kernel_yukawa_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(yukawa_grad)
+#endif
+#if (kifmm_kernel_yukawa_cd_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(yukawa_cd)
+#endif
+#if (kifmm_kernel_yukawa_cd_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(yukawa_cd_grad)
+#endif
+#if (kifmm_kernel_helmholtz_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(helmholtz)
+#endif
+#if (kifmm_kernel_helmholtz_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(helmholtz_grad)
+#endif
+#if (kifmm_kernel_helmholtz_cd_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(helmholtz_cd_grad)
+#endif
+#if (kifmm_kernel_stokes_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(stokes)
+#endif
+#if (kifmm_kernel_stokes_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(stokes_grad)
+#endif
+#if (kifmm_kernel_stokes_pvel_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(stokes_pvel)
+#endif
+#if (kifmm_kernel_biot_savart_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(biot_savart)
+#endif
+#if (kifmm_kernel_biot_savart_grad_HAS & KIFMM_HAS_P2P)
+GENERIC_SD(biot_savart_grad)
+#endif
+typedef struct {
+    const char *name;
+    p2p_fn gen, hook;
+    int td;
+} hook_row;
+static const hook_row hook_rows[] = {
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2P)
+    {"laplace", gen_laplace, kifmm_kernel_laplace_p2p, kifmm_kernel_laplace_TRG_DIM},
+#endif
+#if (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2P)
+    {"laplace_grad", gen_laplace_grad, kifmm_kernel_laplace_grad_p2p, kifmm_kernel_laplace_grad_TRG_DIM},
+#endif
+#if (kifmm_kernel_laplace_hess_HAS & KIFMM_HAS_P2P)
+    {"laplace_hess", gen_laplace_hess, kifmm_kernel_laplace_hess_p2p, kifmm_kernel_laplace_hess_TRG_DIM},
+#endif
+#if (kifmm_kernel_laplace_dipole_HAS & KIFMM_HAS_P2P)
+    {"laplace_dipole", gen_laplace_dipole, kifmm_kernel_laplace_dipole_p2p, kifmm_kernel_laplace_dipole_TRG_DIM},
+#endif
+#if (kifmm_kernel_laplace_dipole_grad_HAS & KIFMM_HAS_P2P)
+    {"laplace_dipole_grad", gen_laplace_dipole_grad, kifmm_kernel_laplace_dipole_grad_p2p, kifmm_kernel_laplace_dipole_grad_TRG_DIM},
+#endif
+#if (kifmm_kernel_laplace_cd_HAS & KIFMM_HAS_P2P)
+    {"laplace_cd", gen_laplace_cd, kifmm_kernel_laplace_cd_p2p, kifmm_kernel_laplace_cd_TRG_DIM},
+#endif
+#if (kifmm_kernel_laplace_cd_grad_HAS & KIFMM_HAS_P2P)
+    {"laplace_cd_grad", gen_laplace_cd_grad, kifmm_kernel_laplace_cd_grad_p2p, kifmm_kernel_laplace_cd_grad_TRG_DIM},
+#endif
+#if (kifmm_kernel_laplace_cd_hess_HAS & KIFMM_HAS_P2P)
+    {"laplace_cd_hess", gen_laplace_cd_hess, kifmm_kernel_laplace_cd_hess_p2p, kifmm_kernel_laplace_cd_hess_TRG_DIM},
+#endif
+#if (kifmm_kernel_yukawa_HAS & KIFMM_HAS_P2P)
+    {"yukawa", gen_yukawa, kifmm_kernel_yukawa_p2p, kifmm_kernel_yukawa_TRG_DIM},
+#endif
+#if (kifmm_kernel_yukawa_grad_HAS & KIFMM_HAS_P2P)
+    {"yukawa_grad", gen_yukawa_grad, kifmm_kernel_yukawa_grad_p2p, kifmm_kernel_yukawa_grad_TRG_DIM},
+#endif
+#if (kifmm_kernel_yukawa_cd_HAS & KIFMM_HAS_P2P)
+    {"yukawa_cd", gen_yukawa_cd, kifmm_kernel_yukawa_cd_p2p, kifmm_kernel_yukawa_cd_TRG_DIM},
+#endif
+#if (kifmm_kernel_yukawa_cd_grad_HAS & KIFMM_HAS_P2P)
+    {"yukawa_cd_grad", gen_yukawa_cd_grad, kifmm_kernel_yukawa_cd_grad_p2p, kifmm_kernel_yukawa_cd_grad_TRG_DIM},
+#endif
+#if (kifmm_kernel_helmholtz_HAS & KIFMM_HAS_P2P)
+    {"helmholtz", gen_helmholtz, kifmm_kernel_helmholtz_p2p, kifmm_kernel_helmholtz_TRG_DIM},
+#endif
+#if (kifmm_kernel_helmholtz_grad_HAS & KIFMM_HAS_P2P)
+    {"helmholtz_grad", gen_helmholtz_grad, kifmm_kernel_helmholtz_grad_p2p, kifmm_kernel_helmholtz_grad_TRG_DIM},
+#endif
+#if (kifmm_kernel_helmholtz_cd_grad_HAS & KIFMM_HAS_P2P)
+    {"helmholtz_cd_grad", gen_helmholtz_cd_grad, kifmm_kernel_helmholtz_cd_grad_p2p, kifmm_kernel_helmholtz_cd_grad_TRG_DIM},
+#endif
+#if (kifmm_kernel_stokes_HAS & KIFMM_HAS_P2P)
+    {"stokes", gen_stokes, kifmm_kernel_stokes_p2p, kifmm_kernel_stokes_TRG_DIM},
+#endif
+#if (kifmm_kernel_stokes_grad_HAS & KIFMM_HAS_P2P)
+    {"stokes_grad", gen_stokes_grad, kifmm_kernel_stokes_grad_p2p, kifmm_kernel_stokes_grad_TRG_DIM},
+#endif
+#if (kifmm_kernel_stokes_pvel_HAS & KIFMM_HAS_P2P)
+    {"stokes_pvel", gen_stokes_pvel, kifmm_kernel_stokes_pvel_p2p, kifmm_kernel_stokes_pvel_TRG_DIM},
+#endif
+#if (kifmm_kernel_biot_savart_HAS & KIFMM_HAS_P2P)
+    {"biot_savart", gen_biot_savart, kifmm_kernel_biot_savart_p2p, kifmm_kernel_biot_savart_TRG_DIM},
+#endif
+#if (kifmm_kernel_biot_savart_grad_HAS & KIFMM_HAS_P2P)
+    {"biot_savart_grad", gen_biot_savart_grad, kifmm_kernel_biot_savart_grad_p2p, kifmm_kernel_biot_savart_grad_TRG_DIM},
+#endif
+    {NULL, NULL, NULL, 0}};
+
 /* Best pairs per second of `f` on an n x n block over 5 measurements. */
 static double rate(p2p_fn f, int td, int64_t n, double seconds)
 {
@@ -116,7 +275,7 @@ static double rate(p2p_fn f, int td, int64_t n, double seconds)
     /* calibrate: enough repetitions for about `seconds` */
     for (;;) {
         double t = now();
-        for (r = 0; r < reps; r++) f(NULL, tx, ty, tz, n, sx, sy, sz, q, n, 1e-3, out);
+        for (r = 0; r < reps; r++) f(prm, tx, ty, tz, n, sx, sy, sz, q, n, 1e-3, out);
         t = now() - t;
         if (t > 0.2 * seconds) {
             reps = (int64_t)((double)reps * seconds / t) + 1;
@@ -126,7 +285,7 @@ static double rate(p2p_fn f, int td, int64_t n, double seconds)
     }
     for (m = 0; m < 5; m++) {
         double t = now(), v;
-        for (r = 0; r < reps; r++) f(NULL, tx, ty, tz, n, sx, sy, sz, q, n, 1e-3, out);
+        for (r = 0; r < reps; r++) f(prm, tx, ty, tz, n, sx, sy, sz, q, n, 1e-3, out);
         t = now() - t;
         v = (double)reps * (double)n * (double)n / t;
         if (v > best) best = v;
@@ -253,6 +412,20 @@ int main(int argc, char **argv)
     }
     for (i = 0; i < 8 * NMAX; i++) checksum += fout[i]; /* the float sums, as rate() does */
 #endif
+    printf("\nevery kernel's one-way double hook (_p2p) against the generic loop over its\n"
+           "eval: nanoseconds per pair (parameters 1), and the ratio\n");
+    printf("%-20s %6s %12s %12s %8s\n", "kernel", "nt=ns", "generic (ns)", "hook (ns)",
+           "speedup");
+    for (k = 0; hook_rows[k].name; k++) {
+        static const int64_t hs[] = {64, 256};
+        for (i = 0; i < 2; i++) {
+            double rg = rate(hook_rows[k].gen, hook_rows[k].td, hs[i], seconds);
+            double rh = rate(hook_rows[k].hook, hook_rows[k].td, hs[i], seconds);
+            printf("%-20s %6ld %12.3f %12.3f %7.2fx\n", hook_rows[k].name, (long)hs[i], 1e9 / rg,
+                   1e9 / rh, rh / rg);
+            fflush(stdout);
+        }
+    }
     printf("(checksum %.6e)\n", checksum);
     return 0;
 }

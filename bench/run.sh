@@ -394,6 +394,28 @@ else
     FAILED="$FAILED update/build"
 fi
 
+# ---------------------------------------------------------------- near-field hooks
+# bench/bench_p2p.c: each hook's pairs per second against the generic loop, one
+# thread, built for the machine and, where it has AVX-512, with -mno-avx512f
+echo
+echo "== near-field hooks, one thread (bench/bench_p2p.c)"
+for isa in $KISAS; do
+    kflags=""
+    [ "$isa" = avx2 ] && kflags="-mno-avx512f"
+    echo "build:       $CC -std=c99 -O2 -march=native $kflags bench/bench_p2p.c -> bench_p2p_$isa"
+    # shellcheck disable=SC2086
+    if $CC -std=c99 -O2 -march=native $kflags -Wall -Wextra -I. bench/bench_p2p.c \
+            -o "$OUT/bench_p2p_$isa" -lm; then
+        wait_quiet
+        if ! run_measured "$OUT/bench_p2p_$isa" "$([ "$QUICK" = 1 ] && echo 0.05 || echo 0.2)"; then
+            FAILED="$FAILED p2p/$isa"
+        fi
+    else
+        echo "bench_p2p ($isa): build failed"
+        FAILED="$FAILED p2p/build-$isa"
+    fi
+done
+
 # ---------------------------------------------------------------- the compiled library
 # libkifmm (make lib: every level, src/kifmm_dispatch.c) against the same kernels
 # compiled here from the headers, in one process on the same points
