@@ -1688,6 +1688,121 @@ static inline void kifmm_kernel__vd_red4x2(const float64x2_t *a, const float64x2
 }
 #endif
 
+/* kifmm_kernel__vf: the same in float, kifmm_kernel__VFN lanes (16, 8, 4),
+ * the same operations named vf_; vf_rinv(r2) is 1 / sqrt(r2) for FLT_MIN <=
+ * r2 <= FLT_MAX (closer pairs count as coincident) and 0 elsewhere: AVX-512
+ * rsqrt14 and one Newton step (about 2^-27), AVX2 rsqrt and one Newton step
+ * (relative error about 3e-7, a few float ulp), NEON sqrt and division. */
+#if defined(__AVX512F__)
+#define kifmm_kernel__VFN 16
+typedef __m512 kifmm_kernel__vf;
+static inline __m512 kifmm_kernel__vf_set1(float a) { return _mm512_set1_ps(a); }
+static inline __m512 kifmm_kernel__vf_zero(void) { return _mm512_setzero_ps(); }
+static inline __m512 kifmm_kernel__vf_load(const float *p) { return _mm512_loadu_ps(p); }
+static inline __m512 kifmm_kernel__vf_loadn(const float *p, int64_t n)
+{
+    return _mm512_maskz_loadu_ps(kifmm_kernel__first16(n), p);
+}
+static inline __m512 kifmm_kernel__vf_add(__m512 a, __m512 b) { return _mm512_add_ps(a, b); }
+static inline __m512 kifmm_kernel__vf_sub(__m512 a, __m512 b) { return _mm512_sub_ps(a, b); }
+static inline __m512 kifmm_kernel__vf_mul(__m512 a, __m512 b) { return _mm512_mul_ps(a, b); }
+static inline __m512 kifmm_kernel__vf_fma(__m512 a, __m512 b, __m512 c) { return _mm512_fmadd_ps(a, b, c); }
+static inline __m512 kifmm_kernel__vf_fnma(__m512 a, __m512 b, __m512 c)
+{
+    return _mm512_fnmadd_ps(a, b, c);
+}
+static inline __m512 kifmm_kernel__vf_rinv(__m512 r2) { return kifmm_kernel__rinv16(r2); }
+static inline float kifmm_kernel__vf_hsum(__m512 v) { return _mm512_reduce_add_ps(v); }
+static inline void kifmm_kernel__vf_red4x2(const __m512 *a, const __m512 *c, float s, float *o,
+                                           int both)
+{
+    kifmm_kernel__red8x16(a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3], s, o, both);
+}
+#elif defined(__AVX2__) && defined(__FMA__)
+#define kifmm_kernel__VFN 8
+typedef __m256 kifmm_kernel__vf;
+static inline __m256 kifmm_kernel__avx2_rinvf(__m256 r2)
+{
+    const __m256 live = _mm256_and_ps(_mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MIN), _CMP_GE_OQ),
+                                      _mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ));
+    __m256 y = _mm256_rsqrt_ps(r2);
+    __m256 e = _mm256_fnmadd_ps(_mm256_mul_ps(r2, y), y, _mm256_set1_ps(1.0f));
+    y = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), y), e, y);
+    return _mm256_and_ps(y, live);
+}
+static inline float kifmm_kernel__avx2_sumf(__m256 v)
+{
+    __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    s = _mm_add_ps(s, _mm_movehl_ps(s, s));
+    return _mm_cvtss_f32(_mm_add_ss(s, _mm_movehdup_ps(s)));
+}
+static inline __m256 kifmm_kernel__vf_set1(float a) { return _mm256_set1_ps(a); }
+static inline __m256 kifmm_kernel__vf_zero(void) { return _mm256_setzero_ps(); }
+static inline __m256 kifmm_kernel__vf_load(const float *p) { return _mm256_loadu_ps(p); }
+static inline __m256 kifmm_kernel__vf_loadn(const float *p, int64_t n)
+{
+    return _mm256_maskload_ps(p, kifmm_kernel__first8i(n));
+}
+static inline __m256 kifmm_kernel__vf_add(__m256 a, __m256 b) { return _mm256_add_ps(a, b); }
+static inline __m256 kifmm_kernel__vf_sub(__m256 a, __m256 b) { return _mm256_sub_ps(a, b); }
+static inline __m256 kifmm_kernel__vf_mul(__m256 a, __m256 b) { return _mm256_mul_ps(a, b); }
+static inline __m256 kifmm_kernel__vf_fma(__m256 a, __m256 b, __m256 c) { return _mm256_fmadd_ps(a, b, c); }
+static inline __m256 kifmm_kernel__vf_fnma(__m256 a, __m256 b, __m256 c)
+{
+    return _mm256_fnmadd_ps(a, b, c);
+}
+static inline __m256 kifmm_kernel__vf_rinv(__m256 r2) { return kifmm_kernel__avx2_rinvf(r2); }
+static inline float kifmm_kernel__vf_hsum(__m256 v) { return kifmm_kernel__avx2_sumf(v); }
+static inline void kifmm_kernel__vf_red4x2(const __m256 *a, const __m256 *c, float s, float *o,
+                                           int both)
+{
+    int k;
+    for (k = 0; k < 4; k++) o[k] += s * kifmm_kernel__avx2_sumf(a[k]);
+    if (both)
+        for (k = 0; k < 4; k++) o[4 + k] += s * kifmm_kernel__avx2_sumf(c[k]);
+}
+#elif defined(KIFMM_KERNEL__NEON)
+#define kifmm_kernel__VFN 4
+typedef float32x4_t kifmm_kernel__vf;
+static inline float32x4_t kifmm_kernel__vf_set1(float a) { return vdupq_n_f32(a); }
+static inline float32x4_t kifmm_kernel__vf_zero(void) { return vdupq_n_f32(0.0f); }
+static inline float32x4_t kifmm_kernel__vf_load(const float *p) { return vld1q_f32(p); }
+static inline float32x4_t kifmm_kernel__vf_loadn(const float *p, int64_t n)
+{
+    float b[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+    int64_t i;
+    for (i = 0; i < n && i < 4; i++) b[i] = p[i];
+    return vld1q_f32(b);
+}
+static inline float32x4_t kifmm_kernel__vf_add(float32x4_t a, float32x4_t b) { return vaddq_f32(a, b); }
+static inline float32x4_t kifmm_kernel__vf_sub(float32x4_t a, float32x4_t b) { return vsubq_f32(a, b); }
+static inline float32x4_t kifmm_kernel__vf_mul(float32x4_t a, float32x4_t b) { return vmulq_f32(a, b); }
+static inline float32x4_t kifmm_kernel__vf_fma(float32x4_t a, float32x4_t b, float32x4_t c)
+{
+    return vfmaq_f32(c, a, b);
+}
+static inline float32x4_t kifmm_kernel__vf_fnma(float32x4_t a, float32x4_t b, float32x4_t c)
+{
+    return vfmsq_f32(c, a, b);
+}
+static inline float32x4_t kifmm_kernel__vf_rinv(float32x4_t r2)
+{
+    const uint32x4_t live = vandq_u32(vcgeq_f32(r2, vdupq_n_f32(FLT_MIN)),
+                                      vcleq_f32(r2, vdupq_n_f32(FLT_MAX)));
+    const float32x4_t y = vdivq_f32(vdupq_n_f32(1.0f), vsqrtq_f32(r2));
+    return vreinterpretq_f32_u32(vandq_u32(vreinterpretq_u32_f32(y), live));
+}
+static inline float kifmm_kernel__vf_hsum(float32x4_t v) { return vaddvq_f32(v); }
+static inline void kifmm_kernel__vf_red4x2(const float32x4_t *a, const float32x4_t *c, float s,
+                                           float *o, int both)
+{
+    int k;
+    for (k = 0; k < 4; k++) o[k] += s * vaddvq_f32(a[k]);
+    if (both)
+        for (k = 0; k < 4; k++) o[4 + k] += s * vaddvq_f32(c[k]);
+}
+#endif
+
 #if defined(kifmm_kernel__VDN)
 /* The hooks of laplace and laplace_grad on the layer (the portable loops
  * above without it).  The last sources, fewer than a vector, are loaded
@@ -1809,6 +1924,107 @@ static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const doub
 }
 #endif /* kifmm_kernel__VDN */
 
+/* Float hooks on the layer with AVX-512 and NEON; with AVX2 the hand-written
+ * ones (the single-precision section), which measured faster there
+ * (bench_p2p, laplace_grad _p2pf, blocks of 64 to 512: the layer's form 0.92
+ * to 0.97 times their pairs per second with one target a pass, 0.90 to 0.93
+ * with two). */
+#if defined(kifmm_kernel__VFN) && (defined(__AVX512F__) || !defined(__AVX2__))
+/* laplace's and laplace_grad's float hooks (_p2pf, the contract of the
+ * single-precision section below). The dead lanes of a last partial vector
+ * load as 0: their density is 0, each product starts from it (q / r, then
+ * times 1 / r twice), and vf_rinv is at most 1 / sqrt(FLT_MIN), so they add
+ * exactly 0. */
+static inline void kifmm_kernel__vf_src(const float *sx, const float *sy, const float *sz,
+                                        const float *q, int64_t j, int64_t n, kifmm_kernel__vf *s)
+{
+    if (n >= kifmm_kernel__VFN) {
+        s[0] = kifmm_kernel__vf_load(sx + j);
+        s[1] = kifmm_kernel__vf_load(sy + j);
+        s[2] = kifmm_kernel__vf_load(sz + j);
+        s[3] = kifmm_kernel__vf_load(q + j);
+    } else {
+        s[0] = kifmm_kernel__vf_loadn(sx + j, n);
+        s[1] = kifmm_kernel__vf_loadn(sy + j, n);
+        s[2] = kifmm_kernel__vf_loadn(sz + j, n);
+        s[3] = kifmm_kernel__vf_loadn(q + j, n);
+    }
+}
+/* 1 / r and the differences of one target and one vector of sources */
+static inline kifmm_kernel__vf kifmm_kernel__vf_pair(kifmm_kernel__vf X, kifmm_kernel__vf Y,
+                                                     kifmm_kernel__vf Z, const kifmm_kernel__vf *s,
+                                                     kifmm_kernel__vf *d)
+{
+    d[0] = kifmm_kernel__vf_sub(X, s[0]);
+    d[1] = kifmm_kernel__vf_sub(Y, s[1]);
+    d[2] = kifmm_kernel__vf_sub(Z, s[2]);
+    return kifmm_kernel__vf_rinv(kifmm_kernel__vf_fma(
+        d[2], d[2], kifmm_kernel__vf_fma(d[1], d[1], kifmm_kernel__vf_mul(d[0], d[0]))));
+}
+static inline void kifmm_kernel__vf_laplace_grad(kifmm_kernel__vf *acc, kifmm_kernel__vf X,
+                                                 kifmm_kernel__vf Y, kifmm_kernel__vf Z,
+                                                 const kifmm_kernel__vf *s)
+{
+    kifmm_kernel__vf d[3];
+    const kifmm_kernel__vf inv = kifmm_kernel__vf_pair(X, Y, Z, s, d);
+    const kifmm_kernel__vf qi3 = kifmm_kernel__vf_mul(
+        kifmm_kernel__vf_mul(kifmm_kernel__vf_mul(s[3], inv), inv), inv);
+    acc[0] = kifmm_kernel__vf_fma(s[3], inv, acc[0]);
+    acc[1] = kifmm_kernel__vf_fnma(qi3, d[0], acc[1]);
+    acc[2] = kifmm_kernel__vf_fnma(qi3, d[1], acc[2]);
+    acc[3] = kifmm_kernel__vf_fnma(qi3, d[2], acc[3]);
+}
+
+static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *tx,
+                                             const float *ty, const float *tz, int64_t nt,
+                                             const float *sx, const float *sy, const float *sz,
+                                             const float *q, int64_t ns, float scale, float *out)
+{
+    const float s = scale * (float)KIFMM_INV_4PI;
+    kifmm_kernel__vf v[4], d[3];
+    int64_t i, j;
+    (void)param;
+    for (i = 0; i < nt; i++) {
+        const kifmm_kernel__vf X = kifmm_kernel__vf_set1(tx[i]), Y = kifmm_kernel__vf_set1(ty[i]),
+                               Z = kifmm_kernel__vf_set1(tz[i]);
+        kifmm_kernel__vf acc = kifmm_kernel__vf_zero();
+        for (j = 0; j < ns; j += kifmm_kernel__VFN) {
+            kifmm_kernel__vf_src(sx, sy, sz, q, j, ns - j, v);
+            acc = kifmm_kernel__vf_fma(kifmm_kernel__vf_pair(X, Y, Z, v, d), v[3], acc);
+        }
+        out[i] += s * kifmm_kernel__vf_hsum(acc);
+    }
+}
+
+static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const float *tx,
+                                                  const float *ty, const float *tz, int64_t nt,
+                                                  const float *sx, const float *sy,
+                                                  const float *sz, const float *q, int64_t ns,
+                                                  float scale, float *out)
+{
+    const float s = scale * (float)KIFMM_INV_4PI;
+    kifmm_kernel__vf v[4];
+    int64_t i, j;
+    (void)param;
+    /* two targets per pass (i1 = i for the last of an odd count, not stored) */
+    for (i = 0; i < nt; i += 2) {
+        const int64_t i1 = i + 1 < nt ? i + 1 : i;
+        const kifmm_kernel__vf X0 = kifmm_kernel__vf_set1(tx[i]), Y0 = kifmm_kernel__vf_set1(ty[i]),
+                               Z0 = kifmm_kernel__vf_set1(tz[i]), X1 = kifmm_kernel__vf_set1(tx[i1]),
+                               Y1 = kifmm_kernel__vf_set1(ty[i1]), Z1 = kifmm_kernel__vf_set1(tz[i1]);
+        kifmm_kernel__vf a[4], c[4];
+        int k;
+        for (k = 0; k < 4; k++) a[k] = c[k] = kifmm_kernel__vf_zero();
+        for (j = 0; j < ns; j += kifmm_kernel__VFN) {
+            kifmm_kernel__vf_src(sx, sy, sz, q, j, ns - j, v);
+            kifmm_kernel__vf_laplace_grad(a, X0, Y0, Z0, v);
+            kifmm_kernel__vf_laplace_grad(c, X1, Y1, Z1, v);
+        }
+        kifmm_kernel__vf_red4x2(a, c, s, out + 4 * i, i1 > i);
+    }
+}
+#endif /* kifmm_kernel__VFN */
+
 /* ------------------------------------------------------------------------ */
 /* Single-precision near-field hooks (kifmm_kernel_NAME_P2PF, _p2pf)         */
 /* ------------------------------------------------------------------------ */
@@ -1816,30 +2032,12 @@ static inline void kifmm_kernel_laplace_grad_p2p(const double *param, const doub
  * outputs, used by instances built with KIFMM_REAL float. AVX2 + FMA: 8
  * lanes, rsqrt and one Newton step (relative error about 3e-7, a few float
  * ulp); AVX-512: 16 lanes, rsqrt14 and one Newton step. Pairs closer than
- * sqrt(FLT_MIN) (1.1e-19) count as coincident and add 0. Without AVX2 the
- * generic loop is used. */
-#if defined(__AVX2__) && defined(__FMA__)
-#include <float.h>
-#include <immintrin.h>
+ * sqrt(FLT_MIN) (1.1e-19) count as coincident and add 0. laplace's and
+ * laplace_grad's are the vector layer's (>>vector, kifmm_kernel__vf) with
+ * AVX-512 and with NEON on aarch64 (4 lanes, sqrt and division), the bodies
+ * below with AVX2 alone; without any of these the generic loop is used. */
 
-static inline __m256 kifmm_kernel__avx2_rinvf(__m256 r2)
-{
-    const __m256 live = _mm256_and_ps(_mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MIN), _CMP_GE_OQ),
-                                      _mm256_cmp_ps(r2, _mm256_set1_ps(FLT_MAX), _CMP_LE_OQ));
-    __m256 y = _mm256_rsqrt_ps(r2);
-    __m256 e = _mm256_fnmadd_ps(_mm256_mul_ps(r2, y), y, _mm256_set1_ps(1.0f));
-    y = _mm256_fmadd_ps(_mm256_mul_ps(_mm256_set1_ps(0.5f), y), e, y);
-    return _mm256_and_ps(y, live);
-}
-
-
-static inline float kifmm_kernel__avx2_sumf(__m256 v)
-{
-    __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
-    s = _mm_add_ps(s, _mm_movehl_ps(s, s));
-    return _mm_cvtss_f32(_mm_add_ss(s, _mm_movehdup_ps(s)));
-}
-
+#if defined(__AVX2__) && defined(__FMA__) && !defined(__AVX512F__)
 /* Differences, 1 / r and the (masked) densities of one target and 8 sources. */
 static inline __m256 kifmm_kernel__avx2_pairf(__m256 X, __m256 Y, __m256 Z, const float *sx,
                                               const float *sy, const float *sz, const float *q,
@@ -1862,80 +2060,6 @@ static inline __m256 kifmm_kernel__avx2_pairf(__m256 X, __m256 Y, __m256 Z, cons
     return kifmm_kernel__avx2_rinvf(r2);
 }
 
-#if defined(__AVX512F__)
-/* AVX-512: 16 lanes, 1 / r from kifmm_kernel__rinv16 (rsqrt14 and one Newton
- * step, about 2^-27), masked tails. */
-static inline __m512 kifmm_kernel__avx512_pairf(__m512 X, __m512 Y, __m512 Z, const float *sx,
-                                                const float *sy, const float *sz, __mmask16 m,
-                                                __m512 *dx, __m512 *dy, __m512 *dz)
-{
-    *dx = _mm512_sub_ps(X, _mm512_maskz_loadu_ps(m, sx));
-    *dy = _mm512_sub_ps(Y, _mm512_maskz_loadu_ps(m, sy));
-    *dz = _mm512_sub_ps(Z, _mm512_maskz_loadu_ps(m, sz));
-    return kifmm_kernel__rinv16(
-        _mm512_fmadd_ps(*dz, *dz, _mm512_fmadd_ps(*dy, *dy, _mm512_mul_ps(*dx, *dx))));
-}
-
-static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *tx,
-                                             const float *ty, const float *tz, int64_t nt,
-                                             const float *sx, const float *sy, const float *sz,
-                                             const float *q, int64_t ns, float scale, float *out)
-{
-    const float s = scale * (float)KIFMM_INV_4PI;
-    int64_t i, j;
-    (void)param;
-    for (i = 0; i < nt; i++) {
-        const __m512 X = _mm512_set1_ps(tx[i]), Y = _mm512_set1_ps(ty[i]), Z = _mm512_set1_ps(tz[i]);
-        __m512 acc = _mm512_setzero_ps(), dx, dy, dz;
-        for (j = 0; j < ns; j += 16) {
-            const __mmask16 m = kifmm_kernel__first16(ns - j);
-            const __m512 inv =
-                kifmm_kernel__avx512_pairf(X, Y, Z, sx + j, sy + j, sz + j, m, &dx, &dy, &dz);
-            acc = _mm512_fmadd_ps(inv, _mm512_maskz_loadu_ps(m, q + j), acc);
-        }
-        out[i] += s * _mm512_reduce_add_ps(acc);
-    }
-}
-
-static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const float *tx,
-                                                  const float *ty, const float *tz, int64_t nt,
-                                                  const float *sx, const float *sy,
-                                                  const float *sz, const float *q, int64_t ns,
-                                                  float scale, float *out)
-{
-    const float s = scale * (float)KIFMM_INV_4PI;
-    int64_t i, j;
-    (void)param;
-    /* two targets per pass (i1 = i for the last of an odd count, not stored),
-     * their 8 sums reduced together */
-    for (i = 0; i < nt; i += 2) {
-        const int64_t i1 = i + 1 < nt ? i + 1 : i;
-        const __m512 X0 = _mm512_set1_ps(tx[i]), Y0 = _mm512_set1_ps(ty[i]),
-                     Z0 = _mm512_set1_ps(tz[i]), X1 = _mm512_set1_ps(tx[i1]),
-                     Y1 = _mm512_set1_ps(ty[i1]), Z1 = _mm512_set1_ps(tz[i1]);
-        __m512 a0 = _mm512_setzero_ps(), a1 = a0, a2 = a0, a3 = a0, c0 = a0, c1 = a0, c2 = a0,
-               c3 = a0, dx, dy, dz;
-        for (j = 0; j < ns; j += 16) {
-            const __mmask16 m = kifmm_kernel__first16(ns - j);
-            const __m512 qv = _mm512_maskz_loadu_ps(m, q + j);
-            __m512 inv = kifmm_kernel__avx512_pairf(X0, Y0, Z0, sx + j, sy + j, sz + j, m, &dx,
-                                                    &dy, &dz);
-            __m512 qi3 = _mm512_mul_ps(_mm512_mul_ps(_mm512_mul_ps(qv, inv), inv), inv);
-            a0 = _mm512_fmadd_ps(qv, inv, a0);
-            a1 = _mm512_fnmadd_ps(qi3, dx, a1);
-            a2 = _mm512_fnmadd_ps(qi3, dy, a2);
-            a3 = _mm512_fnmadd_ps(qi3, dz, a3);
-            inv = kifmm_kernel__avx512_pairf(X1, Y1, Z1, sx + j, sy + j, sz + j, m, &dx, &dy, &dz);
-            qi3 = _mm512_mul_ps(_mm512_mul_ps(_mm512_mul_ps(qv, inv), inv), inv);
-            c0 = _mm512_fmadd_ps(qv, inv, c0);
-            c1 = _mm512_fnmadd_ps(qi3, dx, c1);
-            c2 = _mm512_fnmadd_ps(qi3, dy, c2);
-            c3 = _mm512_fnmadd_ps(qi3, dz, c3);
-        }
-        kifmm_kernel__red8x16(a0, a1, a2, a3, c0, c1, c2, c3, s, out + 4 * i, i1 > i);
-    }
-}
-#else
 static inline void kifmm_kernel_laplace_p2pf(const double *param, const float *tx,
                                              const float *ty, const float *tz, int64_t nt,
                                              const float *sx, const float *sy, const float *sz,
@@ -1993,8 +2117,7 @@ static inline void kifmm_kernel_laplace_grad_p2pf(const double *param, const flo
         out[4 * i + 3] += s * kifmm_kernel__avx2_sumf(a3);
     }
 }
-#endif /* __AVX512F__ */
-#endif
+#endif /* AVX2 without AVX-512 */
 
 /* B's gradient sums at o, o + SB, o + 2 SB += w0 d0 + w1 d1 (two points of
  * A with differences dx0 .. dz1), and A's two points' sums added to outa
@@ -4470,11 +4593,14 @@ KIFMM_KERNEL__OW_BOTH(kifmm_kernel__stokes_dl_qc, 9, 4, KIFMM_KERNEL__DL_PAIR, 1
 #define KIFMM_KERNEL__OW_HAS (KIFMM_HAS_P2P | KIFMM_HAS_P2PF)
 
 /* The Laplace kernels' hooks that this build compiled: all of them with
- * AVX2 and FMA (or AVX-512), the one-way double loop otherwise. */
+ * AVX2 and FMA (or AVX-512), the one-way double and float hooks of the vector
+ * layer on aarch64, the one-way double loop otherwise. */
 #if defined(__AVX2__) && defined(__FMA__)
 #define KIFMM_KERNEL__LAPLACE_HAS                                                            \
     (KIFMM_HAS_P2P | KIFMM_HAS_P2PF | KIFMM_HAS_P2PN | KIFMM_HAS_P2PNF | KIFMM_HAS_P2PS |     \
      KIFMM_HAS_P2PSF | KIFMM_HAS_P2PSN | KIFMM_HAS_P2PSNF)
+#elif defined(KIFMM_KERNEL__NEON)
+#define KIFMM_KERNEL__LAPLACE_HAS (KIFMM_HAS_P2P | KIFMM_HAS_P2PF) /* the vector layer's */
 #else
 #define KIFMM_KERNEL__LAPLACE_HAS (KIFMM_HAS_P2P)
 #endif

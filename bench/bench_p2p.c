@@ -103,7 +103,7 @@ static double checksum;
 /* the kernels' parameters (lambda, k, viscosity: 1), as create resolves 0 */
 static const double prm[4] = {1.0, 0.0, 0.0, 0.0};
 
-#if kifmm_kernel_laplace_P2PN && kifmm_kernel_laplace_grad_P2PN
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PN) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PN)
 typedef void (*p2pn_fn)(const double *, const double *, const double *, const double *, int64_t,
                         const double *, const double *, const double *, const double *, int64_t,
                         int, size_t, double, double *, size_t);
@@ -119,7 +119,7 @@ static void many8(const double *prm, const double *tx_, const double *ty_, const
 }
 #endif
 
-#if kifmm_kernel_laplace_P2PS && kifmm_kernel_laplace_grad_P2PS
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PS) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PS)
 typedef void (*p2ps_fn)(const double *, const double *, const double *, const double *,
                         const double *, int64_t, const double *, const double *, const double *,
                         const double *, int64_t, double, double *, double *);
@@ -294,7 +294,7 @@ static double rate(p2p_fn f, int td, int64_t n, double seconds)
     return best;
 }
 
-#if kifmm_kernel_laplace_grad_P2PF && kifmm_kernel_laplace_grad_P2PSF
+#if (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PF) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PSF)
 /* The float hooks: one-way (_p2pf) and mutual (_p2psf), laplace_grad, on the
  * same points rounded to float. */
 static float fx[NMAX], fy[NMAX], fz[NMAX], gx[NMAX], gy[NMAX], gz[NMAX], fq[2 * NMAX];
@@ -352,7 +352,7 @@ int main(int argc, char **argv)
             fflush(stdout);
         }
     }
-#if kifmm_kernel_laplace_P2PN && kifmm_kernel_laplace_grad_P2PN
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PN) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PN)
     printf("\nmany-vector hooks (_p2pn), %d density vectors per call: pairs x vectors per second\n",
            NV);
     printf("%-13s %6s %14s %14s %8s\n", "kernel", "nt=ns", "_p2p (1/s)", "_p2pn (1/s)", "speedup");
@@ -369,7 +369,7 @@ int main(int argc, char **argv)
         }
     }
 #endif
-#if kifmm_kernel_laplace_P2PS && kifmm_kernel_laplace_grad_P2PS
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PS) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PS)
     printf("\nmutual hooks (_p2ps): both directions of nt x ns pairs, against _p2p twice;\n"
            "pairs per second, each pair counted once for both directions\n");
     printf("%-13s %6s %14s %14s %8s\n", "kernel", "nt=ns", "2 x _p2p (1/s)", "_p2ps (1/s)",
@@ -387,7 +387,7 @@ int main(int argc, char **argv)
         }
     }
 #endif
-#if kifmm_kernel_laplace_grad_P2PF && kifmm_kernel_laplace_grad_P2PSF
+#if (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PF) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PSF)
     for (i = 0; i < NMAX; i++) {
         fx[i] = (float)tx[i]; fy[i] = (float)ty[i]; fz[i] = (float)tz[i];
         gx[i] = (float)sx[i]; gy[i] = (float)sy[i]; gz[i] = (float)sz[i];
@@ -401,7 +401,7 @@ int main(int argc, char **argv)
         double r1 = rate(float_oneway, 4, sizes[i], seconds);
         double r2 = rate(float_mutual, 4, sizes[i], seconds);
         double d1 = rate(kifmm_kernel_laplace_grad_p2p, 4, sizes[i], seconds), d2 = 0.0;
-#if kifmm_kernel_laplace_P2PS && kifmm_kernel_laplace_grad_P2PS
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PS) && (kifmm_kernel_laplace_grad_HAS & KIFMM_HAS_P2PS)
         g_mut = kifmm_kernel_laplace_grad_p2ps;
         g_mtd = 4;
         d2 = rate(mutual, 4, sizes[i], seconds);

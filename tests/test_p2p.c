@@ -908,6 +908,55 @@ static void test_fmm(void)
     free(pot);
 }
 
+/* laplace and laplace_grad at the target a from nb sources b (xyz
+ * interleaved), in long double, with the sums of |terms| (t_check_hooks) */
+static void ref_laplace_grad(int64_t nb, const double *b, const double *q, const double *a,
+                             double *ref, double *mag)
+{
+    const long double c = 1.0L / (4.0L * PI_L);
+    long double s[4] = {0.0L, 0.0L, 0.0L, 0.0L}, m[4] = {0.0L, 0.0L, 0.0L, 0.0L};
+    int64_t j;
+    int k;
+    for (j = 0; j < nb; j++) {
+        const long double d[3] = {(long double)a[0] - b[3 * j], (long double)a[1] - b[3 * j + 1],
+                                  (long double)a[2] - b[3 * j + 2]};
+        const long double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+        long double r, t;
+        if (r2 == 0.0L) continue;
+        r = sqrtl(r2);
+        t = q[j] / r;
+        s[0] += t;
+        m[0] += fabsl(t);
+        for (k = 0; k < 3; k++) {
+            const long double g = -q[j] * d[k] / (r2 * r);
+            s[1 + k] += g;
+            m[1 + k] += fabsl(g);
+        }
+    }
+    for (k = 0; k < 4; k++) {
+        ref[k] = (double)(c * s[k]);
+        mag[k] = (double)(c * m[k]);
+    }
+}
+
+/* the one-way hooks in double and, where this build has them, float (the
+ * vector layer's on every instruction set it covers) */
+static void test_oneway_float(void)
+{
+    static const double prm[4] = {1.0, 0.0, 0.0, 0.0};
+    t_group("one-way hooks in double and float, blocks of 0 to 129 (tests/test.h)");
+#if (kifmm_kernel_laplace_HAS & KIFMM_HAS_P2PF)
+    t_check_hooks("laplace", 1, 1, prm, 1e-14, kifmm_kernel_laplace_p2p, kifmm_kernel_laplace_p2pf,
+                  ref_laplace_grad);
+    t_check_hooks("laplace_grad", 1, 4, prm, 1e-14, kifmm_kernel_laplace_grad_p2p,
+                  kifmm_kernel_laplace_grad_p2pf, ref_laplace_grad);
+#else
+    t_check_hooks("laplace", 1, 1, prm, 1e-14, kifmm_kernel_laplace_p2p, NULL, ref_laplace_grad);
+    t_check_hooks("laplace_grad", 1, 4, prm, 1e-14, kifmm_kernel_laplace_grad_p2p, NULL,
+                  ref_laplace_grad);
+#endif
+}
+
 int main(void)
 {
     printf("test_p2p: near-field hooks, body: %s\n", BODY);
@@ -916,6 +965,7 @@ int main(void)
     test_pairs();
     test_blocks("laplace", kifmm_kernel_laplace_p2p, 1, 11);
     test_blocks("laplace_grad", kifmm_kernel_laplace_grad_p2p, 4, 12);
+    test_oneway_float();
     test_many();
     test_mutual();
     test_mutual_many();
