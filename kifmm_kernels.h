@@ -1197,7 +1197,9 @@ static inline void kifmm_kernel_biot_savart_grad_background(const double *param,
  * no alignment assumed, nt and ns any size including 0.
  *
  * One body is compiled, chosen by the target ISA: AVX-512F, else AVX2 + FMA,
- * else portable C written for the compiler's vectorizer.  Each pair is within
+ * else portable C written for the compiler's vectorizer; laplace's and
+ * laplace_grad's are written once on the vector layer (>>vector), which also
+ * covers aarch64's NEON.  Each pair is within
  * a few ulp of the scalar kernel (1 / sqrt(r^2) in double); 1 / (4 pi) and
  * scale are applied once per target.  The sums run in another order than in
  * the generic loop, so results agree to rounding, not bitwise. */
