@@ -1814,34 +1814,40 @@ static inline void kifmm_kernel__vf_red4x2(const float32x4_t *a, const float32x4
 
 /* The sums of one target (X, Y, Z) over one vector of sources: n live
  * lanes (kifmm_kernel__VDN for a whole vector). */
+/* 1 / r and the differences d of one target and one vector of sources, the
+ * lanes from n up of 1 / r set to 0 */
+static inline kifmm_kernel__vd kifmm_kernel__vd_pair(kifmm_kernel__vd X, kifmm_kernel__vd Y,
+                                                     kifmm_kernel__vd Z, const kifmm_kernel__vd *s,
+                                                     int64_t n, kifmm_kernel__vd *d)
+{
+    kifmm_kernel__vd inv;
+    d[0] = kifmm_kernel__vd_sub(X, s[0]);
+    d[1] = kifmm_kernel__vd_sub(Y, s[1]);
+    d[2] = kifmm_kernel__vd_sub(Z, s[2]);
+    inv = kifmm_kernel__vd_rinv(kifmm_kernel__vd_fma(
+        d[2], d[2], kifmm_kernel__vd_fma(d[1], d[1], kifmm_kernel__vd_mul(d[0], d[0]))));
+    return n < kifmm_kernel__VDN ? kifmm_kernel__vd_keep(inv, n) : inv;
+}
 static inline kifmm_kernel__vd kifmm_kernel__vd_laplace(kifmm_kernel__vd acc, kifmm_kernel__vd X,
                                                         kifmm_kernel__vd Y, kifmm_kernel__vd Z,
                                                         const kifmm_kernel__vd *s, int64_t n)
 {
-    const kifmm_kernel__vd dx = kifmm_kernel__vd_sub(X, s[0]), dy = kifmm_kernel__vd_sub(Y, s[1]),
-                           dz = kifmm_kernel__vd_sub(Z, s[2]);
-    kifmm_kernel__vd inv = kifmm_kernel__vd_rinv(kifmm_kernel__vd_fma(
-        dz, dz, kifmm_kernel__vd_fma(dy, dy, kifmm_kernel__vd_mul(dx, dx))));
-    if (n < kifmm_kernel__VDN) inv = kifmm_kernel__vd_keep(inv, n);
-    return kifmm_kernel__vd_fma(inv, s[3], acc);
+    kifmm_kernel__vd d[3];
+    return kifmm_kernel__vd_fma(kifmm_kernel__vd_pair(X, Y, Z, s, n, d), s[3], acc);
 }
 static inline void kifmm_kernel__vd_laplace_grad(kifmm_kernel__vd *acc, kifmm_kernel__vd X,
                                                  kifmm_kernel__vd Y, kifmm_kernel__vd Z,
                                                  const kifmm_kernel__vd *s, int64_t n)
 {
-    const kifmm_kernel__vd dx = kifmm_kernel__vd_sub(X, s[0]), dy = kifmm_kernel__vd_sub(Y, s[1]),
-                           dz = kifmm_kernel__vd_sub(Z, s[2]);
-    kifmm_kernel__vd inv = kifmm_kernel__vd_rinv(kifmm_kernel__vd_fma(
-        dz, dz, kifmm_kernel__vd_fma(dy, dy, kifmm_kernel__vd_mul(dx, dx))));
-    kifmm_kernel__vd qi, qi3;
-    if (n < kifmm_kernel__VDN) inv = kifmm_kernel__vd_keep(inv, n);
+    kifmm_kernel__vd d[3];
+    const kifmm_kernel__vd inv = kifmm_kernel__vd_pair(X, Y, Z, s, n, d);
     /* q / r added on the adder pipes, then reused for q / r^3 */
-    qi = kifmm_kernel__vd_mul(s[3], inv);
-    qi3 = kifmm_kernel__vd_mul(qi, kifmm_kernel__vd_mul(inv, inv));
+    const kifmm_kernel__vd qi = kifmm_kernel__vd_mul(s[3], inv);
+    const kifmm_kernel__vd qi3 = kifmm_kernel__vd_mul(qi, kifmm_kernel__vd_mul(inv, inv));
     acc[0] = kifmm_kernel__vd_add(acc[0], qi);
-    acc[1] = kifmm_kernel__vd_fnma(qi3, dx, acc[1]);
-    acc[2] = kifmm_kernel__vd_fnma(qi3, dy, acc[2]);
-    acc[3] = kifmm_kernel__vd_fnma(qi3, dz, acc[3]);
+    acc[1] = kifmm_kernel__vd_fnma(qi3, d[0], acc[1]);
+    acc[2] = kifmm_kernel__vd_fnma(qi3, d[1], acc[2]);
+    acc[3] = kifmm_kernel__vd_fnma(qi3, d[2], acc[3]);
 }
 /* Sources j .. j + n - 1 (x, y, z, q) into s[0 .. 3]: a whole vector, or
  * the last n < VDN. */
