@@ -3348,6 +3348,21 @@ KIFMM__FN double kifmm__alpha_waves(double base, double x)
 }
 
 
+/* The equivalent and check surfaces of one expansion order (kifmm__surf_unit
+ * at p and p + cdiff, the anchors: >>anchors), in box half-widths: the plan
+ * holds them, and each level of a handle reads its own (the handle's sf). */
+typedef struct kifmm__surf {
+    int nse, nsc;          /* points */
+    int cdiff;             /* check order - equivalent order (kifmm__check_diff) */
+    double ai, ao;         /* inner and outer surfaces' radii, in box half-widths */
+    int ne, nc;            /* vector lengths: points x SD */
+    double *unit_e, *unit_c; /* unit surfaces (SoA) */
+    int nsa;               /* anchors of the downward densities (>>anchors) */
+    int nde;               /* downward density length: (nse + nsa) x SD */
+    int nsm;               /* max(nsc, nse + nsa): points of a scratch surface */
+    double *unit_a;        /* the anchors, in box half-widths (SoA) */
+} kifmm__surf;
+
 /* ---- operators in double (every instance builds its own) ------------------ */
 
 /* Operators of one level, built with the target box's half-width. Check
@@ -5270,17 +5285,7 @@ struct KIFMM__F(_plan) {
     kifmm_opts opts;           /* the options it was built for, defaults resolved */
     int shape[2];              /* leaf size and depth as given (0: chosen; a handle on a
                                   tree takes the tree's: __tree_fits) */
-    struct {                   /* the equivalent and check surfaces */
-        int nse, nsc;          /* points */
-        int cdiff;             /* check order - equivalent order (kifmm__check_diff) */
-        double ai, ao;         /* inner and outer surfaces' radii, in box half-widths */
-        int ne, nc;            /* vector lengths: points x SD */
-        double *unit_e, *unit_c; /* unit surfaces (SoA) */
-        int nsa;               /* anchors of the downward densities (>>anchors) */
-        int nde;               /* downward density length: (nse + nsa) x SD */
-        int nsm;               /* max(nsc, nse + nsa): points of a scratch surface */
-        double *unit_a;        /* the anchors, in box half-widths (SoA) */
-    } surf;
+    kifmm__surf surf;          /* the equivalent and check surfaces */
     struct {                   /* the operator sets */
         KIFMM__F(__ops) **set; /* n of them (cap allocated) */
         int n, cap;
@@ -5443,13 +5448,14 @@ KIFMM__FN void KIFMM__F(__place)(const double *unit, int n, const double *c, dou
  * half-width r: ai r, for an oscillating kernel moved off the resonances
  * (kifmm__alpha_waves). Every surface, operator and grid of a level takes
  * it from here. */
-KIFMM__FN double KIFMM__F(__rin)(const KIFMM__F(_plan) *pl, double r)
+KIFMM__FN double KIFMM__F(__rin)(const KIFMM__F(_plan) *pl, const kifmm__surf *sf, double r)
 {
 #if KIFMM__HAS_QT & KIFMM_HAS_WAVES
     const double x = KIFMM__K(_wavenumber)(pl->opts.kernel_param) * r / 3.14159265358979323846;
-    return kifmm__alpha_waves(pl->surf.ai, x) * r;
+    return kifmm__alpha_waves(sf->ai, x) * r;
 #else
-    return pl->surf.ai * r;
+    (void)pl;
+    return sf->ai * r;
 #endif
 }
 
@@ -5661,12 +5667,12 @@ KIFMM__FN int KIFMM__F(__c2e_kernels)(const KIFMM_NAME *c, double r, double ao, 
     o->kdn = (double *)kifmm__alloc(nn, sizeof(double));
     if (!o->kup || !o->kdn) return KIFMM_ERR_NOMEM;
     rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, ao * r, c->pl->surf.unit_e,
-                               c->pl->surf.nse, zero, KIFMM__F(__rin)(c->pl, r), 1.0, o->kup,
+                               c->pl->surf.nse, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r), 1.0, o->kup,
                                (size_t)c->pl->surf.nc, &big);
     if (rc) return rc;
     o->sigma = big >= KIFMM__TINY ? 1.0 / big : 0.0;
     for (i = 0; i < nn; i++) o->kup[i] *= o->sigma;
-    return KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
+    return KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r),
                                  c->pl->surf.unit_e, c->pl->surf.nse, zero, ao * r, o->sigma, o->kdn,
                                  (size_t)c->pl->surf.nc, NULL);
 }
@@ -5865,10 +5871,10 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, int nth, 
             cl[d] = -r * sgn[d];
         }
         rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ao * r, c->pl->surf.unit_e, c->pl->surf.nse, cm,
-                                   KIFMM__F(__rin)(c->pl, 0.5 * r), o->sigma,
+                                   KIFMM__F(__rin)(c->pl, &c->pl->surf, 0.5 * r), o->sigma,
                                    o->m2m + (size_t)oct * ne * nc, nc, NULL);
         if (!rc)
-            rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
+            rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r),
                                        c->pl->surf.unit_e, c->pl->surf.nse, cl, c->pl->surf.ao * 2.0 * r, o->sigma,
                                        o->l2l + (size_t)oct * nc, 8 * nc, NULL);
     }
@@ -5877,7 +5883,7 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, int nth, 
     for (oct = 0; oct < 8 && !rc && nd > ne; oct++) {
         double cl[3];
         for (d = 0; d < 3; d++) cl[d] = -r * ((oct >> (2 - d) & 1) ? 1.0 : -1.0);
-        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
+        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r),
                                    c->pl->surf.unit_a, c->pl->surf.nsa, cl, 2.0 * r, o->sigma,
                                    o->l2l + 8 * nc * ne + (size_t)oct * nc, 8 * nc, NULL);
     }
@@ -5910,10 +5916,10 @@ KIFMM__FN int KIFMM__F(__build_conv)(const KIFMM_NAME *c, double r, kifmm__ops *
     if (!kb || !a || !uf) { rc = KIFMM_ERR_NOMEM; goto done; }
     kifmm__surf_unit(qf, uf);
     rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->pl->surf.ao * r, c->pl->surf.unit_e, c->pl->surf.nse, zero,
-                               KIFMM__F(__rin)(c->pl, r), 1.0, kb, (size_t)nf, NULL);
+                               KIFMM__F(__rin)(c->pl, &c->pl->surf, r), 1.0, kb, (size_t)nf, NULL);
     if (!rc)
         rc = KIFMM__F(__surf_kmat)(c, uf, nsf, zero, c->pl->surf.ao * r, c->pl->surf.unit_c, c->pl->surf.nsc,
-                                   zero, KIFMM__F(__rin)(c->pl, r), 1.0, a, (size_t)nf, NULL);
+                                   zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r), 1.0, a, (size_t)nf, NULL);
     if (!rc)
         rc = KIFMM__F(__pinv_surf)(o->sy, c->opts.kernel_param, a, nf, nc, qf, c->opts.order + c->pl->surf.cdiff, &ut,
                                    &vs, &k);
@@ -5950,7 +5956,7 @@ KIFMM__FN int KIFMM__F(__m2l_grids)(const KIFMM_NAME *c, double r, double sigma,
     const kifmm__fft *pl = &c->pl->fft;
     const int n = pl->n, p = pl->p;
     const size_t nnn = (size_t)n * n * n, per = SD2 * nnn + kifmm__fft_work(pl);
-    const double h = 2.0 * KIFMM__F(__rin)(c->pl, r) / (p - 1);
+    const double h = 2.0 * KIFMM__F(__rin)(c->pl, &c->pl->surf, r) / (p - 1);
     double *gall = (double *)kifmm__alloc((size_t)nth * per, sizeof(double)), mx = 0.0;
     int bad = 0, slot[KIFMM__NT];
     if (!gall) return KIFMM_ERR_NOMEM;
@@ -6142,8 +6148,8 @@ KIFMM__FN int KIFMM__F(__build_m2l_dense)(const KIFMM_NAME *c, double r, kifmm__
             cs[0] = 2.0 * r * d[0];
             cs[1] = 2.0 * r * d[1];
             cs[2] = 2.0 * r * d[2];
-            bad |= KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
-                                         c->pl->surf.unit_e, c->pl->surf.nse, cs, KIFMM__F(__rin)(c->pl, r),
+            bad |= KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r),
+                                         c->pl->surf.unit_e, c->pl->surf.nse, cs, KIFMM__F(__rin)(c->pl, &c->pl->surf, r),
                                          o->sigma, kall + (size_t)k * nc * ne, (size_t)nc,
                                          NULL) != KIFMM_SUCCESS;
         }
@@ -7291,6 +7297,23 @@ KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
     return c->lv[l];
 }
 
+/* The surfaces of level l's boxes: their expansions' order. Every pass
+ * takes a level's surfaces from here; the buffers sized for any level take
+ * the plan's (c->pl->surf). */
+KIFMM__FN const kifmm__surf *KIFMM__F(__sf)(const KIFMM_NAME *c, int l)
+{
+    (void)l;
+    return &c->pl->surf;
+}
+
+/* Where box b's upward (down = 0) or downward (down = 1) density starts in
+ * one vector's expansions (ue, de); b = nbox: a vector's length. Every
+ * pass finds a box's expansion here. */
+KIFMM__FN size_t KIFMM__F(__eo)(const KIFMM_NAME *c, int down, int32_t b)
+{
+    return (size_t)b * (size_t)(down ? c->pl->surf.nde : c->pl->surf.ne);
+}
+
 /* Factor multiplying check potentials computed directly from points at
  * level l: the level's sigma (see build_c2e), times (half-width)^(-degree)
  * for a scale-invariant kernel, whose operators are built once at
@@ -7342,7 +7365,7 @@ KIFMM__FN int KIFMM__F(__anchor_pinv)(const KIFMM_NAME *c, double r, double sigm
     int rc = g2 ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, i;
     *ka = 0;
     if (!rc)
-        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, r),
+        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r),
                                    c->pl->surf.unit_a, c->pl->surf.nsa, zero, r, sigma, g, (size_t)nc, NULL);
     for (i = 0; !rc && i < nc * na; i++)
         if (fabs(g[i]) > gmax) gmax = fabs(g[i]);
@@ -7410,15 +7433,15 @@ done:
 /* The points of a downward density of a box (centre ctr, half-width
  * half) into pe, SoA over nse + nsa points: its outer surface (at radius),
  * then its anchors. */
-KIFMM__FN void KIFMM__F(__place_down)(const KIFMM__F(_plan) *pl, const double *ctr, double radius, double half,
+KIFMM__FN void KIFMM__F(__place_down)(const kifmm__surf *sf, const double *ctr, double radius, double half,
                                       KIFMM__R *pe)
 {
-    const int n = pl->surf.nse, m = n + pl->surf.nsa;
+    const int n = sf->nse, m = n + sf->nsa;
     int i, d;
     for (d = 0; d < 3; d++) {
-        for (i = 0; i < n; i++) pe[d * m + i] = (KIFMM__R)(ctr[d] + radius * pl->surf.unit_e[d * n + i]);
-        for (i = 0; i < pl->surf.nsa; i++)
-            pe[d * m + n + i] = (KIFMM__R)(ctr[d] + half * pl->surf.unit_a[d * pl->surf.nsa + i]);
+        for (i = 0; i < n; i++) pe[d * m + i] = (KIFMM__R)(ctr[d] + radius * sf->unit_e[d * n + i]);
+        for (i = 0; i < sf->nsa; i++)
+            pe[d * m + n + i] = (KIFMM__R)(ctr[d] + half * sf->unit_a[d * sf->nsa + i]);
     }
 }
 
@@ -7440,8 +7463,8 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
 KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 {
     size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.nde ? c->pl->surf.nc : c->pl->surf.nde);
-    sz[0] = (size_t)c->tree->nbox * (size_t)c->pl->surf.ne;                  /* ue */
-    sz[5] = (size_t)c->tree->nbox * (size_t)c->pl->surf.nde;                 /* de */
+    sz[0] = KIFMM__F(__eo)(c, 0, c->tree->nbox);                  /* ue */
+    sz[5] = KIFMM__F(__eo)(c, 1, c->tree->nbox);                  /* de */
     sz[1] = (size_t)c->work.mb * (size_t)c->pl->surf.nc;                         /* chk */
 #if KIFMM__FFT
     sz[2] = 0;
@@ -7510,13 +7533,16 @@ KIFMM__FN KIFMM__R *KIFMM__F(__lbuf)(const KIFMM__F(__work) *w, int nrhs, int64_
 KIFMM__FN void KIFMM__F(__work_zero)(const KIFMM_NAME *c, KIFMM__F(__work) *w)
 {
     const kifmm__tree *t = c->tree;
-    const size_t ne = (size_t)c->pl->surf.ne, nd = (size_t)c->pl->surf.nde;
+    const size_t pu = KIFMM__F(__eo)(c, 0, t->nbox), pd = KIFMM__F(__eo)(c, 1, t->nbox);
     int32_t b;
     int r;
     for (r = 0; r < w->nrhs; r++)
         for (b = 0; b < t->nbox; b++) {
-            if (t->s1[b] == t->s0[b]) memset(w->ue + ((size_t)r * t->nbox + b) * ne, 0, ne * sizeof(KIFMM__R));
-            if (t->t1[b] == t->t0[b]) memset(w->de + ((size_t)r * t->nbox + b) * nd, 0, nd * sizeof(KIFMM__R));
+            const kifmm__surf *sf = KIFMM__F(__sf)(c, t->lev[b]);
+            if (t->s1[b] == t->s0[b])
+                memset(w->ue + r * pu + KIFMM__F(__eo)(c, 0, b), 0, (size_t)sf->ne * sizeof(KIFMM__R));
+            if (t->t1[b] == t->t0[b])
+                memset(w->de + r * pd + KIFMM__F(__eo)(c, 1, b), 0, (size_t)sf->nde * sizeof(KIFMM__R));
         }
 }
 
@@ -7671,8 +7697,9 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     const int32_t *ai = c->work.act + (up ? 0 : t->nbox) + t->loff[l];
     const int na = c->work.act[2 * t->nbox + 2 * l + !up];
     const int ppv = (na + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
-    const int ne = up ? c->pl->surf.ne : c->pl->surf.nde;
-    const size_t per = (size_t)t->nbox * (size_t)ne;
+    const kifmm__surf *sf = KIFMM__F(__sf)(c, l);
+    const int ne = up ? sf->ne : sf->nde, nc = sf->nc;
+    const size_t per = KIFMM__F(__eo)(c, !up, t->nbox);
     KIFMM__R *eq = up ? w->ue : w->de;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
     for (int p = 0; p < np; p++) {
@@ -7689,11 +7716,11 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
         if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
         for (q = 0; q < nq; q++) {
             const size_t b = (size_t)ai[j0 + q]; /* within the level */
-            bp[q] = w->chk + ((size_t)r * n + b) * c->pl->surf.nc;
+            bp[q] = w->chk + ((size_t)r * n + b) * nc;
             tb[q] = tp[q] = buf + (size_t)q * k;
-            cp[q] = eq + (size_t)r * per + ((size_t)t->loff[l] + b) * ne;
+            cp[q] = eq + (size_t)r * per + KIFMM__F(__eo)(c, !up, t->loff[l] + (int32_t)b);
         }
-        KIFMM__GEMM_COLS(k, c->pl->surf.nc, up ? o->ut_up : o->ut_dn, k, nq, bp, tp, 0, buf + per_t);
+        KIFMM__GEMM_COLS(k, nc, up ? o->ut_up : o->ut_dn, k, nq, bp, tp, 0, buf + per_t);
         KIFMM__GEMM_COLS(ne, k, up ? o->vs_up : o->vs_dn, ne, nq, tb, cp, 0, buf + per_t);
     }
 }
@@ -7710,8 +7737,9 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
     const kifmm__tree *t = c->tree;
     const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
     const int ppv = (ni + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
-    const int m = down ? 8 * c->pl->surf.nc : c->pl->surf.nc, k = down ? c->pl->surf.nde : 8 * c->pl->surf.ne;
-    const size_t per = (size_t)t->nbox * (size_t)(down ? c->pl->surf.nde : c->pl->surf.ne);
+    const kifmm__surf *sp = KIFMM__F(__sf)(c, lp), *sc = KIFMM__F(__sf)(c, lp + 1);
+    const int m = down ? 8 * sc->nc : sp->nc, k = down ? sp->nde : 8 * sc->ne;
+    const size_t per = KIFMM__F(__eo)(c, down, t->nbox);
     const KIFMM__R *op = down ? KIFMM__F(__ops_at)(c, lp + 1)->l2l : KIFMM__F(__ops_at)(c, lp)->m2m;
     if (ni == 0 || lp + 1 >= t->nlev) return;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
@@ -7725,11 +7753,11 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
             const int jb = j0 + q;
             const int32_t b = t->inner[t->ioff[lp] + jb];
             if (down) {
-                bp[q] = w->de + jr * per + (size_t)b * c->pl->surf.nde;
-                cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * c->pl->surf.nc;
+                bp[q] = w->de + jr * per + KIFMM__F(__eo)(c, 1, b);
+                cp[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * sc->nc;
             } else {
-                bp[q] = w->ue + jr * per + ((size_t)t->loff[lp + 1] + 8 * (size_t)jb) * c->pl->surf.ne;
-                cp[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[lp])) * c->pl->surf.nc;
+                bp[q] = w->ue + jr * per + KIFMM__F(__eo)(c, 0, t->loff[lp + 1] + 8 * jb);
+                cp[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[lp])) * sp->nc;
             }
         }
         KIFMM__GEMM_COLS(m, k, op, m, nq, bp, cp, !down,
@@ -7742,14 +7770,14 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
 KIFMM__FN void KIFMM__F(__alias_fill)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
     const kifmm__tree *t = c->tree;
-    const size_t ne = (size_t)c->pl->surf.ne, per = (size_t)t->nbox * ne;
+    const size_t ne = (size_t)KIFMM__F(__sf)(c, l)->ne, per = KIFMM__F(__eo)(c, 0, t->nbox);
     int32_t b;
     int r;
     for (r = 0; r < nrhs; r++)
         for (b = t->loff[l]; b < t->loff[l + 1]; b++)
             if (t->alias[b] >= 0)
-                memcpy(w->ue + r * per + (size_t)b * ne, w->ue + r * per + (size_t)t->alias[b] * ne,
-                       ne * sizeof(KIFMM__R));
+                memcpy(w->ue + r * per + KIFMM__F(__eo)(c, 0, b),
+                       w->ue + r * per + KIFMM__F(__eo)(c, 0, t->alias[b]), ne * sizeof(KIFMM__R));
 }
 
 /* After the upward solve of level l: each box's equivalent density gets the
@@ -7767,15 +7795,16 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
 {
     const kifmm__tree *t = c->tree;
     const int32_t *ai = c->work.act + t->loff[l];
-    const int na = c->work.act[2 * t->nbox + 2 * l], nse = c->pl->surf.nse, ne = c->pl->surf.ne;
-    const size_t per = (size_t)t->nbox * (size_t)ne, ldq = (size_t)t->ns * KIFMM__QD;
+    const int na = c->work.act[2 * t->nbox + 2 * l], nse = KIFMM__F(__sf)(c, l)->nse;
+    const int ne = KIFMM__F(__sf)(c, l)->ne;
+    const size_t per = KIFMM__F(__eo)(c, 0, t->nbox), ldq = (size_t)t->ns * KIFMM__QD;
     const KIFMM__F(__ops) *e = c->lv[l];
     if (!e || !e->mono_on) return;
     KIFMM__OMP(parallel for schedule(static) num_threads(c->opts.nthreads))
     for (int j = 0; j < na * nrhs; j++) {
         const int r = j / na;
         const int32_t b = t->loff[l] + ai[j % na];
-        KIFMM__R *x = w->ue + (size_t)r * per + (size_t)b * ne;
+        KIFMM__R *x = w->ue + (size_t)r * per + KIFMM__F(__eo)(c, 0, b);
         double m[KIFMM__SD], sx[KIFMM__SD], dm[KIFMM__SD];
         int a, i, ok = 1;
         if (t->alias && t->alias[b] >= 0) continue;
@@ -7799,12 +7828,13 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
             for (k = 0; k < KIFMM__QD; k++)
                 for (a = 0; a < KIFMM__SD; a++) m[a] += e->mono[a + k * KIFMM__SD] * sq[k];
         } else {
+            const int nch = KIFMM__F(__sf)(c, l + 1)->ne;
             int ch;
             /* every child: those without sources hold zeros, and above the
              * cell an image's densities are its sibling's (__alias_fill) */
             for (ch = 0; ch < 8; ch++) {
-                const KIFMM__R *y = w->ue + (size_t)r * per + (size_t)(t->child[b] + ch) * ne;
-                for (i = 0; i < ne; i++) m[i % KIFMM__SD] += (double)y[i];
+                const KIFMM__R *y = w->ue + (size_t)r * per + KIFMM__F(__eo)(c, 0, t->child[b] + ch);
+                for (i = 0; i < nch; i++) m[i % KIFMM__SD] += (double)y[i];
             }
         }
         for (i = 0; i < ne; i++) sx[i % KIFMM__SD] += (double)x[i];
@@ -7822,9 +7852,12 @@ KIFMM__FN void KIFMM__F(__mono_fix)(const KIFMM_NAME *c, const KIFMM__F(__work) 
 KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
     const kifmm__tree *t = c->tree;
+    const kifmm__surf *sf = KIFMM__F(__sf)(c, l);
+    const int nsc = sf->nsc;
+    const size_t nc = (size_t)sf->nc;
     int nl = KIFMM__LVL(c, l);
     double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now(), t1;
-    memset(w->chk, 0, (size_t)nl * nrhs * c->pl->surf.nc * sizeof(KIFMM__R));
+    memset(w->chk, 0, (size_t)nl * nrhs * nc * sizeof(KIFMM__R));
     /* each leaf b writes its own check vector (its thread's scratch) */
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
@@ -7838,20 +7871,18 @@ KIFMM__FN void KIFMM__F(__upward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int 
         memcpy(fc, ctr, sizeof fc);
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, ns, fc, KIFMM__F(__framebuf)(c));
         kifmm__sub3(ctr, fc, rc);
-        KIFMM__F(__place)(c->pl->surf.unit_c, c->pl->surf.nsc, rc, c->pl->surf.ao * half, pc);
+        KIFMM__F(__place)(sf->unit_c, nsc, rc, sf->ao * half, pc);
 #if defined(KIFMM_MPI)
         if (c->px.cum) {
-            KIFMM__F(__p2p_roles)(c, w, KIFMM__F(__p2p_qc), KIFMM__F(__p2p_sc), pc, pc + c->pl->surf.nsc,
-                                  pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, ld, s0, ns, nrhs, scale,
-                                  w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc,
-                                  (size_t)nl * c->pl->surf.nc);
+            KIFMM__F(__p2p_roles)(c, w, KIFMM__F(__p2p_qc), KIFMM__F(__p2p_sc), pc, pc + nsc, pc + 2 * nsc,
+                                  nsc, xs, ld, s0, ns, nrhs, scale, w->chk + (size_t)(b - t->loff[l]) * nc,
+                                  (size_t)nl * nc);
             continue;
         }
 #endif
-        KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc, c->pl->surf.nsc, xs, xs + ld,
-                              xs + 2 * ld, w->qs + s0 * KIFMM__QD, ns, nrhs,
-                              (size_t)t->ns * KIFMM__QD, scale,
-                              w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc, (size_t)nl * c->pl->surf.nc);
+        KIFMM__F(__p2p_qc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, xs, xs + ld, xs + 2 * ld,
+                           w->qs + s0 * KIFMM__QD, ns, nrhs, (size_t)t->ns * KIFMM__QD, scale,
+                           w->chk + (size_t)(b - t->loff[l]) * nc, (size_t)nl * nc);
     }
     t1 = kifmm__now();
     c->stats.t_p2m += t1 - t0;
@@ -7873,17 +7904,17 @@ KIFMM__FN void KIFMM__F(__solve_step)(const KIFMM_NAME *c, const KIFMM__F(__work
 {
     const kifmm__tree *t = c->tree;
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
+    const kifmm__surf *sf = KIFMM__F(__sf)(c, l);
     int n = KIFMM__LVL(c, l), k = up ? o->ku : o->kd, r;
-    const int ne = up ? c->pl->surf.ne : c->pl->surf.nde;
-    size_t per = (size_t)t->nbox * (size_t)ne;
+    const int ne = up ? sf->ne : sf->nde;
+    size_t per = KIFMM__F(__eo)(c, !up, t->nbox);
     if (step == 0) {
-        KIFMM__F(__gemm)(k, n * nrhs, c->pl->surf.nc, up ? o->ut_up : o->ut_dn, k, w->chk, c->pl->surf.nc, 0, w->tmp,
-                         k);
+        KIFMM__F(__gemm)(k, n * nrhs, sf->nc, up ? o->ut_up : o->ut_dn, k, w->chk, sf->nc, 0, w->tmp, k);
         return;
     }
     for (r = 0; r < nrhs; r++)
         KIFMM__F(__gemm)(ne, n, k, up ? o->vs_up : o->vs_dn, ne, w->tmp + (size_t)r * n * k, k, 0,
-                         (up ? w->ue : w->de) + r * per + (size_t)t->loff[l] * ne, ne);
+                         (up ? w->ue : w->de) + r * per + KIFMM__F(__eo)(c, !up, t->loff[l]), ne);
 }
 
 KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
@@ -7893,7 +7924,8 @@ KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     int32_t n = t->m2lo[l + 1] - t->m2lo[l], b0, blk = c->work.m2l_cols / nrhs;
     int nl = KIFMM__LVL(c, l);
-    size_t col = (size_t)KIFMM__NT * c->pl->surf.ne, per = (size_t)t->nbox * (size_t)c->pl->surf.ne;
+    const size_t ne = (size_t)KIFMM__F(__sf)(c, l)->ne;
+    size_t col = (size_t)KIFMM__NT * ne, per = KIFMM__F(__eo)(c, 0, t->nbox);
     if (blk < 1) blk = 1;
     for (b0 = 0; b0 < n; b0 += blk) {
         int32_t nb = n - b0 < blk ? n - b0 : blk;
@@ -7904,8 +7936,7 @@ KIFMM__FN void KIFMM__F(__m2l_level)(const KIFMM_NAME *c, const KIFMM__F(__work)
             KIFMM__R *st = w->stack + (size_t)j * col;
             memset(st, 0, col * sizeof(KIFMM__R));
             for (e = t->vo[b]; e < t->vo[b + 1]; e++)
-                memcpy(st + (size_t)t->vt[e] * c->pl->surf.ne, ue + (size_t)t->v[e] * c->pl->surf.ne,
-                       (size_t)c->pl->surf.ne * sizeof(KIFMM__R));
+                memcpy(st + (size_t)t->vt[e] * ne, ue + KIFMM__F(__eo)(c, 0, t->v[e]), ne * sizeof(KIFMM__R));
         }
         KIFMM__F(__gemm)(o->kd, nb * nrhs, (int)col, o->m2l, o->kd, w->stack, (int)col, 0,
                          w->m2l_out, o->kd);
@@ -8059,7 +8090,7 @@ KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, KIF
                                       size_t ocs, KIFMM__R *chk)
 {
     const kifmm__tree *t = c->tree;
-    const int nc = c->pl->surf.nc;
+    const int nc = KIFMM__F(__sf)(c, l)->nc;
     const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
     double *dchk = KIFMM__F(__mbuf)(c);
     KIFMM__F(__sp) work = KIFMM__F(__fbuf)(c, woff);
@@ -8117,7 +8148,7 @@ KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__
 {
     const kifmm__tree *t = c->tree;
     const kifmm__fft *pl = &c->pl->fft;
-    const int ne = c->pl->surf.ne, nc = c->pl->surf.nc;
+    const int ne = KIFMM__F(__sf)(c, l)->ne, nc = KIFMM__F(__sf)(c, l)->nc;
     const size_t cstride = (size_t)c->fft.slots * KIFMM__FFT_F * 16;
     const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
     /* each b writes its own slot and its own sch entry */
@@ -8253,15 +8284,15 @@ KIFMM__FN void KIFMM__F(__m2l_fft)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const KIFMM__F(__ops) *o = KIFMM__F(__ops_at)(c, l);
     const int32_t ni = t->ioff[l] - t->ioff[l - 1];
     const int kept = o->kbf || o->kbd;
-    const size_t per = (size_t)t->nbox * c->pl->surf.ne;
+    const size_t per = KIFMM__F(__eo)(c, 0, t->nbox), nc = (size_t)KIFMM__F(__sf)(c, l)->nc;
     int32_t s0, s1, e, nneed;
     int tv[27 * 64], r;
     kifmm__fft_tvmap(tv);
     for (s0 = 0; s0 < ni; s0 = s1) {
         s1 = KIFMM__F(__fft_slab)(c, l, kept, s0, &nneed);
         for (r = 0; r < nrhs; r++) {
-            KIFMM__R *chk = w->chk + (size_t)r * KIFMM__LVL(c, l) * c->pl->surf.nc;
-            KIFMM__F(__fft_forward)(c, l, o, w->ue + r * per + (size_t)t->loff[l] * c->pl->surf.ne, nneed);
+            KIFMM__R *chk = w->chk + (size_t)r * KIFMM__LVL(c, l) * nc;
+            KIFMM__F(__fft_forward)(c, l, o, w->ue + r * per + KIFMM__F(__eo)(c, 0, t->loff[l]), nneed);
             if (kept) KIFMM__F(__fft_by_parents)(c, l, o, s0, s1, chk);
             else KIFMM__F(__fft_by_chunks)(c, l, o, tv, s0, s1, chk);
         }
@@ -8323,21 +8354,23 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const kifmm__tree *t = c->tree;
     const double zero[3] = {0.0, 0.0, 0.0};
     const int32_t a = l >= 1 ? c->dsrc[t->parent[b]] : -1;
-    const int nsc = c->pl->surf.nsc, nse = c->pl->surf.nse;
+    const kifmm__surf *sf = KIFMM__F(__sf)(c, l);
+    const int nsc = sf->nsc;
     KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (size_t)c->pl->surf.nsm;
-    const int nd = nse + c->pl->surf.nsa;
     double ctr[3], half;
     int32_t e;
     kifmm__box_center(t, b, ctr, &half);
-    KIFMM__F(__place)(c->pl->surf.unit_c, nsc, KIFMM__FLOAT ? zero : ctr, KIFMM__F(__rin)(c->pl, half), pc);
+    KIFMM__F(__place)(sf->unit_c, nsc, KIFMM__FLOAT ? zero : ctr, KIFMM__F(__rin)(c->pl, sf, half), pc);
     if (a >= 0 && a != t->parent[b]) {
+        const kifmm__surf *sa = KIFMM__F(__sf)(c, t->lev[a]);
+        const int nd = sa->nse + sa->nsa;
         double ac[3], ah;
         kifmm__box_center(t, a, ac, &ah);
         if (KIFMM__FLOAT) kifmm__sub3(ac, ctr, ac);
-        KIFMM__F(__place_down)(c->pl, ac, c->pl->surf.ao * ah, ah, pe);
+        KIFMM__F(__place_down)(sa, ac, sa->ao * ah, ah, pe);
         KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, pe, pe + nd,
-                           pe + 2 * nd, w->de + (size_t)a * c->pl->surf.nde, nd, nrhs,
-                           (size_t)t->nbox * c->pl->surf.nde, scale, chk, cst);
+                           pe + 2 * nd, w->de + KIFMM__F(__eo)(c, 1, a), nd, nrhs,
+                           KIFMM__F(__eo)(c, 1, t->nbox), scale, chk, cst);
     }
     for (e = t->xo[b]; e < t->xo[b + 1] && t->t1[b] - t->t0[b] >= nsc; e++) {
         const int32_t xb = t->x[e];
@@ -8352,7 +8385,7 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
         for (d = 0; d < 3; d++) fc[d] = cs[d] = ctr[d] - sh[d] * t->cell;
         xs = KIFMM__F(__frame)(c->pts.src, &ld, s0, t->s1[xb] - s0, fc, KIFMM__F(__framebuf)(c));
         if (!KIFMM__FLOAT && t->periodic)
-            KIFMM__F(__place)(c->pl->surf.unit_c, nsc, cs, KIFMM__F(__rin)(c->pl, half), pc);
+            KIFMM__F(__place)(sf->unit_c, nsc, cs, KIFMM__F(__rin)(c->pl, sf, half), pc);
 #if defined(KIFMM_MPI)
         if (c->px.cum) {
             KIFMM__F(__p2p_roles)(c, w, KIFMM__F(__p2p_qc), KIFMM__F(__p2p_sc), pc, pc + nsc, pc + 2 * nsc,
@@ -8405,7 +8438,9 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
     enum { BLK = 32 };
     const kifmm__tree *t = c->tree;
     const int nu = c->far->nzu, mu = nu * KIFMM__SD; /* D shares U's points */
-    const size_t per = (size_t)t->nbox * (size_t)c->pl->surf.ne, cst = (size_t)KIFMM__LVL(c, l) * c->pl->surf.nc;
+    const kifmm__surf *sf = KIFMM__F(__sf)(c, l);
+    const int nse = sf->nse, nsc = sf->nsc;
+    const size_t per = KIFMM__F(__eo)(c, 0, t->nbox), cst = (size_t)KIFMM__LVL(c, l) * sf->nc;
     const double scale = KIFMM__F(__level_scale)(c, l);
     const KIFMM__R *pu = c->far->zp;
     const int ku = c->far->zku, kd = c->far->zkd;
@@ -8436,10 +8471,10 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
             }
             kifmm__box_center(t, b, cb, &hb);
             kifmm__sub3(cb, c0, cb);
-            KIFMM__F(__place)(c->pl->surf.unit_e, c->pl->surf.nse, cb, KIFMM__F(__rin)(c->pl, hb), pe);
+            KIFMM__F(__place)(sf->unit_e, nse, cb, KIFMM__F(__rin)(c->pl, sf, hb), pe);
             KIFMM__F(__p2p_sc)(c->opts.kernel_param, pu + i0, pu + nu + i0, pu + 2 * nu + i0, n, pe,
-                               pe + c->pl->surf.nse, pe + 2 * c->pl->surf.nse, w->ue + (size_t)b * c->pl->surf.ne,
-                               c->pl->surf.nse, nrhs, per, 1.0, phi + (size_t)i0 * KIFMM__SD, (size_t)mu);
+                               pe + nse, pe + 2 * nse, w->ue + KIFMM__F(__eo)(c, 0, b), nse, nrhs, per, 1.0,
+                               phi + (size_t)i0 * KIFMM__SD, (size_t)mu);
         }
     }
     KIFMM__F(__gemm)(ku, nrhs, mu, c->far->zu, ku, phi, mu, 0, t1, ku);
@@ -8453,10 +8488,9 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
         if (t->t1[b] == t->t0[b] || t->child[b] < 0) continue;
         kifmm__box_center(t, b, cb, &hb);
         kifmm__sub3(cb, c0, cb);
-        KIFMM__F(__place)(c->pl->surf.unit_c, c->pl->surf.nsc, cb, KIFMM__F(__rin)(c->pl, hb), pc);
-        KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + c->pl->surf.nsc, pc + 2 * c->pl->surf.nsc,
-                           c->pl->surf.nsc, pu, pu + nu, pu + 2 * nu, psi, nu, nrhs, (size_t)mu, scale,
-                           w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc, cst);
+        KIFMM__F(__place)(sf->unit_c, nsc, cb, KIFMM__F(__rin)(c->pl, sf, hb), pc);
+        KIFMM__F(__p2p_sc)(c->opts.kernel_param, pc, pc + nsc, pc + 2 * nsc, nsc, pu, pu + nu, pu + 2 * nu,
+                           psi, nu, nrhs, (size_t)mu, scale, w->chk + (size_t)(b - t->loff[l]) * sf->nc, cst);
     }
 }
 
@@ -8467,7 +8501,8 @@ KIFMM__FN void KIFMM__F(__far_apply)(const KIFMM_NAME *c, const KIFMM__F(__work)
 KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int l)
 {
     const kifmm__tree *t = c->tree;
-    const size_t cst = (size_t)KIFMM__LVL(c, l) * c->pl->surf.nc;
+    const kifmm__surf *sf = KIFMM__F(__sf)(c, l);
+    const size_t cst = (size_t)KIFMM__LVL(c, l) * sf->nc;
     const double scale = KIFMM__F(__level_scale)(c, l), t0 = kifmm__now();
     double t1;
     if (l > kifmm__lmin(t)) KIFMM__F(__family_level)(c, w, nrhs, l - 1, 1); /* L2L */
@@ -8477,15 +8512,15 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
     /* box b writes its own check vectors and its own targets' outputs */
     KIFMM__OMP(parallel for schedule(dynamic, 8) num_threads(c->opts.nthreads))
     for (int32_t b = t->loff[l]; b < t->loff[l + 1]; b++) {
-        KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * c->pl->surf.nc;
+        KIFMM__R *chk = w->chk + (size_t)(b - t->loff[l]) * sf->nc;
         int r;
-        if (t->t1[b] - t->t0[b] < c->pl->surf.nsc && t->xo[b + 1] > t->xo[b])
+        if (t->t1[b] - t->t0[b] < sf->nsc && t->xo[b + 1] > t->xo[b])
             KIFMM__F(__x_direct)(c, w, nrhs, b);
         if (c->dsrc[b] == b) {
             KIFMM__F(__p2l_box)(c, w, nrhs, l, b, scale, chk, cst);
             continue;
         }
-        for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)c->pl->surf.nc * sizeof(KIFMM__R));
+        for (r = 0; r < nrhs; r++) memset(chk + r * cst, 0, (size_t)sf->nc * sizeof(KIFMM__R));
     }
     c->stats.t_l2l += t1 - t0;
     c->stats.t_p2l += kifmm__now() - t1;
@@ -8496,8 +8531,8 @@ KIFMM__FN void KIFMM__F(__downward)(KIFMM_NAME *c, const KIFMM__F(__work) *w, in
 
 /* out += the field, at nt targets (coordinates in the frame centred at fc,
  * see __frame), of densities on the surface of image s of box a: its
- * inner one, the upward density (vector stride nbox ne), or where inner is
- * 0 its outer one and its anchors, the downward (vector stride nbox nde);
+ * inner one, the upward density (a vector: __eo(c, 0, nbox) values), or where inner is
+ * 0 its outer one and its anchors, the downward (__eo(c, 1, nbox));
  * pe holds the placed surface;
  * vector r's outputs from out + r old on. */
 KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs,
@@ -8506,16 +8541,17 @@ KIFMM__FN void KIFMM__F(__from_surface)(const KIFMM_NAME *c, const KIFMM__F(__wo
                                         const KIFMM__R *ty, const KIFMM__R *tz, int64_t nt,
                                         KIFMM__R *pe, KIFMM__R *out, size_t old)
 {
-    const int n = inner ? c->pl->surf.nse : c->pl->surf.nse + c->pl->surf.nsa;
+    const kifmm__surf *sf = KIFMM__F(__sf)(c, c->tree->lev[a]);
+    const int n = inner ? sf->nse : sf->nse + sf->nsa;
     double ctr[3], half;
     int sh[3], d;
     kifmm__box_center(c->tree, a, ctr, &half);
     kifmm__shift_of(s, sh);
     for (d = 0; d < 3; d++) ctr[d] += sh[d] * c->tree->cell - fc[d]; /* in the targets' frame */
-    if (inner) KIFMM__F(__place)(c->pl->surf.unit_e, n, ctr, KIFMM__F(__rin)(c->pl, half), pe); /* M2P */
-    else KIFMM__F(__place_down)(c->pl, ctr, c->pl->surf.ao * half, half, pe); /* L2P, anchors last */
+    if (inner) KIFMM__F(__place)(sf->unit_e, n, ctr, KIFMM__F(__rin)(c->pl, sf, half), pe); /* M2P */
+    else KIFMM__F(__place_down)(sf, ctr, sf->ao * half, half, pe); /* L2P, anchors last */
     KIFMM__F(__p2p_st)(c->opts.kernel_param, tx, ty, tz, nt, pe, pe + n, pe + 2 * n, dens, n, nrhs,
-                       (size_t)c->tree->nbox * (inner ? c->pl->surf.ne : c->pl->surf.nde), 1.0, out, old);
+                       KIFMM__F(__eo)(c, !inner, c->tree->nbox), 1.0, out, old);
     (void)w;
 }
 
@@ -8622,18 +8658,17 @@ KIFMM__FN void KIFMM__F(__leaf)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, 
     }
     if (c->dsrc[b] >= 0)
         KIFMM__F(__from_surface)(c, w, nrhs, c->dsrc[b], KIFMM__NOSHIFT, 0,
-                                 w->de + (size_t)c->dsrc[b] * c->pl->surf.nde, fc, xf, xf + ld,
+                                 w->de + KIFMM__F(__eo)(c, 1, c->dsrc[b]), fc, xf, xf + ld,
                                  xf + 2 * ld, ntb, pe, out, old);
     c1 = kifmm__now();
     for (e = t->wo[b]; e < t->wo[b + 1]; e++) {
         const int32_t a = t->w[e];
         const int s = KIFMM__SH(t->ws, e);
-        if (t->s1[a] - t->s0[a] <= c->pl->surf.nse)
+        if (t->s1[a] - t->s0[a] <= KIFMM__F(__sf)(c, t->lev[a])->nse)
             KIFMM__F(__from_sources)(c, w, nrhs, a, s, tx, ty, tz, ntb, out, old);
         else
-            KIFMM__F(__from_surface)(c, w, nrhs, a, s, 1,
-                                     w->ue + (size_t)a * c->pl->surf.ne, fc, xf, xf + ld, xf + 2 * ld,
-                                     ntb, pe, out, old);
+            KIFMM__F(__from_surface)(c, w, nrhs, a, s, 1, w->ue + KIFMM__F(__eo)(c, 0, a), fc, xf,
+                                     xf + ld, xf + 2 * ld, ntb, pe, out, old);
     }
     c2 = kifmm__now();
     KIFMM__F(__p2p_u)(c, w, nrhs, b, lo, hi, ob, base, old);
@@ -11107,7 +11142,7 @@ KIFMM__FN int KIFMM__F(__mpi_qc)(const KIFMM_NAME *c, double w, double *a)
     int i, j, q, s, ok = 1;
     if (!pc) return KIFMM_ERR_NOMEM;
     kifmm__surf_place(c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao * w, pc);
-    kifmm__surf_place(c->pl->surf.unit_e, nse, zero, KIFMM__F(__rin)(c->pl, w), pe);
+    kifmm__surf_place(c->pl->surf.unit_e, nse, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, w), pe);
     for (j = 0; j < nse; j++)
         for (i = 0; i < nsc; i++) {
             KIFMM__R_(QC, _eval)(c->opts.kernel_param, pc[i] - pe[j], pc[nsc + i] - pe[nse + j],
@@ -11159,7 +11194,7 @@ KIFMM__FN int KIFMM__F(__mpi_apply)(const KIFMM_NAME *c, double w, const double 
     size_t i;
     int rc = b && t ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM;
     if (!rc) rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, nsc, zero, c->pl->surf.ao * w, c->pl->surf.unit_e,
-                                        nse, zero, KIFMM__F(__rin)(c->pl, w), 1.0, b, (size_t)nc, NULL);
+                                        nse, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, w), 1.0, b, (size_t)nc, NULL);
     if (!rc) {
         for (i = 0; i < (size_t)nc * ne; i++) b[i] *= rs[i % (size_t)nc % KIFMM__SD];
         memset(f, 0, (size_t)nq * ne * sizeof(double));
@@ -11359,7 +11394,7 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
         for (d = 0; d < 3; d++) {
             const double c = m->root[d] - m->root[3] + (a[d + 1] + 0.5) * w;
             for (q = 0; q < nse; q++)
-                xs[3 * (j + q) + d] = (KIFMM__R)(c + KIFMM__F(__rin)(m->pl, 0.5 * w) * m->pl->surf.unit_e[d * nse + q]);
+                xs[3 * (j + q) + d] = (KIFMM__R)(c + KIFMM__F(__rin)(m->pl, &m->pl->surf, 0.5 * w) * m->pl->surf.unit_e[d * nse + q]);
         }
     }
     rc = KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, nsm, xs, m->nto, m->to);
@@ -11483,8 +11518,9 @@ KIFMM__FN int KIFMM__F(__mpi_upward)(KIFMM__F(__mpi) *m, int nr, const KIFMM__R 
 /* v += box b's equivalent density of vector r (up's, scaled back). */
 KIFMM__FN void KIFMM__F(__mpi_ue)(const KIFMM__F(__mpi) *m, int r, int32_t b, const int *e, KIFMM__R *v)
 {
-    const int ne = m->pl->surf.ne;
-    const KIFMM__R *u = m->up->work.w->ue + ((size_t)r * m->up->tree->nbox + (size_t)b) * ne;
+    const int ne = m->pl->surf.ne; /* (MPI mode: every level has the plan's order) */
+    const KIFMM__R *u = m->up->work.w->ue + (size_t)r * KIFMM__F(__eo)(m->up, 0, m->up->tree->nbox) +
+                        KIFMM__F(__eo)(m->up, 0, b);
     const double s = ldexp(1.0, e[r]);
     int i;
     for (i = 0; i < ne; i++) v[i] = (KIFMM__R)((double)v[i] + s * (double)u[i]);
