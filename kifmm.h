@@ -93,6 +93,10 @@
  *   KIFMM_NO_ANCHORS            downward densities without their far points
  *                               (for comparison: derivatives in deep trees
  *                               lose accuracy; docs/algorithm.md, "Anchors")
+ *   KIFMM_RAISE_SLACK           an oscillating kernel's level takes a higher
+ *                               order where its error would pass this many
+ *                               times the order's on narrow boxes (3; 0: every
+ *                               level at opts.order, refused past its limit)
  *
  *   LINKAGE MODES (per include, as in STC)
  *
@@ -276,9 +280,9 @@ extern "C++" {
       "MPI mode: MPI is not initialised or an MPI call failed, the ranks passed different "   \
       "counts of vectors, or this kernel has no MPI mode yet (docs/api.md, \"MPI\")")        \
     X(KIFMM_ERR_FREQUENCY, -25,                                                               \
-      "the boxes that carry expansions are too many wavelengths wide for this order, or "     \
-      "for any order that meets opts.tol (an oscillating kernel: raise opts.order or tol, "   \
-      "docs/kernels.md, \"Helmholtz\")")
+      "the boxes that carry expansions are too many wavelengths wide for every order up to "  \
+      "12 (for the order in MPI mode), or for any order that meets opts.tol (an oscillating " \
+      "kernel: raise tol or use fewer wavelengths a box, docs/kernels.md, \"Helmholtz\")")
 
 #define KIFMM__RESULT_ENUM(name, value, message) name = value,
 #define KIFMM__RESULT_CASE(name, value, message)                                              \
@@ -3290,6 +3294,11 @@ KIFMM__FN int kifmm__check_diff(int p, int fft, int sd)
 #ifndef KIFMM_MONO_FIX
 #define KIFMM_MONO_FIX 1
 #endif
+/* KIFMM_RAISE_SLACK: an oscillating kernel's wide levels at a higher order
+ * (>>orders); 0 for none (the measurements behind the tables per order) */
+#ifndef KIFMM_RAISE_SLACK
+#define KIFMM_RAISE_SLACK 3.0
+#endif
 #ifndef KIFMM_EWALD_RAISE
 #define KIFMM_EWALD_RAISE 1
 #endif
@@ -3386,6 +3395,9 @@ typedef struct kifmm__ops {
     double *kup, *kdn;      /* the two check-to-equivalent matrices, times sigma,
                                from the kernel pass to the solves (then freed) */
     kifmm__symbs *sy;       /* the build's symmetry bases (NULL: none kept), not owned */
+    const kifmm__surf *sc;  /* M2M's children's and L2L's parent's surfaces where their
+                               order is not the level's (>>orders), else NULL */
+    const kifmm__surf *sp;
 } kifmm__ops;
 
 KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
@@ -5182,7 +5194,7 @@ KIFMM__STATIC_ASSERT(KIFMM__SD == 2 || (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) == 0,
  * one slot per parent and component: slot b SD + j, F 16 values per chunk. */
 #define KIFMM__FFT_KBN ((size_t)27 * 128 * KIFMM__FFT_F * KIFMM__FSD * KIFMM__FSD)
 #define KIFMM__FFT_PN ((size_t)KIFMM__FFT_F * 16 * KIFMM__FSD)
-#define KIFMM__FFT_OUTN(c) ((size_t)(c)->pl->fft.nfp * (size_t)(c)->fft.ftb * 16 * KIFMM__FSD)
+#define KIFMM__FFT_OUTN(c) ((size_t)KIFMM__F(__ftmax)(c)->nfp * (size_t)(c)->fft.ftb * 16 * KIFMM__FSD)
 
 /* Singular value cutoff of the check-to-equivalent pseudo-inverses; the
  * smallest kernel magnitude on the surfaces for which a level keeps its far
@@ -5204,6 +5216,8 @@ KIFMM__STATIC_ASSERT(KIFMM__SD == 2 || (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) == 0,
  * changed once in a plan; freed when no handle uses it. */
 typedef struct {
     double r;     /* the half-width it was built at */
+    int p[3];     /* and the orders of its level, of the parent's (its L2L) and of the
+                     children's (its M2M): the handle's order, or raised (>>orders) */
     int has_m2l;  /* it has the M2L's operators */
     int refs;     /* handles that use it, and 1 for a plan_create's own */
     size_t held;  /* bytes of the arrays below */
@@ -5322,6 +5336,16 @@ struct KIFMM_NAME {
     KIFMM__F(__ops) *lv[KIFMM__D + 2]; /* the operator set of each level that has
                                   one (pl's entries, one reference each) */
     KIFMM__F(__far) *far;      /* periodic trees: the far images (pl's), else NULL */
+    struct {                   /* the levels' orders (>>orders): an oscillating kernel's
+                                  wide levels take a higher one than pl's */
+        int up;                /* whether any level does (raise: whether they may) */
+        int raise, pmax;       /* pmax: the highest order of the levels */
+        KIFMM__F(_plan) *pl[KIFMM__D + 2]; /* the plan of each level's order: NULL, pl; else
+                                  one of own (its surfaces and lattice; the sets are pl's) */
+        KIFMM__F(_plan) *own[KIFMM_MAX_ORDER + 1]; /* the handle's plans of the raised orders */
+        size_t eo[2][KIFMM__D + 3]; /* where the upward and downward densities of each
+                                  level start in a vector of expansions (see __eo) */
+    } ord;
     unsigned char nz[KIFMM__SD * KIFMM__SD]; /* the union of lv's nz */
     double pbytes;             /* the plan's bytes when the handle was built */
     kifmm_tree *tr;            /* the points' part: its own, or shared (create_on_tree) */
@@ -5457,6 +5481,51 @@ KIFMM__FN double KIFMM__F(__rin)(const KIFMM__F(_plan) *pl, const kifmm__surf *s
     (void)pl;
     return sf->ai * r;
 #endif
+}
+
+/* The plan of level l's order (>>orders): the handle's, or one of its own
+ * for a raised level. Every pass takes a level's surfaces (__sf) and
+ * lattice (__ft) from here; the buffers sized for any level take the
+ * highest order's (__smax, __ftmax). */
+KIFMM__FN const KIFMM__F(_plan) *KIFMM__F(__lpl)(const KIFMM_NAME *c, int l)
+{
+    return c->ord.up && c->ord.pl[l] ? c->ord.pl[l] : c->pl;
+}
+
+KIFMM__FN const kifmm__surf *KIFMM__F(__sf)(const KIFMM_NAME *c, int l)
+{
+    return &KIFMM__F(__lpl)(c, l)->surf;
+}
+
+KIFMM__FN const kifmm__fft *KIFMM__F(__ft)(const KIFMM_NAME *c, int l)
+{
+    return &KIFMM__F(__lpl)(c, l)->fft;
+}
+
+KIFMM__FN const kifmm__surf *KIFMM__F(__smax)(const KIFMM_NAME *c)
+{
+    return c->ord.up ? &c->ord.own[c->ord.pmax]->surf : &c->pl->surf;
+}
+
+KIFMM__FN const kifmm__fft *KIFMM__F(__ftmax)(const KIFMM_NAME *c)
+{
+    return c->ord.up ? &c->ord.own[c->ord.pmax]->fft : &c->pl->fft;
+}
+
+/* Where box b's upward (down = 0) or downward (down = 1) density starts in
+ * one vector's expansions (ue, de); b = nbox: a vector's length. The boxes
+ * in order, each its level's length. Every pass finds a box's expansion
+ * here. */
+KIFMM__FN size_t KIFMM__F(__eo)(const KIFMM_NAME *c, int down, int32_t b)
+{
+    const kifmm__tree *t = c->tree;
+    const kifmm__surf *s;
+    int l;
+    if (!c->ord.up) return (size_t)b * (size_t)(down ? c->pl->surf.nde : c->pl->surf.ne);
+    if (b >= t->nbox) return c->ord.eo[down][t->nlev];
+    l = t->lev[b];
+    s = KIFMM__F(__sf)(c, l);
+    return c->ord.eo[down][l] + (size_t)(b - t->loff[l]) * (size_t)(down ? s->nde : s->ne);
 }
 
 // >>kernels
@@ -5852,17 +5921,20 @@ KIFMM__FN int KIFMM__F(__m2m_mirror)(const KIFMM_NAME *c, int vec, int nth, kifm
  * r / 2, centre r / 2 sgn) -> the parent's upward check potential (half r);
  * the parent's downward equivalent density (half 2 r, centre -r sgn) -> a
  * child's downward check potential (half r). Times sigma. A radial or
- * vector kernel's octants are the first one mirrored (P__m2m_mirror). */
+ * vector kernel's octants are the first one mirrored (P__m2m_mirror), where
+ * the children and the parent have the level's order (o->sc, o->sp NULL). */
 KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, int nth, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
-    const size_t nc = (size_t)c->pl->surf.nc, ne = (size_t)c->pl->surf.ne, nd = (size_t)c->pl->surf.nde;
+    const kifmm__surf *s = &c->pl->surf, *sc = o->sc ? o->sc : s, *sp = o->sp ? o->sp : s;
+    const size_t nc = (size_t)s->nc, ne = (size_t)sc->ne, nd = (size_t)sp->nde, np = (size_t)sp->ne;
     const int vec = !KIFMM__FRADIAL && KIFMM__F(__sc_vector)(c->opts.kernel_param);
+    const int mirror = (KIFMM__FRADIAL || vec) && !o->sc && !o->sp;
     int oct, d, rc = KIFMM_SUCCESS;
     o->m2m = (double *)kifmm__alloc(nc * 8 * ne, sizeof(double));
     o->l2l = (double *)kifmm__alloc(8 * nc * nd, sizeof(double));
     if (!o->m2m || !o->l2l) return KIFMM_ERR_NOMEM;
-    for (oct = 0; oct < (KIFMM__FRADIAL || vec ? 1 : 8) && !rc; oct++) {
+    for (oct = 0; oct < (mirror ? 1 : 8) && !rc; oct++) {
         const double sgn[3] = {(oct >> 2 & 1) ? 1.0 : -1.0, (oct >> 1 & 1) ? 1.0 : -1.0,
                                (oct & 1) ? 1.0 : -1.0};
         double cm[3], cl[3];
@@ -5870,22 +5942,22 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, int nth, 
             cm[d] = 0.5 * r * sgn[d];
             cl[d] = -r * sgn[d];
         }
-        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, c->pl->surf.ao * r, c->pl->surf.unit_e, c->pl->surf.nse, cm,
-                                   KIFMM__F(__rin)(c->pl, &c->pl->surf, 0.5 * r), o->sigma,
+        rc = KIFMM__F(__surf_kmat)(c, s->unit_c, s->nsc, zero, s->ao * r, sc->unit_e, sc->nse, cm,
+                                   KIFMM__F(__rin)(c->pl, sc, 0.5 * r), o->sigma,
                                    o->m2m + (size_t)oct * ne * nc, nc, NULL);
         if (!rc)
-            rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r),
-                                       c->pl->surf.unit_e, c->pl->surf.nse, cl, c->pl->surf.ao * 2.0 * r, o->sigma,
-                                       o->l2l + (size_t)oct * nc, 8 * nc, NULL);
+            rc = KIFMM__F(__surf_kmat)(c, s->unit_c, s->nsc, zero, KIFMM__F(__rin)(c->pl, s, r), sp->unit_e,
+                                       sp->nse, cl, sp->ao * 2.0 * r, o->sigma, o->l2l + (size_t)oct * nc,
+                                       8 * nc, NULL);
     }
-    if (!rc && (KIFMM__FRADIAL || vec)) rc = KIFMM__F(__m2m_mirror)(c, vec, nth, o);
+    if (!rc && mirror) rc = KIFMM__F(__m2m_mirror)(c, vec, nth, o);
     /* the parent's anchors (>>anchors), every octant */
-    for (oct = 0; oct < 8 && !rc && nd > ne; oct++) {
+    for (oct = 0; oct < 8 && !rc && nd > np; oct++) {
         double cl[3];
         for (d = 0; d < 3; d++) cl[d] = -r * ((oct >> (2 - d) & 1) ? 1.0 : -1.0);
-        rc = KIFMM__F(__surf_kmat)(c, c->pl->surf.unit_c, c->pl->surf.nsc, zero, KIFMM__F(__rin)(c->pl, &c->pl->surf, r),
-                                   c->pl->surf.unit_a, c->pl->surf.nsa, cl, 2.0 * r, o->sigma,
-                                   o->l2l + 8 * nc * ne + (size_t)oct * nc, 8 * nc, NULL);
+        rc = KIFMM__F(__surf_kmat)(c, s->unit_c, s->nsc, zero, KIFMM__F(__rin)(c->pl, s, r), sp->unit_a,
+                                   sp->nsa, cl, 2.0 * r, o->sigma, o->l2l + 8 * nc * np + (size_t)oct * nc,
+                                   8 * nc, NULL);
     }
     return rc;
 }
@@ -6225,6 +6297,8 @@ KIFMM__FN void KIFMM__F(__m2l_nonzero)(const KIFMM_NAME *c, const double *khat, 
 KIFMM__FN int KIFMM__F(__ops_keep)(const KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(__ops) *out)
 {
     const size_t ne = (size_t)c->pl->surf.ne, nc = (size_t)c->pl->surf.nc;
+    const size_t nec = (size_t)(o->sc ? o->sc : &c->pl->surf)->ne; /* M2M's children's */
+    const size_t ndp = (size_t)(o->sp ? o->sp : &c->pl->surf)->nde; /* L2L's parent's */
     size_t *held = &out->held;
     int rc = KIFMM_SUCCESS;
     out->sigma = o->sigma;
@@ -6234,8 +6308,8 @@ KIFMM__FN int KIFMM__F(__ops_keep)(const KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(
     out->vs_up = KIFMM__F(__own)(held, &o->vs_up, ne * (size_t)o->ku);
     out->ut_dn = KIFMM__F(__own)(held, &o->ut_dn, (size_t)o->kd * nc);
     out->vs_dn = KIFMM__F(__own)(held, &o->vs_dn, (size_t)c->pl->surf.nde * (size_t)o->kd);
-    out->m2m = KIFMM__F(__own)(held, &o->m2m, nc * 8 * ne);
-    out->l2l = KIFMM__F(__own)(held, &o->l2l, 8 * nc * (size_t)c->pl->surf.nde);
+    out->m2m = KIFMM__F(__own)(held, &o->m2m, nc * 8 * nec);
+    out->l2l = KIFMM__F(__own)(held, &o->l2l, 8 * nc * ndp);
     if (o->conv && !(out->conv = KIFMM__F(__own)(held, &o->conv, nc * ne))) rc = KIFMM_ERR_NOMEM;
     if (o->m2l && !(out->m2l = KIFMM__F(__own)(held, &o->m2l, (size_t)o->kd * KIFMM__NT * ne)))
         rc = KIFMM_ERR_NOMEM;
@@ -6282,13 +6356,14 @@ KIFMM__FN int KIFMM__F(__keep_blocks)(const KIFMM_NAME *c, KIFMM__F(__ops) **e, 
     const size_t bytes = all * (pl->single ? sizeof(float) : sizeof(double));
     const size_t cap = (size_t)KIFMM__FFT_KB_MB << 20;
     int tvm[27 * 64], nk = 0, k;
-    for (k = 0; k < n; k++) nk += e[k]->khat != NULL;
+    /* (the sets of raised levels, >>orders, build theirs per slab) */
+    for (k = 0; k < n; k++) nk += e[k]->khat != NULL && e[k]->p[0] == c->pl->opts.order;
     if (nk == 0 || c->pl->ops.kept + bytes * (size_t)nk > cap || bytes * (size_t)ntot > cap)
         return KIFMM_SUCCESS;
     kifmm__fft_tvmap(tvm);
     for (k = 0; k < n; k++) {
         KIFMM__F(__ops) *o = e[k];
-        if (!o->khat) continue;
+        if (!o->khat || o->p[0] != c->pl->opts.order) continue;
         if (pl->single) o->kbf = (float *)kifmm__take(&o->held, all, sizeof(float));
         else o->kbd = (double *)kifmm__take(&o->held, all, sizeof(double));
         if (!o->kbf && !o->kbd) return KIFMM_ERR_NOMEM;
@@ -6307,18 +6382,18 @@ KIFMM__FN int KIFMM__F(__keep_blocks)(const KIFMM_NAME *c, KIFMM__F(__ops) **e, 
  * rc[l] each: with at least one level per thread, the levels side by side
  * (one thread each), otherwise one after the other on all threads (Yukawa,
  * 100k uniform points, levels 2 to 4 on 2 threads: 0.04 s side by side,
- * 0.05 s one after the other). */
-KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *c, int l0, int nl, const double *r,
+ * 0.05 s one after the other). v[l]: level l's handle (__ops_view). */
+KIFMM__FN void KIFMM__F(__ops_levels)(const KIFMM_NAME *v, int l0, int nl, const double *r,
                                       const int *m2l, const int *from, kifmm__ops *o, int *rc)
 {
     int l, todo = 0;
     for (l = l0; l < nl; l++) todo += from[l] < 0;
-    const int nth = c->opts.nthreads, outer = todo >= nth;
+    const int nth = v[0].opts.nthreads, outer = todo >= nth;
     /* each level l writes its own o[l] and rc[l]; levels the plan holds
      * already (from[l] >= 0) are skipped */
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) if(outer))
     for (int k = l0; k < nl; k++)
-        if (from[k] < 0) rc[k] = KIFMM__F(__ops_kernels)(c, r[k], m2l[k], outer ? 1 : nth, &o[k]);
+        if (from[k] < 0) rc[k] = KIFMM__F(__ops_kernels)(&v[k], r[k], m2l[k], outer ? 1 : nth, &o[k]);
 }
 
 /* The monopole map of a scale-invariant kernel whose surfaces carry 1 / r
@@ -6369,13 +6444,17 @@ done:
 
 /* ---- the plan's operator sets ------------------------------------------ */
 
-/* The set of plan pl built at half-width r, with the M2L's operators if
- * m2l, or NULL. Under the plan's lock. */
-KIFMM__FN KIFMM__F(__ops) *KIFMM__F(__ops_find)(const KIFMM__F(_plan) *pl, double r, int m2l)
+/* The set of plan pl built at half-width r for orders p (pp, pc: the
+ * parent's and children's levels'), with the M2L's operators if m2l, or
+ * NULL. Under the plan's lock. */
+KIFMM__FN KIFMM__F(__ops) *KIFMM__F(__ops_find)(const KIFMM__F(_plan) *pl, double r, const int *p, int m2l)
 {
     int j;
-    for (j = 0; j < pl->ops.n; j++)
-        if (pl->ops.set[j]->r == r && (!m2l || pl->ops.set[j]->has_m2l)) return pl->ops.set[j];
+    for (j = 0; j < pl->ops.n; j++) {
+        const KIFMM__F(__ops) *e = pl->ops.set[j];
+        if (e->r == r && e->p[0] == p[0] && e->p[1] == p[1] && e->p[2] == p[2] && (!m2l || e->has_m2l))
+            return pl->ops.set[j];
+    }
     return NULL;
 }
 
@@ -6439,19 +6518,47 @@ KIFMM__FN int KIFMM__F(__ops_wanted)(const kifmm__tree *t, double *r, int *m2l)
     return 1;
 }
 
+/* The orders of the set of level l of handle c (p[0]; p[1], p[2]: its
+ * parent's and children's levels', where its L2L and M2M reach them, else
+ * p[0]). A handle without a tree (a plan's own set): the plan's. */
+KIFMM__FN void KIFMM__F(__set_orders)(const KIFMM_NAME *c, int l, int *p)
+{
+    const kifmm__tree *t = c->tree;
+    p[0] = p[1] = p[2] = KIFMM__F(__lpl)(c, l)->opts.order;
+    if (t && l > kifmm__lmin(t)) p[1] = KIFMM__F(__lpl)(c, l - 1)->opts.order;
+    if (t && l + 1 < t->nlev) p[2] = KIFMM__F(__lpl)(c, l + 1)->opts.order;
+}
+
+/* Level l's handle for the builders: c on the plan of the level's order
+ * (whose surfaces and lattice they read), and in o the surfaces of its
+ * neighbours of other orders. */
+KIFMM__FN void KIFMM__F(__ops_view)(const KIFMM_NAME *c, int l, KIFMM_NAME *v, kifmm__ops *o)
+{
+    int p[3];
+    KIFMM__F(__set_orders)(c, l, p);
+    *v = *c;
+    v->pl = (KIFMM__F(_plan) *)KIFMM__F(__lpl)(c, l);
+    v->opts.order = p[0];
+    v->ord.up = 0;
+    o->sp = l > 0 && p[1] != p[0] ? KIFMM__F(__sf)(c, l - 1) : NULL;
+    o->sc = p[2] != p[0] ? KIFMM__F(__sf)(c, l + 1) : NULL;
+}
+
 /* The new sets of handle c: for each level l < nlev with from[l] < 0, one
- * at half-width r[l] (with the M2L's if m2l[l]), built (the kernel values
- * of the levels side by side, __ops_levels), into e[0..) in level order
- * (NULL where it failed). */
+ * at half-width r[l] (with the M2L's if m2l[l]) for the level's orders,
+ * built (the kernel values of the levels side by side, __ops_levels), into
+ * e[0..) in level order (NULL where it failed). */
 KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double *r, const int *m2l,
                                     const int *from, KIFMM__F(__ops) **e)
 {
     kifmm__ops *o = (kifmm__ops *)kifmm__calloc((size_t)nlev, sizeof(kifmm__ops));
     int *rcs = (int *)kifmm__calloc((size_t)nlev, sizeof(int));
-    int l, rc = o && rcs ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, k = 0;
+    KIFMM_NAME *v = (KIFMM_NAME *)kifmm__alloc((size_t)nlev, sizeof *v);
+    int l, rc = o && rcs && v ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, k = 0;
     kifmm__symbs sy; /* the levels' factorisations share their bases */
     sy.n = 0;
-    if (!rc) KIFMM__F(__ops_levels)(c, 0, nlev, r, m2l, from, o, rcs);
+    for (l = 0; !rc && l < nlev; l++) KIFMM__F(__ops_view)(c, l, &v[l], &o[l]);
+    if (!rc) KIFMM__F(__ops_levels)(v, 0, nlev, r, m2l, from, o, rcs);
     for (l = 0; l < nlev; l++) {
         KIFMM__F(__ops) *x;
         if (from[l] >= 0) continue;
@@ -6459,12 +6566,15 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
         x = rc ? NULL : (KIFMM__F(__ops) *)kifmm__calloc(1, sizeof *x);
         if (!rc && !x) rc = KIFMM_ERR_NOMEM;
         if (!rc) rc = rcs[l];
-        if (!rc) rc = KIFMM__F(__ops_solves)(c, r[l], m2l[l], &o[l]);
+        if (!rc) rc = KIFMM__F(__ops_solves)(&v[l], r[l], m2l[l], &o[l]);
 #if KIFMM__SI && KIFMM__DEGREE == -1 && KIFMM_MONO_FIX
-        if (!rc) rc = KIFMM__F(__mono_map)(c, &o[l], x); /* before __ops_keep takes o's factors */
+        if (!rc) rc = KIFMM__F(__mono_map)(&v[l], &o[l], x); /* before __ops_keep takes o's factors */
 #endif
-        if (!rc) rc = KIFMM__F(__ops_keep)(c, &o[l], x);
-        if (x) x->r = r[l], x->has_m2l = m2l[l];
+        if (!rc) rc = KIFMM__F(__ops_keep)(&v[l], &o[l], x);
+        if (x) {
+            x->r = r[l], x->has_m2l = m2l[l];
+            KIFMM__F(__set_orders)(c, l, x->p);
+        }
         if (rc && x) {
             KIFMM__F(__ops_free)(x);
             kifmm__free(x);
@@ -6475,6 +6585,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
     for (l = 0; o && l < nlev; l++) kifmm__ops_free(&o[l]);
     kifmm__free(o);
     kifmm__free(rcs);
+    kifmm__free(v);
     kifmm__symbs_free(&sy);
     return rc;
 }
@@ -6500,7 +6611,10 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
     KIFMM__F(__ops) *e[KIFMM__D + 2] = {NULL};
     if (!KIFMM__F(__ops_wanted)(t, r, m2l)) return KIFMM_SUCCESS;
     for (l = 0; l < nl; l++) {
-        KIFMM__F(__ops) *x = l < n && r[l] > 0.0 ? KIFMM__F(__ops_find)(c->pl, r[l], m2l[l]) : NULL;
+        int p[3];
+        KIFMM__F(__ops) *x;
+        KIFMM__F(__set_orders)(c, l, p);
+        x = l < n && r[l] > 0.0 ? KIFMM__F(__ops_find)(c->pl, r[l], p, m2l[l]) : NULL;
         from[l] = x || !(l < n && r[l] > 0.0) ? l : -1; /* -1: to build */
         if (x) x->refs++;
         c->lv[l] = x;
@@ -7297,22 +7411,6 @@ KIFMM__FN const KIFMM__F(__ops) *KIFMM__F(__ops_at)(const KIFMM_NAME *c, int l)
     return c->lv[l];
 }
 
-/* The surfaces of level l's boxes: their expansions' order. Every pass
- * takes a level's surfaces from here; the buffers sized for any level take
- * the plan's (c->pl->surf). */
-KIFMM__FN const kifmm__surf *KIFMM__F(__sf)(const KIFMM_NAME *c, int l)
-{
-    (void)l;
-    return &c->pl->surf;
-}
-
-/* Where box b's upward (down = 0) or downward (down = 1) density starts in
- * one vector's expansions (ue, de); b = nbox: a vector's length. Every
- * pass finds a box's expansion here. */
-KIFMM__FN size_t KIFMM__F(__eo)(const KIFMM_NAME *c, int down, int32_t b)
-{
-    return (size_t)b * (size_t)(down ? c->pl->surf.nde : c->pl->surf.ne);
-}
 
 /* Factor multiplying check potentials computed directly from points at
  * level l: the level's sigma (see build_c2e), times (half-width)^(-degree)
@@ -7462,10 +7560,11 @@ KIFMM__FN void KIFMM__F(__work_free)(KIFMM__F(__work) *w)
 /* Per-vector sizes of the workspace arrays, in elements. */
 KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 {
-    size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.nde ? c->pl->surf.nc : c->pl->surf.nde);
+    const kifmm__surf *sm = KIFMM__F(__smax)(c);
+    size_t big = (size_t)(sm->nc > sm->nde ? sm->nc : sm->nde);
     sz[0] = KIFMM__F(__eo)(c, 0, c->tree->nbox);                  /* ue */
     sz[5] = KIFMM__F(__eo)(c, 1, c->tree->nbox);                  /* de */
-    sz[1] = (size_t)c->work.mb * (size_t)c->pl->surf.nc;                         /* chk */
+    sz[1] = (size_t)c->work.mb * (size_t)sm->nc;                  /* chk */
 #if KIFMM__FFT
     sz[2] = 0;
     (void)big;
@@ -7484,7 +7583,7 @@ KIFMM__FN void KIFMM__F(__work_sizes)(const KIFMM_NAME *c, size_t *sz)
 KIFMM__FN size_t KIFMM__F(__lbuf_per)(const KIFMM_NAME *c, int nrhs)
 {
     const kifmm__tree *t = c->tree;
-    int64_t m = c->pl->surf.nsc, all = t->nt * (int64_t)nrhs * KIFMM__TD;
+    int64_t m = KIFMM__F(__smax)(c)->nsc, all = t->nt * (int64_t)nrhs * KIFMM__TD;
     int32_t i;
     for (i = 0; i < t->nleaves; i++)
         if (t->t1[t->leaves[i]] - t->t0[t->leaves[i]] > m)
@@ -7552,7 +7651,8 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
 {
     KIFMM__F(__work) *w = (KIFMM__F(__work) *)kifmm__calloc(1, sizeof *w);
     size_t sz[6], n = (size_t)nrhs, *held;
-    const size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.nde ? c->pl->surf.nc : c->pl->surf.nde);
+    const kifmm__surf *sm = KIFMM__F(__smax)(c);
+    const size_t big = (size_t)(sm->nc > sm->nde ? sm->nc : sm->nde);
     if (!w) return NULL;
     held = &w->held;
     KIFMM__F(__work_sizes)(c, sz);
@@ -7572,7 +7672,7 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
                                          (size_t)c->far->zku + (size_t)c->far->zkd), sizeof(KIFMM__R));
     if (!KIFMM__FFT) {
         w->tmp = (KIFMM__R *)kifmm__take(held, n * sz[2], sizeof(KIFMM__R));
-        w->stack = (KIFMM__R *)kifmm__take(held, (size_t)c->work.m2l_cols * KIFMM__NT * (size_t)c->pl->surf.ne,
+        w->stack = (KIFMM__R *)kifmm__take(held, (size_t)c->work.m2l_cols * KIFMM__NT * (size_t)sm->ne,
                                            sizeof(KIFMM__R));
         w->m2l_out = (KIFMM__R *)kifmm__take(held, (size_t)c->work.m2l_cols * big, sizeof(KIFMM__R));
     }
@@ -7595,8 +7695,9 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
  * thread with AVX2 (the passes run in parallel), else one. */
 KIFMM__FN size_t KIFMM__F(__gbuf_per)(const KIFMM_NAME *c)
 {
-    const size_t big = (size_t)(c->pl->surf.nc > c->pl->surf.nde ? c->pl->surf.nc : c->pl->surf.nde);
-    return ((size_t)c->pl->surf.nde + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
+    const kifmm__surf *sm = KIFMM__F(__smax)(c);
+    const size_t big = (size_t)(sm->nc > sm->nde ? sm->nc : sm->nde);
+    return ((size_t)KIFMM__F(__smax)(c)->nde + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
 }
 
 /* The calling thread's buffer (thread 0 outside parallel regions). */
@@ -7614,7 +7715,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__gbuf)(const KIFMM_NAME *c)
  * (periodic trees) the image of a box's sources, c->work.ipts points. */
 KIFMM__FN size_t KIFMM__F(__scratch_per)(const KIFMM_NAME *c)
 {
-    return 9 * (size_t)c->pl->surf.nsm + 3 * c->work.fpts + 3 * c->work.ipts;
+    return 9 * (size_t)KIFMM__F(__smax)(c)->nsm + 3 * c->work.fpts + 3 * c->work.ipts;
 }
 
 /* The calling thread's scratch (see __scratch_per). */
@@ -7626,7 +7727,7 @@ KIFMM__FN KIFMM__R *KIFMM__F(__scratch)(const KIFMM_NAME *c)
 /* The calling thread's frame buffer: after its three surfaces. */
 KIFMM__FN KIFMM__R *KIFMM__F(__framebuf)(const KIFMM_NAME *c)
 {
-    return KIFMM__F(__scratch)(c) + 9 * (size_t)c->pl->surf.nsm;
+    return KIFMM__F(__scratch)(c) + 9 * (size_t)KIFMM__F(__smax)(c)->nsm;
 }
 
 /* The sources of box a moved by image s (a shift code) into the thread's
@@ -7710,7 +7811,7 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
         const KIFMM__R *bp[KIFMM__GC_NC], *tb[KIFMM__GC_NC];
         KIFMM__R *tp[KIFMM__GC_NC], *cp[KIFMM__GC_NC];
         KIFMM__R *buf = KIFMM__F(__gbuf)(c);
-        const size_t per_t = (size_t)c->pl->surf.nde * KIFMM__GC_NC;
+        const size_t per_t = (size_t)KIFMM__F(__smax)(c)->nde * KIFMM__GC_NC;
         const int r = p / ppv, j0 = (p % ppv) * KIFMM__GC_NC;
         int q, nq = na - j0;
         if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
@@ -7761,7 +7862,7 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
             }
         }
         KIFMM__GEMM_COLS(m, k, op, m, nq, bp, cp, !down,
-                         KIFMM__F(__gbuf)(c) + (size_t)c->pl->surf.nde * KIFMM__GC_NC);
+                         KIFMM__F(__gbuf)(c) + (size_t)KIFMM__F(__smax)(c)->nde * KIFMM__GC_NC);
     }
 }
 
@@ -7979,7 +8080,7 @@ KIFMM__FN KIFMM__F(__sp) KIFMM__F(__fbuf)(const KIFMM_NAME *c, size_t off)
 
 KIFMM__FN double *KIFMM__F(__mbuf)(const KIFMM_NAME *c)
 {
-    return c->fft.mbuf + (size_t)kifmm__thread_num() * 8 * (size_t)c->pl->surf.nc;
+    return c->fft.mbuf + (size_t)kifmm__thread_num() * 8 * (size_t)KIFMM__F(__smax)(c)->nc;
 }
 
 /* The densities of 8 multipoles u_v (ne values each, consecutive) on the
@@ -8097,8 +8198,8 @@ KIFMM__FN void KIFMM__F(__fft_finish)(const KIFMM_NAME *c, int l, int32_t j, KIF
     int q, i, a;
     for (a = 0; a < KIFMM__FSD; a++) { /* (a complex lattice: both components) */
         const size_t oa = (size_t)a * KIFMM__FFT_F * 16;
-        if (op.f) kifmm__fft_inverse8f(&c->pl->fft, op.f + oa, ocs, KIFMM__SD, a, dchk, work.f);
-        else kifmm__fft_inverse8d(&c->pl->fft, op.d + oa, ocs, KIFMM__SD, a, dchk, work.d);
+        if (op.f) kifmm__fft_inverse8f(KIFMM__F(__ft)(c, l), op.f + oa, ocs, KIFMM__SD, a, dchk, work.f);
+        else kifmm__fft_inverse8d(KIFMM__F(__ft)(c, l), op.d + oa, ocs, KIFMM__SD, a, dchk, work.d);
     }
     for (q = 0; q < 8; q++) {
         const int32_t lb = 8 * j + q, box = t->loff[l] + lb;
@@ -8147,7 +8248,7 @@ KIFMM__FN void KIFMM__F(__fft_forward)(const KIFMM_NAME *c, int l, const KIFMM__
                                        const KIFMM__R *ue, int32_t nneed)
 {
     const kifmm__tree *t = c->tree;
-    const kifmm__fft *pl = &c->pl->fft;
+    const kifmm__fft *pl = KIFMM__F(__ft)(c, l);
     const int ne = KIFMM__F(__sf)(c, l)->ne, nc = KIFMM__F(__sf)(c, l)->nc;
     const size_t cstride = (size_t)c->fft.slots * KIFMM__FFT_F * 16;
     const size_t woff = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(c);
@@ -8184,11 +8285,11 @@ KIFMM__FN void KIFMM__F(__fft_by_chunks)(const KIFMM_NAME *c, int l, const KIFMM
     const size_t fcs = (size_t)c->fft.slots * KIFMM__FFT_F * 16; /* fout chunk */
     /* chunk ch writes its own part of fout (its thread's blocks) */
     KIFMM__OMP(parallel for schedule(dynamic, 2) num_threads(c->opts.nthreads))
-    for (int ch = 0; ch < c->pl->fft.nchunk; ch++) {
+    for (int ch = 0; ch < KIFMM__F(__ft)(c, l)->nchunk; ch++) {
         const KIFMM__F(__sp) kb = KIFMM__F(__fbuf)(c, 0);
         int32_t P;
-        if (kb.f) kifmm__fft_blocksf(&c->pl->fft, o->khat, o->ktab, tv, KIFMM__FSD, ch, kb.f);
-        else kifmm__fft_blocksd(&c->pl->fft, o->khat, o->ktab, tv, KIFMM__FSD, ch, kb.d);
+        if (kb.f) kifmm__fft_blocksf(KIFMM__F(__ft)(c, l), o->khat, o->ktab, tv, KIFMM__FSD, ch, kb.f);
+        else kifmm__fft_blocksd(KIFMM__F(__ft)(c, l), o->khat, o->ktab, tv, KIFMM__FSD, ch, kb.d);
         for (P = s0; P < s1; P++) {
             /* (slots are set only for wanted target parents) */
             const int32_t g = base + P;
@@ -8219,7 +8320,7 @@ KIFMM__FN void KIFMM__F(__fft_task)(const KIFMM_NAME *c, int l, const KIFMM__F(_
 {
     const kifmm__tree *t = c->tree;
     const int32_t base = t->ioff[l - 1], *co = c->fft.co, *cjl = c->fft.cjl;
-    const int nchunk = c->pl->fft.nchunk;
+    const int nchunk = KIFMM__F(__ft)(c, l)->nchunk;
     int ch;
     int32_t P;
     for (ch = 0; ch < nchunk; ch++) {
@@ -8356,7 +8457,7 @@ KIFMM__FN void KIFMM__F(__p2l_box)(const KIFMM_NAME *c, const KIFMM__F(__work) *
     const int32_t a = l >= 1 ? c->dsrc[t->parent[b]] : -1;
     const kifmm__surf *sf = KIFMM__F(__sf)(c, l);
     const int nsc = sf->nsc;
-    KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (size_t)c->pl->surf.nsm;
+    KIFMM__R *pc = KIFMM__F(__scratch)(c), *pe = pc + 3 * (size_t)KIFMM__F(__smax)(c)->nsm;
     double ctr[3], half;
     int32_t e;
     kifmm__box_center(t, b, ctr, &half);
@@ -8951,6 +9052,17 @@ KIFMM__FN void KIFMM__F(__plan_release)(KIFMM_NAME *h)
     if (last) KIFMM__F(__plan_free)(pl);
 }
 
+/* The handle's plans of raised orders (>>orders) let go. */
+KIFMM__FN void KIFMM__F(__orders_free)(KIFMM_NAME *h)
+{
+    int q;
+    for (q = 0; q <= KIFMM_MAX_ORDER; q++) KIFMM__F(__plan_free)(h->ord.own[q]);
+    memset(h->ord.own, 0, sizeof h->ord.own);
+    memset(h->ord.pl, 0, sizeof h->ord.pl);
+    h->ord.up = 0;
+    h->ord.pmax = 0;
+}
+
 /* What a handle holds beside its plan: the points, the tree and what is
  * built from them, the workspace. */
 KIFMM__FN void KIFMM__F(__points_free)(KIFMM_NAME *h)
@@ -8969,6 +9081,7 @@ KIFMM__FN void KIFMM__F(__points_free)(KIFMM_NAME *h)
     kifmm__free(h->fft.sch);
     kifmm__free(h->near.chunk);
     kifmm__free(h->lat.zt);
+    KIFMM__F(__orders_free)(h);
 #if defined(KIFMM_MPI)
     kifmm__free(h->px.cum);
     h->px.cum = NULL;
@@ -9268,7 +9381,7 @@ KIFMM__FN double KIFMM__F(__root_width)(const kifmm_opts *o, int64_t ns, const K
  * wide (0: the narrowest), meets it, and the leaf size for it (`leaf`, the
  * caller's, or its default). KIFMM_ERR_TOL where no order meets tol even
  * at the narrowest. Where none does at this width, the narrowest's: a tree
- * of direct sums runs at any width, and __frequency refuses the others
+ * of direct sums runs at any width, and __orders refuses the others
  * (KIFMM_ERR_FREQUENCY) once the tree is built. */
 KIFMM__FN int KIFMM__F(__tol_root)(kifmm_opts *o, int leaf, double width)
 {
@@ -9484,9 +9597,10 @@ KIFMM__FN int KIFMM__F(__points_tree)(KIFMM_NAME *c, int64_t ns, const KIFMM__R 
  * least a surface). */
 KIFMM__FN void KIFMM__F(__frame_points)(KIFMM_NAME *h, size_t maxleaf)
 {
+    const size_t nse = (size_t)KIFMM__F(__smax)(h)->nse;
     h->work.fpts = KIFMM__FLOAT ? maxleaf : 0;
     h->work.ipts = h->tree->periodic ? maxleaf : 0;
-    if (h->tree->periodic && h->work.ipts < (size_t)h->pl->surf.nse) h->work.ipts = (size_t)h->pl->surf.nse;
+    if (h->tree->periodic && h->work.ipts < nse) h->work.ipts = nse;
 }
 
 /* Per-thread buffers of the passes: three surfaces and, for float
@@ -9520,8 +9634,9 @@ KIFMM__FN int KIFMM__F(__work_buffers)(KIFMM_NAME *h)
  * both caps. */
 KIFMM__FN int32_t KIFMM__F(__fft_slots)(const KIFMM_NAME *h, size_t esz, int32_t m)
 {
-    const size_t slot = (size_t)h->pl->fft.nfp * 16 * esz * KIFMM__FSD, lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
-    size_t budget = (size_t)h->tree->nbox * (size_t)h->pl->surf.ne * sizeof(KIFMM__R);
+    const size_t slot = (size_t)KIFMM__F(__ftmax)(h)->nfp * 16 * esz * KIFMM__FSD;
+    const size_t lo = (size_t)KIFMM_FFT_SPEC_MB << 20;
+    size_t budget = (size_t)h->tree->nbox * (size_t)KIFMM__F(__smax)(h)->ne * sizeof(KIFMM__R);
     int32_t slots;
     if (h->tree->periodic) budget *= 4; /* see above */
     budget = budget < lo ? lo : budget > 4 * lo ? 4 * lo : budget;
@@ -9563,7 +9678,7 @@ KIFMM__FN int KIFMM__F(__points_slabs)(KIFMM_NAME *h, size_t esz)
  * ftb target parents (128, at most about 4 MiB) and the transform work. */
 KIFMM__FN void KIFMM__F(__fft_per)(KIFMM_NAME *h, size_t esz)
 {
-    const kifmm__fft *pl = &h->pl->fft;
+    const kifmm__fft *pl = KIFMM__F(__ftmax)(h);
     h->fft.ftb = (int)((size_t)(4u << 20) / ((size_t)pl->nfp * 16 * esz * KIFMM__FSD));
     h->fft.ftb = h->fft.ftb > 128 ? 128 : h->fft.ftb < 1 ? 1 : h->fft.ftb;
     h->fft.per = KIFMM__FFT_KBN + KIFMM__FFT_OUTN(h) + kifmm__fft_work8(pl);
@@ -9572,21 +9687,24 @@ KIFMM__FN void KIFMM__F(__fft_per)(KIFMM_NAME *h, size_t esz)
 
 KIFMM__FN int KIFMM__F(__work_fft)(KIFMM_NAME *h, size_t esz)
 {
-    const kifmm__fft *pl = &h->pl->fft;
+    const kifmm__fft *pl = KIFMM__F(__ftmax)(h);
     const size_t nth = (size_t)h->opts.nthreads, chunk = (size_t)h->fft.slots * KIFMM__FFT_F * 16;
     const size_t nspec = (size_t)h->fft.slots * (size_t)pl->nfp * 16;
+    /* the padding frequencies of the last chunk are never written: zeros
+     * (with levels of several orders, every lattice's last chunk: all) */
+    const size_t z0 = h->ord.up ? 0 : nspec - chunk, zn = pl->nfp > pl->nf || h->ord.up ? nspec - z0 : 0;
     size_t *held = &h->held;
     KIFMM__F(__fft_per)(h, esz);
     if (pl->single) {
         h->fft.specf = (float *)kifmm__take(held, nspec, sizeof(float));
         h->fft.bf = (float *)kifmm__take(held, nth * h->fft.per, sizeof(float));
-        if (h->fft.specf && pl->nfp > pl->nf) memset(h->fft.specf + nspec - chunk, 0, chunk * esz);
+        if (h->fft.specf && zn) memset(h->fft.specf + z0, 0, zn * esz);
     } else {
         h->fft.specd = (double *)kifmm__take(held, nspec, sizeof(double));
         h->fft.bd = (double *)kifmm__take(held, nth * h->fft.per, sizeof(double));
-        if (h->fft.specd && pl->nfp > pl->nf) memset(h->fft.specd + nspec - chunk, 0, chunk * esz);
+        if (h->fft.specd && zn) memset(h->fft.specd + z0, 0, zn * esz);
     }
-    h->fft.mbuf = (double *)kifmm__take(held, nth * 8 * (size_t)h->pl->surf.nc, sizeof(double));
+    h->fft.mbuf = (double *)kifmm__take(held, nth * 8 * (size_t)KIFMM__F(__smax)(h)->nc, sizeof(double));
     return (h->fft.specf || h->fft.specd) && (h->fft.bf || h->fft.bd) && h->fft.mbuf
                ? KIFMM_SUCCESS
                : KIFMM_ERR_NOMEM;
@@ -9606,7 +9724,7 @@ KIFMM__FN int KIFMM__F(__points_fft)(KIFMM_NAME *h)
  * buffer for the slab's target parents. */
 KIFMM__FN int KIFMM__F(__work_fout)(KIFMM_NAME *h)
 {
-    const size_t n = (size_t)h->fft.slots * (size_t)h->pl->fft.nfp * 16;
+    const size_t n = (size_t)h->fft.slots * (size_t)KIFMM__F(__ftmax)(h)->nfp * 16;
     int l;
     for (l = 0; l < h->tree->nlev; l++)
         if (h->lv[l] && h->lv[l]->khat && !h->lv[l]->kbf && !h->lv[l]->kbd) break;
@@ -9621,7 +9739,7 @@ KIFMM__FN int KIFMM__F(__work_fout)(KIFMM_NAME *h)
  * most RHS_MAX per box of the largest level. */
 KIFMM__FN int KIFMM__F(__m2l_cols)(const KIFMM_NAME *h)
 {
-    size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)h->pl->surf.ne);
+    size_t cols = (size_t)(64u << 20) / (sizeof(KIFMM__R) * KIFMM__NT * (size_t)KIFMM__F(__smax)(h)->ne);
     if (cols < KIFMM__RHS_MAX) cols = KIFMM__RHS_MAX;
     if (cols > (size_t)h->work.mb * KIFMM__RHS_MAX) cols = (size_t)h->work.mb * KIFMM__RHS_MAX;
     return (int)cols;
@@ -9673,6 +9791,14 @@ KIFMM__FN void KIFMM__F(__describe)(KIFMM_NAME *h)
              "no OpenMP (built without -fopenmp):",
 #endif
              h->opts.nthreads, h->opts.nthreads == 1 ? "" : "s");
+    if (h->ord.up) { /* >>orders */
+        size_t n = strlen(st->build);
+        int l;
+        n += (size_t)snprintf(st->build + n, sizeof st->build - n, "; wide levels (level:order)");
+        for (l = 0; l < t->nlev && n < sizeof st->build; l++)
+            if (h->ord.pl[l])
+                n += (size_t)snprintf(st->build + n, sizeof st->build - n, " %d:%d", l, h->ord.pl[l]->opts.order);
+    }
 }
 
 /* opts.verbose: create's stages (stage 1, after create), update_points'
@@ -9703,12 +9829,112 @@ KIFMM__FN void KIFMM__F(__report)(const KIFMM_NAME *h, int stage)
             s->bytes / 1048576.0);
 }
 
+// >>orders: an oscillating kernel's wide levels at a higher order
+
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+/* An oscillating kernel's error grows with the boxes' width in wavelengths
+ * (docs/kernels.md: helmholtz at p = 8, 1.3e-8 up to 0.75 wavelengths,
+ * 6.9e-8 at 1.25, the gradient's 1.9e-6 there): a level whose boxes are too
+ * wide for the handle's order takes a higher one (with create or
+ * update_points; not in MPI mode, opts.tol, whose order is chosen for the
+ * widest boxes already, or a kernel without an error table beyond its
+ * order's limit); KIFMM_ERR_FREQUENCY where none reaches it. Its plan of
+ * that order (the handle's own: surfaces, lattice) is where its operators'
+ * builders and passes read them (__lpl); its sets are the handle's plan's,
+ * keyed by the orders of the level and its neighbours (__set_orders); the
+ * expansions of each level have its length (__eo). */
+
+/* The first level whose expansions the passes use: the first with M2L,
+ * of a box of a W list or of an owner of an X list (nlev: none). */
+KIFMM__FN int KIFMM__F(__waves_lmin)(const kifmm__tree *t)
+{
+    int l, lmin = t->nlev;
+    int32_t b, e;
+    for (l = 0; l < t->nlev && lmin == t->nlev; l++)
+        if (t->m2lo[l + 1] > t->m2lo[l]) lmin = l;
+    for (b = 0; b < t->nbox; b++) {
+        if (t->xo[b + 1] > t->xo[b] && t->lev[b] < lmin) lmin = t->lev[b];
+        for (e = t->wo[b]; e < t->wo[b + 1]; e++)
+            if (t->lev[t->w[e]] < lmin) lmin = t->lev[t->w[e]];
+    }
+    return lmin;
+}
+
+/* The order of a level whose boxes are x wavelengths wide (the
+ * wavenumber's real part), or 0 if none serves it. The handle's order p
+ * where that is within the most it takes (the kernel's _WAVES_MAX,
+ * measured: docs/kernels.md) and, with the kernel's error table, its
+ * error there (kifmm__waves_err) at most KIFMM_RAISE_SLACK times its
+ * error at the narrowest width; else, where the handle may raise (raise),
+ * the lowest higher order that is. opts.tol: p where its error at x, 1.5
+ * times the table's, is within tol (as __tol_root chose it). */
+KIFMM__FN int KIFMM__F(__level_order)(const KIFMM_NAME *h, double x)
+{
+    static const double most[KIFMM_MAX_ORDER + 1] = KIFMM__K(_WAVES_MAX);
+    const int p = h->opts.order;
+    const int top = h->ord.raise && h->opts.tol == 0.0 && KIFMM_RAISE_SLACK > 0 ? KIFMM_MAX_ORDER : p;
+    int q;
+#if KIFMM__HAS_QT & KIFMM_HAS_TOL
+    const int w = KIFMM_TOL_WAVES_NW + 1;
+    const double *err = KIFMM__F(__tol_errors)();
+    if (h->opts.tol != 0.0) return 1.5 * kifmm__waves_err(err + p * w, most[p], x) <= h->opts.tol ? p : 0;
+    if (err[p * w] > 0.0 && top > p) {
+        for (q = p; q <= top; q++)
+            if (kifmm__waves_err(err + q * w, most[q], x) <= KIFMM_RAISE_SLACK * err[p * w]) return q;
+        return x <= most[p] ? p : 0; /* (beyond the table: the limit alone) */
+    }
+#endif
+    for (q = p; q <= top; q++)
+        if (x <= most[q]) return q;
+    return 0;
+}
+
+/* Each level's order for the handle's tree (ord), before the FFT's slabs
+ * and the operators; KIFMM_ERR_FREQUENCY where a level's boxes are too wide
+ * for every order it may take. */
+KIFMM__FN int KIFMM__F(__orders)(KIFMM_NAME *h)
+{
+    const kifmm__tree *t = h->tree;
+    const int p = h->opts.order, lmin = KIFMM__F(__waves_lmin)(t);
+    const double k = KIFMM__K(_wavenumber)(h->opts.kernel_param) / (2.0 * 3.14159265358979323846);
+    int q[KIFMM__D + 2], l, d;
+    for (l = 0; l < t->nlev; l++) {
+        q[l] = p;
+        if (l >= lmin && !(q[l] = KIFMM__F(__level_order)(h, t->width / (double)((int64_t)1 << l) * k)))
+            return KIFMM_ERR_FREQUENCY;
+    }
+    for (l = lmin; l < t->nlev; l++) {
+        kifmm_opts o = h->pl->opts;
+        if (q[l] == p) continue;
+        o.order = q[l];
+        if (!h->ord.own[q[l]]) {
+            if (!(h->ord.own[q[l]] = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
+            h->held += h->ord.own[q[l]]->held;
+        }
+        h->ord.pl[l] = h->ord.own[q[l]];
+        if (q[l] > h->ord.pmax) h->ord.pmax = q[l];
+        h->ord.up = 1;
+    }
+    for (d = 0; d < 2 && h->ord.up; d++)
+        for (h->ord.eo[d][0] = 0, l = 0; l < t->nlev; l++) {
+            const kifmm__surf *s = KIFMM__F(__sf)(h, l);
+            const size_t n = (size_t)(t->loff[l + 1] - t->loff[l]);
+            h->ord.eo[d][l + 1] = h->ord.eo[d][l] + n * (size_t)(d ? s->nde : s->ne);
+        }
+    return KIFMM_SUCCESS;
+}
+#endif
+
 /* The points' part of a handle: the tree over them and what it decides
- * (the FFT M2L's colleagues and slabs, the mutual near field's chunks). */
+ * (the levels' orders, the FFT M2L's colleagues and slabs, the mutual near
+ * field's chunks). */
 KIFMM__FN int KIFMM__F(__points_build)(KIFMM_NAME *h, int64_t ns, const KIFMM__R *src, int64_t nt,
                                        const KIFMM__R *trg)
 {
     int rc = KIFMM__F(__points_tree)(h, ns, src, nt, trg);
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+    if (!rc) rc = KIFMM__F(__orders)(h); /* before the slabs and the operators */
+#endif
 #if KIFMM__FFT
     if (!rc) rc = KIFMM__F(__points_fft)(h);
 #endif
@@ -9852,45 +10078,14 @@ KIFMM__FN int KIFMM__F(__tree_fits)(const kifmm_tree *tr, const int *shape, int 
     return KIFMM__F(__check_far)(o->kernel_param, 2.0 * sqrt(3.0) * tr->t.width);
 }
 
-#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
-/* An oscillating kernel (KIFMM_HAS_WAVES): the widest boxes whose
- * expansions the passes use (the first level with M2L, the boxes of W
- * lists, the owners of X lists), in wavelengths of the wavenumber's real
- * part, against the most the order takes (the kernel's _WAVES_MAX,
- * measured: docs/kernels.md); KIFMM_ERR_FREQUENCY beyond. */
-KIFMM__FN int KIFMM__F(__frequency)(const KIFMM_NAME *h)
-{
-    static const double most[KIFMM_MAX_ORDER + 1] = KIFMM__K(_WAVES_MAX);
-    const kifmm__tree *t = h->tree;
-    double kw; /* the widest boxes' width times the wavenumber */
-    int l, lmin = t->nlev;
-    int32_t b, e;
-    for (l = 0; l < t->nlev && lmin == t->nlev; l++)
-        if (t->m2lo[l + 1] > t->m2lo[l]) lmin = l;
-    for (b = 0; b < t->nbox; b++) {
-        if (t->xo[b + 1] > t->xo[b] && t->lev[b] < lmin) lmin = t->lev[b];
-        for (e = t->wo[b]; e < t->wo[b + 1]; e++)
-            if (t->lev[t->w[e]] < lmin) lmin = t->lev[t->w[e]];
-    }
-    if (lmin >= t->nlev) return KIFMM_SUCCESS; /* direct sums only */
-    kw = t->width / (double)((int64_t)1 << lmin) * KIFMM__K(_wavenumber)(h->opts.kernel_param);
-#if KIFMM__HAS_QT & KIFMM_HAS_TOL
-    /* opts.tol: its order's error here within tol (as __tol_root chose it) */
-    if (h->opts.tol != 0.0 &&
-        !(1.5 * kifmm__waves_err(KIFMM__F(__tol_errors)() + h->opts.order * (KIFMM_TOL_WAVES_NW + 1),
-                                 most[h->opts.order], kw / (2.0 * 3.14159265358979323846)) <= h->opts.tol))
-        return KIFMM_ERR_FREQUENCY;
-#endif
-    return kw <= 2.0 * 3.14159265358979323846 * most[h->opts.order] ? KIFMM_SUCCESS : KIFMM_ERR_FREQUENCY;
-}
-#endif
-
 /* A handle on plan pl (one more of its handles) for these points, checked
  * (options o, pl's), or on the tree tr (fitting o: __tree_fits) if not
  * NULL: the points' part; the operator sets and far images the tree needs,
  * from pl where it has them, else built into it; the workspace for nrhs
- * vectors. *out is NULL on failure, with nothing of pl or tr taken. */
-KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int shared, int nrhs,
+ * vectors. raise: whether wide levels may take a higher order (>>orders;
+ * not in MPI mode). *out is NULL on failure, with nothing of pl or tr
+ * taken. */
+KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int shared, int raise, int nrhs,
                                 const kifmm_opts *o, const int *shape, kifmm_tree *tr,
                                 int64_t ns, const KIFMM__R *src, int64_t nt, const KIFMM__R *trg)
 {
@@ -9902,6 +10097,7 @@ KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int share
     h->held = sizeof *h;
     h->opts = *o;
     h->shared = shared;
+    h->ord.raise = raise;
     h->shape[0] = shape[0], h->shape[1] = shape[1];
     kifmm__lock_take(&pl->lock);
     pl->refs++;
@@ -9922,9 +10118,6 @@ KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int share
     t1 = t2 = t0;
     if (ns > 0 && nt > 0) {
         rc = KIFMM__F(__points_build)(h, ns, src, nt, trg);
-#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
-        if (!rc) rc = KIFMM__F(__frequency)(h); /* before the operators */
-#endif
         t1 = kifmm__now();
         if (!rc) rc = KIFMM__F(__plan_ops)(h, &h->pbytes);
         t2 = kifmm__now();
@@ -9962,7 +10155,7 @@ KIFMM__FN int KIFMM__F(__create)(KIFMM_NAME **out, const kifmm_opts *opts, kifmm
                                 trg_xyz)))
         return rc;
     if (!(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
-    rc = KIFMM__F(__build)(out, pl, 0, 1, &o, shape, tree, nsources, src_xyz, ntargets, trg_xyz);
+    rc = KIFMM__F(__build)(out, pl, 0, 1, 1, &o, shape, tree, nsources, src_xyz, ntargets, trg_xyz);
     memset(&tmp, 0, sizeof tmp); /* the plan is the handle's alone now, or freed */
     tmp.pl = pl;
     KIFMM__F(__plan_release)(&tmp);
@@ -10017,8 +10210,8 @@ KIFMM__FN int KIFMM__F(__update)(KIFMM_NAME *h, kifmm_tree *tree, int64_t nsourc
     if (o.order != pl->opts.order && !(pl = KIFMM__F(__plan_new)(&o))) return KIFMM_ERR_NOMEM;
     /* on the same plan, which keeps the operator sets both trees use; as
      * many vectors' workspace as the handle has grown to */
-    rc = KIFMM__F(__build)(&n, pl, h->shared, h->work.w ? h->work.w->nrhs : 1, &o, h->shape, tree,
-                           nsources, src_xyz, ntargets, trg_xyz);
+    rc = KIFMM__F(__build)(&n, pl, h->shared, h->ord.raise, h->work.w ? h->work.w->nrhs : 1, &o, h->shape,
+                           tree, nsources, src_xyz, ntargets, trg_xyz);
     if (pl != h->pl) { /* the new plan is the new state's alone, or freed */
         memset(&tmp, 0, sizeof tmp);
         tmp.pl = pl;
@@ -10110,7 +10303,7 @@ KIFMM__FN int KIFMM__F(__with_plan)(KIFMM_NAME **out, KIFMM__F(_plan) *plan, kif
     o = plan->opts;
     if (tree && (rc = KIFMM__F(__tree_fits)(tree, plan->shape, 0, &o))) return rc;
     if (!tree && (rc = KIFMM__F(__check_sets)(&o, nsources, src_xyz, ntargets, trg_xyz))) return rc;
-    rc = KIFMM__F(__build)(out, plan, 1, 1, &o, plan->shape, tree, nsources, src_xyz, ntargets,
+    rc = KIFMM__F(__build)(out, plan, 1, 1, 1, &o, plan->shape, tree, nsources, src_xyz, ntargets,
                            trg_xyz);
     if (!rc) {
         (*out)->stats.t_tree = (*out)->stats.t_points;
@@ -11376,7 +11569,7 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
     om.max_depth = om.max_depth + 2 < KIFMM_MAX_DEPTH ? om.max_depth + 2 : KIFMM_MAX_DEPTH;
     if (nsm == m->nso) { /* nothing from the others: main is up's points */
         kifmm__free(pa);
-        return KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, m->nso, m->so, m->nto, m->to);
+        return KIFMM__F(__build)(&m->main, m->pl, 1, 0, 1, &om, m->shape, NULL, m->nso, m->so, m->nto, m->to);
     }
     if (!(xs = (KIFMM__R *)kifmm__alloc((size_t)3 * nsm, sizeof(KIFMM__R)))) {
         kifmm__free(pa);
@@ -11397,7 +11590,7 @@ KIFMM__FN int KIFMM__F(__mpi_main)(KIFMM__F(__mpi) *m, const char *rb)
                 xs[3 * (j + q) + d] = (KIFMM__R)(c + KIFMM__F(__rin)(m->pl, &m->pl->surf, 0.5 * w) * m->pl->surf.unit_e[d * nse + q]);
         }
     }
-    rc = KIFMM__F(__build)(&m->main, m->pl, 1, 1, &om, m->shape, NULL, nsm, xs, m->nto, m->to);
+    rc = KIFMM__F(__build)(&m->main, m->pl, 1, 0, 1, &om, m->shape, NULL, nsm, xs, m->nto, m->to);
 #if KIFMM__MPI_ROLES
     if (!rc && m->npx + m->ncb > 0) rc = KIFMM__F(__mpi_roles)(m->main, m->nso + m->ng);
 #elif KIFMM__QD != KIFMM__SD
@@ -11465,7 +11658,7 @@ KIFMM__FN int KIFMM__F(__mpi_build)(KIFMM__F(__mpi) *m, int64_t ns, const KIFMM_
     memcpy(ou.domain, m->root, sizeof m->root);
     ou.verbose = 0;
     if (m->nso > 0)
-        rc = KIFMM__F(__build)(&m->up, m->pl, 1, 1, &ou, m->shape, NULL, m->nso, m->so, m->nso, m->so);
+        rc = KIFMM__F(__build)(&m->up, m->pl, 1, 0, 1, &ou, m->shape, NULL, m->nso, m->so, m->nso, m->so);
     if ((rc = KIFMM__F(__mpi_agree)(m, rc))) return rc;
     if ((rc = KIFMM__F(__mpi_coarse)(m))) return rc;
     if ((rc = KIFMM__F(__mpi_lists)(m))) return rc;
@@ -11859,7 +12052,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
         for (m->lc = 2; m->lc < 4 && ((int64_t)1 << (3 * (m->lc - 1))) < m->size; m->lc++) {}
         if (m->size == 1) { /* the handle create would make, on the caller's points */
             m->ns = m->nso = nsources_local, m->nt = m->nto = ntargets_local;
-            rc = KIFMM__F(__build)(&m->main, m->pl, 0, 1, &o, m->shape, NULL, nsources_local, src_xyz,
+            rc = KIFMM__F(__build)(&m->main, m->pl, 0, 0, 1, &o, m->shape, NULL, nsources_local, src_xyz,
                                    ntargets_local, trg_xyz);
         } else {
             rc = KIFMM__F(__mpi_build)(m, nsources_local, src_xyz, ntargets_local, trg_xyz);

@@ -581,8 +581,9 @@ class FMM:
                   wavenumber k, a complex (or real) number with Im k >= 0
                   (damped waves), or up to 4 reals (Re k, Im k, 0, 0) as
                   options gives them, needed; the boxes that carry
-                  expansions may be at most 0.5 to 1.6 wavelengths wide,
-                  by order (else KifmmError, code -25; docs/kernels.md);
+                  expansions may be at most 1.6 wavelengths wide (levels
+                  too wide for the order take a higher one; else
+                  KifmmError, code -25; docs/kernels.md);
                   tol picks the order from the root's width in
                   wavelengths (update_points picks again; a Plan with tol
                   needs domain)

@@ -120,6 +120,22 @@ def test_helmholtz_against_numpy(dtype, order, bound):
     assert np.array_equal(fmm.evaluate(q.real), fmm.evaluate(q.real + 0j))
 
 
+def test_helmholtz_wide_levels_against_numpy():
+    """order 6 on a root of 5 wavelengths: level 2 (boxes of 1.25, past
+    order 6's limit of 1.08) takes a higher order, the others keep 6; the
+    error is order 6's on narrow boxes"""
+    x = points(5000, 66)
+    rng = np.random.default_rng(67)
+    q = (rng.random(5000) - 0.5) + 1j * (rng.random(5000) - 0.5)
+    k = 2 * np.pi * 5.0
+    with kifmm.FMM("helmholtz_grad", x, kernel_param=k, order=6, leaf_size=48) as fmm:
+        out = fmm.evaluate(q)
+        assert "wide levels (level:order) 2:" in fmm.stats["build"]
+        assert fmm.options["order"] == 6
+    pot, grad = helmholtz_numpy(x, q, x[:200], k)
+    assert rel(out[:200, 0], pot) < 1e-5 and rel(out[:200, 1:], grad) < 1e-5
+
+
 @pytest.mark.parametrize("waves,tol", [(1.0, 1e-4), (2.0, 1e-6), (3.0, 1e-8)])
 def test_helmholtz_tol_against_numpy(waves, tol):
     """tol for a complex kernel: the order from the root's width in
