@@ -64,7 +64,7 @@ static void solve(const kifmm_laplace *c, int up, const double *chk, double *eq)
 /* the points of a downward density: the surface's, then the anchors' */
 static int down_points(const kifmm_laplace *c, const double *ctr, double r, double *pe)
 {
-    kifmm_laplace__place_down(c->pl, ctr, c->pl->surf.ao * r, r, pe);
+    kifmm_laplace__place_down(&c->pl->surf, ctr, c->pl->surf.ao * r, r, pe);
     return c->pl->surf.nse + c->pl->surf.nsa;
 }
 
@@ -288,7 +288,7 @@ static void test_downward(int p)
             kifmm__gemm(0, 0, hd->pl->surf.nde, 1, od->kd, 1.0, od->vs_dn, hd->pl->surf.nde, chk, od->kd, 0.0,
                         de, hd->pl->surf.nde);
         }
-        kifmm_laplace_dense__place_down(hd->pl, ctr, hd->pl->surf.ao * r, r, pe);
+        kifmm_laplace_dense__place_down(&hd->pl->surf, ctr, hd->pl->surf.ao * r, r, pe);
         eval_equiv(c, hd->pl->surf.nse + hd->pl->surf.nsa, pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p),
                   "M2L (dense) p=%d, transfer vector (%d,%d,%d)", p, d[0], d[1], d[2]);
