@@ -6624,8 +6624,9 @@ KIFMM__FN int KIFMM__F(__precompute)(KIFMM_NAME *c)
 #if KIFMM__FFT
     if (!rc && nb) {
         int ntot = 0;
-        for (l = 0; l < n; l++) ntot += c->lv[l] && c->lv[l]->khat;
-        for (k = 0; k < nb; k++) ntot += e[k] && e[k]->khat;
+        /* (the sets of raised levels keep none: __keep_blocks) */
+        for (l = 0; l < n; l++) ntot += c->lv[l] && c->lv[l]->khat && c->lv[l]->p[0] == c->pl->opts.order;
+        for (k = 0; k < nb; k++) ntot += e[k] && e[k]->khat && e[k]->p[0] == c->pl->opts.order;
         rc = KIFMM__F(__keep_blocks)(c, e, nb, ntot);
     }
 #endif
@@ -9881,7 +9882,7 @@ KIFMM__FN int KIFMM__F(__level_order)(const KIFMM_NAME *h, double x)
     if (err[p * w] > 0.0 && top > p) {
         for (q = p; q <= top; q++)
             if (kifmm__waves_err(err + q * w, most[q], x) <= KIFMM_RAISE_SLACK * err[p * w]) return q;
-        return x <= most[p] ? p : 0; /* (beyond the table: the limit alone) */
+        return x <= most[p] ? p : 0; /* (none meets it: p within its limit, as unraised) */
     }
 #endif
     for (q = p; q <= top; q++)
