@@ -3537,45 +3537,45 @@ static inline double kifmm_kernel__hsum4(__m256d v)
 /* mode 2's terms of one block of lanes: the dipoles' (pv: re, im of v_x,
  * v_y, v_z, each SB_ long) and the charges' gradient, given G (gr, gi), A
  * (ar, ai) and q (qr, qi), into o[0..7] */
-#define KIFMM_KERNEL__HELM_CD(pv, j)                                                            \
+#define KIFMM_KERNEL__HELM_CD(pv, j, u)                                                            \
     do {                                                                                       \
-        const V zr = KIFMM_KERNEL__HFNMA(KI, r, ZERO), zi = t1, ir4 = KIFMM_KERNEL__HMUL(ir2, ir2); \
+        const V zr = KIFMM_KERNEL__HFNMA(KI, r[u], ZERO), zi = t1[u], ir4 = KIFMM_KERNEL__HMUL(ir2[u], ir2[u]); \
         const V br = KIFMM_KERNEL__HFMA(zr, zr, KIFMM_KERNEL__HFNMA(zi, zi, KIFMM_KERNEL__HFNMA(THREE, zr, THREE))); \
         const V bi = KIFMM_KERNEL__HMUL(zi, KIFMM_KERNEL__HFMA(TWO, zr, NTHREE));            \
-        const V bbr = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi, bi, KIFMM_KERNEL__HMUL(gr, br)), ir4); \
-        const V bbi = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi, br, KIFMM_KERNEL__HMUL(gr, bi)), ir4); \
+        const V bbr = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi[u], bi, KIFMM_KERNEL__HMUL(gr[u], br)), ir4); \
+        const V bbi = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi[u], br, KIFMM_KERNEL__HMUL(gr[u], bi)), ir4); \
         const V vxr = KIFMM_KERNEL__HLOAD((pv) + (j)), vxi = KIFMM_KERNEL__HLOAD((pv) + SB_ + (j)); \
         const V vyr = KIFMM_KERNEL__HLOAD((pv) + 2 * SB_ + (j));                             \
         const V vyi = KIFMM_KERNEL__HLOAD((pv) + 3 * SB_ + (j));                             \
         const V vzr = KIFMM_KERNEL__HLOAD((pv) + 4 * SB_ + (j));                             \
         const V vzi = KIFMM_KERNEL__HLOAD((pv) + 5 * SB_ + (j));                             \
-        const V vdr = KIFMM_KERNEL__HFMA(vzr, dz, KIFMM_KERNEL__HFMA(vyr, dy, KIFMM_KERNEL__HMUL(vxr, dx))); \
-        const V vdi = KIFMM_KERNEL__HFMA(vzi, dz, KIFMM_KERNEL__HFMA(vyi, dy, KIFMM_KERNEL__HMUL(vxi, dx))); \
-        const V cr = KIFMM_KERNEL__HSUB(aqr, KIFMM_KERNEL__HFNMA(bbi, vdi, KIFMM_KERNEL__HMUL(bbr, vdr))); \
-        const V ci = KIFMM_KERNEL__HSUB(aqi, KIFMM_KERNEL__HFMA(bbi, vdr, KIFMM_KERNEL__HMUL(bbr, vdi))); \
-        o[0] = KIFMM_KERNEL__HSUB(o[0], KIFMM_KERNEL__HFNMA(ai, vdi, KIFMM_KERNEL__HMUL(ar, vdr))); \
-        o[1] = KIFMM_KERNEL__HSUB(o[1], KIFMM_KERNEL__HFMA(ai, vdr, KIFMM_KERNEL__HMUL(ar, vdi))); \
-        o[2] = KIFMM_KERNEL__HFMA(cr, dx, KIFMM_KERNEL__HSUB(o[2], KIFMM_KERNEL__HFNMA(ai, vxi, KIFMM_KERNEL__HMUL(ar, vxr)))); \
-        o[3] = KIFMM_KERNEL__HFMA(ci, dx, KIFMM_KERNEL__HSUB(o[3], KIFMM_KERNEL__HFMA(ai, vxr, KIFMM_KERNEL__HMUL(ar, vxi)))); \
-        o[4] = KIFMM_KERNEL__HFMA(cr, dy, KIFMM_KERNEL__HSUB(o[4], KIFMM_KERNEL__HFNMA(ai, vyi, KIFMM_KERNEL__HMUL(ar, vyr)))); \
-        o[5] = KIFMM_KERNEL__HFMA(ci, dy, KIFMM_KERNEL__HSUB(o[5], KIFMM_KERNEL__HFMA(ai, vyr, KIFMM_KERNEL__HMUL(ar, vyi)))); \
-        o[6] = KIFMM_KERNEL__HFMA(cr, dz, KIFMM_KERNEL__HSUB(o[6], KIFMM_KERNEL__HFNMA(ai, vzi, KIFMM_KERNEL__HMUL(ar, vzr)))); \
-        o[7] = KIFMM_KERNEL__HFMA(ci, dz, KIFMM_KERNEL__HSUB(o[7], KIFMM_KERNEL__HFMA(ai, vzr, KIFMM_KERNEL__HMUL(ar, vzi)))); \
+        const V vdr = KIFMM_KERNEL__HFMA(vzr, dz[u], KIFMM_KERNEL__HFMA(vyr, dy[u], KIFMM_KERNEL__HMUL(vxr, dx[u]))); \
+        const V vdi = KIFMM_KERNEL__HFMA(vzi, dz[u], KIFMM_KERNEL__HFMA(vyi, dy[u], KIFMM_KERNEL__HMUL(vxi, dx[u]))); \
+        const V cr = KIFMM_KERNEL__HSUB(aqr[u], KIFMM_KERNEL__HFNMA(bbi, vdi, KIFMM_KERNEL__HMUL(bbr, vdr))); \
+        const V ci = KIFMM_KERNEL__HSUB(aqi[u], KIFMM_KERNEL__HFMA(bbi, vdr, KIFMM_KERNEL__HMUL(bbr, vdi))); \
+        o[0] = KIFMM_KERNEL__HSUB(o[0], KIFMM_KERNEL__HFNMA(ai[u], vdi, KIFMM_KERNEL__HMUL(ar[u], vdr))); \
+        o[1] = KIFMM_KERNEL__HSUB(o[1], KIFMM_KERNEL__HFMA(ai[u], vdr, KIFMM_KERNEL__HMUL(ar[u], vdi))); \
+        o[2] = KIFMM_KERNEL__HFMA(cr, dx[u], KIFMM_KERNEL__HSUB(o[2], KIFMM_KERNEL__HFNMA(ai[u], vxi, KIFMM_KERNEL__HMUL(ar[u], vxr)))); \
+        o[3] = KIFMM_KERNEL__HFMA(ci, dx[u], KIFMM_KERNEL__HSUB(o[3], KIFMM_KERNEL__HFMA(ai[u], vxr, KIFMM_KERNEL__HMUL(ar[u], vxi)))); \
+        o[4] = KIFMM_KERNEL__HFMA(cr, dy[u], KIFMM_KERNEL__HSUB(o[4], KIFMM_KERNEL__HFNMA(ai[u], vyi, KIFMM_KERNEL__HMUL(ar[u], vyr)))); \
+        o[5] = KIFMM_KERNEL__HFMA(ci, dy[u], KIFMM_KERNEL__HSUB(o[5], KIFMM_KERNEL__HFMA(ai[u], vyr, KIFMM_KERNEL__HMUL(ar[u], vyi)))); \
+        o[6] = KIFMM_KERNEL__HFMA(cr, dz[u], KIFMM_KERNEL__HSUB(o[6], KIFMM_KERNEL__HFNMA(ai[u], vzi, KIFMM_KERNEL__HMUL(ar[u], vzr)))); \
+        o[7] = KIFMM_KERNEL__HFMA(ci, dz[u], KIFMM_KERNEL__HSUB(o[7], KIFMM_KERNEL__HFMA(ai[u], vzr, KIFMM_KERNEL__HMUL(ar[u], vzi)))); \
     } while (0)
 /* the mutual hooks' gradient terms of the block's points (their sums pb,
  * lanes from j): -A qa d, d the other way for them */
-#define KIFMM_KERNEL__HELM_BACK(pb, j)                                                          \
+#define KIFMM_KERNEL__HELM_BACK(pb, j, u)                                                          \
     do {                                                                                       \
-        const V bqr = KIFMM_KERNEL__HFNMA(ar, QAR, KIFMM_KERNEL__HMUL(ai, QAI));               \
-        const V bqi = KIFMM_KERNEL__HFNMA(ai, QAR, KIFMM_KERNEL__HFNMA(ar, QAI, ZERO));        \
-        KIFMM_KERNEL__HACCF((pb)[2] + (j), bqr, dx);                                           \
-        KIFMM_KERNEL__HACCF((pb)[3] + (j), bqi, dx);                                           \
-        KIFMM_KERNEL__HACCF((pb)[4] + (j), bqr, dy);                                           \
-        KIFMM_KERNEL__HACCF((pb)[5] + (j), bqi, dy);                                           \
-        KIFMM_KERNEL__HACCF((pb)[6] + (j), bqr, dz);                                           \
-        KIFMM_KERNEL__HACCF((pb)[7] + (j), bqi, dz);                                           \
+        const V bqr = KIFMM_KERNEL__HFNMA(ar[u], QAR, KIFMM_KERNEL__HMUL(ai[u], QAI));               \
+        const V bqi = KIFMM_KERNEL__HFNMA(ai[u], QAR, KIFMM_KERNEL__HFNMA(ar[u], QAI, ZERO));        \
+        KIFMM_KERNEL__HACCF((pb)[2] + (j), bqr, dx[u]);                                           \
+        KIFMM_KERNEL__HACCF((pb)[3] + (j), bqi, dx[u]);                                           \
+        KIFMM_KERNEL__HACCF((pb)[4] + (j), bqr, dy[u]);                                           \
+        KIFMM_KERNEL__HACCF((pb)[5] + (j), bqi, dy[u]);                                           \
+        KIFMM_KERNEL__HACCF((pb)[6] + (j), bqr, dz[u]);                                           \
+        KIFMM_KERNEL__HACCF((pb)[7] + (j), bqi, dz[u]);                                           \
     } while (0)
-enum { KIFMM_KERNEL__HSB = 128 };
+enum { KIFMM_KERNEL__HSB = 128, KIFMM_KERNEL__HU = 4 };
 /* a block of up to 128 sources (of nb from j0; double or float, the other
  * pointer NULL) into structure-of-arrays, padded past nb up to a whole
  * number of vectors with zero densities at the block's first point (so no
@@ -3602,80 +3602,139 @@ static inline int64_t kifmm_kernel__helm_fill(const double *const *bd, const flo
     return jp;
 }
 
+#define KIFMM_KERNEL__HEACH for (u = 0; u < nu; u++) /* (the steps below, vector by vector) */
+#define KIFMM_KERNEL__HLANE (j + (int64_t)u * KIFMM_KERNEL__HW)
+/* the lanes j .. j + nu W - 1 of a filled block against the target (x, y,
+ * z): d = target - source, 1 / r (0 at r = 0), r, Re k r and G */
+KIFMM_KERNEL__HINLINE void kifmm_kernel__helm_g(const double *param, double x, double y, double z,
+                                        double (*p)[KIFMM_KERNEL__HSB], int64_t j, int nu, int wide,
+                                        int damped, KIFMM_KERNEL__HV *dx, KIFMM_KERNEL__HV *dy,
+                                        KIFMM_KERNEL__HV *dz, KIFMM_KERNEL__HV *inv,
+                                        KIFMM_KERNEL__HV *r, KIFMM_KERNEL__HV *t1,
+                                        KIFMM_KERNEL__HV *gr, KIFMM_KERNEL__HV *gi)
+{
+    typedef KIFMM_KERNEL__HV V;
+    const V KR = KIFMM_KERNEL__HSET1(param[0]), KI = KIFMM_KERNEL__HSET1(param[1]);
+    const V X = KIFMM_KERNEL__HSET1(x), Y = KIFMM_KERNEL__HSET1(y), Z = KIFMM_KERNEL__HSET1(z);
+    V r2[KIFMM_KERNEL__HU], e[KIFMM_KERNEL__HU];
+    int u;
+    KIFMM_KERNEL__HEACH dx[u] = KIFMM_KERNEL__HSUB(X, KIFMM_KERNEL__HLOAD(p[0] + KIFMM_KERNEL__HLANE));
+    KIFMM_KERNEL__HEACH dy[u] = KIFMM_KERNEL__HSUB(Y, KIFMM_KERNEL__HLOAD(p[1] + KIFMM_KERNEL__HLANE));
+    KIFMM_KERNEL__HEACH dz[u] = KIFMM_KERNEL__HSUB(Z, KIFMM_KERNEL__HLOAD(p[2] + KIFMM_KERNEL__HLANE));
+    KIFMM_KERNEL__HEACH r2[u] = KIFMM_KERNEL__HFMA(dz[u], dz[u],
+                                                 KIFMM_KERNEL__HFMA(dy[u], dy[u], KIFMM_KERNEL__HMUL(dx[u], dx[u])));
+    KIFMM_KERNEL__HEACH inv[u] = KIFMM_KERNEL__HINV(r2[u]);
+    KIFMM_KERNEL__HEACH r[u] = KIFMM_KERNEL__HMUL(r2[u], inv[u]), t1[u] = KIFMM_KERNEL__HMUL(KR, r[u]);
+    KIFMM_KERNEL__HEACH e[u] = damped ? KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HEXPN(KIFMM_KERNEL__HMUL(KI, r[u])), inv[u])
+                                    : inv[u];
+    KIFMM_KERNEL__HEACH {
+        V sn, cs;
+        if (wide) {
+            KIFMM_KERNEL__HSINCOS(t1[u], &sn, &cs);
+            gr[u] = KIFMM_KERNEL__HMUL(e[u], cs), gi[u] = KIFMM_KERNEL__HMUL(e[u], sn); /* G */
+        } else { /* the quadrant's turn i^n folded into e: G = e i^n (cos + i sin)(t1 - n pi / 2) */
+            V er, ei;
+            KIFMM_KERNEL__HQUARTER(KIFMM_KERNEL__HSINCOS_RED(t1[u], &sn, &cs), &er, &ei);
+            er = KIFMM_KERNEL__HMUL(e[u], er), ei = KIFMM_KERNEL__HMUL(e[u], ei);
+            gr[u] = KIFMM_KERNEL__HFNMA(ei, sn, KIFMM_KERNEL__HMUL(er, cs));
+            gi[u] = KIFMM_KERNEL__HFMA(er, sn, KIFMM_KERNEL__HMUL(ei, cs));
+        }
+    }
+}
+
+/* one target (x, y, z) against the lanes j .. j + nu W - 1 of a filled
+ * block, into o[0 .. td - 1] (a vector of sums each); with pb (modes 0 and
+ * 1, the mutual hooks), the target's density qa (re, im) as a source of the
+ * block's points as well, added to their sums pb[c][j]. Each step below is
+ * taken for the nu vectors in turn (nu a constant where inlined), so that
+ * their independent chains (1 / r, then sin and cos: some 150 cycles deep,
+ * against some 40 of arithmetic a vector) interleave and the scheduler
+ * always holds work that can start; the sums take the lanes in the order
+ * that one vector a step would (outputs bitwise those of one vector a step).
+ * One core, 244 x 244 points a box apart, best of 15, one vector a step ->
+ * 4 (gcc -O3): AVX-512 helmholtz_grad 3.58 -> 2.77 ns a pair mutual, 2.75
+ * -> 2.36 one way; AVX2 6.62 -> 5.06, 4.99 -> 4.21; helmholtz_cd_grad one
+ * way (bench_p2p, 256) 4.3 -> 3.6. */
+KIFMM_KERNEL__HINLINE void kifmm_kernel__helm_step(const double *param, double x, double y, double z,
+                                           double (*p)[KIFMM_KERNEL__HSB], int64_t j, int nu,
+                                           int mode, int wide, int damped, const double *qa,
+                                           double (*pb)[KIFMM_KERNEL__HSB], KIFMM_KERNEL__HV *o)
+{
+    typedef KIFMM_KERNEL__HV V;
+    enum { SB_ = KIFMM_KERNEL__HSB, U_ = KIFMM_KERNEL__HU };
+    const V KI = KIFMM_KERNEL__HSET1(param[1]);
+    const V ONE = KIFMM_KERNEL__HSET1(1.0), ZERO = KIFMM_KERNEL__HSET1(0.0);
+    const V TWO = KIFMM_KERNEL__HSET1(2.0), THREE = KIFMM_KERNEL__HSET1(3.0);
+    const V NTHREE = KIFMM_KERNEL__HSET1(-3.0);
+    const V QAR = KIFMM_KERNEL__HSET1(qa ? qa[0] : 0.0), QAI = KIFMM_KERNEL__HSET1(qa ? qa[1] : 0.0);
+    V dx[U_], dy[U_], dz[U_], inv[U_], r[U_], t1[U_], gr[U_], gi[U_], qr[U_], qi[U_];
+    V ir2[U_], ar[U_], ai[U_], aqr[U_], aqi[U_];
+    int u;
+    kifmm_kernel__helm_g(param, x, y, z, p, j, nu, wide, damped, dx, dy, dz, inv, r, t1, gr, gi);
+    KIFMM_KERNEL__HEACH {
+        qr[u] = KIFMM_KERNEL__HLOAD(p[3] + KIFMM_KERNEL__HLANE);
+        qi[u] = KIFMM_KERNEL__HLOAD(p[4] + KIFMM_KERNEL__HLANE);
+    }
+#define KIFMM_KERNEL__HGQ /* o[0..1] += G q */                                               \
+    o[0] = KIFMM_KERNEL__HFMA(gr[u], qr[u], KIFMM_KERNEL__HFNMA(gi[u], qi[u], o[0]));           \
+    o[1] = KIFMM_KERNEL__HFMA(gr[u], qi[u], KIFMM_KERNEL__HFMA(gi[u], qr[u], o[1]))
+    if (mode != 2) KIFMM_KERNEL__HEACH { KIFMM_KERNEL__HGQ; } /* (mode 2: with its other terms) */
+    if (pb) KIFMM_KERNEL__HEACH { /* G qa */
+        double *b0 = pb[0] + KIFMM_KERNEL__HLANE, *b1 = pb[1] + KIFMM_KERNEL__HLANE;
+        const V v0 = KIFMM_KERNEL__HLOAD(b0), v1 = KIFMM_KERNEL__HLOAD(b1);
+        KIFMM_KERNEL__HSTORE(b0, KIFMM_KERNEL__HFMA(gr[u], QAR, KIFMM_KERNEL__HFNMA(gi[u], QAI, v0)));
+        KIFMM_KERNEL__HSTORE(b1, KIFMM_KERNEL__HFMA(gr[u], QAI, KIFMM_KERNEL__HFMA(gi[u], QAR, v1)));
+    }
+    if (!mode) return;
+    KIFMM_KERNEL__HEACH ir2[u] = KIFMM_KERNEL__HMUL(inv[u], inv[u]); /* A q, A = G (i k r - 1) / r^2 */
+    if (damped) KIFMM_KERNEL__HEACH {
+        const V t0 = KIFMM_KERNEL__HFNMA(KI, r[u], KIFMM_KERNEL__HSUB(ZERO, ONE));
+        ar[u] = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi[u], t1[u], KIFMM_KERNEL__HMUL(gr[u], t0)), ir2[u]);
+        ai[u] = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi[u], t0, KIFMM_KERNEL__HMUL(gr[u], t1[u])), ir2[u]);
+    } else KIFMM_KERNEL__HEACH { /* i k r - 1 = -1 + i t1: the same roundings, fewer operations */
+        ar[u] = KIFMM_KERNEL__HFNMA(KIFMM_KERNEL__HFMA(gi[u], t1[u], gr[u]), ir2[u], ZERO);
+        ai[u] = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMS(gr[u], t1[u], gi[u]), ir2[u]);
+    }
+    KIFMM_KERNEL__HEACH {
+        aqr[u] = KIFMM_KERNEL__HFNMA(ai[u], qi[u], KIFMM_KERNEL__HMUL(ar[u], qr[u]));
+        aqi[u] = KIFMM_KERNEL__HFMA(ai[u], qr[u], KIFMM_KERNEL__HMUL(ar[u], qi[u]));
+    }
+    if (mode == 2) {
+        KIFMM_KERNEL__HEACH {
+            KIFMM_KERNEL__HGQ;
+            KIFMM_KERNEL__HELM_CD(p[5], KIFMM_KERNEL__HLANE, u);
+        }
+        return;
+    }
+    KIFMM_KERNEL__HEACH {
+        o[2] = KIFMM_KERNEL__HFMA(aqr[u], dx[u], o[2]), o[3] = KIFMM_KERNEL__HFMA(aqi[u], dx[u], o[3]);
+        o[4] = KIFMM_KERNEL__HFMA(aqr[u], dy[u], o[4]), o[5] = KIFMM_KERNEL__HFMA(aqi[u], dy[u], o[5]);
+        o[6] = KIFMM_KERNEL__HFMA(aqr[u], dz[u], o[6]), o[7] = KIFMM_KERNEL__HFMA(aqi[u], dz[u], o[7]);
+    }
+    if (pb) KIFMM_KERNEL__HEACH KIFMM_KERNEL__HELM_BACK(pb, KIFMM_KERNEL__HLANE, u);
+#undef KIFMM_KERNEL__HGQ
+}
+
 /* one target (x, y, z) against a filled block of jp sources: the sums of
- * the mode's td outputs, without scale and 1 / (4 pi); with pb (modes 0
- * and 1, the mutual hooks), the target's density qa (re, im) as a source
- * of the block's points as well, added to their sums pb[c][j] */
+ * the mode's td outputs, without scale and 1 / (4 pi); KIFMM_KERNEL__HU
+ * vectors a step, then one (kifmm_kernel__helm_step) */
 KIFMM_KERNEL__HINLINE void kifmm_kernel__helm_row(const double *param, double x, double y, double z,
                                           double (*p)[KIFMM_KERNEL__HSB], int64_t jp, int mode,
                                           int wide, int damped, const double *qa,
                                           double (*pb)[KIFMM_KERNEL__HSB], double *sums)
 {
-    typedef KIFMM_KERNEL__HV V;
-    enum { SB_ = KIFMM_KERNEL__HSB, W_ = KIFMM_KERNEL__HW };
-    const V KR = KIFMM_KERNEL__HSET1(param[0]), KI = KIFMM_KERNEL__HSET1(param[1]);
-    const V ONE = KIFMM_KERNEL__HSET1(1.0), ZERO = KIFMM_KERNEL__HSET1(0.0);
-    const V TWO = KIFMM_KERNEL__HSET1(2.0), THREE = KIFMM_KERNEL__HSET1(3.0);
-    const V NTHREE = KIFMM_KERNEL__HSET1(-3.0);
-    const V X = KIFMM_KERNEL__HSET1(x), Y = KIFMM_KERNEL__HSET1(y), Z = KIFMM_KERNEL__HSET1(z);
-    const V QAR = KIFMM_KERNEL__HSET1(qa ? qa[0] : 0.0), QAI = KIFMM_KERNEL__HSET1(qa ? qa[1] : 0.0);
-    const double *px = p[0], *py = p[1], *pz = p[2], *pr = p[3], *pi = p[4], *pv = p[5];
-    V o[8];
-    int64_t j;
+    enum { W_ = KIFMM_KERNEL__HW, U_ = KIFMM_KERNEL__HU };
+    KIFMM_KERNEL__HV o[8];
+    int64_t j = 0;
     int c;
-    for (c = 0; c < 8; c++) o[c] = ZERO;
-    for (j = 0; j < jp; j += W_) {
-        const V dx = KIFMM_KERNEL__HSUB(X, KIFMM_KERNEL__HLOAD(px + j));
-        const V dy = KIFMM_KERNEL__HSUB(Y, KIFMM_KERNEL__HLOAD(py + j));
-        const V dz = KIFMM_KERNEL__HSUB(Z, KIFMM_KERNEL__HLOAD(pz + j));
-        const V r2 = KIFMM_KERNEL__HFMA(dz, dz, KIFMM_KERNEL__HFMA(dy, dy, KIFMM_KERNEL__HMUL(dx, dx)));
-        const V inv = KIFMM_KERNEL__HINV(r2), qr = KIFMM_KERNEL__HLOAD(pr + j);
-        const V qi = KIFMM_KERNEL__HLOAD(pi + j), r = KIFMM_KERNEL__HMUL(r2, inv);
-        const V t1 = KIFMM_KERNEL__HMUL(KR, r);
-        V e = inv, sn, cs, gr, gi;
-        if (damped) e = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HEXPN(KIFMM_KERNEL__HMUL(KI, r)), inv);
-        if (wide) {
-            KIFMM_KERNEL__HSINCOS(t1, &sn, &cs);
-            gr = KIFMM_KERNEL__HMUL(e, cs), gi = KIFMM_KERNEL__HMUL(e, sn); /* G */
-        } else { /* the quadrant's turn i^n folded into e: G = e i^n (cos + i sin)(t1 - n pi / 2) */
-            V er, ei;
-            KIFMM_KERNEL__HQUARTER(KIFMM_KERNEL__HSINCOS_RED(t1, &sn, &cs), &er, &ei);
-            er = KIFMM_KERNEL__HMUL(e, er), ei = KIFMM_KERNEL__HMUL(e, ei);
-            gr = KIFMM_KERNEL__HFNMA(ei, sn, KIFMM_KERNEL__HMUL(er, cs));
-            gi = KIFMM_KERNEL__HFMA(er, sn, KIFMM_KERNEL__HMUL(ei, cs));
-        }
-        o[0] = KIFMM_KERNEL__HFMA(gr, qr, KIFMM_KERNEL__HFNMA(gi, qi, o[0]));
-        o[1] = KIFMM_KERNEL__HFMA(gr, qi, KIFMM_KERNEL__HFMA(gi, qr, o[1]));
-        if (pb) { /* G qa */
-            const V b0 = KIFMM_KERNEL__HLOAD(pb[0] + j), b1 = KIFMM_KERNEL__HLOAD(pb[1] + j);
-            KIFMM_KERNEL__HSTORE(pb[0] + j, KIFMM_KERNEL__HFMA(gr, QAR, KIFMM_KERNEL__HFNMA(gi, QAI, b0)));
-            KIFMM_KERNEL__HSTORE(pb[1] + j, KIFMM_KERNEL__HFMA(gr, QAI, KIFMM_KERNEL__HFMA(gi, QAR, b1)));
-        }
-        if (mode) { /* A q, A = G (i k r - 1) / r^2 */
-            const V ir2 = KIFMM_KERNEL__HMUL(inv, inv);
-            V ar, ai, aqr, aqi;
-            if (damped) {
-                const V t0 = KIFMM_KERNEL__HFNMA(KI, r, KIFMM_KERNEL__HSUB(ZERO, ONE));
-                ar = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFNMA(gi, t1, KIFMM_KERNEL__HMUL(gr, t0)), ir2);
-                ai = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMA(gi, t0, KIFMM_KERNEL__HMUL(gr, t1)), ir2);
-            } else { /* i k r - 1 = -1 + i t1: the same roundings, fewer operations */
-                ar = KIFMM_KERNEL__HFNMA(KIFMM_KERNEL__HFMA(gi, t1, gr), ir2, ZERO);
-                ai = KIFMM_KERNEL__HMUL(KIFMM_KERNEL__HFMS(gr, t1, gi), ir2);
-            }
-            aqr = KIFMM_KERNEL__HFNMA(ai, qi, KIFMM_KERNEL__HMUL(ar, qr));
-            aqi = KIFMM_KERNEL__HFMA(ai, qr, KIFMM_KERNEL__HMUL(ar, qi));
-            if (mode == 2) {
-                KIFMM_KERNEL__HELM_CD(pv, j);
-                continue;
-            }
-            o[2] = KIFMM_KERNEL__HFMA(aqr, dx, o[2]), o[3] = KIFMM_KERNEL__HFMA(aqi, dx, o[3]);
-            o[4] = KIFMM_KERNEL__HFMA(aqr, dy, o[4]), o[5] = KIFMM_KERNEL__HFMA(aqi, dy, o[5]);
-            o[6] = KIFMM_KERNEL__HFMA(aqr, dz, o[6]), o[7] = KIFMM_KERNEL__HFMA(aqi, dz, o[7]);
-            if (pb) KIFMM_KERNEL__HELM_BACK(pb, j);
-        }
-    }
+    for (c = 0; c < 8; c++) o[c] = KIFMM_KERNEL__HSET1(0.0);
+    for (; j + U_ * W_ <= jp; j += U_ * W_)
+        kifmm_kernel__helm_step(param, x, y, z, p, j, U_, mode, wide, damped, qa, pb, o);
+    for (; j < jp; j += W_) kifmm_kernel__helm_step(param, x, y, z, p, j, 1, mode, wide, damped, qa, pb, o);
     for (c = 0; c < (mode ? 8 : 2); c++) sums[c] = KIFMM_KERNEL__HSUM(o[c]);
 }
+#undef KIFMM_KERNEL__HEACH
+#undef KIFMM_KERNEL__HLANE
 
 /* 1 where Re k r may exceed KIFMM_KERNEL__SINCOS_MAX between a point of A
  * and one of B (their joint bounding box's diagonal), or a coordinate is
