@@ -4991,9 +4991,12 @@ KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const
  * same array for both). Points on surfaces or in clusters make other trees:
  * docs/api.md, "Memory", gives the ratios measured. One vector's
  * workspace: evaluate_many with more vectors adds to it. Options are
- * checked as create checks them. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL,
- * KIFMM_ERR_COUNT, an option's error, KIFMM_ERR_PARAM, KIFMM_ERR_PERIODIC
- * or KIFMM_ERR_NOMEM; *bytes is written only on success. Thread safe. */
+ * checked as create checks them. An oscillating kernel's wide levels at a
+ * higher order (>>orders) are counted where opts.domain gives the root,
+ * else every level at opts.order. Returns KIFMM_SUCCESS, KIFMM_ERR_NULL,
+ * KIFMM_ERR_COUNT, an option's error, KIFMM_ERR_PARAM, KIFMM_ERR_PERIODIC,
+ * KIFMM_ERR_FREQUENCY (with opts.domain, as create) or KIFMM_ERR_NOMEM;
+ * *bytes is written only on success. Thread safe. */
 KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsources, int64_t ntargets,
                                          double *bytes);
 
@@ -9890,21 +9893,29 @@ KIFMM__FN int KIFMM__F(__level_order)(const KIFMM_NAME *h, double x)
     return 0;
 }
 
-/* Each level's order for the handle's tree (ord), before the FFT's slabs
- * and the operators; KIFMM_ERR_FREQUENCY where a level's boxes are too wide
- * for every order it may take. */
-KIFMM__FN int KIFMM__F(__orders)(KIFMM_NAME *h)
+/* The orders q[l] of the levels of a tree of the handle's width and nlev
+ * levels whose expansions are used from level lmin; KIFMM_ERR_FREQUENCY
+ * where a level's boxes are too wide for every order it may take. */
+KIFMM__FN int KIFMM__F(__orders_of)(const KIFMM_NAME *h, int lmin, int *q)
 {
     const kifmm__tree *t = h->tree;
-    const int p = h->opts.order, lmin = KIFMM__F(__waves_lmin)(t);
     const double k = KIFMM__K(_wavenumber)(h->opts.kernel_param) / (2.0 * 3.14159265358979323846);
-    int q[KIFMM__D + 2], l, d;
+    int l;
     for (l = 0; l < t->nlev; l++) {
-        q[l] = p;
+        q[l] = h->opts.order;
         if (l >= lmin && !(q[l] = KIFMM__F(__level_order)(h, t->width / (double)((int64_t)1 << l) * k)))
             return KIFMM_ERR_FREQUENCY;
     }
-    for (l = lmin; l < t->nlev; l++) {
+    return KIFMM_SUCCESS;
+}
+
+/* The handle takes the orders q (a plan of its own per raised order) and
+ * the expansions' offsets of levels of n[l] boxes. */
+KIFMM__FN int KIFMM__F(__orders_take)(KIFMM_NAME *h, const int *q, const double *n)
+{
+    const int p = h->opts.order, nl = h->tree->nlev;
+    int l, d;
+    for (l = 0; l < nl; l++) {
         kifmm_opts o = h->pl->opts;
         if (q[l] == p) continue;
         o.order = q[l];
@@ -9917,12 +9928,22 @@ KIFMM__FN int KIFMM__F(__orders)(KIFMM_NAME *h)
         h->ord.up = 1;
     }
     for (d = 0; d < 2 && h->ord.up; d++)
-        for (h->ord.eo[d][0] = 0, l = 0; l < t->nlev; l++) {
+        for (h->ord.eo[d][0] = 0, l = 0; l < nl; l++) {
             const kifmm__surf *s = KIFMM__F(__sf)(h, l);
-            const size_t n = (size_t)(t->loff[l + 1] - t->loff[l]);
-            h->ord.eo[d][l + 1] = h->ord.eo[d][l] + n * (size_t)(d ? s->nde : s->ne);
+            h->ord.eo[d][l + 1] = h->ord.eo[d][l] + (size_t)n[l] * (size_t)(d ? s->nde : s->ne);
         }
     return KIFMM_SUCCESS;
+}
+
+/* Each level's order for the handle's tree (ord), before the FFT's slabs
+ * and the operators. */
+KIFMM__FN int KIFMM__F(__orders)(KIFMM_NAME *h)
+{
+    const kifmm__tree *t = h->tree;
+    double n[KIFMM__D + 2];
+    int q[KIFMM__D + 2], l, rc = KIFMM__F(__orders_of)(h, KIFMM__F(__waves_lmin)(t), q);
+    for (l = 0; l < t->nlev; l++) n[l] = (double)(t->loff[l + 1] - t->loff[l]);
+    return rc ? rc : KIFMM__F(__orders_take)(h, q, n);
 }
 #endif
 
@@ -10716,6 +10737,25 @@ KIFMM__API int KIFMM__F(_direct)(const kifmm_opts *opts, int64_t nsources, const
 
 /* ---- estimate_bytes: the memory of a handle before it is created ---- */
 
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+/* An oscillating kernel's levels' orders (>>orders) in the model's tree,
+ * where its width is known (opts.domain; else every level has opts.order):
+ * from level 2, where uniform points' trees start their M2L, each level
+ * of 8^l boxes up to the model's count. */
+KIFMM__FN int KIFMM__F(__model_orders)(KIFMM_NAME *h, const kifmm__shape *s)
+{
+    double n[KIFMM__D + 2], left = s->box, full = 1.0;
+    int q[KIFMM__D + 2], l, rc;
+    if (!(h->tree->width > 0.0) || h->tree->nlev > KIFMM__D + 1) return KIFMM_SUCCESS;
+    if ((rc = KIFMM__F(__orders_of)(h, kifmm__lmin(h->tree), q))) return rc;
+    for (l = 0; l < h->tree->nlev; l++, full *= 8.0) {
+        n[l] = l + 1 < h->tree->nlev && full < left ? full : left;
+        left -= n[l];
+    }
+    return KIFMM__F(__orders_take)(h, q, n);
+}
+#endif
+
 /* A model of the handle create would build over points spread through a
  * cube: the expected tree's figures (kifmm__shape_uniform) where create has
  * the tree's, then what create derives from them alone, through its own
@@ -10726,13 +10766,15 @@ KIFMM__FN int KIFMM__F(__model)(KIFMM_NAME *h, const kifmm__shape *s)
 {
     kifmm__tree *t = &h->tr->t; /* the model writes the figures a tree would have */
     const double cap = 2e9;
-    int rc;
+    int rc = KIFMM_SUCCESS;
     t->nlev = s->nlev;
     t->nbox = (int32_t)(s->box < cap ? s->box : cap);
     h->work.mb = (int)(s->mb < cap ? s->mb : cap);
+#if KIFMM__HAS_QT & KIFMM_HAS_WAVES
+    if ((rc = KIFMM__F(__model_orders)(h, s))) return rc; /* before the buffers' sizes */
+#endif
     KIFMM__F(__frame_points)(h, (size_t)s->maxleaf);
     h->work.m2l_cols = KIFMM__F(__m2l_cols)(h);
-    rc = KIFMM_SUCCESS;
 #if KIFMM__FFT
     h->fft.m = (int32_t)(s->mi < 1.0 ? 1.0 : s->mi < cap ? s->mi : cap);
     h->fft.slots = KIFMM__F(__fft_slots)(h, h->pl->fft.single ? 4 : 8, h->fft.m);
@@ -10761,6 +10803,27 @@ KIFMM__FN double KIFMM__F(__bytes_tree)(const KIFMM_NAME *h, const kifmm__shape 
     return b;
 }
 
+/* The solves, M2M, L2L and check-to-equivalent map of level l's set, with
+ * the surfaces of its order and its neighbours' (>>orders) */
+KIFMM__FN double KIFMM__F(__bytes_set)(const KIFMM_NAME *h, int l)
+{
+    const int nl = h->tree->nlev, lmin = kifmm__lmin(h->tree);
+    const kifmm__surf *o = KIFMM__F(__sf)(h, l), *sc = KIFMM__F(__sf)(h, l + 1 < nl ? l + 1 : l);
+    const kifmm__surf *sp = KIFMM__F(__sf)(h, l > lmin ? l - 1 : l);
+    const double ne = o->ne, nc = o->nc, nd = o->nde, c2e = o->cdiff ? nc * ne : 0.0;
+    return sizeof(KIFMM__R) * (ne * (nc + ne) + nd * (nc + nd) + 8.0 * nc * (sc->ne + sp->nde) + c2e);
+}
+
+#if KIFMM__FFT
+/* The M2L spectra of a set whose lattice is f (blocks apart) */
+KIFMM__FN double KIFMM__F(__bytes_spectra)(const KIFMM_NAME *h, const kifmm__fft *f)
+{
+    const int turned = KIFMM__F(__m2l_turned)(h);
+    return (turned ? 16.0 : (double)KIFMM__NT) * KIFMM__FSD * KIFMM__FSD * 2.0 * f->nfp * sizeof(double) +
+           (turned ? (double)KIFMM__NT * KIFMM__KTAB_W(KIFMM__FSD) * sizeof(int) : 0.0); /* __khat_turned */
+}
+#endif
+
 /* The operators (__precompute), one set for a scale-invariant kernel, else
  * one per level from kifmm__lmin, none in a tree without M2L: the solves'
  * factors (ranks at most ne and nde), M2M and L2L, the check-to-equivalent map when
@@ -10782,9 +10845,9 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
 #if KIFMM__FFT
     const kifmm__fft *pl = &h->pl->fft;
     const double kb = (double)KIFMM__FFT_KBN * pl->nchunk * (pl->single ? 4.0 : 8.0);
-    const int turned = KIFMM__F(__m2l_turned)(h);
-    m2l = (turned ? 16.0 : (double)KIFMM__NT) * KIFMM__FSD * KIFMM__FSD * 2.0 * pl->nfp * sizeof(double) +
-          (turned ? (double)KIFMM__NT * KIFMM__KTAB_W(KIFMM__FSD) * sizeof(int) : 0.0); /* __khat_turned */
+    double up = 0.0;
+    int l;
+    m2l = KIFMM__F(__bytes_spectra)(h, pl);
     if (kb * (m2ls > 1.0 ? m2ls : 1.0) <= (double)((size_t)KIFMM__FFT_KB_MB << 20)) {
         m2l += kb;
         *fout = 0.0;
@@ -10792,10 +10855,26 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
         *fout = m2ls < 1.0 ? m2ls : 1.0; /* __work_fout */
     }
 #else
+    double up = 0.0;
+    int l;
     m2l = (double)KIFMM__NT * nd * ne * r;
     *fout = 0.0;
 #endif
-    return (double)n * (sizeof(KIFMM__F(__ops)) + sizeof(double)) + sets * per + m2ls * m2l;
+    /* levels of other orders or next to them (>>orders): their own sets, a
+     * raised level's M2L (FFT: without blocks, __keep_blocks) where it has
+     * one (the first m2ls levels from lmin) */
+    for (l = lmin; h->ord.up && l < n && sets > 0.0; l++) {
+        const kifmm__surf *o = KIFMM__F(__sf)(h, l);
+        up += KIFMM__F(__bytes_set)(h, l) - per;
+        if (KIFMM__F(__lpl)(h, l) == h->pl || !(l - lmin < m2ls)) continue;
+#if KIFMM__FFT
+        up += KIFMM__F(__bytes_spectra)(h, KIFMM__F(__ft)(h, l)) - m2l;
+#else
+        up += (double)KIFMM__NT * o->nde * o->ne * r - m2l;
+#endif
+        (void)o;
+    }
+    return (double)n * (sizeof(KIFMM__F(__ops)) + sizeof(double)) + sets * per + m2ls * m2l + up;
 }
 
 /* A periodic tree's far images (__lattice_build): the exchange (__far_root):
@@ -10824,7 +10903,7 @@ KIFMM__FN double KIFMM__F(__bytes_work)(const KIFMM_NAME *h, const kifmm__shape 
 {
     const kifmm__tree *t = h->tree;
     const double r = sizeof(KIFMM__R), nth = h->opts.nthreads;
-    double sz[6], b, m = s->maxleaf > h->pl->surf.nsc ? s->maxleaf : h->pl->surf.nsc;
+    double sz[6], b, m = s->maxleaf > KIFMM__F(__smax)(h)->nsc ? s->maxleaf : KIFMM__F(__smax)(h)->nsc;
     size_t z[6];
     int k;
     KIFMM__F(__work_sizes)(h, z);
@@ -10839,8 +10918,8 @@ KIFMM__FN double KIFMM__F(__bytes_work)(const KIFMM_NAME *h, const kifmm__shape 
 #if KIFMM__FFT
     {
         const double esz = h->pl->fft.single ? 4.0 : 8.0;
-        const double spec = (double)h->fft.slots * h->pl->fft.nfp * 16.0 * esz;
-        b += spec * (1.0 + fout) + nth * ((double)h->fft.per * esz + 64.0 * h->pl->surf.nc);
+        const double spec = (double)h->fft.slots * KIFMM__F(__ftmax)(h)->nfp * 16.0 * esz;
+        b += spec * (1.0 + fout) + nth * ((double)h->fft.per * esz + 64.0 * KIFMM__F(__smax)(h)->nc);
     }
 #else
     b += s->vany * h->work.m2l_cols * r *
@@ -10877,6 +10956,8 @@ KIFMM__API int KIFMM__F(_estimate_bytes)(const kifmm_opts *opts, int64_t nsource
     h->tree = &h->tr->t;
     h->tr->t.same = same;
     for (d = 0; d < 3; d++) h->tr->t.periodic |= h->tr->t.per[d] = o.period[d] > 0.0;
+    if (o.domain[3] > 0.0) h->tr->t.width = 2.0 * o.domain[3]; /* (>>orders: the levels' widths) */
+    h->ord.raise = 1; /* as create */
     /* as __points_tree finds on uniform points: leaves at level 1 */
     h->lat.zsmall = nsources / 8 <= o.leaf_size && nt / 8 <= o.leaf_size;
     b = 0.0;

@@ -12,7 +12,11 @@
  * Points on a sphere and in clusters: laplace within 0.5 to 2 (measured
  * 0.58 to 1.74 for the scale-invariant kernels, docs/api.md "Memory").
  * Empty sets: the estimate is the handle's size, exactly. And the errors:
- * NULL, bad counts, bad options, bad parameters; *bytes untouched. */
+ * NULL, bad counts, bad options, bad parameters; *bytes untouched.
+ * helmholtz_grad with opts.domain, where create raises the wide levels'
+ * orders (>>orders in kifmm.h): within 0.9 to 1.1 (measured 0.987 to
+ * 1.006, orders 3 to 12, 1 to 5 wavelengths), and KIFMM_ERR_FREQUENCY from
+ * both where no order serves a level. */
 #include "kifmm.h"
 #define KIFMM_KERNEL laplace
 #define KIFMM_REAL float
@@ -20,6 +24,8 @@
 #define KIFMM_KERNEL stokes
 #include "kifmm.h"
 #define KIFMM_KERNEL yukawa
+#include "kifmm.h"
+#define KIFMM_KERNEL helmholtz_grad
 #include "kifmm.h"
 
 #include "test.h"
@@ -63,6 +69,7 @@ EST_RATIO(kifmm_laplace, double)
 EST_RATIO(kifmm_laplacef, float)
 EST_RATIO(kifmm_stokes, double)
 EST_RATIO(kifmm_yukawa, double)
+EST_RATIO(kifmm_helmholtz_grad, double)
 
 static double ratio_of(int k, const kifmm_opts *o, int64_t ns, const double *x, int64_t nt,
                        const double *y)
@@ -253,6 +260,43 @@ static void check_tol(void)
     free(x);
 }
 
+/* helmholtz_grad in the unit cube given as opts.domain: orders 4, 6 and 8
+ * at 2 wavelengths across (no level raised) and 5 (level 2 raised: the
+ * handle holds more), and 7 (past order 12's limit). */
+static void check_waves(void)
+{
+    static const int order[3] = {4, 6, 8};
+    double *x = t_doubles(3 * NSMALL), b = -7.0;
+    t_rng r = t_rng_seed(4500);
+    kifmm_helmholtz_grad *h = NULL;
+    kifmm_opts o;
+    int i, w, rc;
+    t_gen_cube(&r, NSMALL, x, 0.0, 1.0);
+    memset(&o, 0, sizeof o);
+    o.domain[0] = o.domain[1] = o.domain[2] = o.domain[3] = 0.5;
+    for (i = 0; i < 3; i++) {
+        double e[2] = {0.0, 0.0};
+        o.order = order[i];
+        for (w = 0; w < 2; w++) {
+            double q;
+            o.kernel_param[0] = 2.0 * 3.14159265358979323846 * (w ? 5.0 : 2.0);
+            q = ratio_kifmm_helmholtz_grad(&o, NSMALL, x, NSMALL, x);
+            rc = kifmm_helmholtz_grad_estimate_bytes(&o, NSMALL, KIFMM_SAME_POINTS, &e[w]);
+            CHECK(q >= 0.9 && q <= 1.1 && !rc, "helmholtz_grad p = %d, %d wavelengths: held / estimate %.3f",
+                  o.order, w ? 5 : 2, q);
+        }
+        CHECK(e[1] > 1.05 * e[0], "p = %d: estimate %.0f at 5 wavelengths, %.0f at 2 (no level raised?)",
+              o.order, e[1], e[0]);
+    }
+    o.kernel_param[0] = 2.0 * 3.14159265358979323846 * 7.0;
+    rc = kifmm_helmholtz_grad_estimate_bytes(&o, NSMALL, KIFMM_SAME_POINTS, &b);
+    CHECK(rc == KIFMM_ERR_FREQUENCY && b == -7.0, "7 wavelengths: estimate %s", kifmm_strerror(rc));
+    rc = kifmm_helmholtz_grad_create(&h, &o, NSMALL, x, NSMALL, x);
+    kifmm_helmholtz_grad_destroy(h);
+    CHECK(rc == KIFMM_ERR_FREQUENCY, "7 wavelengths: create %s", kifmm_strerror(rc));
+    free(x);
+}
+
 int main(void)
 {
     t_group("errors");
@@ -267,5 +311,7 @@ int main(void)
     check_periodic();
     t_group("points on a sphere, clustered points");
     check_other_sets();
+    t_group("helmholtz_grad, wide levels");
+    check_waves();
     return t_finish();
 }
