@@ -45,11 +45,32 @@ if ! printf 'int LLVMFuzzerTestOneInput(const unsigned char *d, unsigned long n)
 fi
 
 # rebuild when the target or the headers are newer than the binary
-if [ ! -x "$BIN" ] || [ tests/fuzz_create.c -nt "$BIN" ] || [ kifmm.h -nt "$BIN" ] \
-   || [ kifmm_kernels.h -nt "$BIN" ]; then
-    echo "fuzz: $CLANG $CFLAGS $EXTRA_CFLAGS -I. tests/fuzz_create.c -o $BIN $LIBS"
+# three objects, two at a time: the harness (instances declared only) and
+# the two halves of the instances (tests/fuzz_instances.h)
+SRCS="tests/fuzz_create.c tests/fuzz_instances.c tests/fuzz_instances.h tests/fuzz_mode.h kifmm.h kifmm_kernels.h"
+stale=0
+[ -x "$BIN" ] || stale=1
+for f in $SRCS; do [ "$f" -nt "$BIN" ] && stale=1; done
+if [ "$stale" = 1 ]; then
+    echo "fuzz: $CLANG $CFLAGS $EXTRA_CFLAGS -I. -c tests/fuzz_create.c, tests/fuzz_instances.c" \
+         "(-DFUZZ_PART=1, 2); linked into $BIN with $LIBS"
+    rm -f "$BIN" "$OUT"/*.o
     # shellcheck disable=SC2086
-    if ! "$CLANG" $CFLAGS $EXTRA_CFLAGS -I. tests/fuzz_create.c -o "$BIN" $LIBS; then
+    "$CLANG" $CFLAGS $EXTRA_CFLAGS -I. -DFUZZ_PART=1 -c tests/fuzz_instances.c -o "$OUT/part1.o" &
+    p1=$!
+    # shellcheck disable=SC2086
+    "$CLANG" $CFLAGS $EXTRA_CFLAGS -I. -DFUZZ_PART=2 -c tests/fuzz_instances.c -o "$OUT/part2.o" &
+    p2=$!
+    wait "$p1"
+    r1=$?
+    # shellcheck disable=SC2086
+    "$CLANG" $CFLAGS $EXTRA_CFLAGS -I. -c tests/fuzz_create.c -o "$OUT/harness.o"
+    r0=$?
+    wait "$p2"
+    r2=$?
+    # shellcheck disable=SC2086
+    if [ "$r0$r1$r2" != 000 ] ||
+        ! "$CLANG" $CFLAGS "$OUT/harness.o" "$OUT/part1.o" "$OUT/part2.o" -o "$BIN" $LIBS; then
         echo "fuzz: FAILED (build of $BIN)"
         exit 1
     fi

@@ -1,9 +1,11 @@
 /* fuzz_create.c - libFuzzer target for the public API of kifmm.h.
  *
- * Build (make fuzz does this; tests/fuzz.sh runs it inside make test):
+ * Build (make fuzz does this; tests/fuzz.sh runs it inside make test): this
+ * file and the two halves of the instances (tests/fuzz_instances.c with
+ * -DFUZZ_PART=1 and 2), each
  *   clang -g -O1 -fopenmp -fsanitize=fuzzer,address,undefined \
- *         -fno-sanitize-recover=all -I. tests/fuzz_create.c \
- *         -o build/fuzz_create -llapacke -lopenblas -lm
+ *         -fno-sanitize-recover=all -I. -c FILE
+ * then linked into build/fuzz_create with -llapacke -lopenblas -lm
  *   build/fuzz_create -max_len=512 CORPUS_DIR
  * Reproduce one input: build/fuzz_create crash-FILE (FUZZ_TRACE=1 prints the
  * decoded input first).
@@ -56,34 +58,8 @@
 #ifndef FUZZ_NO_SKIPS
 #define FUZZ_SKIP_CLOSE_PAIR_OVERFLOW
 #endif
-#include "kifmm.h" /* kifmm_laplace */
-#define KIFMM_KERNEL laplace_grad
-#include "kifmm.h"
-#define KIFMM_KERNEL laplace_hess
-#include "kifmm.h"
-#define KIFMM_KERNEL laplace_dipole
-#include "kifmm.h"
-#define KIFMM_KERNEL laplace_cd
-#include "kifmm.h"
-#define KIFMM_KERNEL yukawa
-#include "kifmm.h"
-#define KIFMM_KERNEL yukawa_grad
-#include "kifmm.h"
-#define KIFMM_KERNEL stokes
-#include "kifmm.h"
-#define KIFMM_KERNEL stokes_dl
-#include "kifmm.h"
-#define KIFMM_KERNEL biot_savart
-#include "kifmm.h"
-#define KIFMM_KERNEL laplace
-#define KIFMM_REAL float
-#include "kifmm.h" /* kifmm_laplacef */
-#define KIFMM_KERNEL stokes
-#define KIFMM_REAL float
-#include "kifmm.h" /* kifmm_stokesf */
-#define KIFMM_KERNEL yukawa
-#define KIFMM_REAL float
-#include "kifmm.h" /* kifmm_yukawaf */
+#include "fuzz_instances.h" /* the thirteen instances, declared */
+#include "kifmm_kernels.h"  /* their dimensions (kifmm_kernel_NAME_SRC_DIM) */
 
 #include <float.h>
 #include <limits.h>

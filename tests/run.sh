@@ -123,11 +123,16 @@ fi
 # Helmholtz, handles on threads. The rest of each runs with CONFIGS=all
 # (together about 540 s on 2 cores of an Intel Xeon with AVX-512, where
 # make test took 75 minutes with them; CI took 4,495 s). test_deep (the
-# anchors on deep trees) runs in gcc-c11-omp and asan; the anchors' passes
+# anchors on deep trees) runs in gcc-c11-omp; the anchors' passes
 # run on threads and in C++ through test_families and test_shipped (with
 # it everywhere, make test took about 62 minutes there). asan leaves
 # test_periodic3 (64 s) to gcc-c11-omp; test_periodic runs three periodic
-# directions under it.
+# directions under it. asan also leaves test_families, test_laplace_family,
+# test_deep, test_tol_outputs and test_estimate to gcc-c11-omp (test_families
+# runs in tsan too; the families' hooks run under ASan and UBSan in the fuzz
+# target and the MPI sanitizer build): their asan builds took 450 s and
+# their runs 215 s of CPU on 2 cores of an AMD EPYC (Zen 4), where make test
+# took about 58 minutes and 75 on an Intel Xeon.
 GXX_LEFT="test_families test_laplace_family test_update test_periodic3 test_tree test_tol_outputs
  test_kernels test_edges test_slab test_tol test_estimate test_alloc test_yukawa_p2p test_roles
  test_offset test_stokes_p2p test_small test_p2p test_operators test_check_order test_sincos test_ewald
@@ -150,7 +155,7 @@ clang-c99|clang|-std=c99 -O2 -march=native -DKIFMM_TEST_QUICK
 clang-c99-omp|clang|-std=c99 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
 clang-c11|clang|-std=c11 -O2 -march=native -DKIFMM_TEST_QUICK
 clang-c11-omp|clang|-std=c11 -O2 -march=native -fopenmp -DKIFMM_TEST_QUICK
-asan|gcc|-std=c11 -O1 -g1 -march=native -fopenmp -fsanitize=address,undefined -fno-sanitize-recover=all -DKIFMM_TEST_QUICK|test_periodic3 test_tol test_update test_threads
+asan|gcc|-std=c11 -O1 -g1 -march=native -fopenmp -fsanitize=address,undefined -fno-sanitize-recover=all -DKIFMM_TEST_QUICK|test_periodic3 test_tol test_update test_threads test_families test_laplace_family test_deep test_tol_outputs test_estimate
 gcc-c11-omp-portable|gcc|-std=c11 -O2 -fopenmp -DKIFMM_TEST_QUICK
 gcc-O0-omp|gcc|-std=c99 -O0 -fopenmp -DKIFMM_TEST_QUICK|test_alloc test_tol test_tol_outputs test_slab test_periodic3 test_laplace_family test_threads test_deep test_tree test_update test_periodic test_operators
 clang-O0-omp|clang|-std=c99 -O0 -march=native -fopenmp -DKIFMM_TEST_QUICK
@@ -224,6 +229,7 @@ compile() {
     local cc=$1 flags=$2 dir=$3 name=$4 link=""
     case "$name" in test_linkage_*) link="-L$dir -lkifmm_linkage" ;; esac
     (
+        local t0=$SECONDS
         # shellcheck disable=SC2046,SC2086
         if $cc $WARN $flags ${EXTRA_CFLAGS:-} -I. $(sources_of "$name") -o "$dir/$name" $link $LIBS \
             </dev/null >"$dir/$name.build.log" 2>&1; then
@@ -231,13 +237,14 @@ compile() {
         else
             echo 1 >"$dir/$name.status"
         fi
+        echo $((SECONDS - t0)) >"$dir/$name.btime"
     ) &
 }
 
 # run_prog FLAGS DIR PROG JOBS: one test program, its output in DIR/PROG.log
 # and its exit status in DIR/PROG.rc
 run_prog() {
-    local flags=$1 dir=$2 prog=$3 pj=$4 runner="" rc
+    local flags=$1 dir=$2 prog=$3 pj=$4 runner="" rc t0=$SECONDS
     case " $flags " in
         *" -fsanitize=thread "*)
             if command -v setarch >/dev/null 2>&1; then runner="setarch $(uname -m) -R"; fi ;;
@@ -253,6 +260,15 @@ run_prog() {
     fi
     rc=$?
     echo "$rc" >"$dir/$prog.rc"
+    echo $((SECONDS - t0)) >"$dir/$prog.rtime"
+}
+
+# slowest EXT DIR: the four programs whose DIR/*.EXT seconds are the largest
+slowest() {
+    local f
+    for f in "$2"/*."$1"; do
+        [ -e "$f" ] && echo "$(cat "$f") $(basename "$f" ".$1")"
+    done | sort -n -r | head -n 4 | awk '{printf "%s%s %ss", (NR > 1 ? ", " : ""), $2, $1}'
 }
 
 run_config() {
@@ -351,6 +367,7 @@ $(tail -n 15 "$log" | sed 's/^/      /')"
     case "$skip" in "only: "*) tail="   (these programs only:${skip#only:})" ;; esac
     printf '%-14s %6d passed, %3d failed   (build %3ds, run %3ds)%s\n' "$name" "$pass" "$fail" \
         "$tb" $((SECONDS - t0 - tb)) "$tail"
+    echo "               slowest builds: $(slowest btime "$dir"); runs: $(slowest rtime "$dir")"
     if [ -n "$notes" ]; then echo "$notes" | sed '1{/^$/d}'; fi
     total_pass=$((total_pass + pass))
     total_fail=$((total_fail + fail))
