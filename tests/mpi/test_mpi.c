@@ -557,7 +557,7 @@ int main(int argc, char **argv)
             run_case(&kifmm_laplace_grad_m, kind, mode, 0, 20000, 1, 6, 3e-5);
             run_case(&kifmm_laplace_grad_m, kind, mode, 8000, 12000, 1, 6, 3e-5);
         }
-    /* KIFMM_TEST_MPI_LIGHT (tests/mpi.sh but with CONFIGS=all: the 1- and 4-rank,
+    /* KIFMM_TEST_MPI_LIGHT (tests/mpi.sh but with CONFIGS=all: the 1-, 3- and 4-rank,
      * sanitizer and C++ runs): the first group, one
      * kernel with fitted proxies, the errors */
     light = getenv("KIFMM_TEST_MPI_LIGHT") && *getenv("KIFMM_TEST_MPI_LIGHT");
