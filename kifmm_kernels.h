@@ -3182,8 +3182,7 @@ KIFMM_KERNEL__P2PSN_F(1)
  * vector registers: x = n ln2 + r, |r| <= ln2 / 2, n = x / ln2 rounded to
  * the nearest integer (by adding 1.5 2^52 in one fused multiply-add), r from
  * ln2 in two parts (the first with 32 significant bits, so n ln2_hi is
- * exact for any n here), exp(r) by its Taylor series to degree 13 (the
- * remainder, r^14 / 14!, is below 5e-18 of the result) in Estrin's form,
+ * exact for any n here), exp(r) by a polynomial of degree 11 (below),
  * and 2^n as 2^n1 2^n2 with n1 = floor(n / 2), both normal numbers, so that
  * results in the subnormal range round once, as a scalar exp's do. Within
  * 2 ulp of exp over [-745, 0] (tests/test_p2p.c checks every exponent); x
@@ -3241,26 +3240,28 @@ static inline __m512d kifmm_kernel__expn8(__m512d y)
 
 #elif defined(__AVX2__) && defined(__FMA__)
 
-/* exp(r) by its Taylor series to degree 13: the terms from r^3 on in
- * Estrin's form (pairs of terms, then pairs of pairs with r^2, r^4 and
- * r^8), the last three steps of Horner's rule after them (1 + r (1 + r (1
- * / 2 + r S)), whose rounding keeps the result within the 1 ulp of the
- * plain Horner form), seven fused multiply-adds deep where Horner's rule
- * is thirteen (yukawa_grad's one-way hook, 64 x 512 pairs, one core of an
- * AVX-512 Xeon built with -mno-avx512f: 3.37 -> 3.28 ns a pair) */
+/* exp(r) on |r| <= ln2 / 2 by the minimax polynomial of degree 11 (least
+ * relative error, 3.1e-18, found by Remez's exchange in 60 digits; the
+ * coefficients rounded to double): the terms from r^3 on in Estrin's form
+ * (pairs of terms, then pairs of pairs with r^2 and r^4), the last three
+ * steps of Horner's rule after them (1 + r (1 + r (c2 + r S)), whose
+ * rounding keeps the result within the 1 ulp of the plain Horner form).
+ * Seven operations deep, as the Taylor series of degree 13 in the same
+ * form that it replaced, with two fewer in all (that series, yukawa_grad's
+ * one-way AVX2 hook, 64 x 512 pairs, one core of an AVX-512 Xeon built with
+ * -mno-avx512f: Horner's rule 3.37, Estrin's form 3.28 ns a pair) */
 #define KIFMM_KERNEL__EXP_C(k) _mm256_set1_pd(k)
 static inline __m256d kifmm_kernel__exp_series4(__m256d r)
 {
-    const __m256d r2 = _mm256_mul_pd(r, r), r4 = _mm256_mul_pd(r2, r2), r8 = _mm256_mul_pd(r4, r4);
-    const __m256d p3 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(1.0 / 24.0), KIFMM_KERNEL__EXP_C(1.0 / 6.0));
-    const __m256d p5 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(1.0 / 720.0), KIFMM_KERNEL__EXP_C(1.0 / 120.0));
-    const __m256d p7 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(1.0 / 40320.0), KIFMM_KERNEL__EXP_C(1.0 / 5040.0));
-    const __m256d p9 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(1.0 / 3628800.0), KIFMM_KERNEL__EXP_C(1.0 / 362880.0));
-    const __m256d p11 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(1.0 / 479001600.0), KIFMM_KERNEL__EXP_C(1.0 / 39916800.0));
-    const __m256d q3 = _mm256_fmadd_pd(p5, r2, p3), q7 = _mm256_fmadd_pd(p9, r2, p7);
-    const __m256d q11 = _mm256_fmadd_pd(KIFMM_KERNEL__EXP_C(1.0 / 6227020800.0), r2, p11);
-    const __m256d s = _mm256_fmadd_pd(q11, r8, _mm256_fmadd_pd(q7, r4, q3)); /* r^3 .. r^13, over r^3 */
-    const __m256d h = _mm256_fmadd_pd(r, s, KIFMM_KERNEL__EXP_C(0.5));
+    const __m256d r2 = _mm256_mul_pd(r, r), r4 = _mm256_mul_pd(r2, r2);
+    const __m256d p3 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(0.04166666666649277), KIFMM_KERNEL__EXP_C(0.1666666666666617));
+    const __m256d p5 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(0.0013888888951223987), KIFMM_KERNEL__EXP_C(0.00833333333355927));
+    const __m256d p7 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(2.4801486521427463e-05), KIFMM_KERNEL__EXP_C(0.00019841269432679237));
+    const __m256d p9 = _mm256_fmadd_pd(r, KIFMM_KERNEL__EXP_C(2.7632293279459877e-07), KIFMM_KERNEL__EXP_C(2.7557622530872255e-06));
+    const __m256d q3 = _mm256_fmadd_pd(p5, r2, p3);
+    const __m256d q7 = _mm256_fmadd_pd(_mm256_fmadd_pd(KIFMM_KERNEL__EXP_C(2.4994304884817207e-08), r2, p9), r2, p7);
+    const __m256d s = _mm256_fmadd_pd(q7, r4, q3); /* r^3 .. r^11, over r^3 */
+    const __m256d h = _mm256_fmadd_pd(r, s, KIFMM_KERNEL__EXP_C(0.5000000000000018));
     return _mm256_fmadd_pd(r, _mm256_fmadd_pd(r, h, KIFMM_KERNEL__EXP_C(1.0)), KIFMM_KERNEL__EXP_C(1.0));
 }
 #undef KIFMM_KERNEL__EXP_C
@@ -4104,42 +4105,57 @@ KIFMM_KERNEL__STOKES_P2PS(kifmm_kernel_stokes_p2psf, float, KIFMM_KERNEL__STOKES
  *
  * Where both points of A lie within KIFMM_KERNEL__YSHORT / lambda of the
  * block's farthest corner, every lambda r of the pass is below YSHORT and
- * exp(-lambda r) is its Taylor series to degree 7 (EXPS: the remainder, y^8
- * / 8!, is below 3e-17 of the result), without the range reduction, the
- * table and the scaling: 7 instead of 18 vector operations per exp; below
- * KIFMM_KERNEL__YMID, to degree 10 (EXPM: y^11 / 11! < 3e-18). This is the
- * near field of boxes small against the screening length 1 / lambda (at
- * lambda 1: 1M uniform points, clustered points, deep levels); one core,
- * 64 x 512 pairs, lambda 1, yukawa_grad one-way: in a cube of side 0.01,
- * 1.56 -> 1.21 ns per pair with AVX-512, 3.19 -> 1.94 with AVX2; side 0.05,
- * 1.56 -> 1.35 and 3.19 -> 2.20; side 1, 1.56 (the full exp). Below
- * KIFMM_KERNEL__YLONG, to degree 13 (EXPL: y^14 / 14! < 5e-20 of the
- * result; 13 operations): the near field of 200,000 uniform points at
- * lambda 1, whose leaves are 1/16 wide and whose pairs are at most 0.22
- * apart; one core, two such leaves of 49 points side by side, yukawa_grad
- * mutual: AVX-512 2.47 -> 2.27 ns a pair and direction, AVX2 4.74 -> 2.96;
- * the near field of 200,000 uniform points at p = 6, 2 threads, best of 5
- * evaluates, two runs: AVX-512 0.156 and 0.133 s -> 0.146 and 0.121 s,
- * AVX2 0.324 and 0.262 s -> 0.188 and 0.210 s. */
+ * exp(-lambda r) is a polynomial of degree 6 (EXPS, below), without the
+ * range reduction, the table and the scaling: 6 instead of 18 vector
+ * operations per exp; below KIFMM_KERNEL__YMID, of degree 8 (EXPM); below
+ * KIFMM_KERNEL__YLONG, of degree 9 (EXPL). This is the near field of boxes
+ * small against the screening length 1 / lambda (at lambda 1: 1M uniform
+ * points, whose leaves are 1/32 wide, clustered points, deep levels; 200,000
+ * uniform points, whose leaves are 1/16 wide and whose pairs are at most
+ * 0.22 apart); one core, 64 x 512 pairs, lambda 1, yukawa_grad one-way, with
+ * the Taylor series of degrees 7 and 10 first: in a cube of side 0.01, 1.56
+ * -> 1.21 ns per pair with AVX-512, 3.19 -> 1.94 with AVX2; side 0.05, 1.56
+ * -> 1.35 and 3.19 -> 2.20; side 1, 1.56 (the full exp); with the series of
+ * degree 13 below YLONG, two leaves of 49 points side by side, yukawa_grad
+ * mutual: AVX-512 2.47 -> 2.27 ns a pair and direction, AVX2 4.74 -> 2.96.
+ * The minimax polynomials in place of the series of degrees 7, 10 and 13
+ * took yukawa_grad's near field at 200,000 uniform points, p = 6, 2 threads
+ * (Intel Xeon with AVX-512, best of 5 evaluates, two runs) from 0.105 and
+ * 0.106 s to 0.095 and 0.093 s with AVX-512 and from 0.147 to 0.136 s with
+ * AVX2 (-mno-avx512f). */
 #define KIFMM_KERNEL__YSHORT 0.03125
 #define KIFMM_KERNEL__YMID 0.125
 #define KIFMM_KERNEL__YLONG 0.25
-/* sum_k (-y)^k / k! by Horner's rule from degree 6 down, c7 the terms
- * from degree 7 up (over y^7) */
-#define KIFMM_KERNEL__EXP6(FNMADD, SET1, y, c7)                                                 \
-    FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(c7, y, SET1(1.0 / 720.0)), y,              \
-    SET1(1.0 / 120.0)), y, SET1(1.0 / 24.0)), y, SET1(1.0 / 6.0)), y, SET1(0.5)), y,            \
-    SET1(1.0)), y, SET1(1.0))
-#define KIFMM_KERNEL__EXPS(FNMADD, SET1, y) KIFMM_KERNEL__EXP6(FNMADD, SET1, y, SET1(1.0 / 5040.0))
+/* exp(-y) = a0 - y (a1 - y (a2 - ...)): the minimax polynomials of least
+ * relative error on [0, YSHORT] (degree 6, error 7.1e-19), [0, YMID] (degree
+ * 8, 1.6e-19) and [0, YLONG] (degree 9, 5.0e-19), found by Remez's exchange
+ * in 60 digits; a_k = |c_k| rounded to double. By Horner's rule with fused
+ * multiply-adds, within 0.53, 0.59 and 0.76 ulp of exp(-y) (every y of a
+ * 2e6-point grid on each interval, against long double). KIFMM_KERNEL__HN
+ * is one step: acc -> a - acc y. */
+#define KIFMM_KERNEL__HN(FNMADD, SET1, y, acc, a) FNMADD(acc, y, SET1(a))
+#define KIFMM_KERNEL__EXP5(FNMADD, SET1, y, acc, a0, a1, a2, a3, a4)                           \
+    KIFMM_KERNEL__HN(FNMADD, SET1, y, KIFMM_KERNEL__HN(FNMADD, SET1, y,                        \
+    KIFMM_KERNEL__HN(FNMADD, SET1, y, KIFMM_KERNEL__HN(FNMADD, SET1, y,                        \
+    KIFMM_KERNEL__HN(FNMADD, SET1, y, acc, a4), a3), a2), a1), a0)
+#define KIFMM_KERNEL__EXPS(FNMADD, SET1, y)                                                     \
+    KIFMM_KERNEL__EXP5(FNMADD, SET1, y, KIFMM_KERNEL__HN(FNMADD, SET1, y,                      \
+                       SET1(0.0013673457311960359), 0.008332409093226282), 1.0,                  \
+                       0.9999999999999978, 0.49999999999887507, 0.16666666645105052,              \
+                       0.04166664697237952)
 #define KIFMM_KERNEL__EXPM(FNMADD, SET1, y)                                                     \
-    KIFMM_KERNEL__EXP6(FNMADD, SET1, y,                                                         \
-                       FNMADD(FNMADD(FNMADD(SET1(1.0 / 3628800.0), y, SET1(1.0 / 362880.0)), y, \
-                                     SET1(1.0 / 40320.0)), y, SET1(1.0 / 5040.0)))
+    KIFMM_KERNEL__EXP5(FNMADD, SET1, y, KIFMM_KERNEL__HN(FNMADD, SET1, y,                      \
+                       KIFMM_KERNEL__HN(FNMADD, SET1, y, KIFMM_KERNEL__HN(FNMADD, SET1, y,       \
+                       SET1(2.3296659944779405e-05), 0.00019806256034475786),                    \
+                       0.0013888446918701304), 0.008333330072549777), 1.0, 0.9999999999999998,   \
+                       0.4999999999999576, 0.16666666666320729, 0.0416666665250766)
 #define KIFMM_KERNEL__EXPL(FNMADD, SET1, y)                                                     \
-    KIFMM_KERNEL__EXP6(FNMADD, SET1, y,                                                         \
-        FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(FNMADD(SET1(1.0 / 6227020800.0), y,                  \
-        SET1(1.0 / 479001600.0)), y, SET1(1.0 / 39916800.0)), y, SET1(1.0 / 3628800.0)), y,     \
-        SET1(1.0 / 362880.0)), y, SET1(1.0 / 40320.0)), y, SET1(1.0 / 5040.0)))
+    KIFMM_KERNEL__EXP5(FNMADD, SET1, y, KIFMM_KERNEL__HN(FNMADD, SET1, y,                      \
+                       KIFMM_KERNEL__HN(FNMADD, SET1, y, KIFMM_KERNEL__HN(FNMADD, SET1, y,       \
+                       KIFMM_KERNEL__HN(FNMADD, SET1, y, SET1(2.4310614421534472e-06),           \
+                       2.463176290854282e-05), 0.0001983629315253075), 0.0013888800276068603),   \
+                       0.008333332353464583), 1.0, 0.9999999999999996, 0.4999999999999491,      \
+                       0.16666666666409533, 0.041666666600522456)
 /* The squared distance from (x, y, z) to the farthest corner of the box
  * [lo, hi] */
 static inline double kifmm_kernel__far2(const double *lo, const double *hi, double x, double y,
