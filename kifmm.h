@@ -3381,8 +3381,13 @@ typedef struct kifmm__ops {
     int ku, kd;             /* ranks kept by the two pseudo-inverses */
     double *ut_up, *vs_up;  /* pinv K(up check <- up equiv) = vs_up ut_up */
     double *ut_dn, *vs_dn;  /* pinv K(down check <- down equiv) */
-    double *m2m;            /* nc x 8 ne: children's equiv -> parent's check */
-    double *l2l;            /* 8 nc x nde: parent's equiv (anchors last) -> children's check */
+    double *m2m;            /* nc x 8 ne: children's equiv -> parent's check (mir: nc x ne) */
+    double *l2l;            /* 8 nc x nde: parent's equiv (anchors last) -> children's check
+                               (mir: nc x ne, then the anchors' 8 nc x (nde - ne)) */
+    int mir;                /* m2m and l2l hold octant 0's only, the others its mirror
+                               images (P__mirror_maps): 1 radial, 2 vector kernel; else 0 */
+    int *mmap;              /* with mir: octants 1 to 7's maps of the check surface's
+                               points (nsc) and the equivalent surface's (nse) */
     double *m2l;            /* kd x 316 ne: source equiv -> ut_dn (target check) */
     double *conv;           /* FFT M2L, nc x ne: upward equivalent density -> a density
                                on the check surface's lattice (ai r) with the same
@@ -3406,7 +3411,7 @@ KIFMM__FN void kifmm__ops_free(kifmm__ops *o)
     kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
     kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
     kifmm__free(o->conv); kifmm__free(o->khat); kifmm__free(o->ktab);
-    kifmm__free(o->kup); kifmm__free(o->kdn);
+    kifmm__free(o->kup); kifmm__free(o->kdn); kifmm__free(o->mmap);
     memset(o, 0, sizeof *o);
 }
 
@@ -5227,6 +5232,8 @@ typedef struct {
     double sigma; /* scale of the level's check potentials (see build_c2e) */
     int ku, kd;
     KIFMM__R *ut_up, *vs_up, *ut_dn, *vs_dn, *m2m, *l2l, *m2l, *conv;
+    int mir;      /* and mmap: as kifmm__ops's (M2M and L2L: octant 0's, P__family_mirror) */
+    int *mmap;
     double *khat; /* and ktab: as kifmm__ops's */
     int *ktab;
     float *kbf;   /* FFT M2L: the 8 x 8 blocks of every chunk (kifmm__fft_blocks), in */
@@ -5882,61 +5889,52 @@ KIFMM__FN int KIFMM__F(__c2e_solve)(const KIFMM_NAME *c, kifmm__ops *o)
     return rc;
 }
 
-/* The M2M and L2L of octants 1 to 7 from octant 0's, for a radial kernel
- * (one component, or a complex kernel's pair) or a vector one (vec,
- * P__sc_vector): octant m is octant 0 mirrored in the axes of m (R, a
+/* A radial kernel's (one component, or a complex kernel's pair) or a
+ * vector one's (vec, P__sc_vector) M2M and L2L of octants 1 to 7 are octant
+ * 0's mirrored: octant m is octant 0 mirrored in the axes of m (R, a
  * diagonal of signs), and so are the surfaces' points, so entry (i, j) of
- * octant m is entry (mirror i, mirror j) of octant 0, times the signs of
- * R's rows for the components of i and j where they are a vector's (K(R x)
- * = R K(x) R^T) (Yukawa, p = 6: 7/8 of the 2 x 8 x 152^2 kernel values of a
- * level not computed). */
-KIFMM__FN int KIFMM__F(__m2m_mirror)(const KIFMM_NAME *c, int vec, int nth, kifmm__ops *o)
+ * octant m is entry (mirror i, mirror j) of octant 0, times the signs of R's
+ * rows for the components of i and j where they are a vector's (K(R x) = R
+ * K(x) R^T). The operators keep octant 0's matrices and these maps, o->mmap:
+ * per octant m from 1, the check surface's points mirrored (nsc), then the
+ * equivalent surface's (nse); P__family_mirror applies them (laplace, p =
+ * 12: 2 x 4.2 MB kept instead of 2 x 34 MB, and none of the 7/8 written). */
+KIFMM__FN int KIFMM__F(__mirror_maps)(const KIFMM_NAME *c, int vec, kifmm__ops *o)
 {
-    enum { SD = KIFMM__SD }; /* a point's components, moved together */
-    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, p = c->opts.order;
-    int *mall = (int *)kifmm__alloc((size_t)7 * (nc + ne), sizeof(int)), bad = 0;
-    (void)nth; /* (without OpenMP) */
-    if (!mall) return KIFMM_ERR_NOMEM;
-    /* each octant m writes its own blocks of m2m and l2l (laplace, p = 12:
-     * 2 x 7 x 866 x 728 values, 0.033 s on one thread) */
-    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(nth) if(nth > 1) reduction(| : bad))
-    for (int m = 1; m < 8; m++) {
-        double *a = o->m2m + (size_t)m * ne * nc, *b = o->l2l + (size_t)m * nc, sg[SD];
-        int *mc = mall + (size_t)(m - 1) * (nc + ne), *me = mc + nc, i, j;
-        const int ax[3] = {m >> 2 & 1, m >> 1 & 1, m & 1}; /* the axes mirrored */
-        for (i = 0; i < SD; i++) sg[i] = vec && i >= SD - 3 && ax[i - (SD - 3)] ? -1.0 : 1.0;
-        if (kifmm__surf_mirror(p + c->pl->surf.cdiff, m, mc) || kifmm__surf_mirror(p, m, me)) {
-            bad = 1;
-            continue;
-        }
-        for (j = 0; j < ne; j++)
-            for (i = 0; i < nc; i++) {
-                const size_t fi = (size_t)mc[i / SD] * SD + i % SD, fj = (size_t)me[j / SD] * SD + j % SD;
-                a[i + (size_t)j * nc] = sg[i % SD] * sg[j % SD] * o->m2m[fi + fj * nc];
-                b[i + (size_t)j * 8 * nc] = sg[i % SD] * sg[j % SD] * o->l2l[fi + fj * 8 * nc];
-            }
+    const int nsc = c->pl->surf.nsc, nse = c->pl->surf.nse, p = c->opts.order;
+    int m;
+    o->mmap = (int *)kifmm__alloc((size_t)7 * (nsc + nse), sizeof(int));
+    if (!o->mmap) return KIFMM_ERR_NOMEM;
+    for (m = 1; m < 8; m++) {
+        int *mc = o->mmap + (size_t)(m - 1) * (nsc + nse);
+        if (kifmm__surf_mirror(p + c->pl->surf.cdiff, m, mc) || kifmm__surf_mirror(p, m, mc + nsc))
+            return KIFMM_ERR_NOMEM;
     }
-    kifmm__free(mall);
-    return bad ? KIFMM_ERR_NOMEM : KIFMM_SUCCESS;
+    o->mir = vec ? 2 : 1;
+    return KIFMM_SUCCESS;
 }
 
 /* M2M and L2L, per child octant: a child's upward equivalent density (half
  * r / 2, centre r / 2 sgn) -> the parent's upward check potential (half r);
  * the parent's downward equivalent density (half 2 r, centre -r sgn) -> a
  * child's downward check potential (half r). Times sigma. A radial or
- * vector kernel's octants are the first one mirrored (P__m2m_mirror), where
- * the children and the parent have the level's order (o->sc, o->sp NULL). */
-KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, int nth, kifmm__ops *o)
+ * vector kernel's, where the children and the parent have the level's order
+ * (o->sc, o->sp NULL), octant 0's and the maps to the others
+ * (P__mirror_maps); the anchors' columns of L2L for every octant. */
+KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, kifmm__ops *o)
 {
     const double zero[3] = {0.0, 0.0, 0.0};
     const kifmm__surf *s = &c->pl->surf, *sc = o->sc ? o->sc : s, *sp = o->sp ? o->sp : s;
     const size_t nc = (size_t)s->nc, ne = (size_t)sc->ne, nd = (size_t)sp->nde, np = (size_t)sp->ne;
     const int vec = !KIFMM__FRADIAL && KIFMM__F(__sc_vector)(c->opts.kernel_param);
     const int mirror = (KIFMM__FRADIAL || vec) && !o->sc && !o->sp;
+    const size_t ldl = mirror ? nc : 8 * nc; /* L2L's equivalent columns */
+    double *anc;                             /* and its anchors' */
     int oct, d, rc = KIFMM_SUCCESS;
-    o->m2m = (double *)kifmm__alloc(nc * 8 * ne, sizeof(double));
-    o->l2l = (double *)kifmm__alloc(8 * nc * nd, sizeof(double));
+    o->m2m = (double *)kifmm__alloc(nc * (mirror ? 1 : 8) * ne, sizeof(double));
+    o->l2l = (double *)kifmm__alloc(ldl * np + 8 * nc * (nd - np), sizeof(double));
     if (!o->m2m || !o->l2l) return KIFMM_ERR_NOMEM;
+    anc = o->l2l + ldl * np;
     for (oct = 0; oct < (mirror ? 1 : 8) && !rc; oct++) {
         const double sgn[3] = {(oct >> 2 & 1) ? 1.0 : -1.0, (oct >> 1 & 1) ? 1.0 : -1.0,
                                (oct & 1) ? 1.0 : -1.0};
@@ -5951,16 +5949,15 @@ KIFMM__FN int KIFMM__F(__build_m2m_l2l)(const KIFMM_NAME *c, double r, int nth, 
         if (!rc)
             rc = KIFMM__F(__surf_kmat)(c, s->unit_c, s->nsc, zero, KIFMM__F(__rin)(c->pl, s, r), sp->unit_e,
                                        sp->nse, cl, sp->ao * 2.0 * r, o->sigma, o->l2l + (size_t)oct * nc,
-                                       8 * nc, NULL);
+                                       ldl, NULL);
     }
-    if (!rc && mirror) rc = KIFMM__F(__m2m_mirror)(c, vec, nth, o);
+    if (!rc && mirror) rc = KIFMM__F(__mirror_maps)(c, vec, o);
     /* the parent's anchors (>>anchors), every octant */
     for (oct = 0; oct < 8 && !rc && nd > np; oct++) {
         double cl[3];
         for (d = 0; d < 3; d++) cl[d] = -r * ((oct >> (2 - d) & 1) ? 1.0 : -1.0);
         rc = KIFMM__F(__surf_kmat)(c, s->unit_c, s->nsc, zero, KIFMM__F(__rin)(c->pl, s, r), sp->unit_a,
-                                   sp->nsa, cl, 2.0 * r, o->sigma, o->l2l + 8 * nc * np + (size_t)oct * nc,
-                                   8 * nc, NULL);
+                                   sp->nsa, cl, 2.0 * r, o->sigma, anc + (size_t)oct * nc, 8 * nc, NULL);
     }
     return rc;
 }
@@ -6249,7 +6246,7 @@ KIFMM__FN int KIFMM__F(__ops_kernels)(const KIFMM_NAME *c, double r, int m2l, in
                                       kifmm__ops *o)
 {
     int rc = KIFMM__F(__c2e_kernels)(c, r, c->pl->surf.ao, o);
-    if (!rc) rc = KIFMM__F(__build_m2m_l2l)(c, r, nth, o);
+    if (!rc) rc = KIFMM__F(__build_m2m_l2l)(c, r, o);
 #if KIFMM__FFT
     if (!rc && m2l) rc = KIFMM__F(__build_m2l_fft)(c, r, nth, o);
 #else
@@ -6311,8 +6308,12 @@ KIFMM__FN int KIFMM__F(__ops_keep)(const KIFMM_NAME *c, kifmm__ops *o, KIFMM__F(
     out->vs_up = KIFMM__F(__own)(held, &o->vs_up, ne * (size_t)o->ku);
     out->ut_dn = KIFMM__F(__own)(held, &o->ut_dn, (size_t)o->kd * nc);
     out->vs_dn = KIFMM__F(__own)(held, &o->vs_dn, (size_t)c->pl->surf.nde * (size_t)o->kd);
-    out->m2m = KIFMM__F(__own)(held, &o->m2m, nc * 8 * nec);
-    out->l2l = KIFMM__F(__own)(held, &o->l2l, 8 * nc * ndp);
+    out->m2m = KIFMM__F(__own)(held, &o->m2m, o->mir ? nc * ne : nc * 8 * nec);
+    out->l2l = KIFMM__F(__own)(held, &o->l2l, o->mir ? nc * ne + 8 * nc * (ndp - ne) : 8 * nc * ndp);
+    out->mir = o->mir;
+    if (o->mmap) *held += kifmm__size(o->mmap);
+    out->mmap = o->mmap;
+    o->mmap = NULL;
     if (o->conv && !(out->conv = KIFMM__F(__own)(held, &o->conv, nc * ne))) rc = KIFMM_ERR_NOMEM;
     if (o->m2l && !(out->m2l = KIFMM__F(__own)(held, &o->m2l, (size_t)o->kd * KIFMM__NT * ne)))
         rc = KIFMM_ERR_NOMEM;
@@ -6335,7 +6336,7 @@ KIFMM__FN void KIFMM__F(__ops_free)(KIFMM__F(__ops) *o)
     kifmm__free(o->ut_dn); kifmm__free(o->vs_dn);
     kifmm__free(o->m2m); kifmm__free(o->l2l); kifmm__free(o->m2l);
     kifmm__free(o->conv); kifmm__free(o->khat); kifmm__free(o->ktab);
-    kifmm__free(o->kbf); kifmm__free(o->kbd);
+    kifmm__free(o->kbf); kifmm__free(o->kbd); kifmm__free(o->mmap);
     memset(o, 0, sizeof *o);
 }
 
@@ -7694,14 +7695,16 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
 }
 
 /* Values per buffer of the column GEMM passes: the solve's intermediate
- * (ne x KIFMM__GC_NC), and without AVX2 the gather workspace of the largest
+ * (ne x KIFMM__GC_NC), the mirrored M2M's and L2L's densities and products
+ * (P__family_mirror: nde and nc x KIFMM__GC_NC), and without AVX2 the gather
+ * workspace of the largest
  * product ((k + m) x KIFMM__GC_NC, k + m <= 9 max(nc, ne)). One buffer per
  * thread with AVX2 (the passes run in parallel), else one. */
 KIFMM__FN size_t KIFMM__F(__gbuf_per)(const KIFMM_NAME *c)
 {
     const kifmm__surf *sm = KIFMM__F(__smax)(c);
     const size_t big = (size_t)(sm->nc > sm->nde ? sm->nc : sm->nde);
-    return ((size_t)KIFMM__F(__smax)(c)->nde + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
+    return ((size_t)sm->nde + big + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
 }
 
 /* The calling thread's buffer (thread 0 outside parallel regions). */
@@ -7830,6 +7833,87 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     }
 }
 
+/* __family_level with octant 0's M2M or L2L (e->mir, P__mirror_maps), per
+ * piece of parents: the anchors' part of L2L first (one product over the
+ * eight children), then per octant m the densities gathered mirrored
+ * (child m's, or the parent's: y[k] = s_k x[mirror k], s_k the sign of
+ * component k's axis where it is a vector's) into the thread's buffer, one
+ * product with octant 0's matrix, the results added back mirrored (to the
+ * parent's check vector, or child m's: c[i] += s_i z[mirror i]); octant 0
+ * reads and writes in place. */
+KIFMM__FN void KIFMM__F(__family_mirror)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int lp,
+                                         int down, const KIFMM__F(__ops) *e)
+{
+    enum { SD = KIFMM__SD };
+    const kifmm__tree *t = c->tree;
+    const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
+    const int ppv = (ni + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
+    const kifmm__surf *sf = KIFMM__F(__sf)(c, lp);
+    const int nc = sf->nc, ne = sf->ne, nsc = sf->nsc, nse = sf->nse, na = down ? sf->nde - ne : 0;
+    const size_t per = KIFMM__F(__eo)(c, down, t->nbox);
+    const size_t off_z = (size_t)KIFMM__F(__smax)(c)->nde * KIFMM__GC_NC;
+    const size_t off_w = off_z + (size_t)(KIFMM__F(__smax)(c)->nc > KIFMM__F(__smax)(c)->nde
+                                              ? KIFMM__F(__smax)(c)->nc
+                                              : KIFMM__F(__smax)(c)->nde) * KIFMM__GC_NC;
+    const KIFMM__R *op = down ? e->l2l : e->m2m;
+    KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
+    for (int p = 0; p < np; p++) {
+        const KIFMM__R *xb[KIFMM__GC_NC], *bp[KIFMM__GC_NC];
+        KIFMM__R *cb[KIFMM__GC_NC], *cp[KIFMM__GC_NC], *yp[KIFMM__GC_NC], *zp[KIFMM__GC_NC];
+        KIFMM__R *buf = KIFMM__F(__gbuf)(c);
+        const int jr = p / ppv, j0 = (p % ppv) * KIFMM__GC_NC; /* as in __solve */
+        int q, m, nq = ni - j0;
+        if (nq > KIFMM__GC_NC) nq = KIFMM__GC_NC;
+        for (q = 0; q < nq; q++) {
+            const int jb = j0 + q;
+            const int32_t b = t->inner[t->ioff[lp] + jb];
+            if (down) { /* the parent's density; the eight children's check vectors */
+                xb[q] = w->de + jr * per + KIFMM__F(__eo)(c, 1, b);
+                cb[q] = w->chk + ((size_t)jr * n + 8 * (size_t)jb) * nc;
+            } else { /* the eight children's densities; the parent's check vector */
+                xb[q] = w->ue + jr * per + KIFMM__F(__eo)(c, 0, t->loff[lp + 1] + 8 * jb);
+                cb[q] = w->chk + ((size_t)jr * n + (size_t)(b - t->loff[lp])) * nc;
+            }
+            yp[q] = buf + (size_t)q * ne;
+            zp[q] = buf + off_z + (size_t)q * nc;
+        }
+        if (na > 0) {
+            for (q = 0; q < nq; q++) bp[q] = xb[q] + ne;
+            KIFMM__GEMM_COLS(8 * nc, na, op + (size_t)nc * ne, 8 * nc, nq, bp, cb, 0, buf + off_w);
+        }
+        for (m = 0; m < 8; m++) {
+            const int *mc, *me;
+            KIFMM__R sg[SD];
+            int i, a;
+            for (q = 0; q < nq; q++) {
+                bp[q] = down ? xb[q] : xb[q] + (size_t)m * ne;
+                cp[q] = down ? cb[q] + (size_t)m * nc : cb[q];
+            }
+            if (m == 0) {
+                KIFMM__GEMM_COLS(nc, ne, op, nc, nq, bp, cp, !down || na > 0, buf + off_w);
+                continue;
+            }
+            mc = e->mmap + (size_t)(m - 1) * (nsc + nse), me = mc + nsc;
+            for (a = 0; a < SD; a++) /* the axes of m, for a vector's last three components */
+                sg[a] = e->mir == 2 && a >= SD - 3 && (m >> (2 - (a - (SD - 3))) & 1) ? (KIFMM__R)-1 : (KIFMM__R)1;
+            for (q = 0; q < nq; q++)
+                for (i = 0; i < nse; i++)
+                    for (a = 0; a < SD; a++) yp[q][i * SD + a] = sg[a] * bp[q][me[i] * SD + a];
+            KIFMM__GEMM_COLS(nc, ne, op, nc, nq, (const KIFMM__R *const *)yp, zp, 0, buf + off_w);
+            for (q = 0; q < nq; q++) {
+                KIFMM__R *d = cp[q];
+                const KIFMM__R *z = zp[q];
+                if (!down || na > 0)
+                    for (i = 0; i < nsc; i++)
+                        for (a = 0; a < SD; a++) d[i * SD + a] += sg[a] * z[mc[i] * SD + a];
+                else
+                    for (i = 0; i < nsc; i++)
+                        for (a = 0; a < SD; a++) d[i * SD + a] = sg[a] * z[mc[i] * SD + a];
+            }
+        }
+    }
+}
+
 /* Between the internal boxes of level lp and their children, whose boxes are
  * 8j..8j+7 of level lp + 1 for the j-th internal box: M2M (down = 0) adds
  * the children's equivalent densities, one column of 8 ne values, to the
@@ -7845,8 +7929,13 @@ KIFMM__FN void KIFMM__F(__family_level)(const KIFMM_NAME *c, const KIFMM__F(__wo
     const kifmm__surf *sp = KIFMM__F(__sf)(c, lp), *sc = KIFMM__F(__sf)(c, lp + 1);
     const int m = down ? 8 * sc->nc : sp->nc, k = down ? sp->nde : 8 * sc->ne;
     const size_t per = KIFMM__F(__eo)(c, down, t->nbox);
-    const KIFMM__R *op = down ? KIFMM__F(__ops_at)(c, lp + 1)->l2l : KIFMM__F(__ops_at)(c, lp)->m2m;
+    const KIFMM__F(__ops) *e = down ? KIFMM__F(__ops_at)(c, lp + 1) : KIFMM__F(__ops_at)(c, lp);
+    const KIFMM__R *op = down ? e->l2l : e->m2m;
     if (ni == 0 || lp + 1 >= t->nlev) return;
+    if (e->mir) {
+        KIFMM__F(__family_mirror)(c, w, nrhs, lp, down, e);
+        return;
+    }
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
     for (int p = 0; p < np; p++) {
         const KIFMM__R *bp[KIFMM__GC_NC];
@@ -10803,6 +10892,19 @@ KIFMM__FN double KIFMM__F(__bytes_tree)(const KIFMM_NAME *h, const kifmm__shape 
     return b;
 }
 
+/* M2M and L2L of a set of surfaces o whose children's are sc and parent's
+ * sp (P__build_m2m_l2l): octant 0's, the anchors' columns and the mirror
+ * maps where the three have one order and the kernel is radial or a vector
+ * one, else all eight octants' */
+KIFMM__FN double KIFMM__F(__bytes_family)(const KIFMM_NAME *h, const kifmm__surf *o, const kifmm__surf *sc,
+                                          const kifmm__surf *sp)
+{
+    const double nc = o->nc, ne = o->ne, nd = o->nde;
+    if ((KIFMM__FRADIAL || KIFMM__F(__sc_vector)(h->opts.kernel_param)) && sc->ne == o->ne && sp->nde == o->nde)
+        return sizeof(KIFMM__R) * (2.0 * nc * ne + 8.0 * nc * (nd - ne)) + 7.0 * (o->nsc + o->nse) * sizeof(int);
+    return sizeof(KIFMM__R) * 8.0 * nc * (sc->ne + sp->nde);
+}
+
 /* The solves, M2M, L2L and check-to-equivalent map of level l's set, with
  * the surfaces of its order and its neighbours' (>>orders) */
 KIFMM__FN double KIFMM__F(__bytes_set)(const KIFMM_NAME *h, int l)
@@ -10811,7 +10913,7 @@ KIFMM__FN double KIFMM__F(__bytes_set)(const KIFMM_NAME *h, int l)
     const kifmm__surf *o = KIFMM__F(__sf)(h, l), *sc = KIFMM__F(__sf)(h, l + 1 < nl ? l + 1 : l);
     const kifmm__surf *sp = KIFMM__F(__sf)(h, l > lmin ? l - 1 : l);
     const double ne = o->ne, nc = o->nc, nd = o->nde, c2e = o->cdiff ? nc * ne : 0.0;
-    return sizeof(KIFMM__R) * (ne * (nc + ne) + nd * (nc + nd) + 8.0 * nc * (sc->ne + sp->nde) + c2e);
+    return sizeof(KIFMM__R) * (ne * (nc + ne) + nd * (nc + nd) + c2e) + KIFMM__F(__bytes_family)(h, o, sc, sp);
 }
 
 #if KIFMM__FFT
@@ -10840,7 +10942,8 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
     const double sets = h->tree->nlev <= lmin ? 0.0 : KIFMM__SI ? 1.0 : (double)(n - lmin);
     const double m2ls = KIFMM__SI ? s->vany : s->vlev;
     const double c2e = h->pl->surf.cdiff ? nc * ne : 0.0; /* the check-to-equivalent map */
-    const double per = r * (ne * (nc + ne) + nd * (nc + nd) + 8.0 * nc * (ne + nd) + c2e);
+    const double per = r * (ne * (nc + ne) + nd * (nc + nd) + c2e) +
+                       KIFMM__F(__bytes_family)(h, &h->pl->surf, &h->pl->surf, &h->pl->surf);
     double m2l;
 #if KIFMM__FFT
     const kifmm__fft *pl = &h->pl->fft;

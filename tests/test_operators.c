@@ -86,6 +86,55 @@ static void p2m(const kifmm_laplace *c, const double *ctr, double r, int ns, con
     free(xs);
 }
 
+/* mp[i]: the point of unit surface u (n points, SoA) at point i's place
+ * mirrored in the axes of octant m (4: x, 2: y, 1: z), found by its
+ * coordinates */
+static void mirror_points(const double *u, int n, int m, int *mp)
+{
+    int i, j, d;
+    for (i = 0; i < n; i++) {
+        mp[i] = -1;
+        for (j = 0; j < n && mp[i] < 0; j++) {
+            int same = 1;
+            for (d = 0; d < 3; d++)
+                same &= fabs(u[d * n + j] - ((m >> (2 - d) & 1) ? -1.0 : 1.0) * u[d * n + i]) < 1e-12;
+            if (same) mp[i] = j;
+        }
+        CHECK(mp[i] >= 0, "unit surface point %d mirrored in octant %d's axes is a point of it", i, m);
+    }
+}
+
+/* The eight octants' M2M (nc x 8 ne) and L2L (8 nc x nde, the anchors' last)
+ * of the handle's set: where it keeps octant 0's only (mir), octant m's
+ * entry (i, j) is octant 0's at the mirror images of points i and j (a
+ * radial kernel's: laplace mirrored is laplace), the anchors' columns kept
+ * for every octant after octant 0's nc x ne */
+static void family_octants(const kifmm_laplace *c, double *m2m, double *l2l)
+{
+    const kifmm_laplace__ops *e = c->lv[0];
+    const int nc = c->pl->surf.nc, ne = c->pl->surf.ne, nd = c->pl->surf.nde;
+    int *mc = (int *)malloc(sizeof(int) * (size_t)(nc + ne)), *me = mc + nc, m, i, j;
+    if (!e->mir) {
+        memcpy(m2m, e->m2m, sizeof(double) * (size_t)nc * 8 * ne);
+        memcpy(l2l, e->l2l, sizeof(double) * (size_t)8 * nc * nd);
+        free(mc);
+        return;
+    }
+    for (m = 0; m < 8; m++) {
+        mirror_points(c->pl->surf.unit_c, c->pl->surf.nsc, m, mc);
+        mirror_points(c->pl->surf.unit_e, c->pl->surf.nse, m, me);
+        for (j = 0; j < ne; j++)
+            for (i = 0; i < nc; i++) {
+                m2m[i + (size_t)(m * ne + j) * nc] = e->m2m[mc[i] + (size_t)me[j] * nc];
+                l2l[m * nc + i + (size_t)j * 8 * nc] = e->l2l[mc[i] + (size_t)me[j] * nc];
+            }
+        for (j = ne; j < nd; j++)
+            for (i = 0; i < nc; i++)
+                l2l[m * nc + i + (size_t)j * 8 * nc] = e->l2l[(size_t)nc * ne + m * nc + i + (size_t)(j - ne) * 8 * nc];
+    }
+    free(mc);
+}
+
 static void points_in_box(t_rng *g, int n, const double *ctr, double r, double *x)
 {
     int i, d;
@@ -143,9 +192,11 @@ static void test_upward(int p)
     kifmm_laplace *h = handle(p);
     const kifmm_laplace *c = h;
     t_rng g = t_rng_seed(11 + p);
-    double ctr[3] = {0.3, -0.2, 0.1}, r = 0.25, *x, *q, *y, *pot, *ue, *uec, *chk, *pe;
+    double ctr[3] = {0.3, -0.2, 0.1}, r = 0.25, *x, *q, *y, *pot, *ue, *uec, *chk, *pe, *m2m, *l2l;
     int ns = 400, ny = 300, o;
     x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
+    m2m = t_doubles(8 * (size_t)c->pl->surf.nc * c->pl->surf.ne);
+    l2l = t_doubles(8 * (size_t)c->pl->surf.nc * c->pl->surf.nde);
     ue = t_doubles(c->pl->surf.ne); uec = t_doubles(8 * c->pl->surf.ne); chk = t_doubles(c->pl->surf.nc);
     pe = t_doubles(3 * c->pl->surf.nse);
 
@@ -165,12 +216,13 @@ static void test_upward(int p)
         points_in_box(&g, ns / 8, cc, 0.5 * r, x + 3 * (ns / 8) * o);
         p2m(c, cc, 0.5 * r, ns / 8, x + 3 * (ns / 8) * o, q + (ns / 8) * o, uec + o * c->pl->surf.ne);
     }
-    kifmm__gemm(0, 0, c->pl->surf.nc, 1, 8 * c->pl->surf.ne, 1.0, c->lv[0]->m2m, c->pl->surf.nc, uec, 8 * c->pl->surf.ne, 0.0, chk,
+    family_octants(c, m2m, l2l);
+    kifmm__gemm(0, 0, c->pl->surf.nc, 1, 8 * c->pl->surf.ne, 1.0, m2m, c->pl->surf.nc, uec, 8 * c->pl->surf.ne, 0.0, chk,
                 c->pl->surf.nc);
     solve(c, 1, chk, ue);
     eval_equiv(c, c->pl->surf.nse, pe, ue, ny, y, pot);
     CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "M2M p=%d, far field", p);
-    free(x); free(q); free(y); free(pot); free(ue); free(uec); free(chk); free(pe);
+    free(x); free(q); free(y); free(pot); free(ue); free(uec); free(chk); free(pe); free(m2m); free(l2l);
     kifmm_laplace_destroy(h);
 }
 
@@ -255,10 +307,12 @@ static void test_downward(int p)
     const kifmm_laplace *c = h;
     t_rng g = t_rng_seed(23 + p);
     double ctr[3] = {-0.1, 0.2, 0.05}, r = 0.125, *x, *q, *y, *pot, *ue, *de, *dec, *chk, *pe,
-           *pc, *xs;
+           *pc, *xs, *m2m, *l2l;
     int ns = 300, ny = 300, tv, o, k;
     static const int vecs[4][3] = {{2, 0, 0}, {3, -2, 1}, {-3, -3, -3}, {0, 2, -2}};
     x = t_doubles(3 * ns); q = t_doubles(ns); y = t_doubles(3 * ny); pot = t_doubles(ny);
+    m2m = t_doubles(8 * (size_t)c->pl->surf.nc * c->pl->surf.ne);
+    l2l = t_doubles(8 * (size_t)c->pl->surf.nc * c->pl->surf.nde);
     ue = t_doubles(c->pl->surf.ne); de = t_doubles(c->pl->surf.nde); dec = t_doubles(c->pl->surf.nde);
     chk = t_doubles(8 * c->pl->surf.nc); pc = t_doubles(3 * c->pl->surf.nsc);
     pe = t_doubles(3 * (c->pl->surf.nse + c->pl->surf.nsa));
@@ -330,7 +384,8 @@ static void test_downward(int p)
         points_in_box(&g, ny, cp, 2 * r, y);
         eval_equiv(c, down_points(c, cp, 2 * r, pe), pe, de, ny, y, pot);
         CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "P2L p=%d, inside the box", p);
-        kifmm__gemm(0, 0, 8 * c->pl->surf.nc, 1, c->pl->surf.nde, 1.0, c->lv[0]->l2l, 8 * c->pl->surf.nc, de,
+        family_octants(c, m2m, l2l);
+        kifmm__gemm(0, 0, 8 * c->pl->surf.nc, 1, c->pl->surf.nde, 1.0, l2l, 8 * c->pl->surf.nc, de,
                     c->pl->surf.nde, 0.0, chk, 8 * c->pl->surf.nc);
         for (o = 0; o < 8; o++) {
             double cc[3] = {cp[0] + (o >> 2 & 1 ? r : -r), cp[1] + (o >> 1 & 1 ? r : -r),
@@ -341,7 +396,7 @@ static void test_downward(int p)
             CHECK_ERR(rel_err_at(ny, y, pot, ns, x, q), bound_for(p), "L2L p=%d, child %d", p, o);
         }
     }
-    free(x); free(q); free(y); free(pot); free(ue); free(de); free(dec); free(chk);
+    free(x); free(q); free(y); free(pot); free(ue); free(de); free(dec); free(chk); free(m2m); free(l2l);
     free(pe); free(pc); free(xs);
     kifmm_laplace_destroy(h);
     kifmm_laplace_dense_destroy(hd);
