@@ -256,6 +256,13 @@ run_prog() {
         *" -fsanitize=thread "*)
             if command -v setarch >/dev/null 2>&1; then runner="setarch $(uname -m) -R"; fi ;;
     esac
+    # the sanitizer builds run OpenBLAS on one thread a call (unless the
+    # caller set it), where create factors the operators on several
+    # threads at once (docs/api.md, "Threads and BLAS"); the others with
+    # OpenBLAS's default threads, where it factors them one after the other
+    case " $flags " in
+        *" -fsanitize="*) runner="env OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1} $runner" ;;
+    esac
     case "$dir" in */aarch64) runner="env OPENBLAS_NUM_THREADS=1 $QEMU_ARM" ;; esac
     if [ "$pj" -gt 1 ]; then
         # shellcheck disable=SC2086

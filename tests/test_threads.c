@@ -106,6 +106,60 @@ REL_DIFF(float)
         free(ref);                                                                          \
         free(out);                                                                          \
     }
+/* The operators factored side by side on the handle's threads (2 threads,
+ * OpenBLAS at one thread a call: kifmm__blas_serial) and one after the
+ * other (1 thread): bitwise the same factors and lattice fits at every
+ * level. OpenBLAS's thread count is set through a weak reference (skipped
+ * where the BLAS is not OpenBLAS, the platform has no weak symbols, or
+ * without OpenMP, where nothing runs side by side). */
+#if defined(__ELF__) && defined(__GNUC__) && !defined(KIFMM_NO_BLAS_PROBE) && defined(_OPENMP)
+#ifdef __cplusplus
+extern "C"
+#endif
+void openblas_set_num_threads(int) __attribute__((weak));
+#define HAVE_SET_THREADS 1
+#else
+#define HAVE_SET_THREADS 0
+#endif
+#define SAME(a, b, n) ((a) == (b) || ((a) && (b) && memcmp((a), (b), (size_t)(n) * sizeof *(a)) == 0))
+#define SOLVES_CHECK(P)                                                                     \
+    static void solves_##P(const char *dist, int64_t n, const double *x, int order)        \
+    {                                                                                       \
+        kifmm_opts o = t_opts(order, 64, 0); /* levels with V lists at 3,000 points */     \
+        P *h[2] = {NULL, NULL};                                                             \
+        int k, l, rc = 0, sets = 0, same = 1;                                               \
+        o.kernel_param[0] = 3.0;                                                            \
+        for (k = 0; k < 2 && !rc; k++) {                                                    \
+            o.nthreads = 2 - k;                                                             \
+            rc = P##_create(&h[k], &o, n, x, n, x);                                         \
+        }                                                                                   \
+        CHECK(rc == 0 && kifmm__blas_serial(), "%s %s: rc=%d, OpenBLAS at one thread", #P,   \
+              dist, rc);                                                                    \
+        for (l = 0; !rc && l < h[0]->tree->nlev; l++) {                                     \
+            const P##__ops *a = h[0]->lv[l], *b = h[1]->lv[l];                              \
+            const size_t nc = (size_t)h[0]->pl->surf.nc, ne = (size_t)h[0]->pl->surf.ne;    \
+            const size_t nd = (size_t)h[0]->pl->surf.nde;                                   \
+            if (!a || !b) {                                                                 \
+                same &= !a && !b;                                                           \
+                continue;                                                                   \
+            }                                                                               \
+            sets++;                                                                         \
+            same &= a->ku == b->ku && a->kd == b->kd && SAME(a->ut_up, b->ut_up, a->ku * nc) && \
+                    SAME(a->vs_up, b->vs_up, ne * a->ku) && SAME(a->ut_dn, b->ut_dn, a->kd * nc) && \
+                    SAME(a->vs_dn, b->vs_dn, nd * a->kd) && SAME(a->conv, b->conv, nc * ne);   \
+        }                                                                                   \
+        if (!rc)                                                                            \
+            CHECK(same && sets > 0, "%s %s p=%d: %d operator sets factored side by side "   \
+                  "(2 threads) bitwise those one after the other (1 thread)", #P, dist, order, sets); \
+        P##_destroy(h[0]);                                                                  \
+        P##_destroy(h[1]);                                                                  \
+    }
+#if HAVE_SET_THREADS
+SOLVES_CHECK(kifmm_laplace_grad)
+SOLVES_CHECK(kifmm_yukawa_grad)
+SOLVES_CHECK(kifmm_stokes)
+#endif
+
 THREAD_CHECK(kifmm_laplace, double, 1, 1)
 THREAD_CHECK(kifmm_laplace_grad, double, 1, 4)
 THREAD_CHECK(kifmm_yukawa, double, 1, 1)
@@ -138,6 +192,18 @@ int main(void)
     check_kifmm_yukawa_gradf("sphere", n, sphere, 4, bf);
     t_group("dense M2L: stokes");
     check_kifmm_stokes("cube", ns, cube, 4, bd);
+    t_group("operators factored side by side (OpenBLAS at 1 thread) and one after the other");
+#if HAVE_SET_THREADS /* (kifmm.h declares openblas_get_num_threads, weak) */
+    if (openblas_set_num_threads && openblas_get_num_threads) {
+        const int blas0 = openblas_get_num_threads();
+        openblas_set_num_threads(1);
+        solves_kifmm_laplace_grad("cube", n, cube, 10);
+        solves_kifmm_yukawa_grad("sphere", n, sphere, 6);
+        solves_kifmm_stokes("cube", ns, cube, 6);
+        openblas_set_num_threads(blas0);
+    } else
+#endif
+        printf("  OpenBLAS's threads not settable here (or no OpenMP): not compared\n");
     free(cube);
     free(sphere);
     return t_finish();
