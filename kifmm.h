@@ -808,7 +808,9 @@ KIFMM__FN int kifmm__overlap(const void *a, size_t na, const void *b, size_t nb)
 // >>linalg
 
 /* C = alpha op(A) op(B) + beta C, column major. Called outside parallel
- * regions only, so a threaded BLAS uses its own threads on a large call. */
+ * regions, so a threaded BLAS uses its own threads on a large call, except
+ * by the operators' solves where the BLAS runs one thread a call
+ * (P__ops_solves_all, kifmm__blas_serial). */
 KIFMM__FN void kifmm__gemm(int ta, int tb, int m, int n, int k, double alpha,
                            const double *a, int lda, const double *b, int ldb,
                            double beta, double *c, int ldc)
@@ -3374,19 +3376,27 @@ typedef struct kifmm__surf {
     double *unit_a;        /* the anchors, in box half-widths (SoA) */
 } kifmm__surf;
 
-/* 1 where the BLAS is OpenBLAS set to one thread a call
- * (openblas_get_num_threads, found at run time through a weak reference:
- * ELF objects built by gcc or clang), so that LAPACK may run on several
- * OpenMP threads at once without nesting threads; 0 elsewhere (another
- * BLAS, a threaded OpenBLAS, other platforms, KIFMM_NO_BLAS_PROBE). */
+/* 1 where the BLAS is a threaded OpenBLAS (pthreads or OpenMP: one that
+ * takes calls from several threads at once) set to one thread a call
+ * (openblas_get_parallel, openblas_get_num_threads, found at run time
+ * through weak references: ELF objects built by gcc or clang), so that
+ * LAPACK may run on several OpenMP threads at once without nesting
+ * threads; 0 elsewhere (another BLAS, OpenBLAS with more threads, a
+ * sequential OpenBLAS, which is safe from several threads only when built
+ * with USE_LOCKING, other platforms, KIFMM_NO_BLAS_PROBE). */
 #if defined(__ELF__) && defined(__GNUC__) && !defined(KIFMM_NO_BLAS_PROBE)
 #ifdef __cplusplus
-extern "C"
+extern "C" {
 #endif
 int openblas_get_num_threads(void) __attribute__((weak));
+int openblas_get_parallel(void) __attribute__((weak));
+#ifdef __cplusplus
+}
+#endif
 KIFMM__FN int kifmm__blas_serial(void)
 {
-    return openblas_get_num_threads && openblas_get_num_threads() == 1;
+    return openblas_get_parallel && openblas_get_num_threads && openblas_get_parallel() != 0 &&
+           openblas_get_num_threads() == 1;
 }
 #else
 KIFMM__FN int kifmm__blas_serial(void)
@@ -6262,9 +6272,10 @@ KIFMM__FN int KIFMM__F(__anchor_fit)(const KIFMM_NAME *c, double r, kifmm__ops *
  * double, in two steps: first what takes kernel values only (the solves'
  * matrices, M2M and L2L, the M2L's spectra on nth threads), which levels
  * can build side by side; then what calls LAPACK or BLAS (the solves, the
- * FFT M2L's lattice fit, the dense M2L), one level at a time, so that no
- * threaded BLAS runs inside a parallel region. The M2L's only if m2l (a
- * level that has boxes with V lists). */
+ * FFT M2L's lattice fit, the dense M2L: P__ops_solves_all), side by side
+ * only where the BLAS runs one thread a call, so that no threaded BLAS runs
+ * inside a parallel region. The M2L's only if m2l (a level that has boxes
+ * with V lists). */
 KIFMM__FN int KIFMM__F(__ops_kernels)(const KIFMM_NAME *c, double r, int m2l, int nth,
                                       kifmm__ops *o)
 {
@@ -6280,17 +6291,15 @@ KIFMM__FN int KIFMM__F(__ops_kernels)(const KIFMM_NAME *c, double r, int m2l, in
 }
 
 /* The solves of one set in two parts that read and write apart: part 0
- * the check-to-equivalent factors and what reads them (the anchors' fit,
- * the dense M2L), part 1 the FFT M2L's lattice fit (kernel values only). */
+ * the check-to-equivalent factors and the anchors' fit, part 1 the FFT
+ * M2L's lattice fit (kernel values only). (The dense M2L, which reads
+ * part 0's factors, follows in P__ops_solves_all.) */
 KIFMM__FN int KIFMM__F(__ops_solves)(const KIFMM_NAME *c, double r, int m2l, int part, kifmm__ops *o)
 {
     int rc = KIFMM_SUCCESS;
     if (part == 0) {
         rc = KIFMM__F(__c2e_solve)(c, o);
         if (!rc) rc = KIFMM__F(__anchor_fit)(c, r, o);
-#if !KIFMM__FFT
-        if (!rc && m2l) rc = KIFMM__F(__build_m2l_dense)(c, r, o);
-#endif
     }
 #if KIFMM__FFT
     if (part == 1 && m2l) rc = KIFMM__F(__build_conv)(c, r, o);
@@ -6325,6 +6334,11 @@ KIFMM__FN void KIFMM__F(__ops_solves_all)(const KIFMM_NAME *v, int nlev, const d
     for (l = 0; l < nlev; l++)
         if (!rc[l]) rc[l] = rp[2 * l] ? rp[2 * l] : rp[2 * l + 1];
     kifmm__free(rp);
+#if !KIFMM__FFT
+    /* the dense M2L after them, its kernel matrices on the threads */
+    for (l = 0; l < nlev; l++)
+        if (from[l] < 0 && !rc[l] && m2l[l]) rc[l] = KIFMM__F(__build_m2l_dense)(&v[l], r[l], &o[l]);
+#endif
 }
 
 /* nz[ab] = 1 for the kernel components ab with a nonzero value in
@@ -6622,7 +6636,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
     sy.n = 0;
     for (l = 0; !rc && l < nlev; l++) KIFMM__F(__ops_view)(c, l, &v[l], &o[l]);
     if (!rc) KIFMM__F(__ops_levels)(v, 0, nlev, r, m2l, from, o, rcs);
-    for (l = 0; l < nlev; l++) o[l].sy = &sy;
+    for (l = 0; o && l < nlev; l++) o[l].sy = &sy;
     if (!rc) KIFMM__F(__ops_solves_all)(v, nlev, r, m2l, from, o, rcs);
     for (l = 0; l < nlev; l++) {
         KIFMM__F(__ops) *x;
@@ -7755,7 +7769,8 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
 
 /* Values per buffer of the column GEMM passes: the solve's intermediate
  * (ne x KIFMM__GC_NC), the mirrored M2M's and L2L's densities and products
- * (P__family_mirror: nde and nc x KIFMM__GC_NC), and without AVX2 the gather
+ * (P__family_mirror: ne and nc x KIFMM__GC_NC, taken as nde and max(nc,
+ * nde)), and without AVX2 the gather
  * workspace of the largest
  * product ((k + m) x KIFMM__GC_NC, k + m <= 9 max(nc, ne)). One buffer per
  * thread with AVX2 (the passes run in parallel), else one. */

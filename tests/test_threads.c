@@ -24,6 +24,10 @@
 #define KIFMM_REAL float
 #define KIFMM_NAME kifmm_yukawa_gradf
 #include "kifmm.h"
+#define KIFMM_KERNEL laplace_grad
+#define KIFMM_NAME kifmm_laplace_grad_dense
+#define KIFMM_M2L_DENSE 1
+#include "kifmm.h"
 
 #include "test.h"
 
@@ -108,10 +112,10 @@ REL_DIFF(float)
     }
 /* The operators factored side by side on the handle's threads (2 threads,
  * OpenBLAS at one thread a call: kifmm__blas_serial) and one after the
- * other (1 thread): bitwise the same factors and lattice fits at every
- * level. OpenBLAS's thread count is set through a weak reference (skipped
- * where the BLAS is not OpenBLAS, the platform has no weak symbols, or
- * without OpenMP, where nothing runs side by side). */
+ * other (1 thread): bitwise the same factors, lattice fits and dense M2L
+ * matrices at every level. OpenBLAS's thread count is set through a weak
+ * reference (skipped where the BLAS is not OpenBLAS, the platform has no
+ * weak symbols, or without OpenMP, where nothing runs side by side). */
 #if defined(__ELF__) && defined(__GNUC__) && !defined(KIFMM_NO_BLAS_PROBE) && defined(_OPENMP)
 #ifdef __cplusplus
 extern "C"
@@ -146,7 +150,8 @@ void openblas_set_num_threads(int) __attribute__((weak));
             sets++;                                                                         \
             same &= a->ku == b->ku && a->kd == b->kd && SAME(a->ut_up, b->ut_up, a->ku * nc) && \
                     SAME(a->vs_up, b->vs_up, ne * a->ku) && SAME(a->ut_dn, b->ut_dn, a->kd * nc) && \
-                    SAME(a->vs_dn, b->vs_dn, nd * a->kd) && SAME(a->conv, b->conv, nc * ne);   \
+                    SAME(a->vs_dn, b->vs_dn, nd * a->kd) && SAME(a->conv, b->conv, nc * ne) &&  \
+                    SAME(a->m2l, b->m2l, (size_t)a->kd * KIFMM__NT * ne);                       \
         }                                                                                   \
         if (!rc)                                                                            \
             CHECK(same && sets > 0, "%s %s p=%d: %d operator sets factored side by side "   \
@@ -158,6 +163,7 @@ void openblas_set_num_threads(int) __attribute__((weak));
 SOLVES_CHECK(kifmm_laplace_grad)
 SOLVES_CHECK(kifmm_yukawa_grad)
 SOLVES_CHECK(kifmm_stokes)
+SOLVES_CHECK(kifmm_laplace_grad_dense)
 #endif
 
 THREAD_CHECK(kifmm_laplace, double, 1, 1)
@@ -200,6 +206,7 @@ int main(void)
         solves_kifmm_laplace_grad("cube", n, cube, 10);
         solves_kifmm_yukawa_grad("sphere", n, sphere, 6);
         solves_kifmm_stokes("cube", ns, cube, 6);
+        solves_kifmm_laplace_grad_dense("cube", ns, cube, 6);
         openblas_set_num_threads(blas0);
     } else
 #endif
