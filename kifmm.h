@@ -7774,11 +7774,16 @@ KIFMM__FN KIFMM__F(__work) *KIFMM__F(__work_new)(const KIFMM_NAME *c, int nrhs)
  * workspace of the largest
  * product ((k + m) x KIFMM__GC_NC, k + m <= 9 max(nc, ne)). One buffer per
  * thread with AVX2 (the passes run in parallel), else one. */
-KIFMM__FN size_t KIFMM__F(__gbuf_per)(const KIFMM_NAME *c)
+KIFMM__FN size_t KIFMM__F(__gbuf_big)(const KIFMM_NAME *c) /* max(nc, nde) of the largest surfaces */
 {
     const kifmm__surf *sm = KIFMM__F(__smax)(c);
-    const size_t big = (size_t)(sm->nc > sm->nde ? sm->nc : sm->nde);
-    return ((size_t)sm->nde + big + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
+    return (size_t)(sm->nc > sm->nde ? sm->nc : sm->nde);
+}
+
+KIFMM__FN size_t KIFMM__F(__gbuf_per)(const KIFMM_NAME *c)
+{
+    const size_t big = KIFMM__F(__gbuf_big)(c);
+    return ((size_t)KIFMM__F(__smax)(c)->nde + big + (KIFMM__GC_FAST ? 0 : 9 * big)) * KIFMM__GC_NC;
 }
 
 /* The calling thread's buffer (thread 0 outside parallel regions). */
@@ -7907,28 +7912,46 @@ KIFMM__FN void KIFMM__F(__solve)(const KIFMM_NAME *c, const KIFMM__F(__work) *w,
     }
 }
 
+/* Octant m (1 to 7) of P__family_mirror over nq columns: x (bp, the
+ * child's or the parent's density) gathered mirrored into yp (y[k] = s_k
+ * x[mirror k], s_k the sign of component k's axis where it is a vector's),
+ * zp = op yp (octant 0's matrix, nc x ne), then c[i] (+)= s_i z[mirror i]
+ * into cp (the parent's or the child's check vector; added if acc). */
+KIFMM__FN void KIFMM__F(__mirror_octant)(const KIFMM__F(__ops) *e, const kifmm__surf *sf, int m, int nq,
+                                         const KIFMM__R *op, const KIFMM__R *const *bp, KIFMM__R *const *cp,
+                                         int acc, KIFMM__R *const *yp, KIFMM__R *const *zp, KIFMM__R *work)
+{
+    enum { SD = KIFMM__SD };
+    const int nsc = sf->nsc, nse = sf->nse, *mc = e->mmap + (size_t)(m - 1) * (nsc + nse), *me = mc + nsc;
+    KIFMM__R sg[SD];
+    int q, i, a;
+    for (a = 0; a < SD; a++) /* the axes of m, for a vector's last three components */
+        sg[a] = e->mir == 2 && a >= SD - 3 && (m >> (2 - (a - (SD - 3))) & 1) ? (KIFMM__R)-1 : (KIFMM__R)1;
+    for (q = 0; q < nq; q++)
+        for (i = 0; i < nse; i++)
+            for (a = 0; a < SD; a++) yp[q][i * SD + a] = sg[a] * bp[q][me[i] * SD + a];
+    KIFMM__GEMM_COLS(sf->nc, sf->ne, op, sf->nc, nq, (const KIFMM__R *const *)yp, zp, 0, work);
+    for (q = 0; q < nq; q++)
+        for (i = 0; i < nsc; i++)
+            for (a = 0; a < SD; a++)
+                cp[q][i * SD + a] = (acc ? cp[q][i * SD + a] : 0) + sg[a] * zp[q][mc[i] * SD + a];
+}
+
 /* __family_level with octant 0's M2M or L2L (e->mir, P__mirror_maps), per
  * piece of parents: the anchors' part of L2L first (one product over the
- * eight children), then per octant m the densities gathered mirrored
- * (child m's, or the parent's: y[k] = s_k x[mirror k], s_k the sign of
- * component k's axis where it is a vector's) into the thread's buffer, one
- * product with octant 0's matrix, the results added back mirrored (to the
- * parent's check vector, or child m's: c[i] += s_i z[mirror i]); octant 0
- * reads and writes in place. */
+ * eight children), then octant 0's product in place and the other
+ * octants' mirrored (P__mirror_octant) through the thread's buffer. */
 KIFMM__FN void KIFMM__F(__family_mirror)(const KIFMM_NAME *c, const KIFMM__F(__work) *w, int nrhs, int lp,
                                          int down, const KIFMM__F(__ops) *e)
 {
-    enum { SD = KIFMM__SD };
     const kifmm__tree *t = c->tree;
     const int ni = t->ioff[lp + 1] - t->ioff[lp], n = KIFMM__LVL(c, lp + down);
     const int ppv = (ni + KIFMM__GC_NC - 1) / KIFMM__GC_NC, np = ppv * nrhs;
     const kifmm__surf *sf = KIFMM__F(__sf)(c, lp);
-    const int nc = sf->nc, ne = sf->ne, nsc = sf->nsc, nse = sf->nse, na = down ? sf->nde - ne : 0;
+    const int nc = sf->nc, ne = sf->ne, na = down ? sf->nde - ne : 0;
     const size_t per = KIFMM__F(__eo)(c, down, t->nbox);
-    const size_t off_z = (size_t)KIFMM__F(__smax)(c)->nde * KIFMM__GC_NC;
-    const size_t off_w = off_z + (size_t)(KIFMM__F(__smax)(c)->nc > KIFMM__F(__smax)(c)->nde
-                                              ? KIFMM__F(__smax)(c)->nc
-                                              : KIFMM__F(__smax)(c)->nde) * KIFMM__GC_NC;
+    const size_t off_z = (size_t)KIFMM__F(__smax)(c)->nde * KIFMM__GC_NC; /* see __gbuf_per */
+    const size_t off_w = off_z + KIFMM__F(__gbuf_big)(c) * KIFMM__GC_NC;
     const KIFMM__R *op = down ? e->l2l : e->m2m;
     KIFMM__OMP(parallel for schedule(dynamic, 1) num_threads(c->opts.nthreads) if (KIFMM__GC_FAST))
     for (int p = 0; p < np; p++) {
@@ -7956,34 +7979,14 @@ KIFMM__FN void KIFMM__F(__family_mirror)(const KIFMM_NAME *c, const KIFMM__F(__w
             KIFMM__GEMM_COLS(8 * nc, na, op + (size_t)nc * ne, 8 * nc, nq, bp, cb, 0, buf + off_w);
         }
         for (m = 0; m < 8; m++) {
-            const int *mc, *me;
-            KIFMM__R sg[SD];
-            int i, a;
             for (q = 0; q < nq; q++) {
                 bp[q] = down ? xb[q] : xb[q] + (size_t)m * ne;
                 cp[q] = down ? cb[q] + (size_t)m * nc : cb[q];
             }
-            if (m == 0) {
+            if (m == 0)
                 KIFMM__GEMM_COLS(nc, ne, op, nc, nq, bp, cp, !down || na > 0, buf + off_w);
-                continue;
-            }
-            mc = e->mmap + (size_t)(m - 1) * (nsc + nse), me = mc + nsc;
-            for (a = 0; a < SD; a++) /* the axes of m, for a vector's last three components */
-                sg[a] = e->mir == 2 && a >= SD - 3 && (m >> (2 - (a - (SD - 3))) & 1) ? (KIFMM__R)-1 : (KIFMM__R)1;
-            for (q = 0; q < nq; q++)
-                for (i = 0; i < nse; i++)
-                    for (a = 0; a < SD; a++) yp[q][i * SD + a] = sg[a] * bp[q][me[i] * SD + a];
-            KIFMM__GEMM_COLS(nc, ne, op, nc, nq, (const KIFMM__R *const *)yp, zp, 0, buf + off_w);
-            for (q = 0; q < nq; q++) {
-                KIFMM__R *d = cp[q];
-                const KIFMM__R *z = zp[q];
-                if (!down || na > 0)
-                    for (i = 0; i < nsc; i++)
-                        for (a = 0; a < SD; a++) d[i * SD + a] += sg[a] * z[mc[i] * SD + a];
-                else
-                    for (i = 0; i < nsc; i++)
-                        for (a = 0; a < SD; a++) d[i * SD + a] = sg[a] * z[mc[i] * SD + a];
-            }
+            else
+                KIFMM__F(__mirror_octant)(e, sf, m, nq, op, bp, cp, !down || na > 0, yp, zp, buf + off_w);
         }
     }
 }
