@@ -5,7 +5,8 @@
  *   bench DIST N P [options]     run one case, print one table row on stdout
  *
  * DIST is cube (uniform in the unit cube), sphere (uniform on the unit sphere
- * surface) or clustered (Gaussian blobs, see make_points).  Sources = targets,
+ * surface), clustered (Gaussian blobs, see make_points) or plummer (Plummer's
+ * sphere, make_plummer).  Sources = targets,
  * charges uniform in [-1, 1], potential and gradient (laplace_grad).
  *
  * Options:
@@ -45,6 +46,8 @@
 #include "kifmm.h"
 
 #include <omp.h>
+
+#define DIST_NAME(d) ((d) == NDIST ? "plummer" : dist_names[d])
 
 /* OpenBLAS extensions (declared in OpenBLAS's cblas.h).  Weak, so that the
  * program also links against another BLAS: they are then NULL. */
@@ -294,7 +297,7 @@ static void usage(const char *argv0)
     fprintf(stderr,
             "usage: %s --info | --header [-v] | DIST N P [--sample S] [--leaf L] [--repeat R]\n"
             "       [--dump FILE] [--result FILE] [--float] [--nrhs K]\n"
-            "       DIST: cube, sphere or clustered\n",
+            "       DIST: cube, sphere, clustered or plummer\n",
             argv0);
     exit(2);
 }
@@ -325,6 +328,7 @@ int main(int argc, char **argv)
     if (argc < 4) usage(argv[0]);
     for (a = 0; a < NDIST; a++)
         if (!strcmp(argv[1], dist_names[a])) dist = a;
+    if (!strcmp(argv[1], "plummer")) dist = NDIST;
     n = (int64_t)atof(argv[2]); /* accepts 1e6 */
     order = atoi(argv[3]);
     if (dist < 0 || n < 1) usage(argv[0]);
@@ -356,7 +360,10 @@ int main(int argc, char **argv)
         return 1;
     }
     /* The points and charges depend on (DIST, N) only, not on the order. */
-    make_points(dist, n, 1, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, xyz, q);
+    if (dist == NDIST)
+        make_plummer(n, 1, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, xyz, q);
+    else
+        make_points(dist, n, 1, UINT64_C(0x5eed) + 1000003 * (uint64_t)dist + (uint64_t)n, xyz, q);
     /* further density vectors: more charges of the same kind */
     {
         uint64_t st2 = UINT64_C(0xC0FFEE);
@@ -372,7 +379,7 @@ int main(int argc, char **argv)
     rc = single ? run_kifmm_laplace_gradf(n, xyz, q, nrhs, &opts, repeat, out, &res)
                 : run_kifmm_laplace_grad(n, xyz, q, nrhs, &opts, repeat, out, &res);
     if (rc != KIFMM_SUCCESS) {
-        fprintf(stderr, "bench: %s, N=%lld, p=%d: %s\n", dist_names[dist], (long long)n, order,
+        fprintf(stderr, "bench: %s, N=%lld, p=%d: %s\n", DIST_NAME(dist), (long long)n, order,
                 kifmm_strerror(rc));
         return 1;
     }
@@ -419,7 +426,7 @@ int main(int argc, char **argv)
         snprintf(eg, sizeof eg, "%.2e", err_g);
         snprintf(dt, sizeof dt, t_direct < 1000 ? "%.2f" : "%.3g", t_direct);
         char lab[40];
-        snprintf(lab, sizeof lab, "%s%s", dist_names[dist], single ? "/f32" : "");
+        snprintf(lab, sizeof lab, "%s%s", DIST_NAME(dist), single ? "/f32" : "");
         if (nrhs > 1) snprintf(lab + strlen(lab), sizeof lab - strlen(lab), "/x%d", nrhs);
         printf(ROW_FMT, lab, nbuf, pbuf, lbuf, vbuf, c[0], c[1], c[2], c[3], c[4],
                c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], pk, hb, ep, eg, dt);
@@ -438,7 +445,7 @@ int main(int argc, char **argv)
                 "l2l=%.6f p2l=%.6f l2p=%.6f m2p=%.6f p2p=%.6f peak_mib=%.1f handle_mib=%.1f "
                 "err_pot=%.6e err_grad=%.6e direct_est=%.6f sample=%lld threads=%d precision=%s "
                 "nrhs=%d\n",
-                dist_names[dist], (long long)n, used.order, used.leaf_size, st.levels,
+                DIST_NAME(dist), (long long)n, used.order, used.leaf_size, st.levels,
                 (long long)st.boxes, (long long)st.leaves, t_create, t_eval, t_create + t_eval,
                 st.t_tree, st.t_operators, st.t_p2m, st.t_m2m, st.t_m2l, st.t_l2l, st.t_p2l,
                 st.t_l2p, st.t_m2p, st.t_p2p, peak_mib, st.bytes / 1048576.0, err_p, err_g,

@@ -3,7 +3,8 @@
 # with a comparison against FMM3D (fmm3dpy) when it can be imported or installed.
 #
 #   bash bench/run.sh            cube, sphere, clustered x N = 1e4, 1e5, 1e6 x p = 4, 6, 8, then
-#                                float and evaluate_many, kernels side by side, periodic
+#                                float and evaluate_many, kernels side by side, high
+#                                accuracy (orders 4 to 12, 1M points), periodic
 #                                boundaries, time stepping (update_points), the compiled
 #                                library's levels (make lib), MPI mode
 #   bash bench/run.sh --quick    cube x N = 1e4, 1e5 x p = 6
@@ -302,6 +303,63 @@ if [ -n "$kbuilt" ]; then
         done
     fi
 fi
+
+# ---------------------------------------------------------------- high accuracy
+# laplace_grad at orders 4 to 12 (errors about 1e-4 to 1e-11) on 1M points of
+# the cube, a sphere and Plummer's sphere and on 100,000 of the cube, built for
+# the machine and, where it has AVX-512, with -mno-avx512f (what an AVX2 machine
+# runs); FMM3D (bench/fmm3d_run.py) beside the first build's rows at the
+# largest eps whose error is not worse.
+if [ "$QUICK" = 1 ]; then HCASES="cube:1e5"; HORDERS="8 12"; else
+    HCASES="cube:1e6 sphere:1e6 plummer:1e6 cube:1e5"; HORDERS="4 6 8 10 12"; fi
+HCASES=${BENCH_HCASES:-$HCASES}; HORDERS=${BENCH_HORDERS:-$HORDERS}
+echo
+echo "== high accuracy: laplace_grad, orders $HORDERS, ${OMP_NUM_THREADS} threads (create + evaluate)"
+hbuilt=""
+for isa in $KISAS; do
+    if [ "$isa" = native ]; then hbuilt="$hbuilt native"; continue; fi
+    echo "build:       $CC -std=c99 -O3 -march=native -mno-avx512f -fopenmp bench/bench.c -> bench_avx2"
+    # shellcheck disable=SC2086
+    if $CC -std=c99 -O3 -march=native -mno-avx512f -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. \
+            bench/bench.c -o "$OUT/bench_avx2" -llapacke -lopenblas -lm; then
+        hbuilt="$hbuilt avx2"
+    else
+        echo "bench ($isa): build failed"
+        FAILED="$FAILED high/build-$isa"
+    fi
+done
+"$OUT/bench" --header | sed '1s/^/isa    /; 1s/$/    bg%/'
+[ -n "$PY" ] && "$PY" bench/fmm3d_run.py --header | sed '1s/^/fmm3d  /; 1s/$/    bg%/'
+for hc in $HCASES; do
+    dist=${hc%%:*}; n=${hc#*:}
+    for isa in $hbuilt; do
+        prog="$OUT/bench"; [ "$isa" = avx2 ] && prog="$OUT/bench_avx2"
+        results=""; data="$OUT/high_${dist}_${n}.bin"
+        for p in $HORDERS; do
+            res="$OUT/high_${dist}_${n}_p${p}_$isa.txt"
+            args=("$dist" "$n" "$p" --sample 500 --result "$res")
+            [ "$isa" = native ] && [ -n "$PY" ] && [ -z "$results" ] && args+=(--dump "$data")
+            wait_quiet
+            rm -f "$res"
+            if run_measured "$prog" "${args[@]}" > "$OUT/.row"; then
+                printf '%-6s %s    %s\n' "$isa" "$(cat "$OUT/.row")" "$BG"
+                results="$results $res"
+            else
+                echo "$isa $dist $n $p: FAILED"
+                FAILED="$FAILED high/$isa/$dist/$n/p$p"
+            fi
+        done
+        if [ "$isa" = native ] && [ -n "$PY" ] && [ -n "$results" ]; then
+            wait_quiet
+            # shellcheck disable=SC2086
+            if run_measured "$PY" bench/fmm3d_run.py "$data" $results > "$OUT/.fmm3d"; then
+                grep -v '^#' "$OUT/.fmm3d" | sed "s/^/fmm3d  /; s/\$/    $BG/"
+            else
+                echo "fmm3d: $dist $n: FAILED"
+            fi
+        fi
+    done
+done
 
 # ---------------------------------------------------------------- Helmholtz
 # helmholtz_grad against laplace_grad on the same uniform points, a root of 2
