@@ -80,7 +80,8 @@
  *   KIFMM_CHECK_ORDER_DIFF      check surfaces of order p + this at every order
  *                               (undefined: 0 up to KIFMM_SQUARE_MAX_ORDER for
  *                               kernels with the FFT M2L, else 1)
- *   KIFMM_SQUARE_MAX_ORDER      highest order with square systems (7)
+ *   KIFMM_SQUARE_MAX_ORDER      highest order with square systems (10; float
+ *                               instances 7 at most)
  *   KIFMM_FFT_SINGLE_MAX_ORDER  double instances of scale-invariant kernels keep
  *                               the FFT spectra in float up to this order (4)
  *   KIFMM_FFT_SPEC_MB           MiB for the FFT spectra of a slab (64)
@@ -440,7 +441,7 @@ extern "C++" {
  * it is 0 up to order KIFMM_SQUARE_MAX_ORDER for kernels with the FFT M2L,
  * and 1 above and for the others (see kifmm__check_diff). */
 #ifndef KIFMM_SQUARE_MAX_ORDER
-#define KIFMM_SQUARE_MAX_ORDER 7
+#define KIFMM_SQUARE_MAX_ORDER 10
 #endif
 
 /* Double instances of scale-invariant kernels keep the FFT M2L's spectra
@@ -3225,9 +3226,13 @@ KIFMM__FN int kifmm__degrees(kifmm__ev_fn ev, const double *prm, int nr, int nc,
  * surface density component: */
 #define KIFMM__ALPHA_INNER 1.05 /* upward equivalent, downward check */
 /* upward check, downward equivalent: 2.95 with check surfaces of order p + 1,
- * 4.5 with order p (see kifmm__check_diff) */
+ * with order p 4.5 up to order 7 and kifmm__alpha_square's above (see
+ * kifmm__check_diff) */
 #define KIFMM__ALPHA_OUTER_LSQ 2.95
 #define KIFMM__ALPHA_OUTER_SQUARE 4.5
+/* the highest order with square systems in float instances (see
+ * kifmm__check_diff) */
+#define KIFMM__SQUARE_MAX_FLOAT 7
 /* and with several (the Stokeslet's surfaces): inner surfaces on the box
  * itself, outer ones at 3.2. Measured on 20,000 uniform points with the
  * Stokeslet, relative L2 error of the velocity, with the 1.05 / 2.95 pair
@@ -3264,23 +3269,30 @@ KIFMM__FN int kifmm__degrees(kifmm__ev_fn ev, const double *prm, int nr, int nc,
  * at p = 4, 0.6 times at p = 6. Measured against order p + 1 at 2.95 on
  * uniform, sphere, clustered and separate point sets (p = 4, 6, 7; p = 2,
  * 3, 5 at radius 3.5), the errors are the same or smaller
- * (docs/algorithm.md). From order 8 on the square systems lose digits (at
- * radius 3.5): 1 there, and without the FFT M2L. Several components (the
+ * (docs/algorithm.md). Orders 8 to 10 keep them with their own outer
+ * radius (kifmm__alpha_square: errors 0.6 to 1.1 times order p + 1's, the
+ * M2L about 35 % faster); from order 11 on every radius tried lost digits:
+ * 1 there, and without the FFT M2L. Several components (the
  * Stokeslet's square systems lose digits at every order): 1 up to order 6,
  * 2 above (at p = 8 the Stokeslet's error 9.3e-8 with 1, 4.2e-8 with 2, for
- * 1.8 times the create time). A definition of KIFMM_CHECK_ORDER_DIFF before
- * the include applies to every order and kernel (the outer radius 4.5 when
- * it is 0). */
-KIFMM__FN int kifmm__check_diff(int p, int fft, int sd)
+ * 1.8 times the create time). Float instances keep order p + 1 above
+ * order 7 (KIFMM__SQUARE_MAX_FLOAT): the wider square systems of orders 8
+ * to 10 lost digits there (float laplace, 100,000 points, potential: p = 8
+ * 1.0e-6 -> 6.8e-6 on the cube, 3.8e-7 -> 9.0e-6 on Plummer's sphere; p =
+ * 10 1.0e-6 -> 1.2e-6). A definition of KIFMM_CHECK_ORDER_DIFF before
+ * the include applies to every order and kernel (the outer radius
+ * kifmm__alpha_square's when it is 0). */
+KIFMM__FN int kifmm__check_diff(int p, int fft, int sd, int single)
 {
 #ifdef KIFMM_CHECK_ORDER_DIFF
     (void)p;
     (void)fft;
     (void)sd;
+    (void)single;
     return KIFMM_CHECK_ORDER_DIFF;
 #else
     if (sd > 1) return p <= 6 ? 1 : 2;
-    return fft && p <= KIFMM_SQUARE_MAX_ORDER ? 0 : 1;
+    return fft && p <= KIFMM_SQUARE_MAX_ORDER && (!single || p <= KIFMM__SQUARE_MAX_FLOAT) ? 0 : 1;
 #endif
 }
 
@@ -3320,9 +3332,25 @@ KIFMM__FN int kifmm__ewald_order(int p, int small)
 #define KIFMM_EWALD_OWN_FIT 0
 #endif
 
-KIFMM__FN double kifmm__alpha_outer(int diff, int sd)
+/* The outer radius of square systems of order p. Up to order 7 4.5; above,
+ * the radius that gave the smallest errors (potential and gradient, relative
+ * L2 against direct sums at 1,000 targets of 100,000 points, laplace_grad;
+ * uniform, sphere-surface, Plummer and clustered points) among 2.5 to 7.0:
+ * p = 8 5.0 to 6.0 (4.5 and 4.75 gave 1.6 to 2.2 times the error of order
+ * p + 1 at 2.95, 5.0 to 6.0 0.70 to 0.79 times), p = 9 4.25 to 4.5 (0.67 to
+ * 0.81 times), p = 10 3.75 to 4.0 (0.82 to 0.98 times the potential's error,
+ * 0.70 to 0.98 the gradient's); at p = 11 and 12 none did as well (3.0:
+ * 1.7 and 2.0 times; larger radii worse), so from order 11 on the systems
+ * take order p + 1 (KIFMM_SQUARE_MAX_ORDER; 3.0 where KIFMM_CHECK_ORDER_DIFF
+ * asks for square ones). docs/algorithm.md, "Surfaces and operators". */
+KIFMM__FN double kifmm__alpha_square(int p)
 {
-    return diff == 0 ? KIFMM__ALPHA_OUTER_SQUARE
+    return p <= 7 ? KIFMM__ALPHA_OUTER_SQUARE : p == 8 ? 5.5 : p == 9 ? 4.5 : p == 10 ? 4.0 : 3.0;
+}
+
+KIFMM__FN double kifmm__alpha_outer(int p, int diff, int sd)
+{
+    return diff == 0 ? kifmm__alpha_square(p)
                      : sd > 1 ? KIFMM__ALPHA_OUTER_MULTI : KIFMM__ALPHA_OUTER_LSQ;
 }
 
@@ -7379,11 +7407,11 @@ KIFMM__FN int KIFMM__F(__far_pairs)(const KIFMM_NAME *c, double h, int q, const 
  * far images' field is below the instance's resolution of the near one. */
 KIFMM__FN int KIFMM__F(__far_root)(KIFMM_NAME *c, const double *T3, const kifmm__ops *sup)
 {
-    const int q = kifmm__ewald_order(c->opts.order, c->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
+    const int q = kifmm__ewald_order(c->opts.order, c->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD, KIFMM__FLOAT);
     const int nu = kifmm__surf_count(q + cd), ne = kifmm__surf_count(q);
     const int mu = nu * KIFMM__SD, me = ne * KIFMM__SD;
     const double h = 0.5 * c->tree->width, hf = KIFMM__SI ? 1.0 : h;
-    const double ao = kifmm__alpha_outer(cd, KIFMM__SD) * hf, ai = c->pl->surf.ai * hf;
+    const double ao = kifmm__alpha_outer(q, cd, KIFMM__SD) * hf, ai = c->pl->surf.ai * hf;
     const double zero[3] = {0.0, 0.0, 0.0};
     double *uu = (double *)kifmm__alloc((size_t)3 * (nu + ne), sizeof(double));
     double *g = (double *)kifmm__alloc((size_t)me * me, sizeof(double));
@@ -7426,7 +7454,7 @@ KIFMM__FN int KIFMM__F(__far_root)(KIFMM_NAME *c, const double *T3, const kifmm_
             rc = KIFMM_ERR_NOMEM;
     }
     if (!rc) {
-        c->far->zrad = kifmm__alpha_outer(cd, KIFMM__SD) * h;
+        c->far->zrad = kifmm__alpha_outer(q, cd, KIFMM__SD) * h;
         memcpy(c->far->zunit, uu, (size_t)3 * nu * sizeof(double));
         KIFMM__F(__place)(uu, nu, zero, c->far->zrad, c->far->zp);
     }
@@ -9648,11 +9676,11 @@ KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
     /* a complex kernel's surfaces up to order KIFMM__CPLX_SQUARE_MAX: a
      * one-component kernel's square systems (where the build's options
      * give those), else two components' */
-    sd = KIFMM__CPLX && KIFMM__FFT && p <= KIFMM__CPLX_SQUARE_MAX && kifmm__check_diff(p, 1, 1) == 0
+    sd = KIFMM__CPLX && KIFMM__FFT && p <= KIFMM__CPLX_SQUARE_MAX && kifmm__check_diff(p, 1, 1, KIFMM__FLOAT) == 0
              ? 1
              : KIFMM__SD;
-    pl->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT, sd);
-    pl->surf.ao = kifmm__alpha_outer(pl->surf.cdiff, sd);
+    pl->surf.cdiff = kifmm__check_diff(p, KIFMM__FFT, sd, KIFMM__FLOAT);
+    pl->surf.ao = kifmm__alpha_outer(p, pl->surf.cdiff, sd);
     pl->surf.ai = kifmm__alpha_inner(sd, KIFMM__IS_ONE(KIFMM__R_(SC, _INNER_NARROW)));
     pl->surf.nse = kifmm__surf_count(p);
     pl->surf.nsc = kifmm__surf_count(p + pl->surf.cdiff);
@@ -11064,7 +11092,7 @@ KIFMM__FN double KIFMM__F(__bytes_ops)(const KIFMM_NAME *h, const kifmm__shape *
 KIFMM__FN double KIFMM__F(__bytes_lattice)(const KIFMM_NAME *h)
 {
     const double r = sizeof(KIFMM__R);
-    const int q = kifmm__ewald_order(h->opts.order, h->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD);
+    const int q = kifmm__ewald_order(h->opts.order, h->lat.zsmall), cd = kifmm__check_diff(q, 0, KIFMM__SD, KIFMM__FLOAT);
     const double nu = kifmm__surf_count(q + cd), mu = nu * KIFMM__SD;
     const double me = (double)kifmm__surf_count(q) * KIFMM__SD;
     if (!h->tree->periodic) return 0.0;
