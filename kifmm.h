@@ -623,13 +623,31 @@ KIFMM__FN int kifmm__default_leaf(int order, int multi)
      * against 2.8 s at 96); see docs/algorithm.md. */
     static const int leaf[KIFMM_MAX_ORDER + 1] = {0, 0, 32, 48, 128, 128, 128, 384, 384,
                                                   448, 512, 576, 640};
+    /* Without AVX-512 the near field costs relatively more (4 lanes, a
+     * square root and a division per pair), and from order 9 on smaller
+     * leaves pay for one-component kernels (laplace_grad, AVX2 build, 1M
+     * points, 2 threads, best of two, create + evaluate summed over the
+     * cube, a sphere, Plummer's sphere and clusters: p = 9 448 -> 384
+     * 16.49 -> 15.71 s, p = 10 512 -> 384 21.32 -> 19.86 s with two cases
+     * of 1e5 points (the sphere alone 3.60 -> 3.75 s), p = 11 576 -> 448
+     * 25.61 -> 24.50 s, p = 12 640 -> 448 31.59 -> 29.93 s; at p = 8 leaves
+     * of 256 and 320 won on Plummer's sphere and clusters and lost as much
+     * on the sphere). */
+    static const int leaf_narrow[KIFMM_MAX_ORDER + 1] = {0, 0, 32, 48, 128, 128, 128, 384, 384,
+                                                         384, 384, 448, 448};
+#if defined(__AVX512F__)
+    const int *lf = leaf;
+    (void)leaf_narrow;
+#else
+    const int *lf = multi ? leaf : leaf_narrow;
+#endif
     /* `multi`: several surface density components and a near-field hook. The
      * M2L products grow as the square of the components, the hook's cost per
      * pair about as their number, and leaves 2x (p <= 4) or 4x larger pay
      * (Stokes, 1M points, p = 6: cube 12.4 s at 128 -> 4.1 s at 512, sphere
      * 6.7 -> 3.5 s, clustered 10.1 -> 6.0 s; p = 4: 2.4 / 2.4 / 2.8 s at 128,
      * 3.0 / 1.9 / 2.8 s at 256; docs/algorithm.md). */
-    return multi ? leaf[order] * (order <= 4 ? 2 : 4) : leaf[order];
+    return multi ? lf[order] * (order <= 4 ? 2 : 4) : lf[order];
 }
 
 /* opts.tol: the smallest order whose error, 1.5 times the largest measured,
