@@ -169,6 +169,22 @@ run_measured() {
     return $rc
 }
 
+# build_for ISA SRC OUT TAG: SRC built for the machine (ISA avx2: with
+# -mno-avx512f) into OUT; on failure a message, and TAG among the failures
+build_for() {
+    local kflags=""
+    [ "$1" = avx2 ] && kflags="-mno-avx512f"
+    echo "build:       $CC -std=c99 -O3 -march=native $kflags -fopenmp $2 -> $(basename "$3")"
+    # shellcheck disable=SC2086
+    if $CC -std=c99 -O3 -march=native $kflags -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. "$2" \
+            -o "$3" -llapacke -lopenblas -lm; then
+        return 0
+    fi
+    echo "$(basename "$2") ($1): build failed"
+    FAILED="$FAILED $4"
+    return 1
+}
+
 # ---------------------------------------------------------------- kifmm table
 echo
 echo "== kifmm laplace_grad: potential and gradient, ${OMP_NUM_THREADS} threads"
@@ -262,17 +278,7 @@ KISAS="native"
 grep -qw avx512f /proc/cpuinfo 2>/dev/null && KISAS="native avx2"
 kbuilt=""
 for isa in $KISAS; do
-    kflags=""
-    [ "$isa" = avx2 ] && kflags="-mno-avx512f"
-    echo "build:       $CC -std=c99 -O3 -march=native $kflags -fopenmp bench/bench_kernels.c -> bench_kernels_$isa"
-    # shellcheck disable=SC2086
-    if $CC -std=c99 -O3 -march=native $kflags -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. \
-            bench/bench_kernels.c -o "$OUT/bench_kernels_$isa" -llapacke -lopenblas -lm; then
-        kbuilt="$kbuilt $isa"
-    else
-        echo "bench_kernels ($isa): build failed"
-        FAILED="$FAILED kernels/build-$isa"
-    fi
+    build_for "$isa" bench/bench_kernels.c "$OUT/bench_kernels_$isa" "kernels/build-$isa" && kbuilt="$kbuilt $isa"
 done
 if [ -n "$kbuilt" ]; then
     echo "dist             N  p isa     kernel           create    eval   total  x lapg     MiB  x lapg  err(pot/u)  err(grad)    bg%"
@@ -318,22 +324,14 @@ echo "== high accuracy: laplace_grad, orders $HORDERS, ${OMP_NUM_THREADS} thread
 hbuilt=""
 for isa in $KISAS; do
     if [ "$isa" = native ]; then hbuilt="$hbuilt native"; continue; fi
-    echo "build:       $CC -std=c99 -O3 -march=native -mno-avx512f -fopenmp bench/bench.c -> bench_avx2"
-    # shellcheck disable=SC2086
-    if $CC -std=c99 -O3 -march=native -mno-avx512f -fopenmp -Wall -Wextra ${EXTRA_CFLAGS:-} -I. \
-            bench/bench.c -o "$OUT/bench_avx2" -llapacke -lopenblas -lm; then
-        hbuilt="$hbuilt avx2"
-    else
-        echo "bench ($isa): build failed"
-        FAILED="$FAILED high/build-$isa"
-    fi
+    build_for "$isa" bench/bench.c "$OUT/bench_$isa" "high/build-$isa" && hbuilt="$hbuilt $isa"
 done
 "$OUT/bench" --header | sed '1s/^/isa    /; 1s/$/    bg%/'
 [ -n "$PY" ] && "$PY" bench/fmm3d_run.py --header | sed '1s/^/fmm3d  /; 1s/$/    bg%/'
 for hc in $HCASES; do
     dist=${hc%%:*}; n=${hc#*:}
     for isa in $hbuilt; do
-        prog="$OUT/bench"; [ "$isa" = avx2 ] && prog="$OUT/bench_avx2"
+        prog="$OUT/bench"; [ "$isa" = native ] || prog="$OUT/bench_$isa"
         results=""; data="$OUT/high_${dist}_${n}.bin"
         for p in $HORDERS; do
             res="$OUT/high_${dist}_${n}_p${p}_$isa.txt"
