@@ -22,8 +22,10 @@ static const double bounds[] = {4e-4, 4e-6};
 #else
 #define N_UNIFORM 20000
 #define N_OTHER 20000
-static const int orders[] = {4, 6, 8, 10};
-static const double bounds[] = {4e-4, 4e-6, 1e-7, 5e-9};
+/* p = 9: square systems at their own outer radius (kifmm__alpha_square),
+ * measured 1.4e-9 on 20,000 uniform points */
+static const int orders[] = {4, 6, 8, 9, 10};
+static const double bounds[] = {4e-4, 4e-6, 1e-7, 2e-8, 5e-9};
 #endif
 #define NSAMPLE 600
 #define BOUND_P6 4e-6
