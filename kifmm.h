@@ -79,7 +79,7 @@
  *   KIFMM_SVD_CUTOFF            relative cutoff of the pseudo-inverses (1e-14)
  *   KIFMM_CHECK_ORDER_DIFF      check surfaces of order p + this at every order
  *                               (undefined: 0 up to KIFMM_SQUARE_MAX_ORDER for
- *                               kernels with the FFT M2L, else 1)
+ *                               kernels with the FFT M2L, 7 in float; else 1)
  *   KIFMM_SQUARE_MAX_ORDER      highest order with square systems (10; float
  *                               instances 7 at most)
  *   KIFMM_FFT_SINGLE_MAX_ORDER  double instances of scale-invariant kernels keep
@@ -438,8 +438,9 @@ extern "C++" {
 #endif
 
 /* KIFMM_CHECK_ORDER_DIFF: check surfaces use order p + this. Left undefined,
- * it is 0 up to order KIFMM_SQUARE_MAX_ORDER for kernels with the FFT M2L,
- * and 1 above and for the others (see kifmm__check_diff). */
+ * it is 0 up to order KIFMM_SQUARE_MAX_ORDER (float instances: 7 at most)
+ * for kernels with the FFT M2L, and 1 above and for the others (see
+ * kifmm__check_diff). */
 #ifndef KIFMM_SQUARE_MAX_ORDER
 #define KIFMM_SQUARE_MAX_ORDER 10
 #endif
@@ -613,7 +614,7 @@ KIFMM__FN double kifmm__now(void)
 
 // >>options (implementation)
 
-KIFMM__FN int kifmm__default_leaf(int order, int multi)
+KIFMM__FN int kifmm__default_leaf(int order, int kind)
 {
     /* Larger expansions make the far field dearer per box, so leaves grow
      * with the number of surface points; from p = 7 on the M2L products run
@@ -625,7 +626,8 @@ KIFMM__FN int kifmm__default_leaf(int order, int multi)
                                                   448, 512, 576, 640};
     /* Without AVX-512 the near field costs relatively more (4 lanes, a
      * square root and a division per pair), and from order 9 on smaller
-     * leaves pay for one-component kernels (laplace_grad, AVX2 build, 1M
+     * leaves pay for kernels of one surface component in double (kind 2;
+     * measured with laplace_grad, AVX2 build, 1M
      * points, 2 threads, best of two, create + evaluate summed over the
      * cube, a sphere, Plummer's sphere and clusters: p = 9 448 -> 384
      * 16.49 -> 15.71 s, p = 10 512 -> 384 21.32 -> 19.86 s with two cases
@@ -639,15 +641,15 @@ KIFMM__FN int kifmm__default_leaf(int order, int multi)
     const int *lf = leaf;
     (void)leaf_narrow;
 #else
-    const int *lf = multi ? leaf : leaf_narrow;
+    const int *lf = kind == 2 ? leaf_narrow : leaf;
 #endif
-    /* `multi`: several surface density components and a near-field hook. The
+    /* kind 1: several surface density components and a near-field hook. The
      * M2L products grow as the square of the components, the hook's cost per
      * pair about as their number, and leaves 2x (p <= 4) or 4x larger pay
      * (Stokes, 1M points, p = 6: cube 12.4 s at 128 -> 4.1 s at 512, sphere
      * 6.7 -> 3.5 s, clustered 10.1 -> 6.0 s; p = 4: 2.4 / 2.4 / 2.8 s at 128,
      * 3.0 / 1.9 / 2.8 s at 256; docs/algorithm.md). */
-    return multi ? lf[order] * (order <= 4 ? 2 : 4) : lf[order];
+    return kind == 1 ? lf[order] * (order <= 4 ? 2 : 4) : lf[order];
 }
 
 /* opts.tol: the smallest order whose error, 1.5 times the largest measured,
@@ -707,7 +709,7 @@ KIFMM__FN int kifmm__order_for_tol_waves(double tol, double x, const double *err
 
 /* Resolve defaults and check ranges (err: opts.tol's table, see
  * kifmm__order_for_tol); *out gets the values actually used. */
-KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, const double *err,
+KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int kind, const double *err,
                                   kifmm_opts *out)
 {
     kifmm_opts o;
@@ -722,7 +724,7 @@ KIFMM__FN int kifmm__resolve_opts(const kifmm_opts *in, int multi, const double 
     if (o.order == 0) o.order = KIFMM_DEFAULT_ORDER;
     if (o.order < 2 || o.order > KIFMM_MAX_ORDER) return KIFMM_ERR_ORDER;
     if (o.leaf_size < 0) return KIFMM_ERR_LEAF_SIZE;
-    if (o.leaf_size == 0) o.leaf_size = kifmm__default_leaf(o.order, multi);
+    if (o.leaf_size == 0) o.leaf_size = kifmm__default_leaf(o.order, kind);
     if (o.max_depth < 0 || o.max_depth > KIFMM_MAX_DEPTH) return KIFMM_ERR_DEPTH;
     if (o.max_depth == 0) o.max_depth = KIFMM_DEFAULT_DEPTH;
     if (o.nthreads < 0 || o.nthreads > KIFMM_MAX_THREADS) return KIFMM_ERR_NTHREADS;
@@ -3279,10 +3281,11 @@ KIFMM__FN int kifmm__degrees(kifmm__ev_fn ev, const double *prm, int nr, int nc,
 #define KIFMM__CPLX_SQUARE_MAX 6
 
 /* The check surfaces' order minus the equivalent surfaces' order p, for an
- * instance with the FFT M2L (fft) or not, and sd surface density
- * components. One component: with the FFT M2L up to order
- * KIFMM_SQUARE_MAX_ORDER 0, with the outer surfaces at 4.5 box half-widths
- * (check and equivalent surfaces of the same order, square systems), whose
+ * instance with the FFT M2L (fft) or not, sd surface density components,
+ * in float (single) or double. One component: with the FFT M2L up to order
+ * KIFMM_SQUARE_MAX_ORDER (7 in float) 0, with the outer surfaces at 4.5 box
+ * half-widths up to order 7 (kifmm__alpha_square above; check and
+ * equivalent surfaces of the same order, square systems), whose
  * M2L runs on a (2p - 1)^3 grid instead of (2p + 1)^3: half the frequencies
  * at p = 4, 0.6 times at p = 6. Measured against order p + 1 at 2.95 on
  * uniform, sphere, clustered and separate point sets (p = 4, 6, 7; p = 2,
@@ -5257,6 +5260,9 @@ KIFMM__STATIC_ASSERT(KIFMM__SD == 2 || (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) == 0,
  * 6: evaluate 2.82 s at leaves of 512, 1.16 s at 128) */
 #if KIFMM__SD > 1 && (KIFMM__NEAR_HOOK || KIFMM__MUTUAL) && !(KIFMM__HAS_QT & KIFMM_HAS_WAVES)
 #define KIFMM__LEAF_MULTI 1
+#elif KIFMM__SD == 1 && !KIFMM__FLOAT
+#define KIFMM__LEAF_MULTI 2 /* one surface component in double: kifmm__default_leaf's narrower
+                               leaves without AVX-512 */
 #else
 #define KIFMM__LEAF_MULTI 0
 #endif

@@ -1,8 +1,9 @@
 /* test_check_order.c - the check-surface options defined before the include.
  *
  * KIFMM_CHECK_ORDER_DIFF 1 puts the check surfaces at order p + 1 (outer
- * radius 2.95) at every order, as before square systems were the default up
- * to order 7; KIFMM_SQUARE_MAX_ORDER and the FFT M2L are then not consulted.
+ * radius 2.95) at every order, as before square systems became the default
+ * (now up to order 10, 7 in float); KIFMM_SQUARE_MAX_ORDER and the FFT M2L
+ * are then not consulted.
  * This translation unit checks that the override reaches the handle (surface
  * sizes, radius) and that the results still meet the accuracy bounds of
  * test_accuracy against an independent direct sum, at orders 4 and 6 and on
