@@ -5253,18 +5253,19 @@ KIFMM__STATIC_ASSERT(KIFMM__SD == 2 || (KIFMM__HAS_SC & KIFMM_HAS_COMPLEX) == 0,
 #else
 #define KIFMM__MUTUAL 0
 #endif
-/* Kernels whose surfaces carry several components and which have a
- * near-field hook of this precision get larger default leaves
+/* kifmm__default_leaf's kind of this instance. 1: kernels whose surfaces
+ * carry several components and which have a near-field hook of this
+ * precision get larger default leaves
  * (kifmm__default_leaf); not the oscillating ones, whose hooks' pairs cost
  * several times a Stokeslet's (helmholtz_grad, 200,000 uniform points, p =
  * 6: evaluate 2.82 s at leaves of 512, 1.16 s at 128) */
 #if KIFMM__SD > 1 && (KIFMM__NEAR_HOOK || KIFMM__MUTUAL) && !(KIFMM__HAS_QT & KIFMM_HAS_WAVES)
-#define KIFMM__LEAF_MULTI 1
+#define KIFMM__LEAF_KIND 1
 #elif KIFMM__SD == 1 && !KIFMM__FLOAT
-#define KIFMM__LEAF_MULTI 2 /* one surface component in double: kifmm__default_leaf's narrower
+#define KIFMM__LEAF_KIND 2 /* one surface component in double: kifmm__default_leaf's narrower
                                leaves without AVX-512 */
 #else
-#define KIFMM__LEAF_MULTI 0
+#define KIFMM__LEAF_KIND 0
 #endif
 /* The single-thread column GEMM of this precision. */
 #if KIFMM__FLOAT
@@ -9613,7 +9614,7 @@ KIFMM__FN int KIFMM__F(__tol_root)(kifmm_opts *o, int leaf, double width)
     int p = kifmm__order_for_tol_waves(o->tol, x, err, most);
     if (!p && !(p = kifmm__order_for_tol_waves(o->tol, 0.0, err, most))) return KIFMM_ERR_TOL;
     o->order = p;
-    o->leaf_size = leaf ? leaf : kifmm__default_leaf(p, KIFMM__LEAF_MULTI);
+    o->leaf_size = leaf ? leaf : kifmm__default_leaf(p, KIFMM__LEAF_KIND);
     return KIFMM_SUCCESS;
 }
 /* opts.tol without a root: a call that does not see every point */
@@ -9661,7 +9662,7 @@ KIFMM__FN int KIFMM__F(__validate)(const kifmm_opts *opts, int64_t ns, const KIF
     if (tol != 0.0 && (!(tol > 0.0 && tol <= DBL_MAX) || in.order != 0)) return KIFMM_ERR_TOL;
     if (tol != 0.0) in.tol = 0.0, in.order = 2;
 #endif
-    rc = kifmm__resolve_opts(&in, KIFMM__LEAF_MULTI, KIFMM__F(__tol_errors)(), o);
+    rc = kifmm__resolve_opts(&in, KIFMM__LEAF_KIND, KIFMM__F(__tol_errors)(), o);
     /* float's floor: at order 6 laplacef measured up to 1.05e-5 */
     if (!rc && KIFMM__FLOAT && tol != 0.0 && tol < 2e-5) rc = KIFMM_ERR_TOL;
     if (!rc) rc = KIFMM__F(__check_sets)(o, ns, src, nt, trg);
@@ -12402,7 +12403,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
 #undef KIFMM__FFT_PN
 #undef KIFMM__NEAR_HOOK
 #undef KIFMM__MUTUAL
-#undef KIFMM__LEAF_MULTI
+#undef KIFMM__LEAF_KIND
 #undef KIFMM__TOL_UNROOTED
 #undef KIFMM__TOL_POINTS
 #undef KIFMM__GEMM_COLS
