@@ -328,6 +328,13 @@ typedef struct kifmm_opts {
                                moved by update_points inside it keep every
                                operator; all 0: the box from the points (the
                                default). Not with opts.period (docs/api.md) */
+    const char *operator_cache; /* a directory (existing) where create keeps each
+                               operator set it builds, one file each, and reads
+                               back those built before by any process (docs/api.md,
+                               "Operator cache"); a file that cannot be read or
+                               written is built or left, never an error; NULL or
+                               "": none (the default). Copied: the string may go
+                               once create returns */
 } kifmm_opts;
 
 /* A tree over one set of points (sorted points, boxes, interaction
@@ -384,6 +391,9 @@ typedef struct kifmm_stats {
     double t_mpi_work;          /* last evaluate: CPU seconds (all threads) outside
                                    them, the rank's work whether or not it shared its
                                    cores (the measure of balance) */
+    int cache_read;             /* operator sets the handle's plan has read from
+                                   opts.operator_cache, and written there (in MPI */
+    int cache_written;          /* mode: this rank's); 0 without a cache */
 } kifmm_stats;
 
 #endif /* KIFMM_H_TYPES */
@@ -824,6 +834,101 @@ KIFMM__FN int kifmm__overlap(const void *a, size_t na, const void *b, size_t nb)
 {
     const uintptr_t x = (uintptr_t)a, y = (uintptr_t)b;
     return x < y + nb && y < x + na;
+}
+
+// >>files: reading and writing the operator cache's files (>>cache)
+
+/* One 64-bit word mixed into a hash state (a bijection of h for each v). */
+KIFMM__FN uint64_t kifmm__mix(uint64_t h, uint64_t v)
+{
+    h ^= v + 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2);
+    h *= 0xBF58476D1CE4E5B9ull;
+    return h ^ (h >> 31);
+}
+
+/* A 64-bit hash of n bytes, four words in flight (a few GB/s): it tells a
+ * file as written from one cut short, overwritten or changed; it is not a
+ * defence against a file made to pass it. */
+KIFMM__FN uint64_t kifmm__hash_bytes(const void *p, size_t n)
+{
+    const unsigned char *b = (const unsigned char *)p;
+    uint64_t s[4] = {1u, 2u, 3u, 4u}, w;
+    size_t i = 0;
+    int k;
+    for (; i + 32 <= n; i += 32)
+        for (k = 0; k < 4; k++) {
+            memcpy(&w, b + i + 8 * (size_t)k, sizeof w);
+            s[k] = (s[k] ^ w) * 0x9E3779B97F4A7C15ull;
+            s[k] ^= s[k] >> 32;
+        }
+    for (; i < n; i++) s[0] = (s[0] ^ b[i]) * 0x100000001B3ull;
+    return kifmm__mix(kifmm__mix(kifmm__mix(kifmm__mix((uint64_t)n, s[0]), s[1]), s[2]), s[3]);
+}
+
+/* A file read or written in pieces, with the hash of the pieces so far;
+ * ok drops to 0 at the first failure, after which nothing more is done. */
+typedef struct {
+    FILE *f;
+    uint64_t h;
+    int ok;
+} kifmm__file;
+
+/* n bytes at p written (wr), or read into p; the hash takes them either way. */
+KIFMM__FN void kifmm__fio(kifmm__file *f, int wr, void *p, size_t n)
+{
+    if (!f->ok || n == 0) return;
+    if (wr) f->h = kifmm__mix(f->h, kifmm__hash_bytes(p, n));
+    f->ok = wr ? fwrite(p, 1, n, f->f) == n : fread(p, 1, n, f->f) == n;
+    if (!wr && f->ok) f->h = kifmm__mix(f->h, kifmm__hash_bytes(p, n));
+}
+
+/* dir "/" name (dir's own trailing separator kept), or NULL if out of
+ * memory; kifmm__free it. */
+KIFMM__FN char *kifmm__path(const char *dir, const char *name)
+{
+    const size_t nd = strlen(dir), nn = strlen(name);
+    const int sep = nd > 0 && dir[nd - 1] != '/' && dir[nd - 1] != '\\';
+    char *s = (char *)kifmm__alloc(nd + nn + 2, 1);
+    if (!s) return NULL;
+    memcpy(s, dir, nd);
+    if (sep) s[nd] = '/';
+    memcpy(s + nd + sep, name, nn + 1);
+    return s;
+}
+
+/* A new file beside path under a name of its own (path ".tmp-" and 16 hex
+ * digits from the clock and the calling thread's stack, opened
+ * exclusively: a name taken already fails), for kifmm__fcommit; NULL if it
+ * cannot be made. */
+KIFMM__FN FILE *kifmm__fcreate(const char *path, char **tmp)
+{
+    const size_t n = strlen(path);
+    uint64_t h = kifmm__mix((uint64_t)time(NULL), (uint64_t)clock());
+    FILE *f = NULL;
+    h = kifmm__mix(h, (uint64_t)(uintptr_t)&n);
+    h = kifmm__mix(h, (uint64_t)(uintptr_t)tmp);
+    *tmp = (char *)kifmm__alloc(n + 32, 1);
+    if (!*tmp) return NULL;
+    snprintf(*tmp, n + 32, "%s.tmp-%016llx", path, (unsigned long long)h);
+    f = fopen(*tmp, "wbx");
+    if (!f) {
+        kifmm__free(*tmp);
+        *tmp = NULL;
+    }
+    return f;
+}
+
+/* The file from kifmm__fcreate closed and, if everything was written
+ * (ok), renamed to path (replacing a file there: readers see the old file
+ * or the new one, whole), else removed. Returns whether path now holds it. */
+KIFMM__FN int kifmm__fcommit(FILE *f, char *tmp, const char *path, int ok)
+{
+    ok = fflush(f) == 0 && ok;
+    ok = fclose(f) == 0 && ok;
+    ok = ok && rename(tmp, path) == 0;
+    if (!ok) remove(tmp);
+    kifmm__free(tmp);
+    return ok;
 }
 
 // >>linalg
@@ -5408,6 +5513,10 @@ struct KIFMM__F(_plan) {
         int n, cap;
     } far;
     kifmm__fft fft;            /* the FFT M2L's transforms of the check-order lattice */
+    struct {                   /* >>cache: opts.operator_cache's directory (opts points */
+        char *dir;             /* to this copy), and the sets read from it and written */
+        int read, written;     /* there (under the lock) */
+    } cache;
 };
 
 /* The handle: its plan (its own, or shared: create_with_plan) and the
@@ -6572,6 +6681,279 @@ done:
     return rc;
 }
 
+// >>cache: operator sets kept in files (opts.operator_cache)
+
+/* A set built once is read back by later creates, in this process or any
+ * other, from the directory opts.operator_cache names: one file per set,
+ * named after the instance's kernel, precision and order and a hash of the
+ * set's key. The key holds every input the set's values depend on: the
+ * file format and the library's version, the kernel's name, parameters and
+ * values at three points (a kernel changed under the same name gives other
+ * values), the precision, the half-width and the orders, the surfaces'
+ * sizes and radii, the FFT lattice, the cutoffs. A file is taken only if
+ * its key is this one, every array's length is the one these surfaces and
+ * ranks give, and the hash of its contents matches; else the set is built
+ * and its file written again. Files are written under a name of their own
+ * and renamed into place, so that readers (threads, processes, MPI ranks)
+ * see a whole file or none. Failures to read or write are never errors:
+ * the set is then built, or not kept. The products' blocks (__keep_blocks)
+ * and the periodic far images are not kept: they are built from a set. */
+#define KIFMM__CACHE_FORMAT 1 /* raise with any change to a set's contents or build */
+
+/* The key: room for the fixed fields, the kernel's name and its values. */
+enum { KIFMM__F(__CKEY_BYTES) = 1024 + 3 * 8 * KIFMM__SD * (KIFMM__SD + KIFMM__QD) };
+typedef struct {
+    size_t n;
+    unsigned char b[KIFMM__F(__CKEY_BYTES)];
+} KIFMM__F(__ckey);
+
+KIFMM__FN void KIFMM__F(__ckey_put)(KIFMM__F(__ckey) *k, const void *p, size_t n)
+{
+    if (k->n + n <= sizeof k->b) memcpy(k->b + k->n, p, n);
+    k->n += n; /* past the room: no key (__cache_key) */
+}
+KIFMM__FN void KIFMM__F(__ckey_int)(KIFMM__F(__ckey) *k, int64_t v) { KIFMM__F(__ckey_put)(k, &v, sizeof v); }
+KIFMM__FN void KIFMM__F(__ckey_dbl)(KIFMM__F(__ckey) *k, double v) { KIFMM__F(__ckey_put)(k, &v, sizeof v); }
+
+/* A surface's fields in the key (s NULL: the level's own, marked 0). */
+KIFMM__FN void KIFMM__F(__ckey_surf)(KIFMM__F(__ckey) *k, const kifmm__surf *s)
+{
+    KIFMM__F(__ckey_int)(k, s != NULL);
+    if (!s) return;
+    KIFMM__F(__ckey_int)(k, s->nse), KIFMM__F(__ckey_int)(k, s->nsc);
+    KIFMM__F(__ckey_int)(k, s->cdiff), KIFMM__F(__ckey_int)(k, s->nsa);
+    KIFMM__F(__ckey_int)(k, s->nde);
+    KIFMM__F(__ckey_dbl)(k, s->ai), KIFMM__F(__ckey_dbl)(k, s->ao);
+}
+
+/* The key of the set of level view v (nb: its neighbours' surfaces, from
+ * __ops_view) at half-width r, orders p, with the M2L's if m2l; 0 if it
+ * does not fit (then nothing is cached). */
+KIFMM__FN int KIFMM__F(__cache_key)(const KIFMM_NAME *v, const kifmm__ops *nb, double r, const int *p,
+                                    int m2l, KIFMM__F(__ckey) *k)
+{
+    static const double at[3][3] = {{0.61, 0.29, -0.23}, {1.73, -1.09, 0.87}, {-2.93, 0.41, 3.37}};
+    const char *name = KIFMM__STR(KIFMM_KERNEL);
+    const double *prm = v->opts.kernel_param;
+    double kv[KIFMM__SD * (KIFMM__SD > KIFMM__QD ? KIFMM__SD : KIFMM__QD)];
+    int i, j;
+    k->n = 0;
+    KIFMM__F(__ckey_put)(k, "KIFMMOPS", 8);
+    KIFMM__F(__ckey_int)(k, KIFMM__CACHE_FORMAT);
+    KIFMM__F(__ckey_int)(k, KIFMM_VERSION_MAJOR * 10000 + KIFMM_VERSION_MINOR * 100 + KIFMM_VERSION_PATCH);
+    KIFMM__F(__ckey_int)(k, (int64_t)0x0102030405060708ll); /* byte order */
+    KIFMM__F(__ckey_int)(k, (int64_t)(strlen(name)));
+    KIFMM__F(__ckey_put)(k, name, strlen(name));
+    KIFMM__F(__ckey_int)(k, (int64_t)sizeof(KIFMM__R));
+    KIFMM__F(__ckey_int)(k, KIFMM__SD), KIFMM__F(__ckey_int)(k, KIFMM__QD);
+    KIFMM__F(__ckey_int)(k, KIFMM__TD), KIFMM__F(__ckey_int)(k, KIFMM__FSD);
+    KIFMM__F(__ckey_int)(k, KIFMM__SI), KIFMM__F(__ckey_int)(k, KIFMM__DEGREE);
+    KIFMM__F(__ckey_int)(k, KIFMM__RADIAL), KIFMM__F(__ckey_int)(k, KIFMM__CPLX);
+    KIFMM__F(__ckey_int)(k, KIFMM__FFT), KIFMM__F(__ckey_int)(k, KIFMM__ANCHORS);
+    KIFMM__F(__ckey_int)(k, KIFMM_MONO_FIX);
+    KIFMM__F(__ckey_dbl)(k, KIFMM__CUTOFF), KIFMM__F(__ckey_dbl)(k, KIFMM__TINY);
+    for (i = 0; i < 4; i++) KIFMM__F(__ckey_dbl)(k, prm[i]);
+    KIFMM__F(__ckey_dbl)(k, r);
+    for (i = 0; i < 3; i++) KIFMM__F(__ckey_int)(k, p[i]);
+    KIFMM__F(__ckey_int)(k, m2l);
+    KIFMM__F(__ckey_surf)(k, &v->pl->surf);
+    KIFMM__F(__ckey_surf)(k, nb->sc);
+    KIFMM__F(__ckey_surf)(k, nb->sp);
+#if KIFMM__FFT
+    {
+        const kifmm__fft *f = &v->pl->fft;
+        KIFMM__F(__ckey_int)(k, f->p), KIFMM__F(__ckey_int)(k, f->n), KIFMM__F(__ckey_int)(k, f->nh);
+        KIFMM__F(__ckey_int)(k, f->nfp), KIFMM__F(__ckey_int)(k, f->single);
+        KIFMM__F(__ckey_int)(k, f->cplx), KIFMM__F(__ckey_int)(k, KIFMM__F(__m2l_turned)(v));
+    }
+#endif
+    /* the kernel's values at three points r apart: the surface kernel's and
+     * the points-to-check kernel's (the monopole map's) */
+    for (j = 0; j < 3; j++) {
+        KIFMM__R_(SC, _eval)(prm, at[j][0] * r, at[j][1] * r, at[j][2] * r, kv);
+        for (i = 0; i < KIFMM__SD * KIFMM__SD; i++) KIFMM__F(__ckey_dbl)(k, kv[i]);
+        KIFMM__R_(QC, _eval)(prm, at[j][0] * r, at[j][1] * r, at[j][2] * r, kv);
+        for (i = 0; i < KIFMM__SD * KIFMM__QD; i++) KIFMM__F(__ckey_dbl)(k, kv[i]);
+    }
+    return k->n <= sizeof k->b;
+}
+
+/* The file of key k in opts.operator_cache (kifmm__free it), or NULL. */
+KIFMM__FN char *KIFMM__F(__cache_path)(const KIFMM_NAME *v, const int *p, const KIFMM__F(__ckey) *k)
+{
+    char name[160];
+    snprintf(name, sizeof name, "kifmm-%.64s-%s-p%d-%016llx.ops", KIFMM__STR(KIFMM_KERNEL),
+             KIFMM__FLOAT ? "f" : "d", p[0], (unsigned long long)kifmm__hash_bytes(k->b, k->n));
+    return kifmm__path(v->pl->cache.dir, name);
+}
+
+/* The lengths of a set's arrays (in elements: ut_up, vs_up, ut_dn, vs_dn,
+ * m2m, l2l, conv, m2l, mmap, khat, ktab) from its ranks and mirror kind,
+ * as __ops_keep keeps them for these surfaces (nb: the neighbours'). */
+KIFMM__FN void KIFMM__F(__cache_lengths)(const KIFMM_NAME *v, const kifmm__ops *nb, const KIFMM__F(__ops) *x,
+                                         int m2l, size_t *len)
+{
+    const kifmm__surf *s = &v->pl->surf;
+    const size_t ne = (size_t)s->ne, nc = (size_t)s->nc, nde = (size_t)s->nde;
+    const size_t nec = (size_t)(nb->sc ? nb->sc : s)->ne, ndp = (size_t)(nb->sp ? nb->sp : s)->nde;
+    const size_t ku = (size_t)x->ku, kd = (size_t)x->kd;
+    len[0] = ku * nc, len[1] = ne * ku, len[2] = kd * nc, len[3] = nde * kd;
+    len[4] = x->mir ? nc * ne : nc * 8 * nec;
+    len[5] = x->mir ? nc * ne + 8 * nc * (ndp - ne) : 8 * nc * ndp;
+    len[6] = KIFMM__FFT && m2l && s->cdiff > 0 ? nc * ne : 0; /* (square systems: none) */
+    len[7] = !KIFMM__FFT && m2l ? kd * KIFMM__NT * ne : 0;
+    len[8] = x->mir ? (size_t)7 * (size_t)(s->nsc + s->nse) : 0;
+    len[9] = len[10] = 0;
+#if KIFMM__FFT
+    if (m2l) {
+        const int turned = KIFMM__F(__m2l_turned)(v);
+        len[9] = (size_t)(turned ? 16 : KIFMM__NT) * KIFMM__FSD * KIFMM__FSD * 2 * (size_t)v->pl->fft.nfp;
+        len[10] = turned ? (size_t)KIFMM__NT * KIFMM__KTAB_W(KIFMM__FSD) : 0;
+    }
+#endif
+}
+
+/* Array i of set x (the order of __cache_lengths) and its element size. */
+KIFMM__FN void *KIFMM__F(__cache_arr)(const KIFMM__F(__ops) *x, int i, size_t *es)
+{
+    const KIFMM__R *ra[8];
+    ra[0] = x->ut_up, ra[1] = x->vs_up, ra[2] = x->ut_dn, ra[3] = x->vs_dn;
+    ra[4] = x->m2m, ra[5] = x->l2l, ra[6] = x->conv, ra[7] = x->m2l;
+    *es = i == 9 ? sizeof(double) : i >= 8 ? sizeof(int) : sizeof(KIFMM__R);
+    return (void *)(uintptr_t)(i < 8 ? (const void *)ra[i] : i == 8 ? (const void *)x->mmap
+                                                          : i == 9 ? (const void *)x->khat
+                                                                   : (const void *)x->ktab);
+}
+
+/* Array i of set x set to q (from kifmm__alloc). */
+KIFMM__FN void KIFMM__F(__cache_set)(KIFMM__F(__ops) *x, int i, void *q)
+{
+    switch (i) {
+    case 0: x->ut_up = (KIFMM__R *)q; break;
+    case 1: x->vs_up = (KIFMM__R *)q; break;
+    case 2: x->ut_dn = (KIFMM__R *)q; break;
+    case 3: x->vs_dn = (KIFMM__R *)q; break;
+    case 4: x->m2m = (KIFMM__R *)q; break;
+    case 5: x->l2l = (KIFMM__R *)q; break;
+    case 6: x->conv = (KIFMM__R *)q; break;
+    case 7: x->m2l = (KIFMM__R *)q; break;
+    case 8: x->mmap = (int *)q; break;
+    case 9: x->khat = (double *)q; break;
+    default: x->ktab = (int *)q; break;
+    }
+}
+
+/* The set's file written (wr) from x, or read into x (a zeroed set whose
+ * arrays it allocates, counted in x->held), field by field through the
+ * same calls, so that the two agree; returns whether every field was
+ * written, or read and found to be what key k and these surfaces give. */
+KIFMM__FN int KIFMM__F(__cache_io)(const KIFMM_NAME *v, const kifmm__ops *nb, int m2l,
+                                   const KIFMM__F(__ckey) *k, kifmm__file *f, int wr, KIFMM__F(__ops) *x)
+{
+    unsigned char *kb = (unsigned char *)kifmm__alloc(k->n, 1);
+    int32_t sc[4];
+    double sig = x->sigma, mono[KIFMM__SD * KIFMM__QD];
+    uint64_t u = k->n, h;
+    size_t len[11], es;
+    int i, ok = kb != NULL;
+    sc[0] = x->ku, sc[1] = x->kd, sc[2] = x->mir, sc[3] = x->mono_on;
+    memcpy(mono, x->mono, sizeof mono);
+    if (kb && wr) memcpy(kb, k->b, k->n);
+    /* the key, whole */
+    kifmm__fio(f, wr, &u, sizeof u);
+    ok = ok && f->ok && u == k->n;
+    if (ok) kifmm__fio(f, wr, kb, k->n);
+    ok = ok && f->ok && memcmp(kb, k->b, k->n) == 0;
+    kifmm__free(kb);
+    /* the scalars, then the arrays with their lengths */
+    if (ok) kifmm__fio(f, wr, sc, sizeof sc);
+    if (ok) kifmm__fio(f, wr, &sig, sizeof sig);
+    if (ok) kifmm__fio(f, wr, mono, sizeof mono);
+    ok = ok && f->ok;
+    if (ok && !wr) {
+        const kifmm__surf *s = &v->pl->surf;
+        x->ku = sc[0], x->kd = sc[1], x->mir = sc[2], x->mono_on = sc[3], x->sigma = sig;
+        memcpy(x->mono, mono, sizeof mono);
+        /* (the ranks only size the arrays below; the downward one may pass
+         * nc with the anchors) */
+        ok = x->ku >= 0 && x->ku <= s->nc + s->ne && x->kd >= 0 && x->kd <= s->nc + s->nde &&
+             x->mir >= 0 && x->mir <= 2 &&
+             (x->mono_on == 0 || x->mono_on == 1) && isfinite(sig);
+    }
+    if (ok) KIFMM__F(__cache_lengths)(v, nb, x, m2l, len);
+    for (i = 0; ok && i < 11; i++) {
+        void *q = KIFMM__F(__cache_arr)(x, i, &es);
+        u = len[i];
+        kifmm__fio(f, wr, &u, sizeof u);
+        ok = f->ok && u == len[i] && (!wr || (q != NULL) == (len[i] > 0));
+        if (ok && !wr && len[i]) {
+            if ((q = kifmm__take(&x->held, len[i], es)) != NULL) KIFMM__F(__cache_set)(x, i, q);
+            else ok = 0;
+        }
+        if (ok) kifmm__fio(f, wr, q, len[i] * es);
+        ok = ok && f->ok;
+    }
+    /* the hash of all that, and then the file's end */
+    h = f->h;
+    if (ok && wr) ok = fwrite(&h, sizeof h, 1, f->f) == 1;
+    if (ok && !wr) ok = fread(&u, sizeof u, 1, f->f) == 1 && u == h && fgetc(f->f) == EOF;
+    return ok;
+}
+
+/* Level view v's set at half-width r, orders p (with the M2L's if m2l),
+ * read from opts.operator_cache, or NULL (no such file, or not one to
+ * take). */
+KIFMM__FN KIFMM__F(__ops) *KIFMM__F(__cache_read)(const KIFMM_NAME *v, const kifmm__ops *nb, double r,
+                                                   const int *p, int m2l)
+{
+    KIFMM__F(__ckey) *k = (KIFMM__F(__ckey) *)kifmm__alloc(1, sizeof *k);
+    KIFMM__F(__ops) *x = (KIFMM__F(__ops) *)kifmm__calloc(1, sizeof *x);
+    char *path = NULL;
+    kifmm__file f;
+    int ok = k && x && KIFMM__F(__cache_key)(v, nb, r, p, m2l, k) && (path = KIFMM__F(__cache_path)(v, p, k));
+    f.f = ok ? fopen(path, "rb") : NULL;
+    f.h = 0, f.ok = f.f != NULL;
+    ok = f.ok && KIFMM__F(__cache_io)(v, nb, m2l, k, &f, 0, x);
+    if (f.f) fclose(f.f);
+    if (ok) {
+        x->r = r, x->has_m2l = m2l;
+        memcpy(x->p, p, sizeof x->p);
+#if KIFMM__FFT
+        if (x->khat) KIFMM__F(__m2l_nonzero)(v, x->khat, x->ktab, x->nz);
+#endif
+    } else if (x) {
+        KIFMM__F(__ops_free)(x);
+        kifmm__free(x);
+        x = NULL;
+    }
+    if (v->opts.verbose && path && x)
+        fprintf(stderr, "%s create: operator set read from %s\n", KIFMM__STR(KIFMM_NAME), path);
+    kifmm__free(path);
+    kifmm__free(k);
+    return x;
+}
+
+/* Set x (just built) written to opts.operator_cache; returns whether it was. */
+KIFMM__FN int KIFMM__F(__cache_write)(const KIFMM_NAME *v, const kifmm__ops *nb, const KIFMM__F(__ops) *x)
+{
+    KIFMM__F(__ckey) *k = (KIFMM__F(__ckey) *)kifmm__alloc(1, sizeof *k);
+    KIFMM__F(__ops) y = *x; /* (__cache_io only reads y's arrays) */
+    char *path = NULL, *tmp = NULL;
+    kifmm__file f;
+    int ok = k && KIFMM__F(__cache_key)(v, nb, x->r, x->p, x->has_m2l, k) &&
+             (path = KIFMM__F(__cache_path)(v, x->p, k));
+    f.f = ok ? kifmm__fcreate(path, &tmp) : NULL;
+    f.h = 0, f.ok = f.f != NULL;
+    if (f.f) ok = kifmm__fcommit(f.f, tmp, path, KIFMM__F(__cache_io)(v, nb, x->has_m2l, k, &f, 1, &y));
+    else ok = 0;
+    if (v->opts.verbose && path)
+        fprintf(stderr, "%s create: operator set %s %s\n", KIFMM__STR(KIFMM_NAME),
+                ok ? "written to" : "could not be written to", path);
+    kifmm__free(path);
+    kifmm__free(k);
+    return ok;
+}
+
 /* ---- the plan's operator sets ------------------------------------------ */
 
 /* The set of plan pl built at half-width r for orders p (pp, pc: the
@@ -6676,24 +7058,40 @@ KIFMM__FN void KIFMM__F(__ops_view)(const KIFMM_NAME *c, int l, KIFMM_NAME *v, k
 
 /* The new sets of handle c: for each level l < nlev with from[l] < 0, one
  * at half-width r[l] (with the M2L's if m2l[l]) for the level's orders,
- * built (the kernel values of the levels side by side, __ops_levels), into
- * e[0..) in level order (NULL where it failed). */
+ * read from opts.operator_cache (>>cache) or built (the kernel values of
+ * the levels side by side, __ops_levels) and written there, into e[0..)
+ * in level order (NULL where it failed). Under the plan's lock. */
 KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double *r, const int *m2l,
                                     const int *from, KIFMM__F(__ops) **e)
 {
     kifmm__ops *o = (kifmm__ops *)kifmm__calloc((size_t)nlev, sizeof(kifmm__ops));
     int *rcs = (int *)kifmm__calloc((size_t)nlev, sizeof(int));
     KIFMM_NAME *v = (KIFMM_NAME *)kifmm__alloc((size_t)nlev, sizeof *v);
-    int l, rc = o && rcs && v ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, k = 0;
+    KIFMM__F(__ops) **got = (KIFMM__F(__ops) **)kifmm__calloc((size_t)nlev, sizeof *got);
+    int *fr = (int *)kifmm__alloc((size_t)nlev, sizeof(int)); /* from, the sets read marked built */
+    const int cache = c->pl->cache.dir != NULL;
+    int l, rc = o && rcs && v && got && fr ? KIFMM_SUCCESS : KIFMM_ERR_NOMEM, k = 0;
     kifmm__symbs sy; /* the levels' factorisations share their bases */
     sy.n = 0;
     for (l = 0; !rc && l < nlev; l++) KIFMM__F(__ops_view)(c, l, &v[l], &o[l]);
-    if (!rc) KIFMM__F(__ops_levels)(v, 0, nlev, r, m2l, from, o, rcs);
+    for (l = 0; !rc && l < nlev; l++) {
+        int p[3];
+        KIFMM__F(__set_orders)(c, l, p);
+        got[l] = cache && from[l] < 0 ? KIFMM__F(__cache_read)(&v[l], &o[l], r[l], p, m2l[l]) : NULL;
+        fr[l] = got[l] ? l : from[l];
+        c->pl->cache.read += got[l] != NULL;
+    }
+    if (!rc) KIFMM__F(__ops_levels)(v, 0, nlev, r, m2l, fr, o, rcs);
     for (l = 0; o && l < nlev; l++) o[l].sy = &sy;
-    if (!rc) KIFMM__F(__ops_solves_all)(v, nlev, r, m2l, from, o, rcs);
+    if (!rc) KIFMM__F(__ops_solves_all)(v, nlev, r, m2l, fr, o, rcs);
     for (l = 0; l < nlev; l++) {
         KIFMM__F(__ops) *x;
         if (from[l] >= 0) continue;
+        if (got && got[l]) { /* read: as built */
+            e[k++] = got[l];
+            got[l] = NULL;
+            continue;
+        }
         x = rc ? NULL : (KIFMM__F(__ops) *)kifmm__calloc(1, sizeof *x);
         if (!rc && !x) rc = KIFMM_ERR_NOMEM;
         if (!rc) rc = rcs[l];
@@ -6710,12 +7108,17 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
             kifmm__free(x);
             x = NULL;
         }
+        if (x && cache) c->pl->cache.written += KIFMM__F(__cache_write)(&v[l], &o[l], x);
         e[k++] = x;
     }
+    for (l = 0; got && l < nlev; l++)
+        if (got[l]) KIFMM__F(__ops_free)(got[l]), kifmm__free(got[l]);
     for (l = 0; o && l < nlev; l++) kifmm__ops_free(&o[l]);
     kifmm__free(o);
     kifmm__free(rcs);
     kifmm__free(v);
+    kifmm__free(got);
+    kifmm__free(fr);
     kifmm__symbs_free(&sy);
     return rc;
 }
@@ -9238,6 +9641,7 @@ KIFMM__FN void KIFMM__F(__plan_free)(KIFMM__F(_plan) *pl)
     kifmm__free(pl->surf.unit_e);
     kifmm__free(pl->surf.unit_c);
     kifmm__free(pl->surf.unit_a);
+    kifmm__free(pl->cache.dir);
     kifmm__fft_free(&pl->fft);
     kifmm__lock_fini(&pl->lock);
     kifmm__free(pl);
@@ -9695,6 +10099,13 @@ KIFMM__FN KIFMM__F(_plan) *KIFMM__F(__plan_new)(const kifmm_opts *o)
     pl->held = sizeof *pl;
     pl->refs = 1;
     pl->opts = *o;
+    pl->opts.operator_cache = NULL;
+    if (o->operator_cache && o->operator_cache[0]) { /* >>cache: the plan's copy */
+        const size_t n = strlen(o->operator_cache) + 1;
+        if ((pl->cache.dir = (char *)kifmm__take(&pl->held, n, 1)) == NULL) rc = KIFMM_ERR_NOMEM;
+        else memcpy(pl->cache.dir, o->operator_cache, n);
+        pl->opts.operator_cache = pl->cache.dir;
+    }
     pl->ops.degree = (double)(KIFMM__DEGREE);
     KIFMM__F(__density_degrees)(o->kernel_param, pl->ops.qlo, pl->ops.qhi);
     p = o->order;
@@ -10236,6 +10647,8 @@ KIFMM__FN int KIFMM__F(__plan_ops)(KIFMM_NAME *h, double *bytes)
     rc = KIFMM__F(__precompute)(h);
     if (!rc && h->tree->periodic) rc = KIFMM__F(__plan_far)(h);
     *bytes = (double)h->pl->held;
+    h->stats.cache_read = h->pl->cache.read;
+    h->stats.cache_written = h->pl->cache.written;
     kifmm__lock_give(&h->pl->lock);
     for (l = 0; l < h->tree->nlev; l++)
         for (a = 0; h->lv[l] && a < KIFMM__SD * KIFMM__SD; a++) h->nz[a] |= h->lv[l]->nz[a];
@@ -10337,6 +10750,7 @@ KIFMM__FN int KIFMM__F(__build)(KIFMM_NAME **out, KIFMM__F(_plan) *pl, int share
     if (!(h = (KIFMM_NAME *)kifmm__calloc(1, sizeof *h))) return KIFMM_ERR_NOMEM;
     h->held = sizeof *h;
     h->opts = *o;
+    h->opts.operator_cache = pl->opts.operator_cache; /* the plan's copy */
     h->shared = shared;
     h->ord.raise = raise;
     h->shape[0] = shape[0], h->shape[1] = shape[1];
@@ -12363,6 +12777,7 @@ KIFMM__API int KIFMM__F(_create_mpi)(KIFMM_NAME **out, MPI_Comm comm, const kifm
         rc = KIFMM_ERR_MPI;
     if ((rc = kifmm__mpi_agree(comm, rc)) == KIFMM_SUCCESS) {
         m->o = o;
+        m->o.operator_cache = m->pl->opts.operator_cache; /* the plan's copy */
         m->shape[0] = opts ? opts->leaf_size : 0, m->shape[1] = opts ? opts->max_depth : 0;
         for (m->lc = 2; m->lc < 4 && ((int64_t)1 << (3 * (m->lc - 1))) < m->size; m->lc++) {}
         if (m->size == 1) { /* the handle create would make, on the caller's points */

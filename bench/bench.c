@@ -21,6 +21,9 @@
  *                  still against the double direct sums
  *   --nrhs K       evaluate K density vectors in one evaluate_many call (the
  *                  first is the one checked); "evaluate" is the whole call
+ *   --cache DIR    opts.operator_cache = DIR: the operators are read from
+ *                  DIR where an earlier run wrote them (create's "ops" is
+ *                  then the reading), else built and written there
  *
  * Each case should run in its own process: the peak memory reported is the
  * process's high-water mark (getrusage ru_maxrss), read right after evaluate.
@@ -296,7 +299,7 @@ static void usage(const char *argv0)
 {
     fprintf(stderr,
             "usage: %s --info | --header [-v] | DIST N P [--sample S] [--leaf L] [--repeat R]\n"
-            "       [--dump FILE] [--result FILE] [--float] [--nrhs K]\n"
+            "       [--dump FILE] [--result FILE] [--float] [--nrhs K] [--cache DIR]\n"
             "       DIST: cube, sphere, clustered or plummer\n",
             argv0);
     exit(2);
@@ -306,7 +309,7 @@ int main(int argc, char **argv)
 {
     int dist = -1, order, leaf = 0, repeat = 1, rc, a, single = 0, nrhs = 1;
     int64_t n, ns = 1000, i, s;
-    const char *dump = NULL, *result = NULL;
+    const char *dump = NULL, *result = NULL, *cache = NULL;
     double *xyz, *q, *out, *ref;
     int64_t *idx;
     double t0, t_create, t_eval, t_direct, peak_mib;
@@ -345,6 +348,7 @@ int main(int argc, char **argv)
         else if (!strcmp(argv[a], "--result")) result = argv[++a];
         else if (!strcmp(argv[a], "--float")) single = 1;
         else if (!strcmp(argv[a], "--nrhs")) nrhs = atoi(argv[++a]);
+        else if (!strcmp(argv[a], "--cache")) cache = argv[++a];
         else usage(argv[0]);
     }
     if (ns > n) ns = n;
@@ -375,6 +379,7 @@ int main(int argc, char **argv)
     opts.order = order;
     opts.leaf_size = leaf;
     opts.nthreads = omp_get_max_threads();
+    opts.operator_cache = cache;
     memset(&res, 0, sizeof res);
     rc = single ? run_kifmm_laplace_gradf(n, xyz, q, nrhs, &opts, repeat, out, &res)
                 : run_kifmm_laplace_grad(n, xyz, q, nrhs, &opts, repeat, out, &res);

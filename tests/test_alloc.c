@@ -1,9 +1,15 @@
 /* test_alloc.c - allocation failure handling through the KIFMM_MALLOC /
  * KIFMM_FREE hooks: an allocator that fails on its k-th call, for k = 0, 1,
  * 2, ... until create succeeds.  Every failing create must return
- * KIFMM_ERR_NOMEM, set the handle to NULL and leave no live allocation. */
+ * KIFMM_ERR_NOMEM, set the handle to NULL and leave no live allocation.
+ * With opts.operator_cache a failure in reading or writing a set's file is
+ * not an error (the set is built, or not kept): there every create must
+ * give NOMEM as above or succeed with the outputs of a handle without it. */
+#define _POSIX_C_SOURCE 200809L /* mkdtemp, opendir */
+#include <dirent.h>
 #include <stddef.h>
 #include <stdlib.h>
+#include <unistd.h>
 
 static void *counting_malloc(size_t size);
 static void counting_free(void *ptr);
@@ -394,6 +400,87 @@ done:
     free(y), free(out), free(ref);
 }
 
+/* opts.operator_cache under failing allocations: creates that write their
+ * set's file (the directory emptied before each) and creates that read it.
+ * Each returns NOMEM, with the handle NULL and nothing left allocated, or
+ * succeeds with the outputs, bit for bit, of a handle made without the
+ * cache; every allocation index is failed once (every third with
+ * UPDATE_STRIDE 3). */
+static void empty_dir(const char *dir)
+{
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    char p[600];
+    while (d && (e = readdir(d)) != NULL) {
+        if (e->d_name[0] == '.') continue;
+        snprintf(p, sizeof p, "%.300s/%.280s", dir, e->d_name);
+        remove(p);
+    }
+    if (d) closedir(d);
+}
+
+static void test_cache_alloc(const double *x, const double *q)
+{
+    char dir[64];
+    double *out = t_doubles(4 * N), *ref = t_doubles(4 * N);
+    kifmm_opts o = t_opts(4, 32, 0);
+    kifmm_laplace_grad *h = NULL;
+    const char *base = getenv("TMPDIR");
+    long k, bad = 0, changed = 0, ok_after_fail = 0;
+    int rc, phase;
+    snprintf(dir, sizeof dir, "%.40s/kifmm_alloc_XXXXXX", base && *base && strlen(base) < 40 ? base : "/tmp");
+    if (!mkdtemp(dir)) {
+        CHECK(0, "mkdtemp %s", dir);
+        free(out), free(ref);
+        return;
+    }
+    alloc_reset(-1);
+    rc = kifmm_laplace_grad_create(&h, &o, N, x, N, x);
+    rc = rc ? rc : kifmm_laplace_grad_evaluate(h, q, ref);
+    kifmm_laplace_grad_destroy(h);
+    CHECK(rc == 0, "laplace_grad without the cache rc=%d", rc);
+    o.operator_cache = dir;
+    for (phase = 0; phase < 2 && rc == 0; phase++) { /* 0: writing, 1: reading */
+        long live = alloc_live;
+        for (k = 0; k < MAX_K; k += UPDATE_STRIDE) {
+            if (phase == 0) empty_dir(dir);
+            h = (kifmm_laplace_grad *)&alloc_calls; /* non-NULL: create must overwrite it */
+            alloc_reset(k);
+            rc = kifmm_laplace_grad_create(&h, &o, N, x, N, x);
+            if (rc == KIFMM_ERR_NOMEM) {
+                if (h != NULL || alloc_live != live) bad++;
+                continue;
+            }
+            if (rc != KIFMM_SUCCESS) {
+                bad++;
+                break;
+            }
+            ok_after_fail += alloc_failed > 0;
+            {
+                const long failed = alloc_failed;
+                alloc_reset(-1);
+                if (kifmm_laplace_grad_evaluate(h, q, out) != 0 || memcmp(out, ref, sizeof(double) * 4 * N))
+                    changed++;
+                kifmm_laplace_grad_destroy(h);
+                if (failed == 0) break; /* past the last allocation */
+            }
+        }
+        printf("  laplace_grad %s its set's file: every allocation of %ld failed in turn\n",
+               phase ? "reading" : "writing", k);
+        rc = 0;
+    }
+    alloc_reset(-1);
+    CHECK(bad == 0, "%ld creates with the cache failed otherwise than NOMEM, or leaked", bad);
+    CHECK(changed == 0, "%ld creates with the cache gave other outputs", changed);
+    CHECK(ok_after_fail > 0, "no create succeeded despite a failed allocation (%ld)", ok_after_fail);
+    CHECK(alloc_live == 0 && alloc_bad_free == 0, "cache: %ld blocks live after destroy", alloc_live);
+    alloc_live = 0;
+    alloc_bad_free = 0;
+    empty_dir(dir);
+    rmdir(dir);
+    free(out), free(ref);
+}
+
 int main(void)
 {
     t_api apis[2];
@@ -430,6 +517,8 @@ int main(void)
     many_period = 0;
     t_group("one tree for two kernels");
     test_tree_alloc(x, q);
+    t_group("the operator cache's files");
+    test_cache_alloc(x, q);
 
     free(x);
     free(q);

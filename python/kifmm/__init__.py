@@ -99,6 +99,7 @@ class _Opts(ctypes.Structure):
         ("tol", ctypes.c_double),
         ("verbose", ctypes.c_int),
         ("domain", ctypes.c_double * 4),
+        ("operator_cache", ctypes.c_char_p),
     ]
 
 
@@ -140,6 +141,8 @@ class _Stats(ctypes.Structure):
         ("mpi_ghost_bytes", ctypes.c_double),
         ("t_mpi_wait", ctypes.c_double),
         ("t_mpi_work", ctypes.c_double),
+        ("cache_read", ctypes.c_int),
+        ("cache_written", ctypes.c_int),
     ]
 
 
@@ -427,8 +430,21 @@ def _verbose(v, where):
     return 1 if v else 0
 
 
+def _operator_cache(v, where):
+    """operator_cache: None, or an existing directory (str, bytes or os.PathLike)"""
+    if v is None:
+        return None
+    if not isinstance(v, (str, bytes, os.PathLike)):
+        raise TypeError(f"{where}: operator_cache must be a directory's path, not {_show(v)}")
+    path = os.fsencode(v)
+    if not path or b"\0" in path or not os.path.isdir(path):
+        raise ValueError(f"{where}: operator_cache must name an existing directory, not {v!r}")
+    return path
+
+
 def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size=None,
-          period=None, tol=None, verbose=False, max_depth=None, domain=None):
+          period=None, tol=None, verbose=False, max_depth=None, domain=None,
+          operator_cache=None):
     o = _Opts()
     o.order = _order(order, where)
     o.tol = _tol(tol, o.order, where)
@@ -446,6 +462,7 @@ def _opts(where, kernel, order=None, nthreads=None, kernel_param=None, leaf_size
         o.period[i] = x
     for i, x in enumerate(_domain(domain, per, where)):
         o.domain[i] = x
+    o.operator_cache = _operator_cache(operator_cache, where)  # (o keeps the bytes alive)
     return o
 
 
@@ -517,7 +534,7 @@ class Plan:
 
     def __init__(self, kernel, *, order=None, tol=None, dtype=np.float64, nthreads=None,
                  kernel_param=None, leaf_size=None, period=None, verbose=False, max_depth=None,
-                 domain=None):
+                 domain=None, operator_cache=None):
         self._p = None
         self.kernel = kernel
         _kernel(kernel)
@@ -526,7 +543,7 @@ class Plan:
         self._f = _api(kernel, self._rtype)
         self._destroy = self._f["plan_destroy"]
         opts = _opts("kifmm.Plan", kernel, order, nthreads, kernel_param, leaf_size, period, tol,
-                     verbose, max_depth, domain)
+                     verbose, max_depth, domain, operator_cache)
         p = _P()
         rc = self._f["plan_create"](ctypes.byref(p), ctypes.byref(opts))
         if rc != 0:
@@ -599,6 +616,11 @@ class FMM:
                   the box from the points; not with period)
     verbose       True: one line per stage of create and evaluate, with its
                   time and the memory held, on stderr
+    operator_cache  an existing directory: each operator set built is
+                  written there (one file each) and read back by later
+                  FMMs of any process instead of being built again (see
+                  docs/api.md, "Operator cache"); stats() counts the sets
+                  read and written. None: no cache
     plan          a kifmm.Plan of this kernel and dtype: its options and
                   operators, shared (then no option may be given here)
     tree          another FMM (any kernel, the same dtype) whose points and
@@ -658,7 +680,8 @@ class FMM:
 
     def __init__(self, kernel, sources=None, targets=None, *, order=None, tol=None,
                  dtype=np.float64, nthreads=None, kernel_param=None, leaf_size=None, period=None,
-                 verbose=False, max_depth=None, domain=None, plan=None, tree=None, comm=None):
+                 verbose=False, max_depth=None, domain=None, plan=None, tree=None, comm=None,
+                 operator_cache=None):
         self._lock = threading.Lock()
         self._h = None
         self.kernel = kernel
@@ -669,7 +692,7 @@ class FMM:
                 raise TypeError("kifmm.FMM: comm= cannot be given with plan= or tree=")
             self._create_mpi(kernel, sources, targets, dtype,
                              _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size,
-                                   period, tol, verbose, max_depth, domain))
+                                   period, tol, verbose, max_depth, domain, operator_cache))
             return
         if tree is not None:
             if not isinstance(tree, FMM):
@@ -688,7 +711,8 @@ class FMM:
             given = [n for n, v in (("order", order), ("tol", tol), ("nthreads", nthreads),
                                     ("kernel_param", kernel_param), ("leaf_size", leaf_size),
                                     ("period", period), ("max_depth", max_depth),
-                                    ("domain", domain)) if v is not None]
+                                    ("domain", domain), ("operator_cache", operator_cache))
+                     if v is not None]
             if given or verbose:
                 raise TypeError(f"kifmm.FMM: the plan holds the options; {given or ['verbose']} "
                                 "cannot be given with it")
@@ -704,7 +728,7 @@ class FMM:
         self._destroy = self._f["destroy"]
         if plan is None:
             opts = _opts("kifmm.FMM", kernel, order, nthreads, kernel_param, leaf_size, period,
-                         tol, verbose, max_depth, domain)
+                         tol, verbose, max_depth, domain, operator_cache)
         h = _P()
         if tree is not None:
             with tree._lock:  # the tree is the other FMM's until this one holds it too
@@ -861,7 +885,8 @@ class FMM:
         return {"order": o.order, "leaf_size": o.leaf_size, "max_depth": o.max_depth,
                 "nthreads": o.nthreads, "kernel_param": list(o.kernel_param),
                 "period": list(o.period), "tol": o.tol, "verbose": bool(o.verbose),
-                "domain": list(o.domain) if any(o.domain) else None}
+                "domain": list(o.domain) if any(o.domain) else None,
+                "operator_cache": os.fsdecode(o.operator_cache) if o.operator_cache else None}
 
     def close(self):
         """Free the library's handle now (also done when the object goes);

@@ -389,6 +389,51 @@ def test_domain_option():
         kifmm.FMM("laplace", x, domain=(0.5, 0.5, 0.5, 1.0), period=1.0)
 
 
+def test_operator_cache(tmp_path):
+    """operator_cache: the first FMM writes its operator set there, the next
+    reads it and gives the same outputs bit for bit, which match numpy's
+    sums; a spoiled file is built and written again; a Plan writes and
+    reads too; a path that is not a directory is refused"""
+    x = points(6000, 46)
+    q = np.random.default_rng(47).random(6000) - 0.5
+    with kifmm.FMM("laplace_grad", x, order=6, leaf_size=64) as f:
+        ref = f.evaluate(q)
+        assert (f.stats["cache_read"], f.stats["cache_written"]) == (0, 0)
+        assert f.options["operator_cache"] is None
+    with kifmm.FMM("laplace_grad", x, order=6, leaf_size=64, operator_cache=tmp_path) as f:
+        assert (f.stats["cache_read"], f.stats["cache_written"]) == (0, 1)
+        assert np.array_equal(f.evaluate(q), ref)
+        assert f.options["operator_cache"] == str(tmp_path)
+    files = sorted(tmp_path.iterdir())
+    assert len(files) == 1 and files[0].name.startswith("kifmm-laplace_grad-d-p6-")
+    with kifmm.FMM("laplace_grad", x, order=6, leaf_size=64, operator_cache=str(tmp_path)) as f:
+        assert (f.stats["cache_read"], f.stats["cache_written"]) == (1, 0)
+        out = f.evaluate(q)
+    assert np.array_equal(out, ref)
+    pot, grad = laplace_numpy(x, q, x[:300])
+    assert np.linalg.norm(out[:300, 0] - pot) < 1e-5 * np.linalg.norm(pot)
+    assert np.linalg.norm(out[:300, 1:] - grad) < 1e-4 * np.linalg.norm(grad)
+    data = bytearray(files[0].read_bytes())
+    data[len(data) // 2] ^= 1
+    files[0].write_bytes(bytes(data))
+    with kifmm.FMM("laplace_grad", x, order=6, leaf_size=64, operator_cache=tmp_path) as f:
+        assert (f.stats["cache_read"], f.stats["cache_written"]) == (0, 1)
+        assert np.array_equal(f.evaluate(q), ref)
+    plan = kifmm.Plan("laplace_grad", order=6, leaf_size=64, operator_cache=tmp_path)
+    with kifmm.FMM("laplace_grad", x, plan=plan) as f:
+        assert (f.stats["cache_read"], f.stats["cache_written"]) == (1, 0)
+        assert np.array_equal(f.evaluate(q), ref)
+    plan.close()
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace_grad", x, operator_cache=tmp_path / "missing")
+    with pytest.raises(ValueError):
+        kifmm.FMM("laplace_grad", x, operator_cache=files[0])
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace_grad", x, operator_cache=3)
+    with pytest.raises(TypeError):
+        kifmm.FMM("laplace_grad", x, plan=kifmm.Plan("laplace_grad"), operator_cache=tmp_path)
+
+
 def test_plan_shared_between_threads():
     """four FMMs on one Plan, made and evaluated on four threads: each equals
     an FMM of its own on the same points, bit for bit; the plan is counted
