@@ -6752,6 +6752,8 @@ KIFMM__FN int KIFMM__F(__cache_key)(const KIFMM_NAME *v, const kifmm__ops *nb, d
     KIFMM__F(__ckey_int)(k, KIFMM__FFT), KIFMM__F(__ckey_int)(k, KIFMM__ANCHORS);
     KIFMM__F(__ckey_int)(k, KIFMM_MONO_FIX);
     KIFMM__F(__ckey_dbl)(k, KIFMM__CUTOFF), KIFMM__F(__ckey_dbl)(k, KIFMM__TINY);
+    KIFMM__F(__ckey_dbl)(k, KIFMM__ANCHOR_RADIUS), KIFMM__F(__ckey_dbl)(k, KIFMM__ANCHOR_CUTOFF);
+    KIFMM__F(__ckey_dbl)(k, KIFMM__ANCHOR_FLOOR);
     for (i = 0; i < 4; i++) KIFMM__F(__ckey_dbl)(k, prm[i]);
     KIFMM__F(__ckey_dbl)(k, r);
     for (i = 0; i < 3; i++) KIFMM__F(__ckey_int)(k, p[i]);
@@ -6874,10 +6876,12 @@ KIFMM__FN int KIFMM__F(__cache_io)(const KIFMM_NAME *v, const kifmm__ops *nb, in
         const kifmm__surf *s = &v->pl->surf;
         x->ku = sc[0], x->kd = sc[1], x->mir = sc[2], x->mono_on = sc[3], x->sigma = sig;
         memcpy(x->mono, mono, sizeof mono);
-        /* (the ranks only size the arrays below; the downward one may pass
-         * nc with the anchors) */
-        ok = x->ku >= 0 && x->ku <= s->nc + s->ne && x->kd >= 0 && x->kd <= s->nc + s->nde &&
-             x->mir >= 0 && x->mir <= 2 &&
+        const int mn = s->nc < s->ne ? s->nc : s->ne;
+        const int vec = !KIFMM__FRADIAL && KIFMM__F(__sc_vector)(v->opts.kernel_param);
+        /* the ranks the solves give (the downward one with the anchors'
+         * columns), the mirror kind the build chooses (__build_m2m_l2l) */
+        ok = x->ku >= 0 && x->ku <= mn && x->kd >= 0 && x->kd <= mn + s->nsa * KIFMM__SD &&
+             x->mir == ((KIFMM__FRADIAL || vec) && !nb->sc && !nb->sp ? (vec ? 2 : 1) : 0) &&
              (x->mono_on == 0 || x->mono_on == 1) && isfinite(sig);
     }
     if (ok) KIFMM__F(__cache_lengths)(v, nb, x, m2l, len);
@@ -6885,13 +6889,25 @@ KIFMM__FN int KIFMM__F(__cache_io)(const KIFMM_NAME *v, const kifmm__ops *nb, in
         void *q = KIFMM__F(__cache_arr)(x, i, &es);
         u = len[i];
         kifmm__fio(f, wr, &u, sizeof u);
-        ok = f->ok && u == len[i] && (!wr || (q != NULL) == (len[i] > 0));
-        if (ok && !wr && len[i]) {
+        /* (the factors and M2M, L2L of rank 0, a level whose kernel
+         * underflows, are blocks of no elements: NULL would be no array) */
+        ok = f->ok && u == len[i] && (!wr || q != NULL || len[i] == 0);
+        if (ok && !wr && (len[i] || i < 6 || (i == 7 && m2l && !KIFMM__FFT))) {
             if ((q = kifmm__take(&x->held, len[i], es)) != NULL) KIFMM__F(__cache_set)(x, i, q);
             else ok = 0;
         }
         if (ok) kifmm__fio(f, wr, q, len[i] * es);
         ok = ok && f->ok;
+    }
+    /* read: the tables of indices made again, not taken from the file
+     * (the M2L's turns), or checked (the mirror maps' points) */
+#if KIFMM__FFT
+    if (ok && !wr && x->ktab)
+        KIFMM__F(__khat_turns)(!KIFMM__FRADIAL && KIFMM__F(__sc_vector)(v->opts.kernel_param), x->ktab);
+#endif
+    for (i = 0; ok && !wr && x->mmap && i < 7 * (v->pl->surf.nsc + v->pl->surf.nse); i++) {
+        const int j = i % (v->pl->surf.nsc + v->pl->surf.nse), m = x->mmap[i];
+        ok = m >= 0 && m < (j < v->pl->surf.nsc ? v->pl->surf.nsc : v->pl->surf.nse);
     }
     /* the hash of all that, and then the file's end */
     h = f->h;
@@ -7086,7 +7102,10 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
     if (!rc) KIFMM__F(__ops_solves_all)(v, nlev, r, m2l, fr, o, rcs);
     for (l = 0; l < nlev; l++) {
         KIFMM__F(__ops) *x;
+        kifmm__ops nb; /* the neighbours' surfaces (o[l]'s, which __ops_keep clears) */
         if (from[l] >= 0) continue;
+        memset(&nb, 0, sizeof nb);
+        if (o) nb.sc = o[l].sc, nb.sp = o[l].sp;
         if (got && got[l]) { /* read: as built */
             e[k++] = got[l];
             got[l] = NULL;
@@ -7108,7 +7127,7 @@ KIFMM__FN int KIFMM__F(__ops_build)(const KIFMM_NAME *c, int nlev, const double 
             kifmm__free(x);
             x = NULL;
         }
-        if (x && cache) c->pl->cache.written += KIFMM__F(__cache_write)(&v[l], &o[l], x);
+        if (x && cache) c->pl->cache.written += KIFMM__F(__cache_write)(&v[l], &nb, x);
         e[k++] = x;
     }
     for (l = 0; got && l < nlev; l++)

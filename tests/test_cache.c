@@ -7,8 +7,11 @@
  * the set built and written again; a directory that does not exist, or a
  * path freed after create, must change nothing but the counts. Cases:
  * scale-invariant kernels (one set), Yukawa (one set per level, and new
- * ones after update_points moves the points), Stokes (three components,
- * mirrored M2M), float and double, plans, handles made on threads. */
+ * ones after update_points moves the points, and a level whose kernel
+ * underflows: sets of rank 0), Stokes (three components, mirrored M2M),
+ * Helmholtz with wide levels at a higher order than the level below
+ * (sets whose M2M or L2L reach another order's surfaces), float and
+ * double, plans, handles made on threads. */
 #define _POSIX_C_SOURCE 200809L /* mkdtemp, opendir */
 #include <dirent.h>
 #include <sys/stat.h>
@@ -22,6 +25,8 @@
 #define KIFMM_KERNEL yukawa_grad
 #include "kifmm.h"
 #define KIFMM_KERNEL stokes
+#include "kifmm.h"
+#define KIFMM_KERNEL helmholtz_grad
 #include "kifmm.h"
 
 #include "test.h"
@@ -450,6 +455,68 @@ static void test_plans_threads(void)
     free(outs);
 }
 
+/* Sets that reach other orders' surfaces (Helmholtz's raised wide
+ * levels) and sets of rank 0 (Yukawa at lambda r where the kernel
+ * underflows on a level's surfaces): written, read back whole, the outputs
+ * as built. */
+static void test_odd_sets(void)
+{
+    const int64_t n = 6000;
+    double *x = (double *)malloc(sizeof(double) * 3 * n), *q = (double *)malloc(sizeof(double) * 2 * n);
+    double *a = (double *)malloc(sizeof(double) * 8 * n), *b = (double *)malloc(sizeof(double) * 8 * n);
+    kifmm_opts o = t_opts(8, 64, 0);
+    char dir[300];
+    int64_t i;
+    int k, rw[2][2] = {{-1, -1}, {-1, -1}}, rc = 0;
+    points(n, 15, x, q, 2);
+    for (i = 0; i < 3 * n; i++) x[i] *= 2.5; /* 5 wavelengths across */
+    o.kernel_param[0] = 4.0 * T_PI;
+    o.nthreads = 1;
+    for (k = 0; k < 3 && rc == 0; k++) { /* no cache, writing, reading */
+        kifmm_helmholtz_grad *h = NULL;
+        kifmm_stats st;
+        if (k == 1) new_dir(dir, sizeof dir, "helmholtz");
+        o.operator_cache = k ? dir : NULL;
+        rc = kifmm_helmholtz_grad_create(&h, &o, n, x, n, x);
+        if (!rc) rc = kifmm_helmholtz_grad_evaluate(h, q, k ? b : a);
+        if (!rc) rc = kifmm_helmholtz_grad_stats(h, &st);
+        if (!rc && k) rw[k - 1][0] = st.cache_read, rw[k - 1][1] = st.cache_written;
+        if (!rc && k == 1)
+            CHECK(strstr(st.build, "wide levels") != NULL, "helmholtz: levels at a higher order (%s)", st.build);
+        kifmm_helmholtz_grad_destroy(h);
+        if (k) CHECK(rc == 0 && same_bits(a, b, 8 * n), "helmholtz raised levels, %s: outputs as built",
+                     k == 1 ? "writing" : "reading");
+    }
+    CHECK(rw[0][0] == 0 && rw[0][1] >= 2 && rw[1][0] == rw[0][1] && rw[1][1] == 0,
+          "helmholtz raised levels: written %d, then read %d of them and written %d", rw[0][1], rw[1][0],
+          rw[1][1]);
+    /* Yukawa: lambda 3000 on a unit cube, the deep levels' kernels below DBL_MIN */
+    o = t_opts(4, 32, 0);
+    o.kernel_param[0] = 3000.0;
+    o.operator_cache = NULL;
+    CHECK(run_yg(&o, NULL, n, x, q, a, rw[0]) == 0, "yukawa lambda 3000");
+    {
+        kifmm_yukawa_grad *h = NULL;
+        kifmm_stats st;
+        memset(&st, 0, sizeof st);
+        CHECK(kifmm_yukawa_grad_create(&h, &o, n, x, n, x) == 0 && kifmm_yukawa_grad_stats(h, &st) == 0,
+              "yukawa lambda 3000 create");
+        k = h ? st.levels - 2 : -1; /* its sets: one per level from 2 */
+        kifmm_yukawa_grad_destroy(h);
+    }
+    new_dir(dir, sizeof dir, "rank0");
+    o.operator_cache = dir;
+    CHECK(run_yg(&o, NULL, n, x, q, b, rw[0]) == 0 && run_yg(&o, NULL, n, x, q, b, rw[1]) == 0,
+          "yukawa lambda 3000 with the cache");
+    CHECK(rw[0][1] == k && rw[1][0] == k && rw[1][1] == 0 && same_bits(a, b, 4 * n),
+          "yukawa lambda 3000: written %d of %d sets, read %d, written again %d; outputs as built", rw[0][1],
+          k, rw[1][0], rw[1][1]);
+    free(x);
+    free(q);
+    free(a);
+    free(b);
+}
+
 int main(void)
 {
     const char *base = getenv("TMPDIR");
@@ -462,6 +529,7 @@ int main(void)
     test_keys();
     test_paths();
     test_plans_threads();
+    test_odd_sets();
     remove_tree(g_root);
     return t_finish();
 }
