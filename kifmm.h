@@ -9,6 +9,7 @@
  *        >>results   result codes and messages, from one list
  *        >>options   kifmm_opts, kifmm_stats, defaults
  *        >>memory    the allocator, tallies of the bytes a handle holds
+ *        >>files     hashes and whole-file writes for the operator cache
  *        >>linalg    GEMM, the pseudo-inverse, the column-GEMM micro-kernels
  *        >>tree      Morton keys, sort, then bounds / sort / refine / balance /
  *                    layout
@@ -27,6 +28,8 @@
  *                    (its plan, the points and tree, the workspace)
  *        >>kernels   the direct-interaction loops of the four kernel roles
  *        >>operators one builder per operator, called in order by ops_build
+ *        >>cache     operator sets kept in files (opts.operator_cache): key,
+ *                    read, write
  *        >>anchors   the downward densities' far points: their fit, their places
  *        >>workspace expansions and per-thread buffers
  *        >>upward    P2M, M2M, the upward solve
@@ -6969,6 +6972,8 @@ KIFMM__FN int KIFMM__F(__cache_write)(const KIFMM_NAME *v, const kifmm__ops *nb,
     kifmm__free(k);
     return ok;
 }
+
+// >>operators (the plan's sets: find, add, drop, build, precompute)
 
 /* ---- the plan's operator sets ------------------------------------------ */
 
