@@ -6848,6 +6848,23 @@ KIFMM__FN void KIFMM__F(__cache_set)(KIFMM__F(__ops) *x, int i, void *q)
     }
 }
 
+/* A set read: its tables of indices made again, not taken from the file
+ * (the M2L's turns), or checked (the mirror maps' points); 0 if one is out
+ * of range. */
+KIFMM__FN int KIFMM__F(__cache_tables)(const KIFMM_NAME *v, KIFMM__F(__ops) *x)
+{
+    const int nsc = v->pl->surf.nsc, nse = v->pl->surf.nse;
+    int i, ok = 1;
+#if KIFMM__FFT
+    if (x->ktab) KIFMM__F(__khat_turns)(!KIFMM__FRADIAL && KIFMM__F(__sc_vector)(v->opts.kernel_param), x->ktab);
+#endif
+    for (i = 0; ok && x->mmap && i < 7 * (nsc + nse); i++) {
+        const int m = x->mmap[i];
+        ok = m >= 0 && m < (i % (nsc + nse) < nsc ? nsc : nse);
+    }
+    return ok;
+}
+
 /* The set's file written (wr) from x, or read into x (a zeroed set whose
  * arrays it allocates, counted in x->held), field by field through the
  * same calls, so that the two agree; returns whether every field was
@@ -6902,16 +6919,7 @@ KIFMM__FN int KIFMM__F(__cache_io)(const KIFMM_NAME *v, const kifmm__ops *nb, in
         if (ok) kifmm__fio(f, wr, q, len[i] * es);
         ok = ok && f->ok;
     }
-    /* read: the tables of indices made again, not taken from the file
-     * (the M2L's turns), or checked (the mirror maps' points) */
-#if KIFMM__FFT
-    if (ok && !wr && x->ktab)
-        KIFMM__F(__khat_turns)(!KIFMM__FRADIAL && KIFMM__F(__sc_vector)(v->opts.kernel_param), x->ktab);
-#endif
-    for (i = 0; ok && !wr && x->mmap && i < 7 * (v->pl->surf.nsc + v->pl->surf.nse); i++) {
-        const int j = i % (v->pl->surf.nsc + v->pl->surf.nse), m = x->mmap[i];
-        ok = m >= 0 && m < (j < v->pl->surf.nsc ? v->pl->surf.nsc : v->pl->surf.nse);
-    }
+    if (ok && !wr) ok = KIFMM__F(__cache_tables)(v, x);
     /* the hash of all that, and then the file's end */
     h = f->h;
     if (ok && wr) ok = fwrite(&h, sizeof h, 1, f->f) == 1;
